@@ -1,0 +1,48 @@
+"""planarkin: kinematic analysis of planar mechanisms.
+
+    >>> import planarkin
+    >>> model = planarkin.load("mechanisms/slider-crank.yaml")
+    >>> result = planarkin.solve(model, steps=720)
+    >>> result.body("slider")["vx"]          # slider velocity at every grid time, m/s
+
+Pipeline: read (YAML with line marks) -> validate (diagnostics) -> compile (arrays, internal
+units) -> assemble -> solve (path following, then every grid point) -> write (CSV, JSON, plots).
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+__all__ = ["load", "solve", "InputError", "__version__"]
+
+
+def __getattr__(name):
+    if name == "InputError":
+        from .diagnostics import InputError
+        return InputError
+    raise AttributeError(name)
+
+
+def load(path, text: str | None = None):
+    """Read, validate and compile a model file. Raises planarkin.InputError (with every
+    FILE:LINE diagnostic) for invalid input. Returns the compiled model."""
+    from .model.compile import compile_model
+    from .model.validate import validate
+    from .model.yamlread import read_file, read_yaml
+    name = str(path)
+    root = read_yaml(text, name) if text is not None else read_file(path)
+    return compile_model(validate(root, name))
+
+
+def solve(model, **options):
+    """Analyse a model (a path or the result of load). Options override the model's analysis:
+    block: start, end, steps, tol, newton ('reuse'|'full'|'fixed'), iterations, path_tol,
+    max_step, interpolate, bifurcation ('stop'|'continue'), order (0, 1, 2).
+    Returns a planarkin.results.Result; invalid models raise InputError."""
+    from .results import analyse
+    from .solver import Options
+    if not hasattr(model, "spec"):
+        model = load(model)
+    opts = Options.from_model(model, **options)
+    _, result = analyse(model, opts)
+    return result

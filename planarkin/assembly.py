@@ -1,0 +1,378 @@
+"""Assembly at t = start, and the checks that decide whether a model can be analysed at all.
+
+1. Damped Gauss-Newton (Levenberg-Marquardt) from the user's rough estimates, polished by
+   Newton-Raphson to rounding error (reference §7.2).
+2. Counting and rank (reference §7.4): the scaled Jacobian's rank at the assembled pose gives the
+   free degrees of freedom and the redundant equations (a row that depends on earlier rows, file
+   order, drivers last). Free DOF, an over-driven mechanism, contradicting redundant constraints
+   and a pose that cannot be assembled are input errors (exit 2) that name the elements; a
+   consistent redundancy (a parallelogram with a third crank) is removed from the solve with a
+   warning and watched at every step.
+3. Assembly mode: the sign of each diagonal block's determinant (a dyad's elbow, a loop's open or
+   crossed form). `assembly: {branch: {body: +|-}}` in the model asks for the other sign.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .diagnostics import Diagnostic, InputError
+from .model.compile import CompiledModel
+from .system import System
+
+ASSEMBLED = 1e-10        # largest |Phi| (internal units) of an assembled pose
+RANK_TOL = 1e-8          # relative singular value / R diagonal below which a direction is lost
+DENSE_LIMIT = 3000       # largest n for dense SVD / QR
+
+
+@dataclass
+class Mode:
+    """Assembly mode of one diagonal block: its bodies and the sign of its determinant."""
+
+    bodies: tuple
+    sign: int
+    key: str                        # body named in assembly: branch:
+
+
+@dataclass
+class Assembly:
+    q: np.ndarray                   # (n,) assembled pose, internal units
+    residual: float                 # max |Phi| over all rows at q (internal units)
+    iterations: int
+    active_rows: np.ndarray         # rows kept for the solve
+    redundant_rows: list            # consistent redundant rows removed (watched during the run)
+    dof: int                        # degrees of freedom of the joints alone (n - rank Phi^K_q)
+    system: System = None
+    modes: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)   # Diagnostic (severity warning)
+
+
+def _diag(cm: CompiledModel, row: int | None, msg: str, severity="error") -> Diagnostic:
+    line = cm.element_of_row(row).line if row is not None else None
+    return Diagnostic(cm.spec.file, line, msg, severity)
+
+
+def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300):
+    """Minimise |Phi(q, t0)|^2 from q; then Newton (minimum norm) to rounding. Returns (q, its)."""
+    def res(x):
+        return S.residual(S.ext(x), t0)[0]
+
+    r = res(q)
+    cost = r @ r
+    mu = 1e-3
+    it = 0
+    for it in range(1, maxit + 1):
+        if not np.isfinite(cost) or np.abs(r).max() <= 1e-14:
+            break
+        J = S.jacobian(S.ext(q))[0]
+        A = J.T @ J
+        g = J.T @ r
+        d = np.diag(A).copy()
+        d = np.maximum(d, 1e-9 * (d.max() if d.size else 1.0) + 1e-15)
+        improved = False
+        for _ in range(30):
+            try:
+                step = np.linalg.solve(A + mu * np.diag(d), -g)
+            except np.linalg.LinAlgError:
+                mu *= 10
+                continue
+            r_new = res(q + step)
+            c_new = r_new @ r_new
+            if np.isfinite(c_new) and c_new < cost:
+                q, r, cost = q + step, r_new, c_new
+                mu = max(mu / 5, 1e-15)
+                improved = True
+                break
+            mu *= 4
+            if mu > 1e16:
+                break
+        if not improved or np.abs(step).max() <= 1e-16 * (1 + np.abs(q).max()):
+            break
+    # Newton polish (quadratic convergence near a regular solution)
+    for _ in range(8):
+        J = S.jacobian(S.ext(q))[0]
+        step = -np.linalg.lstsq(J, r, rcond=None)[0]
+        r_new = res(q + step)
+        if not (r_new @ r_new <= cost or np.abs(r_new).max() <= 1e-14):
+            break
+        q, r, cost = q + step, r_new, r_new @ r_new
+        it += 1
+        if np.abs(step).max() <= 4 * np.finfo(float).eps * (1 + np.abs(q).max()):
+            break
+    return q, it
+
+
+def _row_normalised(J: np.ndarray) -> np.ndarray:
+    nrm = np.linalg.norm(J, axis=1)
+    return J / np.where(nrm > 0, nrm, 1.0)[:, None]
+
+
+def _dependent_rows(J: np.ndarray) -> list[int]:
+    """Rows (in file order, drivers last) that are linear combinations of earlier rows.
+
+    Gram-Schmidt over the normalised rows, orthogonalising twice: a row whose remainder is below
+    RANK_TOL is dependent. Keeping the first rows and naming the later ones matches how users
+    read a model (the third crank of a parallelogram is the redundant one)."""
+    Jn = _row_normalised(J)
+    basis = np.zeros((0, J.shape[1]))
+    out = []
+    for i, row in enumerate(Jn):
+        v = row - basis.T @ (basis @ row)
+        v = v - basis.T @ (basis @ v)
+        nv = np.linalg.norm(v)
+        if nv <= RANK_TOL or basis.shape[0] == J.shape[1]:
+            out.append(i)
+        else:
+            basis = np.vstack([basis, v / nv])
+    return out
+
+
+def _bodies_of(cm: CompiledModel, vec: np.ndarray, frac: float = 0.3) -> list[str]:
+    mag = np.abs(vec)
+    if mag.max() == 0:
+        return []
+    per_body = mag.reshape(-1, 3).max(axis=1)
+    idx = np.nonzero(per_body >= frac * per_body.max())[0]
+    return [cm.body_names[i] for i in idx]
+
+
+def assemble(cm: CompiledModel) -> Assembly:
+    """Assemble the model at t = start and check its degrees of freedom; raise InputError when it
+    cannot be analysed."""
+    spec = cm.spec
+    t0 = spec.analysis.start
+    S_all = System(cm)
+    n, m = cm.n, cm.m
+    problems: list[Diagnostic] = []
+
+    # driver functions must be defined at t0
+    if cm.driver_funcs:
+        T, NU, FDD = S_all.driver_values(np.array([t0]))
+        for r in cm.driver_rows:
+            if not (np.isfinite(T[0, r]) and np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r])):
+                el = cm.element_of_row(r)
+                raise InputError([Diagnostic(spec.file, el.param_lines.get("f", el.line),
+                                             f"{el.label}: f or its derivatives are not finite at "
+                                             f"t = start = {t0:g} (f = {el.f.text})")])
+    if n > DENSE_LIMIT:
+        return _assemble_large(cm, S_all)
+
+    q, its = _levenberg_marquardt(S_all, cm.q0.copy(), t0)
+    Q = S_all.ext(q)
+    r = S_all.residual(Q, t0)[0]
+    J = S_all.jacobian(Q)[0]
+    Jn = _row_normalised(J)
+    sv = np.linalg.svd(Jn, compute_uv=False) if m else np.zeros(0)
+    smax = sv[0] if sv.size else 1.0
+    rank = int((sv > RANK_TOL * smax).sum())
+    mk = cm.m_joint
+    rank_k = 0
+    if mk:
+        svk = np.linalg.svd(Jn[:mk], compute_uv=False)
+        rank_k = int((svk > RANK_TOL * max(svk[0], 1e-300)).sum())
+    dof = n - rank_k
+    free = n - rank
+    dependent = _dependent_rows(J) if rank < m else []
+    ndrv = len(cm.driver_rows)
+    counts = (f"{spec.name}: {cm.nb} bodies ({n} coordinates), {mk} joint equations and {ndrv} "
+              f"driver{'s' if ndrv != 1 else ''}")
+
+    if free > 0:
+        _, _, Vt = np.linalg.svd(Jn) if m else (None, None, np.eye(n))
+        null = Vt[rank:] if m else np.eye(n)
+        moving = _bodies_of(cm, np.abs(null).max(axis=0))
+        need = dof - ndrv + len([d for d in dependent if d >= mk])
+        msg = (f"{counts}: the mechanism has {dof} degree{'s' if dof != 1 else ''} of freedom, "
+               f"{free} of them not driven, so its motion is not determined; add "
+               f"{max(free, need)} driver{'s' if max(free, need) != 1 else ''} or joint"
+               f"{'s' if max(free, need) != 1 else ''} (free to move: {', '.join(moving)})")
+        problems.append(Diagnostic(spec.file, spec.bodies[0].line if spec.bodies else None, msg))
+        for d in dependent:
+            problems.append(_diag(cm, d, f"{cm.row_label[d]} is redundant: it repeats what the "
+                                         f"other constraints already impose"))
+        raise InputError(problems)
+
+    redundant = []
+    warnings = []
+    if dependent:
+        drv = [d for d in dependent if d >= mk]
+        kin = [d for d in dependent if d < mk]
+        for d in drv:
+            problems.append(_diag(cm, d, f"{cm.element_of_row(d).label} is one driver too many: "
+                                         f"the joints leave {dof} degree{'s' if dof != 1 else ''} "
+                                         f"of freedom and {ndrv} drivers are given; remove a "
+                                         f"driver"))
+        consistent = np.abs(r).max() <= ASSEMBLED
+        for d in kin:
+            if consistent:
+                warnings.append(_diag(cm, d, f"{cm.row_label[d]} is redundant (consistent with the "
+                                             f"other joints at the assembly pose): it is left out "
+                                             f"of the solve and checked at every step",
+                                      severity="warning"))
+            else:
+                problems.append(_diag(cm, d, f"{cm.row_label[d]} is redundant and contradicts the "
+                                             f"other constraints (assembly residual "
+                                             f"{np.abs(r).max() * cm.L:.3g} {spec.length_unit}); "
+                                             f"remove it or correct its dimensions"))
+        if problems:
+            raise InputError(problems)
+        redundant = kin
+
+    if np.abs(r).max() > ASSEMBLED or not np.isfinite(r).all():
+        worst = np.argsort(-np.abs(np.nan_to_num(r, nan=np.inf)))
+        seen = set()
+        for row in worst:
+            el = int(cm.row_element[row])
+            if el in seen:
+                continue
+            seen.add(el)
+            problems.append(_diag(cm, int(row), f"cannot assemble the mechanism at t = {t0:g}: "
+                                                f"{cm.row_label[row]} is violated by "
+                                                f"{_fmt_res(cm, row, r[row])} after {its} iterations;"
+                                                f" check its dimensions and the body estimates q"))
+            if len(seen) == 3 or abs(r[row]) <= ASSEMBLED:
+                break
+        raise InputError(problems)
+
+    active = np.array([k for k in range(m) if k not in set(redundant)], dtype=np.intp)
+    S = System(cm, active)
+    S.build_blocks()
+    A = Assembly(q=q, residual=float(np.abs(r).max()), iterations=its, active_rows=active,
+                 redundant_rows=redundant, dof=dof, system=S, warnings=warnings)
+    _apply_branch_hints(cm, A)
+    A.modes = block_modes(cm, S, A.q)
+    return A
+
+
+def _fmt_res(cm: CompiledModel, row: int, value: float) -> str:
+    el = cm.element_of_row(row)
+    from .elements import KINDS
+    kind = KINDS[el.kind]
+    if kind.target_unit == "angle" or (el.kind == "translational" and row == _first_row(cm, row)):
+        v = value / cm.angle_factor
+        return f"{abs(v):.3g} {cm.spec.angle_unit}"
+    return f"{abs(value) * cm.L:.3g} {cm.spec.length_unit}"
+
+
+def _first_row(cm: CompiledModel, row: int) -> int:
+    el = cm.row_element[row]
+    return int(np.nonzero(cm.row_element == el)[0][0])
+
+
+def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
+    """Large models (n > DENSE_LIMIT): the system must be square and structurally regular; each
+    diagonal block is assembled by Newton in block order (the structure replaces dense SVD)."""
+    from .structure import StructurallySingular
+    spec = cm.spec
+    if cm.m != cm.n:
+        raise InputError([Diagnostic(spec.file, None,
+                                     f"{spec.name}: {cm.m} equations for {cm.n} coordinates: a "
+                                     f"model this large must have exactly one equation per "
+                                     f"coordinate (add drivers or remove redundant joints)")])
+    S = System(cm)
+    try:
+        S.build_blocks()
+    except StructurallySingular as e:
+        rows = e.rows_left[:3]
+        raise InputError([_diag(cm, r, f"{cm.row_label[r]} cannot be matched to a free coordinate:"
+                                       f" the model is over-constrained here and under-"
+                                       f"constrained elsewhere") for r in rows])
+    t0 = spec.analysis.start
+    Q = S.ext(cm.q0.copy())
+    Qd = np.zeros_like(Q)
+    Qdd = np.zeros_like(Q)
+    info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=1e-13, maxit=50, order=0)
+    r = S.residual(Q, t0)[0]
+    if not info.converged[0] or np.abs(r).max() > ASSEMBLED:
+        row = int(np.argmax(np.abs(np.nan_to_num(r, nan=np.inf))))
+        raise InputError([_diag(cm, row, f"cannot assemble the mechanism at t = {t0:g}: "
+                                         f"{cm.row_label[row]} is violated by "
+                                         f"{_fmt_res(cm, row, r[row])}; check its dimensions and "
+                                         f"the body estimates q")])
+    if (info.smin[0] <= RANK_TOL).any():
+        b = int(np.argmin(info.smin[0]))
+        row = int(S.blocks[b].rows[0])
+        raise InputError([_diag(cm, row, f"the Jacobian is singular at the assembly pose near "
+                                         f"{cm.row_label[row]}: redundant constraints or a missing "
+                                         f"driver")])
+    A = Assembly(q=Q[0, : cm.n].copy(), residual=float(np.abs(r).max()), iterations=int(
+        info.iterations[0]), active_rows=S.rows, redundant_rows=[], dof=cm.n - cm.m_joint,
+        system=S)
+    A.modes = block_modes(cm, S, A.q)
+    return A
+
+
+def _block_is_nonlinear(S: System, B, q: np.ndarray) -> bool:
+    rng = np.random.default_rng(7)
+    Qs = S.ext(np.stack([q, q + rng.normal(size=q.shape)]))
+    F = S.frame(Qs)
+    J = S.block_matrix(B, S.block_grads(B, F))
+    return not np.allclose(J[0], J[1], rtol=1e-12, atol=1e-12)
+
+
+def block_modes(cm: CompiledModel, S: System, q: np.ndarray) -> list[Mode]:
+    """Sign of det of every diagonal block whose Jacobian depends on the pose (the blocks where
+    more than one assembly is possible), keyed by the first of its bodies in file order."""
+    Q = S.ext(q)
+    F = S.frame(Q)
+    out = []
+    for B in S.blocks:
+        if len(B.cols) < 2 or not _block_is_nonlinear(S, B, q):
+            continue
+        J = S.block_matrix(B, S.block_grads(B, F))[0]
+        sign = int(np.sign(np.linalg.det(J)))
+        bodies = tuple(sorted({int(c) // 3 for c in B.cols}))
+        names = tuple(cm.body_names[b] for b in bodies)
+        out.append(Mode(names, sign, names[0]))
+    return out
+
+
+def _apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
+    """Re-assemble the blocks whose sign differs from `assembly: branch:` by searching from
+    perturbed starts (deterministic), in block order; later blocks follow by Newton."""
+    hints = cm.spec.branch
+    if not hints:
+        return
+    S = A.system
+    t0 = cm.spec.analysis.start
+    index = {name: k for k, name in enumerate(cm.body_names)}
+    rng = np.random.default_rng(2024)
+    for name, want in hints.items():
+        modes = block_modes(cm, S, A.q)
+        mode = next((md for md in modes if name in md.bodies), None)
+        line = cm.spec.branch_lines.get(name)
+        if mode is None:
+            raise InputError([Diagnostic(cm.spec.file, line,
+                                         f"assembly: branch: body '{name}' is not part of a loop "
+                                         f"with more than one assembly; nothing to choose "
+                                         f"(loops: {', '.join('+'.join(md.bodies) for md in modes) or 'none'})")])
+        if mode.sign == want:
+            continue
+        bidx = next(b for b, B in enumerate(S.blocks)
+                    if set(index[x] for x in mode.bodies) == {int(c) // 3 for c in B.cols})
+        B = S.blocks[bidx]
+        found = None
+        for trial in range(200):
+            q = A.q.copy()
+            scale = 0.3 * (1 + trial // 20)
+            q[B.cols] += rng.normal(size=len(B.cols)) * scale
+            Q = S.ext(q)
+            Qd = np.zeros_like(Q)
+            info = S.solve_batch(np.array([t0]), Q, Qd, Qd.copy(), policy="full", tol=1e-13,
+                                 maxit=40, order=0)
+            if not info.converged[0]:
+                continue
+            F = S.frame(Q)
+            J = S.block_matrix(B, S.block_grads(B, F))[0]
+            if np.sign(np.linalg.det(J)) == want:
+                found = Q[0, : cm.n].copy()
+                break
+        if found is None:
+            raise InputError([Diagnostic(cm.spec.file, line,
+                                         f"assembly: branch: no assembly with sign "
+                                         f"{'+' if want > 0 else '-'} found for the loop "
+                                         f"{'+'.join(mode.bodies)}")])
+        A.q = found
+        A.residual = float(np.abs(S.residual(S.ext(found), t0)).max())

@@ -1,0 +1,91 @@
+"""Diagnostics are data: where (file, line), what (message naming the element), and the fix (hint).
+
+Every problem found while reading or validating a model becomes a `Diagnostic`. The readers
+collect all of them for a file and raise one `InputError`; the CLI prints them compiler-style
+(``FILE:LINE: error: message``) and exits with status 2. Numerical trouble during the analysis is
+not a diagnostic: it is a status in the result (see `planarkin.results`).
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One problem in an input file.
+
+    file: path as the user gave it; line: 1-based line of the offending YAML node (None when the
+    problem is about the whole file, e.g. it cannot be read); message: what is wrong, naming the
+    element (``joint 3 (revolute crank-rod)``) and, where one is known, the fix.
+    """
+
+    file: str
+    line: int | None
+    message: str
+    severity: str = "error"
+
+    def format(self) -> str:
+        where = self.file if self.line is None else f"{self.file}:{self.line}"
+        return f"{where}: {self.severity}: {self.message}"
+
+    def __str__(self) -> str:  # pragma: no cover - convenience
+        return self.format()
+
+
+class InputError(Exception):
+    """Invalid input: carries every diagnostic found in one file (exit status 2)."""
+
+    def __init__(self, diagnostics: Sequence[Diagnostic]):
+        self.diagnostics = list(diagnostics)
+        super().__init__("\n".join(d.format() for d in self.diagnostics))
+
+
+class Collector:
+    """Accumulates diagnostics for one file; `raise_if_any` turns them into an InputError.
+
+    Diagnostics are kept in line order (stable for equal lines), so that the output reads top to
+    bottom like a compiler's.
+    """
+
+    def __init__(self, file: str):
+        self.file = file
+        self.items: list[Diagnostic] = []
+
+    def error(self, line: int | None, message: str) -> None:
+        self.items.append(Diagnostic(self.file, line, message))
+
+    def warning(self, line: int | None, message: str) -> None:
+        self.items.append(Diagnostic(self.file, line, message, severity="warning"))
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.items if d.severity == "error"]
+
+    def raise_if_any(self) -> None:
+        errs = self.errors
+        if errs:
+            errs.sort(key=lambda d: (d.line is not None, d.line or 0))
+            raise InputError(errs)
+
+
+def did_you_mean(name: str, choices: Iterable[str]) -> str:
+    """Return ``"; did you mean 'rod'?"`` for the closest choice, or ``""`` when none is close."""
+    choices = [c for c in choices if isinstance(c, str)]
+    close = difflib.get_close_matches(str(name), choices, n=1, cutoff=0.6)
+    if not close:
+        # case-insensitive exact match is a likely slip too
+        low = {c.lower(): c for c in choices}
+        if str(name).lower() in low:
+            close = [low[str(name).lower()]]
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def one_of(choices: Iterable[str]) -> str:
+    """Human list of choices: ``'a', 'b' or 'c'``."""
+    items = [f"'{c}'" for c in choices]
+    if len(items) <= 1:
+        return "".join(items)
+    return ", ".join(items[:-1]) + " or " + items[-1]

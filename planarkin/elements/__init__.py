@@ -1,0 +1,22 @@
+"""The registry of constraint and driver kinds: one table feeds the validator, the solver, the
+README's reference table and the "did you mean" hints. Adding a kind means adding a class in one
+module of this package, listing it here, and giving it the finite-difference tests of
+``tests/test_elements.py`` (reference §10)."""
+
+from __future__ import annotations
+
+from .base import Frame, Group, Kind, Param
+from .gear import Gear
+from .revolute import Revolute
+from .scalar import Angle, Distance, XDistance, YDistance
+from .translational import PinSlot, Slide, Translational
+
+KINDS: dict[str, Kind] = {k.name: k for k in (
+    Revolute(), Translational(), Angle(), Distance(), XDistance(), YDistance(),
+    PinSlot(), Gear(), Slide(),
+)}
+
+JOINT_KINDS = {name: k for name, k in KINDS.items() if k.joint}
+DRIVER_KINDS = {name: k for name, k in KINDS.items() if k.driver}
+
+__all__ = ["KINDS", "JOINT_KINDS", "DRIVER_KINDS", "Frame", "Group", "Kind", "Param"]

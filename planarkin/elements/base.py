@@ -1,0 +1,205 @@
+"""What every constraint kind shares: parameter declarations, batched body frames, element groups.
+
+Conventions (``../shared/reference/constraints.md`` §0): body k has q_k = (x_k, y_k, phi_k); a
+body-fixed vector s' has the global image s = A(phi) s'; R rotates by +90 degrees. Each kind
+writes its equations as ``g(q) - target = 0``: the target is a constant (joints) or a driver
+function f(t) (drivers). A kind therefore supplies g, its gradient with respect to the
+coordinates of the bodies it connects, and gamma_g, the part of the acceleration right-hand side
+that comes from g (reference §5: gamma = gamma_g + f'' and nu = f').
+
+Everything here is batched: N time points (or candidate states) times K instances of a kind, so
+that one numpy call serves a whole time chunk. Arrays are in internal units: lengths divided by the
+model's characteristic length, angles in radians.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Param:
+    """One YAML key of a kind.
+
+    unit: 'point' (2-vector of lengths, body frame), 'vector' (2-vector direction, normalised),
+    'length' (scalar length), 'angle' (scalar angle in the file's angle unit), 'real' (number).
+    """
+
+    name: str
+    unit: str
+    doc: str
+    required: bool = True
+    default: object = None
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Positions (and velocities) of all bodies for a batch of N states.
+
+    q: (N, 3*nb + 3) coordinates, ground last (always zero); internal units.
+    c, s: (N, nb + 1) cos and sin of every body angle (ground last: 1, 0).
+    qd: (N, 3*nb + 3) velocities (ground zero) or None when only positions are needed.
+    """
+
+    q: np.ndarray
+    c: np.ndarray
+    s: np.ndarray
+    qd: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Group:
+    """K instances of one kind, with their bodies and parameters (internal units).
+
+    bodies: (K, kind.nbody) body indices (ground = nb).
+    cols: (K, 3*kind.nbody) coordinate columns in the extended q of those bodies.
+    params: name -> (K,) or (K, 2) arrays.
+    rows: (K, kind.neq) global equation rows.
+    """
+
+    kind: "Kind"
+    bodies: np.ndarray
+    cols: np.ndarray
+    params: dict
+    rows: np.ndarray
+
+    def take(self, idx) -> "Group":
+        idx = np.asarray(idx, dtype=np.intp)
+        return Group(self.kind, self.bodies[idx], self.cols[idx],
+                     {k: v[idx] for k, v in self.params.items()}, self.rows[idx])
+
+    def __len__(self) -> int:
+        return len(self.bodies)
+
+    # -- evaluation ---------------------------------------------------------------------------
+    def g(self, F: Frame) -> np.ndarray:
+        """(N, K, neq) values of g."""
+        return self.kind.g(self, F)
+
+    def grad(self, F: Frame) -> np.ndarray:
+        """(N, K, neq, 3*nbody) gradient of g with respect to the coordinates of its bodies."""
+        return self.kind.grad(self, F)
+
+    def gamma(self, F: Frame) -> np.ndarray:
+        """(N, K, neq) gamma_g, using F.qd."""
+        return self.kind.gamma(self, F)
+
+
+class Kind:
+    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma.
+
+    name: YAML ``type``; neq: equations per instance; nbody: bodies per instance (i, j[, k]);
+    joint/driver: whether the kind may appear under ``joints:`` / ``drivers:``;
+    params: joint parameters (drivers use the same minus the constant target);
+    target: name of the constant target parameter for joints (``c``) or None when fixed at 0;
+    target_unit: unit of that target and of a driver's f ('length', 'angle' or None).
+    """
+
+    name: str = ""
+    neq: int = 1
+    nbody: int = 2
+    joint: bool = True
+    driver: bool = False
+    params: tuple = ()
+    target: str | None = None
+    target_unit: str | None = None
+    summary: str = ""
+    equations: str = ""
+    driver_equations: str = ""
+
+    # The validator converts 'at' (global placement) into body-frame parameters through this.
+    # at_form: None (no global placement) or a description of the 'at' value for messages.
+    at_form: str | None = None
+
+    def g(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def grad(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def gamma(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def place(self, at, poses, given):  # pragma: no cover - overridden where at_form is set
+        """Body-frame parameters from global placement.
+
+        at: the validated 'at' value (global coordinates, internal units); poses: list of
+        (x, y, phi) of the kind's bodies (ground = (0, 0, 0)); given: parameters already given.
+        Returns a dict of parameters to add.
+        """
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<kind {self.name}>"
+
+
+# -- shared kinematics (reference §0) -------------------------------------------------------------
+
+def body_xy(F: Frame, b: np.ndarray):
+    """(N, K) x and y of bodies b."""
+    return F.q[:, 3 * b], F.q[:, 3 * b + 1]
+
+
+def rotate(F: Frame, b: np.ndarray, vx, vy):
+    """Global image A(phi_b) v' of body-fixed vectors v' = (vx, vy): two (N, K) arrays."""
+    c = F.c[:, b]
+    s = F.s[:, b]
+    return c * vx - s * vy, s * vx + c * vy
+
+
+def omega(F: Frame, b: np.ndarray):
+    """(N, K) angular velocities of bodies b."""
+    return F.qd[:, 3 * b + 2]
+
+
+def body_velocity(F: Frame, b: np.ndarray):
+    return F.qd[:, 3 * b], F.qd[:, 3 * b + 1]
+
+
+def relative_point(G: Group, F: Frame, si="si", sj="sj"):
+    """The pair vectors of reference §0 for points si on body i and sj on body j.
+
+    Returns (sx_i, sy_i, sx_j, sy_j, hx, hy) with s = A s' and h = r_j + s_j - r_i - s_i.
+    """
+    bi = G.bodies[:, 0]
+    bj = G.bodies[:, 1]
+    pi_ = G.params[si]
+    pj = G.params[sj]
+    six, siy = rotate(F, bi, pi_[:, 0], pi_[:, 1])
+    sjx, sjy = rotate(F, bj, pj[:, 0], pj[:, 1])
+    xi, yi = body_xy(F, bi)
+    xj, yj = body_xy(F, bj)
+    return six, siy, sjx, sjy, xj + sjx - xi - six, yj + sjy - yi - siy
+
+
+def relative_velocity(F: Frame, bi, bj, six, siy, sjx, sjy):
+    """h-dot = rdot_j + w_j R s_j - rdot_i - w_i R s_i and the angular velocities (reference §0)."""
+    wi = omega(F, bi)
+    wj = omega(F, bj)
+    vxi, vyi = body_velocity(F, bi)
+    vxj, vyj = body_velocity(F, bj)
+    hdx = vxj - wj * sjy - vxi + wi * siy
+    hdy = vyj + wj * sjx - vyi - wi * six
+    return wi, wj, hdx, hdy
+
+
+def empty(F: Frame, K: int, *shape) -> np.ndarray:
+    return np.empty((F.q.shape[0], K) + shape)
+
+
+def make_frame(q: np.ndarray, qd: np.ndarray | None = None) -> Frame:
+    """Frame from extended coordinates q (N, 3*nb + 3) (ground last, zero)."""
+    phi = q[:, 2::3]
+    return Frame(q, np.cos(phi), np.sin(phi), qd)
+
+
+def group(kind: Kind, bodies, params, rows=None) -> Group:
+    """A Group from body indices (K, nbody) and parameter arrays; cols are derived."""
+    bodies = np.asarray(bodies, dtype=np.intp).reshape(-1, kind.nbody)
+    cols = (3 * bodies[:, :, None] + np.arange(3)).reshape(len(bodies), -1)
+    if rows is None:
+        rows = np.arange(len(bodies) * kind.neq).reshape(len(bodies), kind.neq)
+    return Group(kind, bodies, cols, {k: np.asarray(v, dtype=float) for k, v in params.items()},
+                 np.asarray(rows, dtype=np.intp))

@@ -1,0 +1,73 @@
+"""Revolute joint (reference §2.5): point si of body i coincides with point sj of body j.
+
+Haug's sign convention: g = r_i + s_i - r_j - s_j (two equations, x and y).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Frame, Group, Kind, Param, empty, omega, rotate
+
+
+class Revolute(Kind):
+    name = "revolute"
+    neq = 2
+    params = (
+        Param("si", "point", "joint point on body i (body frame)"),
+        Param("sj", "point", "joint point on body j (body frame)"),
+    )
+    at_form = "[x, y]: the joint's global position at the assembly pose"
+    summary = "pin joint: point si of i and point sj of j coincide (2 equations)"
+    equations = "r_i + A_i s'_i - r_j - A_j s'_j = 0"
+
+    def _s(self, G: Group, F: Frame):
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        si, sj = G.params["si"], G.params["sj"]
+        return bi, bj, rotate(F, bi, si[:, 0], si[:, 1]), rotate(F, bj, sj[:, 0], sj[:, 1])
+
+    def g(self, G, F):
+        bi, bj, (six, siy), (sjx, sjy) = self._s(G, F)
+        out = empty(F, len(G), 2)
+        out[..., 0] = F.q[:, 3 * bi] + six - F.q[:, 3 * bj] - sjx
+        out[..., 1] = F.q[:, 3 * bi + 1] + siy - F.q[:, 3 * bj + 1] - sjy
+        return out
+
+    def grad(self, G, F):
+        _, _, (six, siy), (sjx, sjy) = self._s(G, F)
+        out = np.zeros((F.q.shape[0], len(G), 2, 6))
+        out[..., 0, 0] = 1.0
+        out[..., 0, 2] = -siy
+        out[..., 0, 3] = -1.0
+        out[..., 0, 5] = sjy
+        out[..., 1, 1] = 1.0
+        out[..., 1, 2] = six
+        out[..., 1, 4] = -1.0
+        out[..., 1, 5] = -sjx
+        return out
+
+    def gamma(self, G, F):
+        bi, bj, (six, siy), (sjx, sjy) = self._s(G, F)
+        wi2 = omega(F, bi) ** 2
+        wj2 = omega(F, bj) ** 2
+        out = empty(F, len(G), 2)
+        out[..., 0] = wi2 * six - wj2 * sjx
+        out[..., 1] = wi2 * siy - wj2 * sjy
+        return out
+
+    def place(self, at, poses, given):
+        return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1])}
+
+
+def to_body(point, pose):
+    """Body-frame coordinates s' = A(phi)^T (P - r) of a global point P for a body at pose."""
+    x, y, phi = pose
+    c, s = np.cos(phi), np.sin(phi)
+    dx, dy = point[0] - x, point[1] - y
+    return np.array([c * dx + s * dy, -s * dx + c * dy])
+
+
+def dir_to_body(vector, pose):
+    """Body-frame direction A(phi)^T v of a global direction v."""
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    return np.array([c * vector[0] + s * vector[1], -s * vector[0] + c * vector[1]])

@@ -1,0 +1,144 @@
+"""Single-equation kinds (reference §1, §2.1-2.4, §5): relative angle, x, y and distance.
+
+With i = ground these are the absolute constraints. Each is a joint (g = c) or a driver
+(g = f(t)): nu = f' and gamma = gamma_g + f'' are added by the system, not here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, omega
+
+_POINTS = (
+    Param("si", "point", "point on body i (body frame)"),
+    Param("sj", "point", "point on body j (body frame)"),
+)
+
+
+class Angle(Kind):
+    name = "angle"
+    driver = True
+    params = ()
+    target = "c"
+    target_unit = "angle"
+    summary = "relative angle: phi_j - phi_i = c (1 equation)"
+    equations = "phi_j - phi_i - c = 0"
+    driver_equations = "phi_j - phi_i - f(t) = 0"
+
+    def g(self, G, F):
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])[..., None]
+
+    def grad(self, G, F):
+        out = np.zeros((F.q.shape[0], len(G), 1, 6))
+        out[..., 0, 2] = -1.0
+        out[..., 0, 5] = 1.0
+        return out
+
+    def gamma(self, G, F):
+        return np.zeros((F.q.shape[0], len(G), 1))
+
+
+class _Component(Kind):
+    """x or y component of h = P_j - P_i (reference §2.1, §2.2)."""
+
+    driver = True
+    params = _POINTS
+    target = "c"
+    target_unit = "length"
+    axis = 0
+
+    def g(self, G, F):
+        h = relative_point(G, F)[4 + self.axis]
+        return h[..., None]
+
+    def grad(self, G, F):
+        six, siy, sjx, sjy, _, _ = relative_point(G, F)
+        out = np.zeros((F.q.shape[0], len(G), 1, 6))
+        if self.axis == 0:
+            out[..., 0, 0] = -1.0
+            out[..., 0, 2] = siy
+            out[..., 0, 3] = 1.0
+            out[..., 0, 5] = -sjy
+        else:
+            out[..., 0, 1] = -1.0
+            out[..., 0, 2] = -six
+            out[..., 0, 4] = 1.0
+            out[..., 0, 5] = sjx
+        return out
+
+    def gamma(self, G, F):
+        s = relative_point(G, F)
+        wi2 = omega(F, G.bodies[:, 0]) ** 2
+        wj2 = omega(F, G.bodies[:, 1]) ** 2
+        return (wj2 * s[2 + self.axis] - wi2 * s[self.axis])[..., None]
+
+
+class XDistance(_Component):
+    name = "x"
+    axis = 0
+    summary = "x of P_j - P_i = c (1 equation); with i: ground, the absolute x of a point"
+    equations = "x_j + (A_j s'_j)_x - x_i - (A_i s'_i)_x - c = 0"
+    driver_equations = "x_j + (A_j s'_j)_x - x_i - (A_i s'_i)_x - f(t) = 0"
+
+
+class YDistance(_Component):
+    name = "y"
+    axis = 1
+    summary = "y of P_j - P_i = c (1 equation); with i: ground, the absolute y of a point"
+    equations = "y_j + (A_j s'_j)_y - y_i - (A_i s'_i)_y - c = 0"
+    driver_equations = "y_j + (A_j s'_j)_y - y_i - (A_i s'_i)_y - f(t) = 0"
+
+
+class Distance(Kind):
+    """|P_j - P_i| = c, unsquared (reference §5.5c): its gradient is a unit vector, so the row is
+    as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
+
+    name = "distance"
+    driver = True
+    params = _POINTS
+    target = "c"
+    target_unit = "length"
+    at_form = "[[x1, y1], [x2, y2]]: global positions of the point on i and the point on j"
+    summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
+    equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
+    driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"
+
+    def g(self, G, F):
+        h = relative_point(G, F)
+        return np.hypot(h[4], h[5])[..., None]
+
+    def grad(self, G, F):
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        d = np.hypot(hx, hy)
+        ex, ey = hx / d, hy / d
+        out = np.empty((F.q.shape[0], len(G), 1, 6))
+        # e^T R s = -e_x s_y + e_y s_x
+        out[..., 0, 0] = -ex
+        out[..., 0, 1] = -ey
+        out[..., 0, 2] = ex * siy - ey * six
+        out[..., 0, 3] = ex
+        out[..., 0, 4] = ey
+        out[..., 0, 5] = ey * sjx - ex * sjy
+        return out
+
+    def gamma(self, G, F):
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
+        d = np.hypot(hx, hy)
+        ex, ey = hx / d, hy / d
+        kx = wj * wj * sjx - wi * wi * six
+        ky = wj * wj * sjy - wi * wi * siy
+        ehd = ex * hdx + ey * hdy
+        out = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
+        return out[..., None]
+
+    def place(self, at, poses, given):
+        from .revolute import to_body
+
+        p, q = np.asarray(at[0], float), np.asarray(at[1], float)
+        out = {"si": to_body(p, poses[0]), "sj": to_body(q, poses[1])}
+        if "c" not in given:
+            out["c"] = float(np.hypot(*(q - p)))
+        return out

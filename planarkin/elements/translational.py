@@ -1,0 +1,157 @@
+"""Sliding kinds (reference §2.6, §2.8): translational joint and pin-in-slot.
+
+Both use the line through point si of body i along the unit direction u_i = A_i u'_i, with
+normal n_i = R u_i, and h = r_j + s_j - r_i - s_i. The translational joint adds the parallelism
+equation in its linear form phi_j - phi_i - c (reference §2.6 note: it cannot snap to the
+anti-parallel root); c is fixed when the model is compiled from vi, vj and the body estimates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Frame, Group, Kind, Param, empty, omega, relative_point, relative_velocity, rotate
+from .revolute import dir_to_body, to_body
+
+
+def _line(G: Group, F: Frame):
+    """(u, n, s_i, s_j, h) of the slide line of body i, each as x, y arrays (N, K)."""
+    six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+    v = G.params["vi"]
+    ux, uy = rotate(F, G.bodies[:, 0], v[:, 0], v[:, 1])
+    return ux, uy, -uy, ux, six, siy, sjx, sjy, hx, hy
+
+
+def _normal_row(G: Group, F: Frame, out, row):
+    """Gradient of n_i^T h into out[..., row, :] (reference §2.6, Phi2)."""
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    out[..., row, 0] = -nx
+    out[..., row, 1] = -ny
+    out[..., row, 2] = -(ux * (hx + six) + uy * (hy + siy))
+    out[..., row, 3] = nx
+    out[..., row, 4] = ny
+    out[..., row, 5] = ux * sjx + uy * sjy
+
+
+def _normal_gamma(G: Group, F: Frame):
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
+    kx = wj * wj * sjx - wi * wi * six
+    ky = wj * wj * sjy - wi * wi * siy
+    return (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
+            + nx * kx + ny * ky)
+
+
+def _normal_g(G: Group, F: Frame):
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    return nx * hx + ny * hy
+
+
+class Translational(Kind):
+    name = "translational"
+    neq = 2
+    params = (
+        Param("si", "point", "a point of the sliding axis on body i (body frame)"),
+        Param("sj", "point", "a point of the sliding axis on body j (body frame)"),
+        Param("vi", "vector", "axis direction on body i (body frame)"),
+        Param("vj", "vector", "axis direction on body j (body frame)"),
+    )
+    at_form = "[x, y] with axis: [dx, dy]: a global point of the sliding axis and its direction"
+    summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
+    equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
+
+    def g(self, G, F):
+        out = empty(F, len(G), 2)
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        out[..., 0] = F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2]
+        out[..., 1] = _normal_g(G, F)
+        return out
+
+    def grad(self, G, F):
+        out = np.zeros((F.q.shape[0], len(G), 2, 6))
+        out[..., 0, 2] = -1.0
+        out[..., 0, 5] = 1.0
+        _normal_row(G, F, out, 1)
+        return out
+
+    def gamma(self, G, F):
+        out = np.zeros((F.q.shape[0], len(G), 2))
+        out[..., 1] = _normal_gamma(G, F)
+        return out
+
+    def place(self, at, poses, given):
+        axis = given["axis"]
+        return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
+                "vi": dir_to_body(axis, poses[0]), "vj": dir_to_body(axis, poses[1])}
+
+
+class PinSlot(Kind):
+    name = "pin-slot"
+    params = (
+        Param("si", "point", "a point of the slot's centre line on body i (body frame)"),
+        Param("vi", "vector", "slot direction on body i (body frame)"),
+        Param("sj", "point", "the pin on body j (body frame)"),
+    )
+    target = "c"
+    target_unit = "length"
+    at_form = "[x, y] with axis: [dx, dy]: the pin's global position and the slot direction"
+    summary = ("pin-in-slot (revolute-translational composite): pin sj of j stays on the slot line "
+               "of i, at signed offset c (default 0) (1 equation)")
+    equations = "n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - c = 0"
+
+    def g(self, G, F):
+        return _normal_g(G, F)[..., None]
+
+    def grad(self, G, F):
+        out = np.empty((F.q.shape[0], len(G), 1, 6))
+        _normal_row(G, F, out, 0)
+        return out
+
+    def gamma(self, G, F):
+        return _normal_gamma(G, F)[..., None]
+
+    def place(self, at, poses, given):
+        axis = given["axis"]
+        return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
+                "vi": dir_to_body(axis, poses[0])}
+
+
+class Slide(Kind):
+    """Slide of a translational joint (reference §5.6): u_i^T h = f(t), the displacement of the
+    point sj of j along the axis of i measured from si. Drives a slider or a linear actuator."""
+
+    name = "slide"
+    joint = False
+    driver = True
+    params = (
+        Param("si", "point", "origin of the slide on body i (body frame)"),
+        Param("vi", "vector", "slide direction on body i (body frame)"),
+        Param("sj", "point", "the sliding point on body j (body frame)"),
+    )
+    target = "c"
+    target_unit = "length"
+    summary = "slide along an axis: u_i^T (P_j - P_i) = f(t) (1 equation)"
+    driver_equations = "u_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - f(t) = 0"
+
+    def g(self, G, F):
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        return (ux * hx + uy * hy)[..., None]
+
+    def grad(self, G, F):
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        out = np.empty((F.q.shape[0], len(G), 1, 6))
+        out[..., 0, 0] = -ux
+        out[..., 0, 1] = -uy
+        out[..., 0, 2] = nx * (hx + six) + ny * (hy + siy)
+        out[..., 0, 3] = ux
+        out[..., 0, 4] = uy
+        out[..., 0, 5] = -(nx * sjx + ny * sjy)
+        return out
+
+    def gamma(self, G, F):
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
+        kx = wj * wj * sjx - wi * wi * six
+        ky = wj * wj * sjy - wi * wi * siy
+        return (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
+                + ux * kx + uy * ky)[..., None]

@@ -1,0 +1,104 @@
+"""The validated model, in the user's units: frozen dataclasses, one per YAML section.
+
+Produced by `planarkin.model.validate` and consumed by `planarkin.model.compile`, which is the only
+place where degrees become radians and lengths are scaled. Every element keeps the line it came
+from, so that later stages (assembly, rank checks) can still point at the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    name: str
+    q: tuple[float, float, float]      # estimate (or exact pose) at t = start: length, length, angle
+    line: int
+
+
+@dataclass(frozen=True)
+class ElementSpec:
+    """A joint (constant target c) or a driver (target f(t)).
+
+    bodies: body names (i, j[, k]); 'ground' allowed. params: kind parameters in user units
+    (points and vectors as 2-tuples, scalars as floats). at/axis: global placement, when given.
+    """
+
+    role: str                          # 'joint' or 'driver'
+    index: int                         # 1-based position within joints: or drivers:
+    kind: str
+    bodies: tuple[str, ...]
+    params: dict[str, Any]
+    line: int
+    name: str | None = None
+    target: float | None = None        # joints: c (None: derived at compile, e.g. from 'at')
+    f: Any = None                      # drivers: planarkin.expr.TimeFunction
+    at: Any = None
+    axis: tuple[float, float] | None = None
+    param_lines: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        """How messages name the element: ``joint 3 (revolute crank-rod)``."""
+        who = f"'{self.name}'" if self.name else str(self.index)
+        return f"{self.role} {who} ({self.kind} {'-'.join(self.bodies)})"
+
+
+@dataclass(frozen=True)
+class PointSpec:
+    name: str
+    body: str
+    s: tuple[float, float] | None      # body frame, user length unit
+    at: tuple[float, float] | None     # or global position at the assembly pose
+    line: int
+
+
+@dataclass(frozen=True)
+class AnalysisSpec:
+    """Time grid and solver settings (see README, 'analysis')."""
+
+    start: float = 0.0
+    end: float = 1.0
+    steps: int = 100
+    tol: float = 1e-10                 # Newton: size of the last correction, internal units
+    newton: str = "reuse"              # 'reuse' | 'full' | 'fixed'
+    iterations: int = 8                # maximum (or, for 'fixed', exact) Newton iterations
+    path_tol: float = 1e-4             # predictor error allowed between internal nodes
+    max_step: float | None = None      # largest internal step, seconds (None: no limit)
+    interpolate: bool = False          # True: P/V/A on the grid from quintic Hermite of nodes
+    bifurcation: str = "stop"          # 'stop' | 'continue' (on the smooth branch, with a warning)
+    line: int = 0
+    lines: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """What to compute and write: 'model only what a scene requires'."""
+
+    bodies: tuple[str, ...] | None = None    # None: all bodies
+    points: tuple[str, ...] | None = None    # None: all points
+    order: int = 2                           # 0 positions, 1 + velocities, 2 + accelerations
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    name: str
+    file: str
+    length_unit: str
+    angle_unit: str                    # 'rad' or 'deg'
+    parameters: dict[str, float]
+    bodies: tuple[BodySpec, ...]
+    joints: tuple[ElementSpec, ...]
+    drivers: tuple[ElementSpec, ...]
+    points: tuple[PointSpec, ...]
+    analysis: AnalysisSpec
+    output: OutputSpec
+    branch: dict[str, int] = field(default_factory=dict)   # assembly-mode hints: body -> +1/-1
+    branch_lines: dict[str, int] = field(default_factory=dict)
+    line: int = 1
+
+    @property
+    def elements(self) -> tuple[ElementSpec, ...]:
+        return self.joints + self.drivers

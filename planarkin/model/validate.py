@@ -1,0 +1,588 @@
+"""Validate a YAML node tree into a `ModelSpec` (user units), collecting every problem of the file.
+
+Each message names the element (``joint 3 (revolute crank-rod)``), says what is wrong and, where
+possible, the fix; it is reported at the line of the offending node. The kind registry
+(`planarkin.elements.KINDS`) tells which keys each joint and driver kind takes.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+from ..diagnostics import Collector, did_you_mean, one_of
+from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
+from ..expr import ExprError, TimeFunction, evaluate_constant
+from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
+from .yamlread import Node
+
+TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
+            "assembly", "output")
+NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+RESERVED = {"t", "pi", "e", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
+            "tanh", "exp", "log", "sqrt", "abs"}
+NEWTON = ("reuse", "full", "fixed")
+BIFURCATION = ("stop", "continue")
+ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
+ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
+                 "interpolate", "bifurcation")
+MAX_STEPS = 10**9
+
+
+def _type_name(node: Node) -> str:
+    if node.kind == "map":
+        return "a mapping"
+    if node.kind == "seq":
+        return "a list"
+    v = node.value
+    if v is None:
+        return "empty (null)"
+    if isinstance(v, bool):
+        return f"a boolean ({node.text})"
+    return f"'{node.text}'" if isinstance(v, str) else f"the number {node.text}"
+
+
+class _Validator:
+    def __init__(self, root: Node, file: str):
+        self.root = root
+        self.file = file
+        self.C = Collector(file)
+        self.params: dict[str, float] = {}
+        self.body_names: list[str] = []
+
+    # -- small typed readers -------------------------------------------------------------------
+    def err(self, node_or_line, msg: str) -> None:
+        line = node_or_line if isinstance(node_or_line, int) or node_or_line is None \
+            else node_or_line.line
+        self.C.error(line, msg)
+
+    def keys(self, node: Node, allowed, what: str) -> bool:
+        """Report unknown keys of a mapping; False if node is not a mapping."""
+        if node.kind != "map":
+            self.err(node, f"{what} must be a mapping (key: value), not {_type_name(node)}")
+            return False
+        for key in node.value:
+            if key not in allowed:
+                hint = did_you_mean(key, allowed) or " (valid keys: " + ", ".join(allowed) + ")"
+                self.err(node.key_lines[key], f"{what}: unknown key '{key}'{hint}")
+        return True
+
+    def number(self, node: Node, what: str) -> float | None:
+        if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
+            self.err(node, f"{what} must be a number or an expression, not {_type_name(node)}")
+            return None
+        v = node.value
+        try:
+            x = evaluate_constant(v if isinstance(v, str) else float(v), self.params)
+        except ExprError as e:
+            self.err(node, f"{what}: {e}")
+            return None
+        except OverflowError:
+            self.err(node, f"{what}: the number {node.text} is too large")
+            return None
+        if not math.isfinite(x):
+            self.err(node, f"{what} must be finite, not {node.text}")
+            return None
+        return x
+
+    def vector(self, node: Node, what: str, size: int = 2) -> tuple | None:
+        if node.kind != "seq":
+            self.err(node, f"{what} must be a list of {size} numbers, not {_type_name(node)}")
+            return None
+        if len(node.value) != size:
+            self.err(node, f"{what} must have {size} numbers, got {len(node.value)}")
+            return None
+        vals = [self.number(item, what) for item in node.value]
+        return None if any(v is None for v in vals) else tuple(vals)
+
+    def text(self, node: Node, what: str) -> str | None:
+        if node.kind != "scalar" or node.value is None:
+            self.err(node, f"{what} must be a text, not {_type_name(node)}")
+            return None
+        return str(node.text if node.text is not None else node.value)
+
+    def body_ref(self, node: Node, what: str, allow_ground: bool = True) -> str | None:
+        name = self.text(node, what)
+        if name is None:
+            return None
+        if name == "ground":
+            if allow_ground:
+                return name
+            self.err(node, f"{what}: 'ground' is not a moving body here")
+            return None
+        if name not in self.body_names:
+            choices = self.body_names + (["ground"] if allow_ground else [])
+            hint = did_you_mean(name, choices)
+            if not hint:
+                hint = f" (bodies: {', '.join(self.body_names) or 'none defined'})"
+            self.err(node, f"{what}: unknown body '{name}'{hint}")
+            return None
+        return name
+
+    def choice(self, node: Node, what: str, choices) -> str | None:
+        s = self.text(node, what)
+        if s is None:
+            return None
+        if s not in choices:
+            self.err(node, f"{what} must be {one_of(choices)}, not '{s}'{did_you_mean(s, choices)}")
+            return None
+        return s
+
+    def identifier(self, key: str, line: int, what: str) -> bool:
+        if not NAME_RE.match(key):
+            self.err(line, f"{what} name '{key}' is not valid: use letters, digits, '_' and '-', "
+                           f"starting with a letter")
+            return False
+        return True
+
+    # -- sections -------------------------------------------------------------------------------
+    def run(self) -> ModelSpec | None:
+        root = self.root
+        if root.kind != "map":
+            self.err(root, f"a model file must be a mapping with keys {', '.join(TOP_KEYS)}; "
+                           f"found {_type_name(root)}")
+            self.C.raise_if_any()
+        self.keys(root, TOP_KEYS, "model")
+        for req in ("bodies", "joints"):
+            if req not in root.value:
+                self.err(None if not root.value else 1,
+                         f"model: missing '{req}'" + (" (the moving bodies: name: {q: [x, y, phi]})"
+                                                      if req == "bodies" else
+                                                      " (the joints: a list of {type: ..., i: ..., j: ...})"))
+        name = Path(self.file).stem
+        if "name" in root.value:
+            name = self.text(root.value["name"], "name") or name
+        length_unit, angle_unit = self.units(root.value.get("units"))
+        self.parameters(root.value.get("parameters"))
+        bodies = self.bodies(root.value.get("bodies"))
+        joints = self.elements(root.value.get("joints"), "joint")
+        drivers = self.elements(root.value.get("drivers"), "driver")
+        self.unique_names(joints + drivers)
+        points = self.points(root.value.get("points"))
+        analysis = self.analysis(root.value.get("analysis"))
+        output = self.output(root.value.get("output"), points)
+        branch, branch_lines = self.assembly(root.value.get("assembly"))
+        self.C.raise_if_any()
+        return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
+                         parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
+                         drivers=tuple(drivers), points=tuple(points), analysis=analysis,
+                         output=output, branch=branch, branch_lines=branch_lines)
+
+    def units(self, node: Node | None):
+        length, angle = "m", "rad"
+        if node is None or not self.keys(node, ("length", "angle"), "units"):
+            return length, angle
+        if "length" in node.value:
+            length = self.text(node.value["length"], "units: length") or length
+        if "angle" in node.value:
+            angle = self.choice(node.value["angle"], "units: angle", ("rad", "deg")) or angle
+        return length, angle
+
+    def parameters(self, node: Node | None) -> None:
+        if node is None:
+            return
+        if node.kind != "map":
+            self.err(node, f"parameters must be a mapping of names to values, not {_type_name(node)}")
+            return
+        for key, val in node.value.items():
+            line = node.key_lines[key]
+            if not self.identifier(key, line, "parameter"):
+                continue
+            if key in RESERVED or key == "ground":
+                self.err(line, f"parameter name '{key}' is reserved (t, pi, e and the function "
+                               f"names cannot be parameters)")
+                continue
+            x = self.number(val, f"parameter '{key}'")
+            if x is not None:
+                self.params[key] = x
+
+    def bodies(self, node: Node | None) -> list[BodySpec]:
+        out: list[BodySpec] = []
+        if node is None:
+            return out
+        if node.kind != "map":
+            self.err(node, "bodies must be a mapping of body names to {q: [x, y, phi]}, "
+                           f"not {_type_name(node)}")
+            return out
+        # names first, so that joints can refer to any body regardless of order
+        for key in node.value:
+            line = node.key_lines[key]
+            if key == "ground":
+                self.err(line, "body 'ground' is implicit (origin, angle 0): do not list it under "
+                               "bodies")
+            elif self.identifier(key, line, "body"):
+                self.body_names.append(key)
+        if not node.value:
+            self.err(node, "bodies is empty: a mechanism needs at least one moving body")
+        for key, val in node.value.items():
+            if key not in self.body_names:
+                continue
+            what = f"body '{key}'"
+            if val.kind == "seq":
+                self.err(val, f"{what}: write {{q: [x, y, phi]}} (the estimated pose at t = start)")
+                continue
+            if not self.keys(val, ("q",), what):
+                continue
+            if "q" not in val.value:
+                self.err(val, f"{what}: missing q: [x, y, phi] (its estimated pose at t = start)")
+                continue
+            q = self.vector(val.value["q"], f"{what}: q", 3)
+            if q is not None:
+                out.append(BodySpec(key, q, val.line))
+        return out
+
+    def elements(self, node: Node | None, role: str) -> list[ElementSpec]:
+        out: list[ElementSpec] = []
+        if node is None:
+            return out
+        section = role + "s"
+        if node.kind != "seq":
+            self.err(node, f"{section} must be a list of {{type: ..., ...}} entries, "
+                           f"not {_type_name(node)}")
+            return out
+        for idx, item in enumerate(node.value, start=1):
+            spec = self.element(item, role, idx)
+            if spec is not None:
+                out.append(spec)
+        return out
+
+    def element(self, node: Node, role: str, idx: int) -> ElementSpec | None:
+        kinds = JOINT_KINDS if role == "joint" else DRIVER_KINDS
+        what = f"{role} {idx}"
+        if node.kind != "map":
+            self.err(node, f"{what} must be a mapping like {{type: revolute, i: ..., j: ...}}, "
+                           f"not {_type_name(node)}")
+            return None
+        v = node.value
+        if "type" not in v:
+            self.err(node, f"{what}: missing 'type' ({one_of(kinds)})")
+            return None
+        kname = self.text(v["type"], f"{what}: type")
+        if kname is None:
+            return None
+        if kname not in kinds:
+            other = "driver" if role == "joint" else "joint"
+            if kname in KINDS:
+                msg = (f"{what}: '{kname}' is a {other} kind, not a {role} kind "
+                       f"({role} kinds: {', '.join(kinds)})")
+            else:
+                hint = did_you_mean(kname, kinds) or f" ({role} kinds: {one_of(kinds)})"
+                msg = f"{what}: unknown type '{kname}'{hint}"
+            self.err(v["type"], msg)
+            return None
+        kind = KINDS[kname]
+        ename = None
+        if "name" in v:
+            ename = self.text(v["name"], f"{what}: name")
+        # bodies
+        body_keys = ["i", "j"] + (["k"] if kind.nbody == 3 else [])
+        bodies: list[str | None] = []
+        allowed = ["type", "name"] + body_keys
+        if role == "driver":
+            allowed.append("body")
+        if role == "driver" and "body" in v:
+            if "i" in v or "j" in v:
+                self.err(v["body"], f"{what}: give either body or i and j, not both")
+            b = self.body_ref(v["body"], f"{what}: body", allow_ground=False)
+            bodies = ["ground", b]
+        else:
+            for key in body_keys:
+                if key in v:
+                    bodies.append(self.body_ref(v[key], f"{what}: {key}"))
+                elif key == "k":
+                    bodies.append("ground")
+                else:
+                    hint = " (or body: NAME for i: ground)" if role == "driver" else ""
+                    self.err(node, f"{what} ({kname}): missing '{key}' (a body name or ground){hint}")
+                    bodies.append(None)
+        label_bodies = [b or "?" for b in bodies]
+        what = (f"{role} '{ename}'" if ename else what) + f" ({kname} {'-'.join(label_bodies)})"
+        if None not in bodies and len(set(bodies)) < len(bodies):
+            self.err(node, f"{what}: connects a body to itself; i and j must differ")
+        # parameters
+        pnames = [p.name for p in kind.params]
+        allowed += pnames
+        has_at = kind.at_form is not None and role == "joint"
+        if has_at:
+            allowed.append("at")
+            if kind.name in ("translational", "pin-slot"):
+                allowed.append("axis")
+        if role == "joint" and kind.target:
+            allowed.append(kind.target)
+        if role == "driver":
+            allowed.append("f")
+            if "sj" in pnames:
+                allowed.append("s")
+        self.keys(node, allowed, what)
+        params: dict[str, Any] = {}
+        lines: dict[str, int] = {}
+        at = axis = None
+        if has_at and "at" in v:
+            at = self.placement(v["at"], kind, what)
+            clash = [p for p in pnames if p in v and kind.params[pnames.index(p)].unit in
+                     ("point", "vector")]
+            if clash:
+                self.err(v["at"], f"{what}: give either at or {', '.join(clash)}, not both")
+            if "axis" in allowed:
+                if "axis" not in v:
+                    self.err(v["at"], f"{what}: with at, give axis: [dx, dy] (the slide direction)")
+                else:
+                    axis = self.direction(v["axis"], f"{what}: axis")
+        elif "axis" in v and "at" not in v:
+            self.err(v["axis"], f"{what}: axis is used with at; give at: [x, y] too")
+        if role == "driver" and "s" in v:
+            if "sj" in v:
+                self.err(v["s"], f"{what}: give either s or sj, not both")
+            v = dict(v)
+            v["sj"] = v.pop("s")
+        for p in kind.params:
+            if p.name in v:
+                lines[p.name] = v[p.name].line
+                val = self.param(v[p.name], p, what)
+                if val is not None:
+                    params[p.name] = val
+            elif at is not None and p.unit in ("point", "vector"):
+                continue
+            elif role == "driver" and p.unit == "point":
+                params[p.name] = (0.0, 0.0)       # a driver's points default to body origins
+            elif role == "driver" and p.unit == "vector":
+                self.err(node, f"{what}: missing {p.name} ({p.doc})")
+            elif p.required:
+                hint = f", or at: {kind.at_form}" if has_at else ""
+                self.err(node, f"{what}: missing {p.name} ({p.doc}{hint})")
+        target = None
+        f = None
+        if role == "joint" and kind.target:
+            if kind.target in v:
+                target = self.param(v[kind.target], _target_param(kind), what)
+                lines[kind.target] = v[kind.target].line
+            elif kind.name == "pin-slot":
+                target = 0.0
+            elif not (kind.name == "distance" and at is not None):
+                self.err(node, f"{what}: missing {kind.target} (the constant value"
+                               f"{', in ' + kind.target_unit + ' units' if kind.target_unit else ''})")
+            if kind.name == "distance" and target is not None and target <= 0:
+                self.err(v[kind.target], f"{what}: the distance c must be positive, not {target:g} "
+                                         f"(for a zero distance use a revolute joint)")
+        if role == "driver":
+            if "f" not in v:
+                self.err(node, f"{what}: missing f (a function of time t, e.g. f: \"2*pi*t\")")
+            else:
+                f = self.function(v["f"], what)
+                lines["f"] = v["f"].line
+        if "vi" in params and "vj" in params and kind.name == "translational":
+            pass
+        if None in bodies:
+            return None
+        return ElementSpec(role=role, index=idx, kind=kname, bodies=tuple(bodies), params=params,
+                           line=node.line, name=ename, target=target, f=f, at=at, axis=axis,
+                           param_lines=lines)
+
+    def param(self, node: Node, p, what: str):
+        if p.unit == "point":
+            return self.vector(node, f"{what}: {p.name}")
+        if p.unit == "vector":
+            return self.direction(node, f"{what}: {p.name}")
+        x = self.number(node, f"{what}: {p.name}")
+        if x is not None and p.name in ("ri", "rj") and x == 0:
+            self.err(node, f"{what}: {p.name} must not be zero (a pitch radius)")
+            return None
+        return x
+
+    def direction(self, node: Node, what: str):
+        vec = self.vector(node, what)
+        if vec is not None and vec[0] == 0 and vec[1] == 0:
+            self.err(node, f"{what} is a zero vector; give a direction such as [1, 0]")
+            return None
+        return vec
+
+    def placement(self, node: Node, kind, what: str):
+        if kind.name == "distance":
+            if node.kind != "seq" or len(node.value) != 2:
+                self.err(node, f"{what}: at must be [[x1, y1], [x2, y2]] (the two points)")
+                return None
+            pts = [self.vector(n, f"{what}: at") for n in node.value]
+            if None in pts:
+                return None
+            if pts[0] == pts[1]:
+                self.err(node, f"{what}: the two points of at coincide; a distance joint needs "
+                               f"two distinct points (for a pin use a revolute joint)")
+                return None
+            return tuple(pts)
+        return self.vector(node, f"{what}: at")
+
+    def function(self, node: Node, what: str):
+        if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
+            self.err(node, f"{what}: f must be an expression of t, not {_type_name(node)}")
+            return None
+        v = node.value
+        try:
+            return TimeFunction(v if isinstance(v, str) else float(v), self.params)
+        except ExprError as e:
+            self.err(node, f"{what}: f: {e}")
+        return None
+
+    def unique_names(self, elements: list[ElementSpec]) -> None:
+        seen: dict[str, ElementSpec] = {}
+        for el in elements:
+            if el.name is None:
+                continue
+            if el.name in seen:
+                self.err(el.line, f"{el.label}: the name '{el.name}' is already used at line "
+                                  f"{seen[el.name].line}")
+            else:
+                seen[el.name] = el
+
+    def points(self, node: Node | None) -> list[PointSpec]:
+        out: list[PointSpec] = []
+        if node is None:
+            return out
+        if node.kind != "map":
+            self.err(node, "points must be a mapping of point names to {body: NAME, s: [x, y]}, "
+                           f"not {_type_name(node)}")
+            return out
+        for key, val in node.value.items():
+            line = node.key_lines[key]
+            if not self.identifier(key, line, "point"):
+                continue
+            what = f"point '{key}'"
+            if not self.keys(val, ("body", "s", "at"), what):
+                continue
+            if "body" not in val.value:
+                self.err(val, f"{what}: missing body (the body that carries the point)")
+                continue
+            body = self.body_ref(val.value["body"], f"{what}: body", allow_ground=False)
+            s = at = None
+            if "s" in val.value and "at" in val.value:
+                self.err(val.value["at"], f"{what}: give either s or at, not both")
+            elif "s" in val.value:
+                s = self.vector(val.value["s"], f"{what}: s")
+            elif "at" in val.value:
+                at = self.vector(val.value["at"], f"{what}: at")
+            else:
+                self.err(val, f"{what}: missing s: [x, y] (body frame) or at: [x, y] (global, at "
+                              f"the assembly pose)")
+                continue
+            if body is not None and (s is not None or at is not None):
+                out.append(PointSpec(key, body, s, at, val.line))
+        return out
+
+    def analysis(self, node: Node | None) -> AnalysisSpec:
+        if node is None or not self.keys(node, ANALYSIS_KEYS, "analysis"):
+            return AnalysisSpec()
+        v = node.value
+        vals: dict[str, Any] = {}
+        lines = {k: v[k].line for k in v}
+        for key in ("start", "end", "tol", "path_tol", "max_step"):
+            if key in v:
+                x = self.number(v[key], f"analysis: {key}")
+                if x is not None:
+                    vals[key] = x
+        for key in ("steps", "iterations"):
+            if key in v:
+                x = self.number(v[key], f"analysis: {key}")
+                if x is not None:
+                    if x != int(x):
+                        self.err(v[key], f"analysis: {key} must be a whole number, not {x:g}")
+                    else:
+                        vals[key] = int(x)
+        if "newton" in v:
+            vals["newton"] = self.choice(v["newton"], "analysis: newton", NEWTON)
+        if "bifurcation" in v:
+            vals["bifurcation"] = self.choice(v["bifurcation"], "analysis: bifurcation", BIFURCATION)
+        if "interpolate" in v:
+            n = v["interpolate"]
+            if n.kind == "scalar" and isinstance(n.value, bool):
+                vals["interpolate"] = n.value
+            else:
+                self.err(n, f"analysis: interpolate must be true or false, not {_type_name(n)}")
+        vals = {k: x for k, x in vals.items() if x is not None}
+        spec = AnalysisSpec(**vals, line=node.line, lines=lines)
+        self.check_analysis(spec, lines, node.line)
+        return spec
+
+    def check_analysis(self, a: AnalysisSpec, lines: dict, line: int) -> None:
+        at = lambda k: lines.get(k, line)
+        if a.end <= a.start:
+            self.err(at("end"), f"analysis: end ({a.end:g}) must be greater than start ({a.start:g})")
+        if not 1 <= a.steps <= MAX_STEPS:
+            self.err(at("steps"), f"analysis: steps must be between 1 and {MAX_STEPS}, not {a.steps} "
+                                  f"(steps counts intervals: the tables have steps + 1 rows)")
+        if not 1e-15 <= a.tol <= 1e-1:
+            self.err(at("tol"), f"analysis: tol must be between 1e-15 and 0.1, not {a.tol:g}")
+        if not 1e-12 <= a.path_tol <= 1e-1:
+            self.err(at("path_tol"), f"analysis: path_tol must be between 1e-12 and 0.1, not "
+                                     f"{a.path_tol:g}")
+        if not 1 <= a.iterations <= 100:
+            self.err(at("iterations"), f"analysis: iterations must be between 1 and 100, not "
+                                       f"{a.iterations}")
+        if a.max_step is not None and a.max_step <= 0:
+            self.err(at("max_step"), f"analysis: max_step must be positive, not {a.max_step:g}")
+
+    def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
+        if node is None or not self.keys(node, ("bodies", "points", "up_to"), "output"):
+            return OutputSpec()
+        v = node.value
+        vals: dict[str, Any] = {}
+        for key, names in (("bodies", self.body_names), ("points", [p.name for p in points])):
+            if key not in v:
+                continue
+            n = v[key]
+            if n.kind != "seq":
+                self.err(n, f"output: {key} must be a list of names, not {_type_name(n)}")
+                continue
+            chosen = []
+            for item in n.value:
+                s = self.text(item, f"output: {key}")
+                if s is None:
+                    continue
+                if s not in names:
+                    self.err(item, f"output: {key}: unknown {key[:-1]} '{s}'{did_you_mean(s, names)}")
+                else:
+                    chosen.append(s)
+            vals[key] = tuple(chosen)
+        if "up_to" in v:
+            c = self.choice(v["up_to"], "output: up_to", tuple(ORDERS))
+            if c is not None:
+                vals["order"] = ORDERS[c]
+        return OutputSpec(**vals)
+
+    def assembly(self, node: Node | None):
+        if node is None or not self.keys(node, ("branch",), "assembly"):
+            return {}, {}
+        b = node.value.get("branch")
+        if b is None:
+            return {}, {}
+        if b.kind != "map":
+            self.err(b, "assembly: branch must map a body name to + or - (see `planarkin check`), "
+                        f"not {_type_name(b)}")
+            return {}, {}
+        out, lines = {}, {}
+        for key, val in b.value.items():
+            line = b.key_lines[key]
+            if key not in self.body_names:
+                self.err(line, f"assembly: branch: unknown body '{key}'"
+                               f"{did_you_mean(key, self.body_names)}")
+                continue
+            s = val.text if val.kind == "scalar" else None
+            if s in ("+", "+1", "1"):
+                out[key] = 1
+            elif s in ("-", "-1"):
+                out[key] = -1
+            else:
+                self.err(val, f"assembly: branch: {key} must be + or -, not {_type_name(val)}")
+                continue
+            lines[key] = line
+        return out, lines
+
+
+def _target_param(kind):
+    from ..elements import Param
+    return Param(kind.target, kind.target_unit or "real", "constant")
+
+
+def validate(root: Node, file: str) -> ModelSpec:
+    """Validate the node tree of one model file; raises InputError with every problem found."""
+    return _Validator(root, file).run()

@@ -1,0 +1,303 @@
+"""Results of an analysis: the arrays (SciPy-style result object) and the streaming writers.
+
+`solve()` collects every chunk into a `Result`; `planarkin run` streams the chunks straight to the
+CSV files and folds them into the summary, so memory stays bounded for millions of steps. Both
+consume the same `Analysis.chunks()` and write through the same `DirectoryWriter`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .model.compile import CompiledModel
+from .output.summary import ColumnStats, StepStats, error_estimates, write_json
+from .output.tables import CsvWriter, Layout
+from .solver import Analysis, Chunk, Event, Options
+
+PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
+
+
+@dataclass
+class RunInfo:
+    """Everything about a run except the arrays: status, events, counters, timings."""
+
+    status: int                      # 0 ok, 1 analysis failure
+    message: str
+    options: Options
+    event: Event | None
+    warnings: list
+    assembly: dict
+    internal_steps: int
+    rejected_steps: int
+    fallbacks: int
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.status == 0
+
+
+def run_info(an: Analysis) -> RunInfo:
+    f = an.follower
+    ev = an.event
+    if ev is None:
+        status, msg = 0, "analysis completed"
+    else:
+        status, msg = 1, ev.message
+    A = an.A
+    cm = an.cm
+    asm = {
+        "iterations": A.iterations,
+        "residual": A.residual,
+        "modes": [{"bodies": list(md.bodies), "branch": "+" if md.sign > 0 else "-",
+                   "hint": f"assembly: {{branch: {{{md.key}: {'-' if md.sign > 0 else '+'}}}}} "
+                           f"selects the other branch"} for md in A.modes],
+        "redundant": [cm.row_label[r] for r in A.redundant_rows],
+    }
+    return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes.t) if hasattr(
+        f.nodes, "t") else 0, f.rejected, an.fallbacks, dict(an.timings))
+
+
+class PlotBuffer:
+    """Every k-th row of the run (and the last), enough for plots of any run length."""
+
+    def __init__(self, total_rows: int):
+        self.stride = max(1, math.ceil(total_rows / PLOT_ROWS))
+        self.seen = 0
+        self.parts: list[Chunk] = []
+        self.last: Chunk | None = None
+
+    def add(self, ch: Chunk) -> None:
+        n = len(ch.t)
+        first = (-self.seen) % self.stride
+        sel = np.arange(first, n, self.stride)
+        self.parts.append(_take(ch, sel))
+        self.last = _take(ch, np.array([n - 1])) if n else self.last
+        self.seen += n
+
+    def chunk(self) -> Chunk | None:
+        parts = self.parts
+        if self.last is not None and (not parts or not len(parts[-1].t)
+                                      or parts[-1].t[-1] != self.last.t[0]):
+            parts = parts + [self.last]
+        parts = [p for p in parts if len(p.t)]
+        return _concat(parts) if parts else None
+
+
+class DirectoryWriter:
+    """Streams chunks into DIR/bodies.csv and DIR/points.csv, and writes summary.json and the
+    plots at the end."""
+
+    def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
+                 animate: bool = False):
+        self.cm = cm
+        self.out = Path(out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        spec = cm.spec.output
+        self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
+        self.bodies = CsvWriter(self.out / "bodies.csv", self.layout.body_header)
+        self.points = CsvWriter(self.out / "points.csv", self.layout.point_header) \
+            if self.layout.points else None
+        self.body_stats = ColumnStats(self.layout.body_header)
+        self.point_stats = ColumnStats(self.layout.point_header)
+        self.steps = StepStats()
+        self.plots = plots
+        self.animate = animate
+        self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
+        self.t_write = 0.0
+
+    def add(self, ch: Chunk) -> None:
+        t0 = time.perf_counter()
+        X = self.layout.body_table(ch)
+        self.bodies.write(X)
+        self.body_stats.add(X)
+        if self.points is not None:
+            P = self.layout.point_table(ch)
+            self.points.write(P)
+            self.point_stats.add(P)
+        self.steps.add(ch)
+        if self.buffer is not None:
+            self.buffer.add(ch)
+        self.t_write += time.perf_counter() - t0
+
+    def finish(self, info: RunInfo, wall: float | None = None) -> dict:
+        self.bodies.close()
+        if self.points is not None:
+            self.points.close()
+        info.timings["write"] = self.t_write
+        summary = build_summary(self.cm, info, self.steps, self.body_stats,
+                                self.point_stats if self.points is not None else None, wall)
+        if self.buffer is not None:
+            data = self.buffer.chunk()
+            if data is not None:
+                from .output import plots as plotting   # matplotlib only when plotting
+                files = []
+                if self.plots:
+                    files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
+                if self.animate:
+                    files.append(plotting.write_animation(self.cm, data, self.out))
+                summary["plots"] = [f.name for f in files]
+        write_json(self.out / "summary.json", summary)
+        return summary
+
+
+def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats: ColumnStats,
+                  point_stats: ColumnStats | None, wall: float | None) -> dict:
+    from . import __version__
+    o = info.options
+    spec = cm.spec
+    grid_rows = o.steps + 1
+    out = {
+        "planarkin": __version__,
+        "model": spec.name,
+        "file": spec.file,
+        "status": "ok" if info.status == 0 else "failed",
+        "exit_code": info.status,
+        "message": info.message,
+        "units": {"length": spec.length_unit, "angle": spec.angle_unit, "time": "s"},
+        "time": {"start": o.start, "end": o.end, "steps": o.steps, "rows_planned": grid_rows,
+                 "rows_written": steps.rows,
+                 "stopped_at": info.event.t if info.event is not None else None},
+        "dof": cm.n - cm.m_joint if not info.assembly["redundant"] else None,
+        "bodies": list(cm.body_names),
+        "points": list(cm.point_names),
+        "equations": {"joints": cm.m_joint, "drivers": len(cm.driver_rows),
+                      "coordinates": cm.n},
+        "characteristic_length": cm.L,
+        "settings": {"tol": o.tol, "newton": o.newton, "iterations": o.iterations,
+                     "path_tol": o.path_tol, "max_step": o.max_step,
+                     "interpolate": o.interpolate, "bifurcation": o.bifurcation,
+                     "order": ("position", "velocity", "acceleration")[o.order]},
+        "assembly": info.assembly,
+        "solver": {
+            "internal_steps": info.internal_steps,
+            "rejected_steps": info.rejected_steps,
+            "grid_fallbacks": info.fallbacks,
+            "newton_iterations": {
+                "min": steps.iter_min, "max": steps.iter_max,
+                "mean": steps.iter_sum / steps.rows if steps.rows else None},
+        },
+        "residual": {"max": steps.res_max, "t": steps.res_tmax,
+                     "note": "max |Phi| over all equations, relative to the characteristic length"},
+        "condition": {"min": steps.cond_min if steps.rows else None,
+                      "max": steps.cond_max if steps.rows else None, "t_max": steps.cond_tmax},
+        "error_estimate": error_estimates(steps),
+        "warnings": [w.as_dict() for w in info.warnings],
+        "event": info.event.as_dict() if info.event is not None else None,
+        "columns": {"bodies.csv": body_stats.as_dict()},
+        "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
+    }
+    if point_stats is not None:
+        out["columns"]["points.csv"] = point_stats.as_dict()
+    if wall is not None:
+        out["wall_time"]["total"] = round(wall, 6)
+    return out
+
+
+def _take(ch: Chunk, sel) -> Chunk:
+    g = lambda a: None if a is None else a[sel]
+    return Chunk(ch.t[sel], ch.q[sel], g(ch.qd), g(ch.qdd), ch.p[sel], g(ch.pd), g(ch.pdd),
+                 ch.iterations[sel], ch.cond[sel], ch.residual[sel], ch.refine[sel])
+
+
+def _concat(parts: list[Chunk]) -> Chunk:
+    def cat(name):
+        arrays = [getattr(p, name) for p in parts]
+        return None if arrays[0] is None else np.concatenate(arrays)
+    return Chunk(*(cat(f) for f in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond",
+                                    "residual", "refine")))
+
+
+class Result:
+    """What `planarkin.solve` returns: arrays on the grid (user units) and the run's diagnostics.
+
+    t: (N,) s. q, qd, qdd: (N, 3 nb) per body x, y, phi and derivatives (None above the
+    computed order). p, pd, pdd: (N, P, 2) points. iterations, cond, residual: (N,) per step.
+    status: 0 ok, 1 analysis failure (arrays hold the results up to the failure); message;
+    event (why it stopped), warnings (near-singular passages, redundancies), info (RunInfo).
+    """
+
+    def __init__(self, model: CompiledModel, chunk: Chunk | None, info: RunInfo):
+        self.model = model
+        self.info = info
+        self.status = info.status
+        self.message = info.message
+        self.event = info.event
+        self.warnings = info.warnings
+        if chunk is None:
+            n, P = model.n, len(model.point_names)
+            z = lambda *s: np.zeros((0,) + s)
+            chunk = Chunk(z(), z(n), z(n), z(n), z(P, 2), z(P, 2), z(P, 2),
+                          np.zeros(0, int), z(), z(), z())
+        self._chunk = chunk
+        for name in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond", "residual"):
+            setattr(self, name, getattr(chunk, name))
+
+    @property
+    def success(self) -> bool:
+        return self.status == 0
+
+    def body(self, name: str) -> dict:
+        """Columns of one body: x, y, phi, vx, vy, omega, ax, ay, alpha (user units)."""
+        b = self.model.body_names.index(name)
+        out = {}
+        for arr, keys in ((self.q, ("x", "y", "phi")), (self.qd, ("vx", "vy", "omega")),
+                          (self.qdd, ("ax", "ay", "alpha"))):
+            if arr is not None:
+                for k, key in enumerate(keys):
+                    out[key] = arr[:, 3 * b + k]
+        return out
+
+    def point(self, name: str) -> dict:
+        """Columns of one point: x, y, vx, vy, ax, ay (user units)."""
+        k = self.model.point_names.index(name)
+        out = {}
+        for arr, keys in ((self.p, ("x", "y")), (self.pd, ("vx", "vy")), (self.pdd, ("ax", "ay"))):
+            if arr is not None:
+                out[keys[0]], out[keys[1]] = arr[:, k, 0], arr[:, k, 1]
+        return out
+
+    def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
+        """Write bodies.csv, points.csv, summary.json (and plots) into directory out; returns the
+        summary."""
+        w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
+                            animate=animate)
+        w.add(self._chunk)
+        return w.finish(self.info)
+
+    def __repr__(self) -> str:
+        return (f"<Result {self.model.spec.name}: {'ok' if self.success else 'failed'}, "
+                f"{len(self.t)} rows, {self.message}>")
+
+
+def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
+    """Run an analysis: assembly (raises InputError), path, dense chunks into sink (an object
+    with add(chunk)) or into a Result. Returns (info, result or None)."""
+    from .assembly import assemble
+    t0 = time.perf_counter()
+    A = assemble(cm)
+    t1 = time.perf_counter()
+    an = Analysis(cm, A, opts)
+    an.timings["assembly"] = t1 - t0
+    an.follow()
+    parts = []
+    t2 = time.perf_counter()
+    for ch in an.chunks():
+        if sink is not None:
+            sink.add(ch)
+        else:
+            parts.append(ch)
+        if progress is not None:
+            progress(len(ch.t))
+    an.timings["grid"] = time.perf_counter() - t2
+    if sink is not None:
+        an.timings["grid"] -= getattr(sink, "t_write", 0.0)
+    info = run_info(an)
+    info.warnings = [w for w in info.warnings]
+    result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
+    return info, result

@@ -1,0 +1,574 @@
+"""Position, velocity and acceleration analysis over the time grid (reference §7).
+
+Two passes, so that a coarse grid changes the cost and never the answer:
+
+1. Path following (`PathFollower`): adaptive internal steps from t = start along the assembled
+   branch. A step is accepted only when Newton converged from a Taylor predictor built from
+   q, qdot, qddot (and a third-derivative estimate), the correction agrees with the predictor
+   both forward and backward within ``path_tol``, the correction is small against the
+   Jacobian's smallest singular value (a Kantorovich-style radius: Newton cannot reach another
+   root from there), and the sign of every diagonal block's determinant is unchanged (crossing
+   to another assembly branch flips it). Failing steps are subdivided. When steps shrink below
+   ``h_min`` the path has met a singular configuration, located to within h_min by this very
+   process (bisection in effect); it is classified from the singular vectors: lock-up of a driver
+   (toggle, dead centre) when the joints alone keep full rank, bifurcation (change point) when
+   they lose rank.
+2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
+   quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
+   velocity and acceleration systems are solved exactly. Every point is checked like a path step
+   (convergence, Kantorovich radius, determinant signs); a point that fails is solved by
+   following the path from its left node.
+
+Results are streamed in chunks of grid points, so memory does not grow with the number of steps.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .assembly import DENSE_LIMIT, Assembly
+from .model.compile import CompiledModel
+from .system import System
+
+KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
+NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
+MAX_NODES = 2_000_000
+
+
+@dataclass(frozen=True)
+class Options:
+    """Resolved analysis settings (model's analysis: block, overridden by CLI options)."""
+
+    start: float
+    end: float
+    steps: int
+    tol: float = 1e-10
+    newton: str = "reuse"
+    iterations: int = 8
+    path_tol: float = 1e-4
+    max_step: float | None = None
+    interpolate: bool = False
+    bifurcation: str = "stop"
+    order: int = 2
+    chunk: int = 4096
+
+    @classmethod
+    def from_model(cls, cm: CompiledModel, **overrides) -> "Options":
+        a = cm.spec.analysis
+        vals = dict(start=a.start, end=a.end, steps=a.steps, tol=a.tol, newton=a.newton,
+                    iterations=a.iterations, path_tol=a.path_tol, max_step=a.max_step,
+                    interpolate=a.interpolate, bifurcation=a.bifurcation, order=cm.spec.output.order)
+        vals.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**vals)
+
+    @property
+    def grid(self) -> np.ndarray:
+        return np.linspace(self.start, self.end, self.steps + 1)
+
+
+@dataclass
+class Nodes:
+    """Internal nodes of the path (exact solutions): t (K,), q, qd, qdd (K, n + 3) internal units,
+    sign (K, nblocks) determinant signs, cond (K,) condition estimate."""
+
+    t: list = field(default_factory=list)
+    q: list = field(default_factory=list)
+    qd: list = field(default_factory=list)
+    qdd: list = field(default_factory=list)
+    sign: list = field(default_factory=list)
+    cond: list = field(default_factory=list)
+
+    def add(self, t, q, qd, qdd, sign, cond):
+        self.t.append(float(t))
+        self.q.append(q)
+        self.qd.append(qd)
+        self.qdd.append(qdd)
+        self.sign.append(sign)
+        self.cond.append(float(cond))
+
+    def __len__(self):
+        return len(self.t)
+
+    def arrays(self):
+        return (np.array(self.t), np.array(self.q), np.array(self.qd), np.array(self.qdd),
+                np.array(self.sign), np.array(self.cond))
+
+
+@dataclass
+class Event:
+    """Why the path stopped (or what it passed, for warnings).
+
+    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure'."""
+
+    kind: str
+    t: float
+    message: str
+    cond: float = float("nan")
+    constraints: list = field(default_factory=list)
+    bodies: list = field(default_factory=list)
+
+    def as_dict(self):
+        d = {"kind": self.kind, "t": self.t, "message": self.message}
+        if math.isfinite(self.cond):
+            d["condition"] = self.cond
+        if self.constraints:
+            d["constraints"] = self.constraints
+        if self.bodies:
+            d["bodies"] = self.bodies
+        return d
+
+
+def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
+    """Quintic Hermite interpolant on [0, 1] (s: (N, 1)) matching value, first and second
+    derivative at both ends; deriv = 0, 1, 2 returns the value or a time derivative."""
+    s2 = s * s
+    s3 = s2 * s
+    if deriv == 0:
+        s4, s5 = s3 * s, s3 * s2
+        H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+        H1 = s - 6 * s3 + 8 * s4 - 3 * s5
+        H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+        H3 = 10 * s3 - 15 * s4 + 6 * s5
+        H4 = -4 * s3 + 7 * s4 - 3 * s5
+        H5 = 0.5 * s3 - s4 + 0.5 * s5
+        return H0 * y0 + H1 * h * d0 + H2 * h * h * a0 + H3 * y1 + H4 * h * d1 + H5 * h * h * a1
+    s4 = s3 * s
+    if deriv == 1:
+        H0 = -30 * s2 + 60 * s3 - 30 * s4
+        H1 = 1 - 18 * s2 + 32 * s3 - 15 * s4
+        H2 = s - 4.5 * s2 + 6 * s3 - 2.5 * s4
+        H4 = -12 * s2 + 28 * s3 - 15 * s4
+        H5 = 1.5 * s2 - 4 * s3 + 2.5 * s4
+        return (H0 * (y0 - y1)) / h + H1 * d0 + H2 * h * a0 + H4 * d1 + H5 * h * a1
+    H0 = -60 * s + 180 * s2 - 120 * s3
+    H1 = -36 * s + 96 * s2 - 60 * s3
+    H2 = 1 - 9 * s + 18 * s2 - 10 * s3
+    H4 = -24 * s + 84 * s2 - 60 * s3
+    H5 = 3 * s - 12 * s2 + 10 * s3
+    return (H0 * (y0 - y1)) / (h * h) + (H1 * d0 + H4 * d1) / h + H2 * a0 + H5 * a1
+
+
+class PathFollower:
+    """Adaptive continuation along the assembled branch; see the module docstring."""
+
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
+        self.cm = cm
+        self.S: System = A.system
+        self.opts = opts
+        span = opts.end - opts.start
+        self.span = span
+        self.h_min = 1e-11 * max(span, 1e-300)
+        self.h_max = min(span, opts.max_step or span) 
+        self.nodes = Nodes()
+        self.rejected = 0
+        self.evaluations = 0
+        self.warnings: list[Event] = []
+        self.event: Event | None = None
+        self.ok_signs_flip = False
+
+    # -- one batch of candidate steps -------------------------------------------------------
+    def _candidates(self, k: int, hs: np.ndarray, check_sign: bool = True, jerk=True):
+        """Try steps hs from node k. Returns (ok mask, err, Q, Qd, Qdd, info)."""
+        N = self.nodes
+        t0, q0, qd0, qdd0, sg0 = N.t[k], N.q[k], N.qd[k], N.qdd[k], N.sign[k]
+        j3 = np.zeros_like(q0)
+        if jerk and k > 0 and N.t[k] > N.t[k - 1]:
+            j3 = (qdd0 - N.qdd[k - 1]) / (N.t[k] - N.t[k - 1])
+        h = hs[:, None]
+        Qp = q0 + h * qd0 + 0.5 * h * h * qdd0 + h ** 3 / 6.0 * j3
+        Q = Qp.copy()
+        Qd = qd0 + h * qdd0 + 0.5 * h * h * j3
+        Qdd = qdd0 + h * j3
+        t = t0 + hs
+        self.evaluations += len(hs)
+        info = self.S.solve_batch(t, Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12, order=2)
+        n = self.S.n
+        ef = np.abs(Q[:, :n] - Qp[:, :n]).max(axis=1)
+        j3c = (Qdd - qdd0) / h
+        qb = Q - h * Qd + 0.5 * h * h * Qdd - h ** 3 / 6.0 * j3c
+        eb = np.abs(qb[:, :n] - q0[:n]).max(axis=1)
+        err = np.maximum(ef, eb)
+        ok = info.converged & (err <= self.opts.path_tol) & (info.ratio <= KAPPA)
+        ok &= np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
+        if check_sign:
+            ok &= (info.sign == sg0).all(axis=1)
+        return ok, err, Q, Qd, Qdd, info
+
+    def start(self, q: np.ndarray) -> bool:
+        """Node 0 at t = start from the assembled pose. False if velocities are undefined."""
+        S = self.S
+        t0 = self.opts.start
+        Q = S.ext(q)
+        Qd = np.zeros_like(Q)
+        Qdd = np.zeros_like(Q)
+        info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12)
+        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0])
+        return bool(info.converged[0] and np.isfinite(Qdd).all())
+
+    def run(self) -> Event | None:
+        """Follow the path to t = end (or to a singular configuration). Returns the stopping event
+        (None when the end was reached)."""
+        N = self.nodes
+        end = self.opts.end
+        k = len(N) - 1
+        qd_scale = np.abs(N.qd[k][: self.S.n]).max()
+        h = min(self.h_max, self.span / 64,
+                0.05 / qd_scale if qd_scale > 0 else self.span)
+        while N.t[-1] < end:
+            k = len(N) - 1
+            t = N.t[k]
+            remaining = end - t
+            if remaining <= 1e-14 * max(abs(end), 1.0):
+                N.t[-1] = end   # rounding of the accumulated steps
+                break
+            hs = np.array([0.25, 0.5, 1.0, 2.0]) * h
+            hs = np.minimum(hs, min(remaining, self.h_max))
+            hs = np.unique(hs)
+            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs)
+            if ok.any():
+                j = int(np.nonzero(ok)[0][-1])
+                hj = hs[j]
+                tn = end if hj == remaining else t + hj
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j])
+                self.rejected += int((~ok[: j + 1]).sum())
+                grow = 4.0 if err[j] == 0 else min(4.0, max(0.3, 0.8 * (self.opts.path_tol
+                                                                          / err[j]) ** 0.25))
+                h = min(hj * grow, self.h_max) if hj < remaining else max(h, hj)
+                if len(N) > MAX_NODES:
+                    return self._stop(Event("failure", N.t[-1],
+                                            f"more than {MAX_NODES} internal steps before t = "
+                                            f"{N.t[-1]:.6g}: the motion is too fast for the time "
+                                            f"range (raise path_tol?)"))
+                continue
+            self.rejected += len(hs)
+            h = hs[0] / 8.0
+            if h < self.h_min:
+                ev = self._singular(k)
+                if ev.kind == "bifurcation" and self.opts.bifurcation == "continue":
+                    if self._step_over(ev):
+                        self.warnings.append(ev)
+                        h = max(self.span * 1e-6, self.h_min * 100)
+                        continue
+                    ev.message += "; stepping over it on the smooth branch failed"
+                return self._stop(ev)
+        self._near_singular_warnings()
+        return None
+
+    def _stop(self, ev: Event) -> Event:
+        self.event = ev
+        self._near_singular_warnings()
+        return ev
+
+    # -- singular configurations -------------------------------------------------------------
+    def _singular(self, k: int) -> Event:
+        """Classify why steps collapsed after node k (reference §7.4)."""
+        cm, S, N = self.cm, self.S, self.nodes
+        t = N.t[k]
+        # a driver that is not defined beyond t?
+        T, NU, FDD = S.driver_values(np.array([t + 4 * self.h_min]))
+        bad = [r for r in cm.driver_rows if not (np.isfinite(T[0, r]) and np.isfinite(NU[0, r])
+                                                 and np.isfinite(FDD[0, r]))]
+        if bad:
+            el = cm.element_of_row(bad[0])
+            return Event("driver", t, f"{el.label}: f = {el.f.text} or its derivatives are not "
+                                      f"finite just after t = {t:.10g}")
+        if S.n > DENSE_LIMIT:
+            b = int(np.argmax(1.0 / np.maximum(N.cond[k], 1e-300)))
+            return Event("failure", t, f"the path cannot be continued after t = {t:.10g} "
+                                       f"(condition estimate {N.cond[k]:.3g})", cond=N.cond[k])
+        Q = S.ext(N.q[k][: S.n])
+        J = S.jacobian(Q)[0][S.rows]
+        nrm = np.linalg.norm(J, axis=1)
+        Jn = J / np.where(nrm > 0, nrm, 1)[:, None]
+        U, sv, Vt = np.linalg.svd(Jn)
+        srel = sv[-1] / sv[0]
+        cond = 1.0 / max(srel, 1e-300)
+        if srel > 1e-5:
+            return Event("failure", t,
+                         f"the path cannot be continued after t = {t:.10g} although the "
+                         f"Jacobian is regular (condition {cond:.3g}): the motion is not smooth "
+                         f"there (a kink or jump in a driver function?)", cond=cond)
+        u = np.abs(U[:, -1])
+        rows = S.rows[np.nonzero(u >= 0.3 * u.max())[0]]
+        labels = list(dict.fromkeys(cm.element_of_row(r).label for r in rows))
+        v = np.abs(Vt[-1])
+        per_body = v.reshape(-1, 3).max(axis=1)
+        bodies = [cm.body_names[b] for b in np.nonzero(per_body >= 0.3 * per_body.max())[0]]
+        kin = S.rows < cm.m_joint
+        skrel = 1.0
+        if kin.any():
+            svk = np.linalg.svd(Jn[kin], compute_uv=False)
+            kmin = svk[min(kin.sum(), S.n) - 1] if len(svk) else 1.0
+            skrel = kmin / svk[0]
+        unit = "s"
+        if skrel < 1e-4:
+            kind = "bifurcation"
+            what = ("bifurcation of the mechanism (change point): the joints themselves become "
+                    "dependent and assembly branches cross")
+            fix = ("; to follow the smooth branch through it, set analysis: {bifurcation: "
+                   "continue} (or --bifurcation continue)")
+        else:
+            kind = "lock-up"
+            drv = [cm.element_of_row(r).label for r in rows if r >= cm.m_joint] or \
+                  [cm.element_of_row(r).label for r in cm.driver_rows]
+            what = (f"lock-up of {', '.join(dict.fromkeys(drv))} (toggle / dead centre): the "
+                    f"mechanism cannot move the way the driver demands")
+            fix = "; drive another link or limit the driver's range"
+        msg = (f"singular configuration at t = {t:.10g} {unit}: {what}; constraints involved: "
+               f"{'; '.join(labels)}; bodies: {', '.join(bodies)}{fix}")
+        return Event(kind, t, msg, cond=cond, constraints=labels, bodies=bodies)
+
+    def _step_over(self, ev: Event) -> bool:
+        """Continue on the smooth branch past a bifurcation at ev.t: from an earlier node where the
+        Jacobian is still regular, predict to the symmetric time past the singular point."""
+        N = self.nodes
+        ts = ev.t
+        k_last = len(N) - 1
+        for back in range(1, min(k_last, 40) + 1):
+            k = k_last - back
+            d = ts - N.t[k]
+            if d <= 0:
+                continue
+            hs = np.array([1.5, 2.0, 2.5, 3.0]) * d
+            hs = np.minimum(hs, self.opts.end - N.t[k])
+            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False)
+            past = N.t[k] + hs > ts
+            good = ok & past
+            if good.any():
+                j = int(np.nonzero(good)[0][0])
+                # drop the nodes between k and the singular point: their velocities are
+                # ill-conditioned; the Hermite interval now spans the crossing
+                del N.t[k + 1:], N.q[k + 1:], N.qd[k + 1:], N.qdd[k + 1:], N.sign[k + 1:], \
+                    N.cond[k + 1:]
+                N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j])
+                ev.message = ev.message.split("; to follow")[0] + (
+                    f"; continued on the smooth branch (bifurcation: continue): results near "
+                    f"t = {ts:.6g} are interpolated across the crossing and less accurate")
+                return True
+        return False
+
+    def _near_singular_warnings(self, threshold: float = 1e3) -> None:
+        """Local maxima of the condition estimate above threshold that the path got through."""
+        c = np.array(self.nodes.cond)
+        t = np.array(self.nodes.t)
+        if len(c) < 3:
+            return
+        stop_t = self.event.t if self.event else None
+        peaks = [i for i in range(1, len(c) - 1) if c[i] >= c[i - 1] and c[i] >= c[i + 1]
+                 and c[i] > threshold]
+        for i in peaks:
+            if stop_t is not None and abs(t[i] - stop_t) < 1e-6 * self.span:
+                continue
+            self.warnings.append(Event(
+                "near-singular", float(t[i]),
+                f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
+                f"{c[i]:.3g}): the assembly branches come close here; results were followed "
+                f"with smaller internal steps", cond=float(c[i])))
+
+
+def _cond(info) -> np.ndarray:
+    """Per-point condition estimate: the worst diagonal block's 1/sigma_min bound (the blocks are
+    scaled, so their norms are of order one)."""
+    with np.errstate(divide="ignore"):
+        return (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1)
+
+
+@dataclass
+class Chunk:
+    """Results at a slice of the grid, user units.
+
+    t: (N,) seconds; q, qd, qdd: (N, n) body coordinates per body x, y, phi (length, angle units;
+    None above the requested order); p, pd, pdd: (N, P, 2) point positions, velocities and
+    accelerations; iterations: (N,) Newton iterations; cond: (N,) condition estimate;
+    residual: (N,) max |Phi| over all equations, internal units (relative to the model length L).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray | None
+    qdd: np.ndarray | None
+    p: np.ndarray
+    pd: np.ndarray | None
+    pdd: np.ndarray | None
+    iterations: np.ndarray
+    cond: np.ndarray
+    residual: np.ndarray
+    refine: np.ndarray
+
+
+class Analysis:
+    """One analysis of a compiled model: assembly, path following, dense output in chunks."""
+
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
+        self.cm = cm
+        self.A = A
+        self.S = A.system
+        self.S_all = System(cm)
+        self.opts = opts
+        self.follower = PathFollower(cm, A, opts)
+        self.event: Event | None = None
+        self.t_stop = opts.end
+        self.fallbacks = 0
+        self.timings: dict[str, float] = {}
+
+    def follow(self) -> Event | None:
+        t0 = time.perf_counter()
+        f = self.follower
+        if not f.start(self.A.q):
+            self.event = Event("failure", self.opts.start,
+                               "velocities or accelerations are undefined at t = start (singular "
+                               "Jacobian at the assembly pose)")
+            self.t_stop = self.opts.start
+        else:
+            self.event = f.run()
+            if self.event is not None:
+                self.t_stop = f.nodes.t[-1]
+        self.nodes = f.nodes.arrays()
+        self.timings["path"] = time.perf_counter() - t0
+        return self.event
+
+    def grid(self) -> np.ndarray:
+        g = self.opts.grid
+        if self.event is not None:
+            g = g[g <= self.t_stop]
+        return g
+
+    def chunks(self):
+        """Yield Chunk objects over the grid (up to the stopping time)."""
+        g = self.grid()
+        size = self.opts.chunk
+        for a in range(0, len(g), size):
+            ch = self._dense(g[a: a + size])
+            if ch is None:
+                return
+            yield ch
+
+    def _dense(self, t: np.ndarray) -> Chunk | None:
+        S, cm, opts = self.S, self.cm, self.opts
+        Tn, Qn, Qdn, Qddn, Sn, Cn = self.nodes
+        K = len(Tn)
+        N = len(t)
+        if K == 1:
+            idx = np.zeros(N, dtype=np.intp)
+            Q = np.repeat(Qn[:1], N, axis=0)
+            Qd = np.repeat(Qdn[:1], N, axis=0)
+            Qdd = np.repeat(Qddn[:1], N, axis=0)
+        else:
+            idx = np.clip(np.searchsorted(Tn, t, side="right") - 1, 0, K - 2)
+            h = (Tn[idx + 1] - Tn[idx])[:, None]
+            s = (t[:, None] - Tn[idx][:, None]) / h
+            args = (s, h, Qn[idx], Qdn[idx], Qddn[idx], Qn[idx + 1], Qdn[idx + 1], Qddn[idx + 1])
+            Q = hermite5(*args)
+            Qd = hermite5(*args, deriv=1)
+            Qdd = hermite5(*args, deriv=2)
+        if opts.interpolate:
+            iters = np.zeros(N, dtype=np.int64)
+            cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
+            refine = np.zeros(N)
+        else:
+            info = S.solve_batch(t, Q, Qd, Qdd, policy=opts.newton, tol=opts.tol,
+                                 maxit=opts.iterations, order=opts.order)
+            iters = info.iterations
+            cond = _cond(info)
+            refine = info.refine
+            ok = (info.ratio <= KAPPA) & np.isfinite(Q).all(axis=1)
+            if opts.newton != "fixed":
+                ok &= info.converged
+            if K > 1:
+                s0, s1 = Sn[idx], Sn[np.minimum(idx + 1, K - 1)]
+                same = (s0 == s1).all(axis=1)
+                ok &= ~same | (info.sign == s0).all(axis=1)
+            for i in np.nonzero(~ok)[0]:
+                self.fallbacks += 1
+                res = self._follow_to(int(idx[i]), float(t[i]))
+                if res is None:
+                    self.event = Event("failure", float(t[i]),
+                                       f"a grid point at t = {t[i]:.10g} could not be solved on "
+                                       f"the branch followed so far")
+                    keep = t < t[i]
+                    return self._chunk(t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep],
+                                       cond[keep], refine[keep]) if keep.any() else None
+                Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, refine)
+
+    def _follow_to(self, k: int, t_target: float):
+        """Solve one grid point by path following from node k (a dense-pass fallback)."""
+        f = PathFollower(self.cm, self.A, self.opts)
+        Tn, Qn, Qdn, Qddn, Sn, Cn = self.nodes
+        f.nodes.add(Tn[k], Qn[k], Qdn[k], Qddn[k], Sn[k], Cn[k])
+        if k > 0:
+            f.nodes.t.insert(0, Tn[k - 1])
+            f.nodes.q.insert(0, Qn[k - 1])
+            f.nodes.qd.insert(0, Qdn[k - 1])
+            f.nodes.qdd.insert(0, Qddn[k - 1])
+            f.nodes.sign.insert(0, Sn[k - 1])
+            f.nodes.cond.insert(0, Cn[k - 1])
+        f.opts = Options(**{**self.opts.__dict__, "end": t_target})
+        f.span = max(t_target - Tn[k], 1e-300)
+        f.h_max = f.span
+        f.h_min = self.follower.h_min
+        if t_target > Tn[k] and f.run() is not None:
+            return None
+        n = f.nodes
+        if self.opts.newton == "fixed" or self.opts.order < 2:
+            pass
+        return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
+
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, refine) -> Chunk:
+        cm, S_all = self.cm, self.S_all
+        n = cm.n
+        residual = np.abs(S_all.residual(Q, t)).max(axis=1) if cm.m else np.zeros(len(t))
+        if self.A.redundant_rows and self.event is None:
+            r = np.abs(S_all.residual(Q, t)[:, self.A.redundant_rows]).max(axis=1)
+            bad = np.nonzero(r > 1e-8)[0]
+            if bad.size:
+                i = int(bad[0])
+                row = self.A.redundant_rows[int(np.argmax(np.abs(S_all.residual(
+                    Q[i:i + 1], t[i])[0, self.A.redundant_rows])))]
+                self.event = Event("redundant", float(t[i]),
+                                   f"{cm.row_label[row]}, redundant at the assembly pose, is "
+                                   f"violated at t = {t[i]:.10g} (by {r[i] * cm.L:.3g} "
+                                   f"{cm.spec.length_unit}): the redundancy holds only at some "
+                                   f"poses; remove the joint")
+                self.t_stop = float(t[i])
+                keep = slice(0, i)
+                t, Q, Qd, Qdd, iters, cond, refine, residual = (
+                    t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep], cond[keep], refine[keep],
+                    residual[keep])
+        order = self.opts.order
+        L, af = cm.L, cm.angle_factor
+        unit = np.tile([L, L, 1.0 / af], cm.nb)
+        q = Q[:, :n] * unit
+        qd = Qd[:, :n] * unit if order >= 1 else None
+        qdd = Qdd[:, :n] * unit if order >= 2 else None
+        p, pd, pdd = point_kinematics(cm, Q, Qd if order >= 1 else None,
+                                      Qdd if order >= 2 else None)
+        return Chunk(t, q, qd, qdd, p * L, None if pd is None else pd * L,
+                     None if pdd is None else pdd * L, iters, cond, residual, refine)
+
+
+def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):
+    """Positions, velocities, accelerations of the model's points (internal units), (N, P, 2) each:
+    r_P = r + s, v_P = rdot + w R s, a_P = rddot + alpha R s - w^2 s with s = A s' (reference §0)."""
+    b = cm.point_body
+    if len(b) == 0:
+        z = np.zeros((Q.shape[0], 0, 2))
+        return z, (z if Qd is not None else None), (z if Qdd is not None else None)
+    phi = Q[:, 3 * b + 2]
+    c, s = np.cos(phi), np.sin(phi)
+    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
+    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
+    p = np.stack([Q[:, 3 * b] + sx, Q[:, 3 * b + 1] + sy], axis=-1)
+    pd = pdd = None
+    if Qd is not None:
+        w = Qd[:, 3 * b + 2]
+        pd = np.stack([Qd[:, 3 * b] - w * sy, Qd[:, 3 * b + 1] + w * sx], axis=-1)
+        if Qdd is not None:
+            a = Qdd[:, 3 * b + 2]
+            pdd = np.stack([Qdd[:, 3 * b] - a * sy - w * w * sx,
+                            Qdd[:, 3 * b + 1] + a * sx - w * w * sy], axis=-1)
+    return p, pd, pdd

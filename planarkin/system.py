@@ -1,0 +1,302 @@
+"""The numeric system Phi(q, t) = 0 of a compiled model, evaluated for batches of time points.
+
+Two views of the same equations:
+
+* dense, whole system (assembly, rank and singularity analysis): `residual`, `jacobian`;
+* block-triangular (the time-stepping solver): the active equations are permuted into small
+  square diagonal blocks (`planarkin.structure`) and `solve_batch` runs Newton-Raphson for
+  positions, then the velocity and acceleration systems, block by block, each block for a whole
+  batch of time points at once. One factorisation per block and time point serves the Newton
+  iterations ("reuse" policy) and, by iterative refinement against the exact Jacobian at the
+  converged positions, the velocity and acceleration solves: the results solve the exact linear
+  systems Phi_q qdot = nu and Phi_q qddot = gamma to rounding error, with no second factorisation.
+
+All arrays are in internal units (length / L, radians, seconds).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .elements.base import Frame, Group
+from .linalg import inv_batched, matvec, sigma_min_lower
+from .model.compile import CompiledModel
+from .structure import Blocks, block_triangular, pattern_rows
+
+EPS = np.finfo(float).eps
+
+
+@dataclass(frozen=True)
+class Part:
+    """The instances of one kind that have rows in a block, and where their numbers go."""
+
+    group: Group
+    res_src: np.ndarray     # flat indices into (K * neq) of the rows in this block
+    jac_src: np.ndarray     # flat indices into (K * neq * nc) that land in the block matrix
+    jac_dst: np.ndarray     # flat indices into (kb * kb)
+
+
+@dataclass(frozen=True)
+class Block:
+    rows: np.ndarray        # (kb,) global rows, in the order the parts produce them
+    cols: np.ndarray        # (kb,) coordinate columns (sorted)
+    phis: np.ndarray        # bodies whose angle is one of cols
+    parts: tuple
+
+
+@dataclass
+class BatchInfo:
+    """Per-point diagnostics of one `solve_batch` call (all arrays of length N)."""
+
+    iterations: np.ndarray            # Newton iterations used (max over blocks)
+    first: np.ndarray                 # largest first Newton correction (internal units)
+    last: np.ndarray                  # largest last Newton correction
+    converged: np.ndarray             # bool
+    ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
+    sign: np.ndarray                  # (N, nblocks) sign of det of each diagonal block
+    smin: np.ndarray                  # (N, nblocks) lower bound of each block's sigma_min
+    refine: np.ndarray = field(default=None)   # largest relative velocity/acceleration residual
+
+
+class System:
+    """Equations of a compiled model restricted to the active rows (redundant rows removed)."""
+
+    def __init__(self, cm: CompiledModel, rows=None, merge_to: int = 6):
+        self.cm = cm
+        self.nb = cm.nb
+        self.n = cm.n
+        self.rows = np.arange(cm.m) if rows is None else np.asarray(rows, dtype=np.intp)
+        self.merge_to = merge_to
+        self.blocks: tuple[Block, ...] | None = None
+
+    # -- helpers -----------------------------------------------------------------------------
+    def ext(self, q: np.ndarray) -> np.ndarray:
+        """(N, n) -> (N, n + 3) with the ground's zero coordinates appended."""
+        q = np.atleast_2d(q)
+        return np.concatenate([q, np.zeros((q.shape[0], 3))], axis=1)
+
+    def frame(self, Q: np.ndarray, Qd: np.ndarray | None = None) -> Frame:
+        phi = Q[:, 2::3]
+        return Frame(Q, np.cos(phi), np.sin(phi), Qd)
+
+    def driver_values(self, t: np.ndarray):
+        """Targets, nu and f'' for every row: three (N, m) arrays (internal units)."""
+        cm = self.cm
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        N = t.shape[0]
+        T = np.empty((N, cm.m))
+        T[:] = cm.targets
+        NU = np.zeros((N, cm.m))
+        FDD = np.zeros((N, cm.m))
+        with np.errstate(all="ignore"):
+            for r, f, sc in zip(cm.driver_rows, cm.driver_funcs, cm.driver_scale):
+                v, d1, d2 = f.derivatives(t)
+                T[:, r] = T[:, r] + sc * np.broadcast_to(v, (N,))
+                NU[:, r] = sc * np.broadcast_to(d1, (N,))
+                FDD[:, r] = sc * np.broadcast_to(d2, (N,))
+        return T, NU, FDD
+
+    # -- dense whole-system view -----------------------------------------------------------------
+    def residual(self, Q: np.ndarray, t) -> np.ndarray:
+        """Phi for all m rows: (N, m). Q extended (N, n + 3)."""
+        F = self.frame(Q)
+        T, _, _ = self.driver_values(np.broadcast_to(t, (Q.shape[0],)))
+        out = np.empty((Q.shape[0], self.cm.m))
+        for G in self.cm.groups:
+            out[:, G.rows.ravel()] = G.g(F).reshape(Q.shape[0], -1)
+        return out - T
+
+    def jacobian(self, Q: np.ndarray) -> np.ndarray:
+        """Phi_q for all m rows: (N, m, n)."""
+        F = self.frame(Q)
+        N = Q.shape[0]
+        J = np.zeros((N, self.cm.m, self.n + 3))
+        for G in self.cm.groups:
+            g = G.grad(F)
+            r = np.broadcast_to(G.rows[:, :, None], g.shape[1:])
+            c = np.broadcast_to(G.cols[:, None, :], g.shape[1:])
+            J[:, r, c] = g
+        return J[:, :, : self.n]
+
+    def gamma(self, Q: np.ndarray, Qd: np.ndarray, t) -> np.ndarray:
+        F = self.frame(Q, Qd)
+        _, _, FDD = self.driver_values(np.broadcast_to(t, (Q.shape[0],)))
+        out = np.empty((Q.shape[0], self.cm.m))
+        for G in self.cm.groups:
+            out[:, G.rows.ravel()] = G.gamma(F).reshape(Q.shape[0], -1)
+        return out + FDD
+
+    # -- block structure -----------------------------------------------------------------------
+    def build_blocks(self, samples: list[np.ndarray] | None = None) -> Blocks:
+        """Block-triangular form of the active rows (must be square). The sparsity pattern is the
+        union of nonzeros of the Jacobian at a few random states (zeros that hold for every state,
+        like the phi column of a pin at a body's origin, are structural)."""
+        rng = np.random.default_rng(12345)
+        if samples is None:
+            samples = []
+            for _ in range(3):
+                q = self.cm.q0 + rng.normal(size=self.n)
+                samples.append(self.jacobian(self.ext(q))[0])
+        pat = pattern_rows([J[self.rows] for J in samples])
+        B = block_triangular(pat, self.n, merge_to=self.merge_to)
+        blocks = []
+        for brows, bcols in zip(B.rows, B.cols):
+            blocks.append(self._block(self.rows[brows], bcols))
+        self.blocks = tuple(blocks)
+        return B
+
+    def _block(self, grows: np.ndarray, cols: np.ndarray) -> Block:
+        rowset = set(grows.tolist())
+        colpos = {c: k for k, c in enumerate(cols.tolist())}
+        kb = len(cols)
+        parts = []
+        order: list[int] = []
+        for G in self.cm.groups:
+            inst = [k for k in range(len(G)) if rowset & set(G.rows[k].tolist())]
+            if not inst:
+                continue
+            sub = G.take(inst)
+            neq = sub.kind.neq
+            nc = sub.cols.shape[1]
+            res_src, jac_src, jac_dst = [], [], []
+            for k in range(len(sub)):
+                for e in range(neq):
+                    r = int(sub.rows[k, e])
+                    if r not in rowset:
+                        continue
+                    rp = len(order)
+                    order.append(r)
+                    res_src.append(k * neq + e)
+                    for c in range(nc):
+                        col = int(sub.cols[k, c])
+                        if col in colpos:
+                            jac_src.append((k * neq + e) * nc + c)
+                            jac_dst.append(rp * kb + colpos[col])
+            parts.append(Part(sub, np.array(res_src, np.intp), np.array(jac_src, np.intp),
+                              np.array(jac_dst, np.intp)))
+        phis = np.array(sorted({c // 3 for c in cols.tolist() if c % 3 == 2}), dtype=np.intp)
+        return Block(np.array(order, np.intp), cols, phis, tuple(parts))
+
+    # -- block evaluations ---------------------------------------------------------------------
+    @staticmethod
+    def _cat(pieces):
+        return pieces[0] if len(pieces) == 1 else np.concatenate(pieces, axis=1)
+
+    def block_residual(self, B: Block, F: Frame, T: np.ndarray) -> np.ndarray:
+        N = F.q.shape[0]
+        g = self._cat([p.group.g(F).reshape(N, -1)[:, p.res_src] for p in B.parts])
+        return g - T[:, B.rows]
+
+    def block_grads(self, B: Block, F: Frame):
+        return [p.group.grad(F) for p in B.parts]
+
+    def block_matrix(self, B: Block, grads) -> np.ndarray:
+        N = grads[0].shape[0]
+        kb = len(B.cols)
+        J = np.zeros((N, kb * kb))
+        for p, g in zip(B.parts, grads):
+            J[:, p.jac_dst] = g.reshape(N, -1)[:, p.jac_src]
+        return J.reshape(N, kb, kb)
+
+    def block_product(self, B: Block, grads, Qd: np.ndarray) -> np.ndarray:
+        """Rows of Phi_q qdot for the block's equations (all columns, not only the block's)."""
+        N = Qd.shape[0]
+        out = []
+        for p, g in zip(B.parts, grads):
+            v = Qd[:, p.group.cols]
+            out.append(np.einsum("nkec,nkc->nke", g, v).reshape(N, -1)[:, p.res_src])
+        return self._cat(out)
+
+    def block_gamma(self, B: Block, F: Frame) -> np.ndarray:
+        N = F.q.shape[0]
+        return self._cat([p.group.gamma(F).reshape(N, -1)[:, p.res_src] for p in B.parts])
+
+    # -- the batched solver ----------------------------------------------------------------------
+    def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2):
+        """Positions, velocities and accelerations at times t, block by block.
+
+        t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
+        with the solution. policy: 'reuse' (Jacobian factored once, at the prediction), 'full'
+        (refactored every iteration) or 'fixed' (exactly maxit iterations, reused Jacobian).
+        order: 0 positions only, 1 with velocities, 2 with accelerations.
+        Returns BatchInfo.
+        """
+        N = Q.shape[0]
+        nblk = len(self.blocks)
+        T, NU, FDD = self.driver_values(t)
+        phi = Q[:, 2::3]
+        c = np.cos(phi)
+        s = np.sin(phi)
+        F = Frame(Q, c, s)
+        iters = np.zeros(N, dtype=np.int64)
+        first = np.zeros(N)
+        last = np.zeros(N)
+        ratio = np.zeros(N)
+        conv = np.ones(N, dtype=bool)
+        sign = np.zeros((N, nblk))
+        smin = np.zeros((N, nblk))
+        refine = np.zeros(N)
+        with np.errstate(all="ignore"):
+            for b, B in enumerate(self.blocks):
+                cols = B.cols
+                pcol = 3 * B.phis + 2
+                Minv = None
+                size = np.zeros(N)
+                for it in range(maxit):
+                    if Minv is None or policy == "full":
+                        J = self.block_matrix(B, self.block_grads(B, F))
+                        Minv, sg, ok = inv_batched(J)
+                        if it == 0:
+                            sign[:, b] = sg
+                            smin[:, b] = np.where(ok, sigma_min_lower(Minv), 0.0)
+                    r = self.block_residual(B, F, T)
+                    dx = matvec(Minv, r)
+                    Q[:, cols] -= dx
+                    if len(pcol):
+                        c[:, B.phis] = np.cos(Q[:, pcol])
+                        s[:, B.phis] = np.sin(Q[:, pcol])
+                    size = np.abs(dx).max(axis=1)
+                    size[~np.isfinite(size)] = np.inf
+                    if it == 0:
+                        first = np.maximum(first, size)
+                        ratio = np.maximum(ratio, np.where(smin[:, b] > 0, size / smin[:, b],
+                                                           np.inf))
+                    iters = np.maximum(iters, it + 1)
+                    if policy != "fixed" and (size <= tol).all():
+                        break
+                if policy != "fixed":
+                    conv &= size <= tol
+                else:
+                    conv &= np.isfinite(size)
+                last = np.maximum(last, size)
+                if order < 1:
+                    continue
+                grads = self.block_grads(B, F)
+                refine = np.maximum(refine, self._refine(B, grads, Minv, NU[:, B.rows], Qd))
+                if order < 2:
+                    continue
+                rhs = self.block_gamma(B, Frame(Q, c, s, Qd)) + FDD[:, B.rows]
+                refine = np.maximum(refine, self._refine(B, grads, Minv, rhs, Qdd))
+        return BatchInfo(iters, first, last, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin,
+                         refine)
+
+    def _refine(self, B: Block, grads, Minv, rhs, X, sweeps: int = 6) -> np.ndarray:
+        """Solve the block rows of Phi_q x = rhs for the block's columns of X (in place), the other
+        columns of X known. Minv approximates the inverse of the diagonal block (it was factored at
+        the Newton prediction); the residual is updated with the exact diagonal block at the
+        converged positions, so the fixed point is the exact solution (iterative refinement).
+        Returns the final relative residual per point."""
+        cols = B.cols
+        r = rhs - self.block_product(B, grads, X)
+        Jbb = self.block_matrix(B, grads)
+        for _ in range(sweeps):
+            dx = matvec(Minv, r)
+            X[:, cols] += dx
+            r = r - matvec(Jbb, dx)
+            scale = np.abs(X[:, cols]).max(axis=1) + 1e-300
+            if (np.abs(dx).max(axis=1) <= 4 * EPS * scale).all():
+                break
+        return np.abs(r).max(axis=1) / (np.abs(rhs).max(axis=1) + np.abs(X[:, cols]).max(axis=1)
+                                        + 1e-300)
