@@ -54,10 +54,16 @@ def _diag(cm: CompiledModel, row: int | None, msg: str, severity="error") -> Dia
     return Diagnostic(cm.spec.file, line, msg, severity)
 
 
-def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300):
-    """Minimise |Phi(q, t0)|^2 from q; then Newton (minimum norm) to rounding. Returns (q, its)."""
+def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300, rows=None):
+    """Minimise |Phi(q, t0)|^2 (over rows, default all) from q; then Newton (minimum norm) to
+    rounding. Returns (q, iterations)."""
+    sel = slice(None) if rows is None else rows
+
     def res(x):
-        return S.residual(S.ext(x), t0)[0]
+        return S.residual(S.ext(x), t0)[0][sel]
+
+    def jac(x):
+        return S.jacobian(S.ext(x))[0][sel]
 
     r = res(q)
     cost = r @ r
@@ -66,7 +72,7 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300):
     for it in range(1, maxit + 1):
         if not np.isfinite(cost) or np.abs(r).max() <= 1e-14:
             break
-        J = S.jacobian(S.ext(q))[0]
+        J = jac(q)
         A = J.T @ J
         g = J.T @ r
         d = np.diag(A).copy()
@@ -92,7 +98,7 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300):
             break
     # Newton polish (quadratic convergence near a regular solution)
     for _ in range(8):
-        J = S.jacobian(S.ext(q))[0]
+        J = jac(q)
         step = -np.linalg.lstsq(J, r, rcond=None)[0]
         r_new = res(q + step)
         if not (r_new @ r_new <= cost or np.abs(r_new).max() <= 1e-14):
@@ -160,13 +166,13 @@ def assemble(cm: CompiledModel) -> Assembly:
         return _assemble_large(cm, S_all)
 
     q, its = _levenberg_marquardt(S_all, cm.q0.copy(), t0)
-    Q = S_all.ext(q)
-    r = S_all.residual(Q, t0)[0]
-    J = S_all.jacobian(Q)[0]
+    r = S_all.residual(S_all.ext(q), t0)[0]
+    if not (np.abs(r).max() <= ASSEMBLED):
+        raise InputError(_not_assembled(cm, S_all, q, r, its))
+    J = S_all.jacobian(S_all.ext(q))[0]
     Jn = _row_normalised(J)
     sv = np.linalg.svd(Jn, compute_uv=False) if m else np.zeros(0)
-    smax = sv[0] if sv.size else 1.0
-    rank = int((sv > RANK_TOL * smax).sum())
+    rank = int((sv > RANK_TOL * (sv[0] if sv.size else 1.0)).sum())
     mk = cm.m_joint
     rank_k = 0
     if mk:
@@ -176,65 +182,40 @@ def assemble(cm: CompiledModel) -> Assembly:
     free = n - rank
     dependent = _dependent_rows(J) if rank < m else []
     ndrv = len(cm.driver_rows)
-    counts = (f"{spec.name}: {cm.nb} bodies ({n} coordinates), {mk} joint equations and {ndrv} "
-              f"driver{'s' if ndrv != 1 else ''}")
+    drv = [d for d in dependent if d >= mk]
+    kin = [d for d in dependent if d < mk]
+    line = spec.section_lines.get("drivers", spec.section_lines.get("joints"))
 
     if free > 0:
         _, _, Vt = np.linalg.svd(Jn) if m else (None, None, np.eye(n))
         null = Vt[rank:] if m else np.eye(n)
         moving = _bodies_of(cm, np.abs(null).max(axis=0))
-        need = dof - ndrv + len([d for d in dependent if d >= mk])
-        msg = (f"{counts}: the mechanism has {dof} degree{'s' if dof != 1 else ''} of freedom, "
-               f"{free} of them not driven, so its motion is not determined; add "
-               f"{max(free, need)} driver{'s' if max(free, need) != 1 else ''} or joint"
-               f"{'s' if max(free, need) != 1 else ''} (free to move: {', '.join(moving)})")
-        problems.append(Diagnostic(spec.file, spec.bodies[0].line if spec.bodies else None, msg))
-        for d in dependent:
-            problems.append(_diag(cm, d, f"{cm.row_label[d]} is redundant: it repeats what the "
-                                         f"other constraints already impose"))
-        raise InputError(problems)
-
-    redundant = []
-    warnings = []
-    if dependent:
-        drv = [d for d in dependent if d >= mk]
-        kin = [d for d in dependent if d < mk]
-        for d in drv:
-            problems.append(_diag(cm, d, f"{cm.element_of_row(d).label} is one driver too many: "
-                                         f"the joints leave {dof} degree{'s' if dof != 1 else ''} "
-                                         f"of freedom and {ndrv} drivers are given; remove a "
-                                         f"driver"))
-        consistent = np.abs(r).max() <= ASSEMBLED
+        useful = ndrv - len(drv)
+        msg = (f"the mechanism has {_plural(dof, 'degree')} of freedom but "
+               f"{_plural(useful, 'independent driver') if drv else _plural(ndrv, 'driver')}, so "
+               f"its motion is not determined: add {_plural(free, 'driver')} (bodies free to "
+               f"move: {', '.join(moving)}); {_plural(mk, 'joint equation')} and "
+               f"{_plural(ndrv, 'driver')} for {cm.nb} bodies ({n} coordinates)")
+        problems.append(Diagnostic(spec.file, line, msg))
         for d in kin:
-            if consistent:
-                warnings.append(_diag(cm, d, f"{cm.row_label[d]} is redundant (consistent with the "
-                                             f"other joints at the assembly pose): it is left out "
-                                             f"of the solve and checked at every step",
-                                      severity="warning"))
-            else:
-                problems.append(_diag(cm, d, f"{cm.row_label[d]} is redundant and contradicts the "
-                                             f"other constraints (assembly residual "
-                                             f"{np.abs(r).max() * cm.L:.3g} {spec.length_unit}); "
-                                             f"remove it or correct its dimensions"))
-        if problems:
-            raise InputError(problems)
-        redundant = kin
-
-    if np.abs(r).max() > ASSEMBLED or not np.isfinite(r).all():
-        worst = np.argsort(-np.abs(np.nan_to_num(r, nan=np.inf)))
-        seen = set()
-        for row in worst:
-            el = int(cm.row_element[row])
-            if el in seen:
-                continue
-            seen.add(el)
-            problems.append(_diag(cm, int(row), f"cannot assemble the mechanism at t = {t0:g}: "
-                                                f"{cm.row_label[row]} is violated by "
-                                                f"{_fmt_res(cm, row, r[row])} after {its} iterations;"
-                                                f" check its dimensions and the body estimates q"))
-            if len(seen) == 3 or abs(r[row]) <= ASSEMBLED:
-                break
+            problems.append(_diag(cm, d, f"{cm.row_label[d]} is redundant: it repeats what the "
+                                         f"other joints already impose"))
+        for d in drv:
+            problems.append(_diag(cm, d, f"{cm.element_of_row(d).label} does not drive a free "
+                                         f"degree of freedom: it repeats what the joints and "
+                                         f"other drivers impose"))
         raise InputError(problems)
+    for d in drv:
+        problems.append(_diag(cm, d, f"{cm.element_of_row(d).label} is one driver too many: the "
+                                     f"joints leave {_plural(dof, 'degree')} of freedom and "
+                                     f"{_plural(ndrv, 'driver')} {'is' if ndrv == 1 else 'are'} "
+                                     f"given; remove a driver"))
+    if problems:
+        raise InputError(problems)
+    warnings = [_diag(cm, d, f"{cm.row_label[d]} is redundant (consistent with the other joints "
+                             f"at the assembly pose): it is left out of the solve and checked at "
+                             f"every step", severity="warning") for d in kin]
+    redundant = kin
 
     active = np.array([k for k in range(m) if k not in set(redundant)], dtype=np.intp)
     S = System(cm, active)
@@ -244,6 +225,54 @@ def assemble(cm: CompiledModel) -> Assembly:
     _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
     return A
+
+
+def _plural(k: int, word: str) -> str:
+    return f"{k} {word}{'' if k == 1 else 's'}"
+
+
+def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnostic]:
+    """Why the pose could not be assembled: a redundant constraint that contradicts the others
+    (found by leaving one element out at a time: without it the rest assembles and it is still
+    redundant there), or geometry that does not close (the most violated constraints)."""
+    spec = cm.spec
+    t0 = spec.analysis.start
+    n, m = cm.n, cm.m
+    if n <= 300 and m >= n and len(spec.elements) <= 60:
+        # later elements first: of a redundant set, the one written last is the one named
+        violated = [e for e in range(len(spec.elements))
+                    if not np.abs(r[cm.row_element == e]).max() <= ASSEMBLED]
+        for tries, e in enumerate(reversed(violated)):
+            if tries >= 8:
+                break
+            keep = np.nonzero(cm.row_element != e)[0]
+            q2, _ = _levenberg_marquardt(S_all, q.copy(), t0, rows=keep)
+            r2 = S_all.residual(S_all.ext(q2), t0)[0]
+            if not np.abs(r2[keep]).max() <= ASSEMBLED:
+                continue
+            J2 = S_all.jacobian(S_all.ext(q2))[0]
+            Jk = _row_normalised(J2[keep])
+            sv = np.linalg.svd(Jk, compute_uv=False)
+            rows_e = np.nonzero(cm.row_element == e)[0]
+            if (sv > RANK_TOL * sv[0]).sum() + len(rows_e) <= n:
+                continue      # e only takes away freedom the others leave: not redundant
+            worst = int(rows_e[np.argmax(np.abs(r2[rows_e]))])
+            return [_diag(cm, worst, f"{spec.elements[e].label} is redundant and contradicts the "
+                                     f"other constraints: without it the mechanism assembles, "
+                                     f"and there it is violated by "
+                                     f"{_fmt_res(cm, worst, r2[worst])}; remove it or correct its "
+                                     f"dimensions")]
+    worst = np.argsort(-np.abs(np.nan_to_num(r, nan=np.inf)))
+    named: list[int] = []
+    for row in worst:
+        if len(named) == 3 or abs(r[row]) <= ASSEMBLED:
+            break
+        if int(cm.row_element[row]) not in {int(cm.row_element[k]) for k in named}:
+            named.append(int(row))
+    parts = [f"{cm.row_label[k]} is violated by {_fmt_res(cm, k, r[k])}" for k in named]
+    return [_diag(cm, named[0], f"cannot assemble the mechanism at t = {t0:g} ({its} iterations "
+                                f"from the body estimates): {'; '.join(parts)}; check the "
+                                f"dimensions and the estimates q")]
 
 
 def _fmt_res(cm: CompiledModel, row: int, value: float) -> str:
@@ -319,7 +348,7 @@ def block_modes(cm: CompiledModel, S: System, q: np.ndarray) -> list[Mode]:
     F = S.frame(Q)
     out = []
     for B in S.blocks:
-        if len(B.cols) < 2 or not _block_is_nonlinear(S, B, q):
+        if not _block_is_nonlinear(S, B, q):
             continue
         J = S.block_matrix(B, S.block_grads(B, F))[0]
         sign = int(np.sign(np.linalg.det(J)))

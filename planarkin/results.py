@@ -36,6 +36,7 @@ class RunInfo:
     rejected_steps: int
     fallbacks: int
     timings: dict = field(default_factory=dict)
+    diagnostics: list = field(default_factory=list)   # assembly warnings (FILE:LINE: warning)
 
     @property
     def success(self) -> bool:
@@ -59,8 +60,8 @@ def run_info(an: Analysis) -> RunInfo:
                            f"selects the other branch"} for md in A.modes],
         "redundant": [cm.row_label[r] for r in A.redundant_rows],
     }
-    return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes.t) if hasattr(
-        f.nodes, "t") else 0, f.rejected, an.fallbacks, dict(an.timings))
+    return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes), f.rejected,
+                   an.fallbacks, dict(an.timings), list(A.warnings))
 
 
 class PlotBuffer:
@@ -187,7 +188,8 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "condition": {"min": steps.cond_min if steps.rows else None,
                       "max": steps.cond_max if steps.rows else None, "t_max": steps.cond_tmax},
         "error_estimate": error_estimates(steps),
-        "warnings": [w.as_dict() for w in info.warnings],
+        "warnings": [{"kind": "redundant", "line": d.line, "message": d.message}
+                     for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
         "columns": {"bodies.csv": body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
@@ -298,6 +300,5 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
     if sink is not None:
         an.timings["grid"] -= getattr(sink, "t_write", 0.0)
     info = run_info(an)
-    info.warnings = [w for w in info.warnings]
     result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
     return info, result

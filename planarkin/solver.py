@@ -37,6 +37,7 @@ from .system import System
 KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 MAX_NODES = 2_000_000
+PATH_BLOCK = 64       # largest solve block of the path follower (unknowns)
 
 
 @dataclass(frozen=True)
@@ -157,7 +158,10 @@ class PathFollower:
 
     def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
         self.cm = cm
-        self.S: System = A.system
+        # few large blocks: at a handful of candidate points per call, Python overhead per block
+        # dominates, so the path is solved in blocks of up to 64 unknowns (the whole system for
+        # small models); determinant signs are still those of the fine blocks
+        self.S: System = A.system.merged(PATH_BLOCK)
         self.opts = opts
         span = opts.end - opts.start
         self.span = span

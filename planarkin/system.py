@@ -34,16 +34,21 @@ class Part:
 
     group: Group
     res_src: np.ndarray     # flat indices into (K * neq) of the rows in this block
+    res_dst: np.ndarray     # their positions in the block
     jac_src: np.ndarray     # flat indices into (K * neq * nc) that land in the block matrix
     jac_dst: np.ndarray     # flat indices into (kb * kb)
 
 
 @dataclass(frozen=True)
 class Block:
-    rows: np.ndarray        # (kb,) global rows, in the order the parts produce them
-    cols: np.ndarray        # (kb,) coordinate columns (sorted)
+    """A solve block: consecutive fine blocks of the block-triangular form, in order."""
+
+    rows: np.ndarray        # (kb,) global rows
+    cols: np.ndarray        # (kb,) coordinate columns
     phis: np.ndarray        # bodies whose angle is one of cols
     parts: tuple
+    sizes: tuple = (1,)     # sizes of the fine blocks it holds
+    first: int = 0          # index of its first fine block
 
 
 @dataclass
@@ -55,15 +60,15 @@ class BatchInfo:
     last: np.ndarray                  # largest last Newton correction
     converged: np.ndarray             # bool
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
-    sign: np.ndarray                  # (N, nblocks) sign of det of each diagonal block
-    smin: np.ndarray                  # (N, nblocks) lower bound of each block's sigma_min
+    sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
+    smin: np.ndarray                  # (N, nblocks) lower bound of each solve block's sigma_min
     refine: np.ndarray = field(default=None)   # largest relative velocity/acceleration residual
 
 
 class System:
     """Equations of a compiled model restricted to the active rows (redundant rows removed)."""
 
-    def __init__(self, cm: CompiledModel, rows=None, merge_to: int = 6):
+    def __init__(self, cm: CompiledModel, rows=None, merge_to: int = 1):
         self.cm = cm
         self.nb = cm.nb
         self.n = cm.n
@@ -132,7 +137,8 @@ class System:
     def build_blocks(self, samples: list[np.ndarray] | None = None) -> Blocks:
         """Block-triangular form of the active rows (must be square). The sparsity pattern is the
         union of nonzeros of the Jacobian at a few random states (zeros that hold for every state,
-        like the phi column of a pin at a body's origin, are structural)."""
+        like the phi column of a pin at a body's origin, are structural). The fine blocks are kept
+        (`fine`); solve blocks merge consecutive fine blocks up to ``merge_to`` unknowns."""
         rng = np.random.default_rng(12345)
         if samples is None:
             samples = []
@@ -140,53 +146,95 @@ class System:
                 q = self.cm.q0 + rng.normal(size=self.n)
                 samples.append(self.jacobian(self.ext(q))[0])
         pat = pattern_rows([J[self.rows] for J in samples])
-        B = block_triangular(pat, self.n, merge_to=self.merge_to)
-        blocks = []
-        for brows, bcols in zip(B.rows, B.cols):
-            blocks.append(self._block(self.rows[brows], bcols))
-        self.blocks = tuple(blocks)
-        return B
+        fine = block_triangular(pat, self.n, merge_to=1)
+        self.fine = Blocks(tuple(self.rows[r] for r in fine.rows), fine.cols)
+        self._merge()
+        return self.fine
 
-    def _block(self, grows: np.ndarray, cols: np.ndarray) -> Block:
-        rowset = set(grows.tolist())
+    def merged(self, merge_to: int) -> "System":
+        """The same equations and fine structure, solved in blocks of up to merge_to unknowns."""
+        S = System(self.cm, self.rows, merge_to)
+        S.fine = self.fine
+        S._merge()
+        return S
+
+    def _merge(self) -> None:
+        groups: list[list[int]] = []
+        size = 0
+        for k, cols in enumerate(self.fine.cols):
+            if groups and size + len(cols) <= self.merge_to:
+                groups[-1].append(k)
+                size += len(cols)
+            else:
+                groups.append([k])
+                size = len(cols)
+        blocks = []
+        for g in groups:
+            rows = np.concatenate([self.fine.rows[k] for k in g])
+            cols = np.concatenate([self.fine.cols[k] for k in g])
+            blocks.append(self._block(rows, cols, tuple(len(self.fine.cols[k]) for k in g),
+                                      g[0]))
+        self.blocks = tuple(blocks)
+        self.nfine = len(self.fine.cols)
+
+    def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int) -> Block:
+        rowpos = {r: k for k, r in enumerate(grows.tolist())}
         colpos = {c: k for k, c in enumerate(cols.tolist())}
         kb = len(cols)
         parts = []
-        order: list[int] = []
         for G in self.cm.groups:
-            inst = [k for k in range(len(G)) if rowset & set(G.rows[k].tolist())]
+            inst = [k for k in range(len(G)) if set(rowpos) & set(G.rows[k].tolist())]
             if not inst:
                 continue
             sub = G.take(inst)
             neq = sub.kind.neq
             nc = sub.cols.shape[1]
-            res_src, jac_src, jac_dst = [], [], []
+            res_src, res_dst, jac_src, jac_dst = [], [], [], []
             for k in range(len(sub)):
                 for e in range(neq):
                     r = int(sub.rows[k, e])
-                    if r not in rowset:
+                    if r not in rowpos:
                         continue
-                    rp = len(order)
-                    order.append(r)
+                    rp = rowpos[r]
                     res_src.append(k * neq + e)
+                    res_dst.append(rp)
                     for c in range(nc):
                         col = int(sub.cols[k, c])
                         if col in colpos:
                             jac_src.append((k * neq + e) * nc + c)
                             jac_dst.append(rp * kb + colpos[col])
-            parts.append(Part(sub, np.array(res_src, np.intp), np.array(jac_src, np.intp),
-                              np.array(jac_dst, np.intp)))
+            parts.append(Part(sub, np.array(res_src, np.intp), np.array(res_dst, np.intp),
+                              np.array(jac_src, np.intp), np.array(jac_dst, np.intp)))
         phis = np.array(sorted({c // 3 for c in cols.tolist() if c % 3 == 2}), dtype=np.intp)
-        return Block(np.array(order, np.intp), cols, phis, tuple(parts))
+        return Block(grows, cols, phis, tuple(parts), sizes, first)
+
+    def fine_signs(self, B: Block, J: np.ndarray, sign: np.ndarray | None = None) -> np.ndarray:
+        """(N, len(B.sizes)) determinant signs of the fine diagonal blocks inside solve block B."""
+        if len(B.sizes) == 1 and sign is not None:
+            return sign[:, None]
+        out = np.empty((J.shape[0], len(B.sizes)))
+        o = 0
+        for k, sz in enumerate(B.sizes):
+            sub = J[:, o:o + sz, o:o + sz]
+            out[:, k] = np.sign(sub[:, 0, 0] if sz == 1 else np.linalg.det(sub))
+            o += sz
+        return out
 
     # -- block evaluations ---------------------------------------------------------------------
     @staticmethod
-    def _cat(pieces):
-        return pieces[0] if len(pieces) == 1 else np.concatenate(pieces, axis=1)
+    def _gather(B: Block, N: int, pieces) -> np.ndarray:
+        """Rows of the block from per-part (N, K*neq) arrays."""
+        if len(pieces) == 1 and len(B.parts[0].res_src) == len(B.rows) \
+                and (B.parts[0].res_dst == np.arange(len(B.rows))).all():
+            return pieces[0][:, B.parts[0].res_src]
+        out = np.empty((N, len(B.rows)))
+        for p, v in zip(B.parts, pieces):
+            out[:, p.res_dst] = v[:, p.res_src]
+        return out
 
     def block_residual(self, B: Block, F: Frame, T: np.ndarray) -> np.ndarray:
         N = F.q.shape[0]
-        g = self._cat([p.group.g(F).reshape(N, -1)[:, p.res_src] for p in B.parts])
+        g = self._gather(B, N, [p.group.g(F).reshape(N, -1) for p in B.parts])
         return g - T[:, B.rows]
 
     def block_grads(self, B: Block, F: Frame):
@@ -203,15 +251,12 @@ class System:
     def block_product(self, B: Block, grads, Qd: np.ndarray) -> np.ndarray:
         """Rows of Phi_q qdot for the block's equations (all columns, not only the block's)."""
         N = Qd.shape[0]
-        out = []
-        for p, g in zip(B.parts, grads):
-            v = Qd[:, p.group.cols]
-            out.append(np.einsum("nkec,nkc->nke", g, v).reshape(N, -1)[:, p.res_src])
-        return self._cat(out)
+        return self._gather(B, N, [np.einsum("nkec,nkc->nke", g, Qd[:, p.group.cols])
+                                   .reshape(N, -1) for p, g in zip(B.parts, grads)])
 
     def block_gamma(self, B: Block, F: Frame) -> np.ndarray:
         N = F.q.shape[0]
-        return self._cat([p.group.gamma(F).reshape(N, -1)[:, p.res_src] for p in B.parts])
+        return self._gather(B, N, [p.group.gamma(F).reshape(N, -1) for p in B.parts])
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2):
@@ -235,7 +280,7 @@ class System:
         last = np.zeros(N)
         ratio = np.zeros(N)
         conv = np.ones(N, dtype=bool)
-        sign = np.zeros((N, nblk))
+        sign = np.zeros((N, self.nfine))
         smin = np.zeros((N, nblk))
         refine = np.zeros(N)
         with np.errstate(all="ignore"):
@@ -249,7 +294,7 @@ class System:
                         J = self.block_matrix(B, self.block_grads(B, F))
                         Minv, sg, ok = inv_batched(J)
                         if it == 0:
-                            sign[:, b] = sg
+                            sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
                             smin[:, b] = np.where(ok, sigma_min_lower(Minv), 0.0)
                     r = self.block_residual(B, F, T)
                     dx = matvec(Minv, r)

@@ -14,8 +14,8 @@ class Revolute(Kind):
     name = "revolute"
     neq = 2
     params = (
-        Param("si", "point", "joint point on body i (body frame)"),
-        Param("sj", "point", "joint point on body j (body frame)"),
+        Param("si", "point", "joint point on body i in its frame"),
+        Param("sj", "point", "joint point on body j in its frame"),
     )
     at_form = "[x, y]: the joint's global position at the assembly pose"
     summary = "pin joint: point si of i and point sj of j coincide (2 equations)"

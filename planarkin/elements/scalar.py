@@ -11,8 +11,8 @@ import numpy as np
 from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, omega
 
 _POINTS = (
-    Param("si", "point", "point on body i (body frame)"),
-    Param("sj", "point", "point on body j (body frame)"),
+    Param("si", "point", "point on body i in its frame"),
+    Param("sj", "point", "point on body j in its frame"),
 )
 
 

@@ -51,10 +51,10 @@ class Translational(Kind):
     name = "translational"
     neq = 2
     params = (
-        Param("si", "point", "a point of the sliding axis on body i (body frame)"),
-        Param("sj", "point", "a point of the sliding axis on body j (body frame)"),
-        Param("vi", "vector", "axis direction on body i (body frame)"),
-        Param("vj", "vector", "axis direction on body j (body frame)"),
+        Param("si", "point", "a point of the sliding axis on body i in its frame"),
+        Param("sj", "point", "a point of the sliding axis on body j in its frame"),
+        Param("vi", "vector", "axis direction on body i in its frame"),
+        Param("vj", "vector", "axis direction on body j in its frame"),
     )
     at_form = "[x, y] with axis: [dx, dy]: a global point of the sliding axis and its direction"
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
@@ -88,9 +88,9 @@ class Translational(Kind):
 class PinSlot(Kind):
     name = "pin-slot"
     params = (
-        Param("si", "point", "a point of the slot's centre line on body i (body frame)"),
-        Param("vi", "vector", "slot direction on body i (body frame)"),
-        Param("sj", "point", "the pin on body j (body frame)"),
+        Param("si", "point", "a point of the slot's centre line on body i in its frame"),
+        Param("vi", "vector", "slot direction on body i in its frame"),
+        Param("sj", "point", "the pin on body j in its frame"),
     )
     target = "c"
     target_unit = "length"
@@ -124,9 +124,9 @@ class Slide(Kind):
     joint = False
     driver = True
     params = (
-        Param("si", "point", "origin of the slide on body i (body frame)"),
-        Param("vi", "vector", "slide direction on body i (body frame)"),
-        Param("sj", "point", "the sliding point on body j (body frame)"),
+        Param("si", "point", "origin of the slide on body i in its frame"),
+        Param("vi", "vector", "slide direction on body i in its frame"),
+        Param("sj", "point", "the sliding point on body j in its frame"),
     )
     target = "c"
     target_unit = "length"

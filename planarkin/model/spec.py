@@ -97,7 +97,7 @@ class ModelSpec:
     output: OutputSpec
     branch: dict[str, int] = field(default_factory=dict)   # assembly-mode hints: body -> +1/-1
     branch_lines: dict[str, int] = field(default_factory=dict)
-    line: int = 1
+    section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

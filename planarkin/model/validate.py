@@ -21,7 +21,7 @@ from .yamlread import Node
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
-RESERVED = {"t", "pi", "e", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
+RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
 NEWTON = ("reuse", "full", "fixed")
 BIFURCATION = ("stop", "continue")
@@ -51,6 +51,7 @@ class _Validator:
         self.C = Collector(file)
         self.params: dict[str, float] = {}
         self.body_names: list[str] = []
+        self.bodies_ok = True        # False when the bodies section itself is broken
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
@@ -107,6 +108,8 @@ class _Validator:
         name = self.text(node, what)
         if name is None:
             return None
+        if not self.bodies_ok:
+            return name if name in self.body_names or name == "ground" else None
         if name == "ground":
             if allow_ground:
                 return name
@@ -168,7 +171,8 @@ class _Validator:
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
-                         output=output, branch=branch, branch_lines=branch_lines)
+                         output=output, branch=branch, branch_lines=branch_lines,
+                         section_lines=dict(root.key_lines or {}))
 
     def units(self, node: Node | None):
         length, angle = "m", "rad"
@@ -191,7 +195,7 @@ class _Validator:
             if not self.identifier(key, line, "parameter"):
                 continue
             if key in RESERVED or key == "ground":
-                self.err(line, f"parameter name '{key}' is reserved (t, pi, e and the function "
+                self.err(line, f"parameter name '{key}' is reserved (t, pi and the function "
                                f"names cannot be parameters)")
                 continue
             x = self.number(val, f"parameter '{key}'")
@@ -205,6 +209,7 @@ class _Validator:
         if node.kind != "map":
             self.err(node, "bodies must be a mapping of body names to {q: [x, y, phi]}, "
                            f"not {_type_name(node)}")
+            self.bodies_ok = False
             return out
         # names first, so that joints can refer to any body regardless of order
         for key in node.value:
@@ -276,29 +281,34 @@ class _Validator:
         ename = None
         if "name" in v:
             ename = self.text(v["name"], f"{what}: name")
-        # bodies
+        # bodies: the label uses the names as written, so that every message can show them
         body_keys = ["i", "j"] + (["k"] if kind.nbody == 3 else [])
-        bodies: list[str | None] = []
         allowed = ["type", "name"] + body_keys
         if role == "driver":
             allowed.append("body")
-        if role == "driver" and "body" in v:
+        use_body = role == "driver" and "body" in v
+        raw = ["ground", _raw(v["body"])] if use_body else \
+            [_raw(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
+        shown = f" {'-'.join(raw)}" if any(r != "?" for r in raw) else ""
+        what = (f"{role} '{ename}'" if ename else what) + f" ({kname}{shown})"
+        bodies: list[str | None] = []
+        if use_body:
             if "i" in v or "j" in v:
                 self.err(v["body"], f"{what}: give either body or i and j, not both")
-            b = self.body_ref(v["body"], f"{what}: body", allow_ground=False)
-            bodies = ["ground", b]
+            bodies = ["ground", self.body_ref(v["body"], what, allow_ground=False)]
+        elif role == "driver" and "i" not in v and "j" not in v:
+            self.err(node, f"{what}: missing body: NAME (the driven body; or i and j for a "
+                           f"relative driver)")
+            bodies = [None, None]
         else:
             for key in body_keys:
                 if key in v:
-                    bodies.append(self.body_ref(v[key], f"{what}: {key}"))
+                    bodies.append(self.body_ref(v[key], what))
                 elif key == "k":
                     bodies.append("ground")
                 else:
-                    hint = " (or body: NAME for i: ground)" if role == "driver" else ""
-                    self.err(node, f"{what} ({kname}): missing '{key}' (a body name or ground){hint}")
+                    self.err(node, f"{what}: missing '{key}' (a body name or ground)")
                     bodies.append(None)
-        label_bodies = [b or "?" for b in bodies]
-        what = (f"{role} '{ename}'" if ename else what) + f" ({kname} {'-'.join(label_bodies)})"
         if None not in bodies and len(set(bodies)) < len(bodies):
             self.err(node, f"{what}: connects a body to itself; i and j must differ")
         # parameters
@@ -576,6 +586,13 @@ class _Validator:
                 continue
             lines[key] = line
         return out, lines
+
+
+def _raw(node: Node) -> str:
+    """A scalar's text as written, for labels ('?' for anything else)."""
+    if node.kind == "scalar" and node.value is not None:
+        return str(node.text if node.text is not None else node.value)
+    return "?"
 
 
 def _target_param(kind):

@@ -1,0 +1,184 @@
+"""`planarkin tradeoff`: what each solver setting costs and buys, measured on the user's model.
+
+Every setting is run on the same grid and compared with a tight reference run (full Newton,
+tol 1e-14, dense internal nodes). Errors are relative: the largest deviation of any body or
+point column of a derivative order, divided by the largest magnitude of that kind of column
+(lengths and angles separately). Times are the best of a few in-process runs of the whole
+analysis (assembly, path, grid), so they include everything but start-up and file writing.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .model.compile import CompiledModel
+from .results import analyse
+from .solver import Options
+
+REFERENCE = dict(newton="full", tol=1e-14, path_tol=1e-7, iterations=20)
+
+# (label, options): every option here is also an analysis: key and a `planarkin run` option
+SETTINGS = [
+    ("default (reuse, tol 1e-10)", dict()),
+    ("full Newton, tol 1e-10", dict(newton="full")),
+    ("reuse, tol 1e-6", dict(tol=1e-6)),
+    ("reuse, tol 1e-3", dict(tol=1e-3)),
+    ("fixed, 1 iteration", dict(newton="fixed", iterations=1)),
+    ("fixed, 2 iterations", dict(newton="fixed", iterations=2)),
+    ("interpolate, path_tol 1e-7", dict(interpolate=True, path_tol=1e-7)),
+    ("interpolate, path_tol 1e-5", dict(interpolate=True, path_tol=1e-5)),
+    ("interpolate, path_tol 1e-3", dict(interpolate=True, path_tol=1e-3)),
+    ("interpolate, path_tol 1e-2", dict(interpolate=True, path_tol=1e-2)),
+]
+
+
+@dataclass
+class Row:
+    label: str
+    options: dict
+    seconds: float
+    us_per_step: float
+    errors: tuple            # (position, velocity, acceleration); nan when not computed
+    status: int
+
+
+def _columns(res, order):
+    """(lengths, angles) column blocks of one derivative order."""
+    arr = (res.q, res.qd, res.qdd)[order]
+    pts = (res.p, res.pd, res.pdd)[order]
+    lengths = [arr[:, 0::3], arr[:, 1::3]]
+    if pts is not None and pts.size:
+        lengths.append(pts.reshape(len(res.t), -1))
+    return np.concatenate(lengths, axis=1), arr[:, 2::3]
+
+
+def relative_errors(res, ref) -> tuple:
+    out = []
+    for order in range(3):
+        if (res.q, res.qd, res.qdd)[order] is None:
+            out.append(float("nan"))
+            continue
+        worst = 0.0
+        for a, b in zip(_columns(res, order), _columns(ref, order)):
+            scale = np.abs(b).max()
+            if scale > 0:
+                worst = max(worst, float(np.abs(a - b).max() / scale))
+        out.append(worst)
+    return tuple(out)
+
+
+def _timed(cm, opts, repeats):
+    best = float("inf")
+    res = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        _, res = analyse(cm, opts)
+        best = min(best, time.perf_counter() - t0)
+    return best, res
+
+
+def run_tradeoff(cm: CompiledModel, outdir: Path, steps: int | None = None, plot: bool = True,
+                 repeats: int = 3, settings=SETTINGS):
+    """Run every setting; write tradeoff.csv (and tradeoff.png); return the table as text."""
+    steps = steps or max(cm.spec.analysis.steps, 20000)
+    base = Options.from_model(cm, steps=steps)
+    ref_opts = Options(**{**base.__dict__, **REFERENCE, "interpolate": False})
+    _, ref = analyse(cm, ref_opts)
+    if ref.status != 0:
+        raise_failed(cm, ref)
+    rows = []
+    for label, extra in settings:
+        opts = Options(**{**base.__dict__, **extra})
+        secs, res = _timed(cm, opts, repeats)
+        n = len(ref.t)
+        errs = relative_errors(res, ref) if len(res.t) == n else (float("nan"),) * 3
+        rows.append(Row(label, extra, secs, secs / n * 1e6, errs, res.status))
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    _write_csv(outdir / "tradeoff.csv", rows, steps)
+    if plot:
+        _plot(cm, rows, outdir / "tradeoff.png", steps)
+    return format_table(cm, rows, steps)
+
+
+def raise_failed(cm, ref):
+    from .diagnostics import Diagnostic, InputError
+    raise InputError([Diagnostic(cm.spec.file, None, f"the reference run failed, so the trade-off "
+                                                     f"cannot be measured: {ref.message}")])
+
+
+def _write_csv(path: Path, rows, steps):
+    keys = ("newton", "tol", "iterations", "path_tol", "interpolate", "max_step")
+    lines = ["setting,newton,tol,iterations,path_tol,interpolate,max_step,steps,time [s],"
+             "time per step [us],error position,error velocity,error acceleration,status"]
+    for r in rows:
+        o = {**{k: "" for k in keys}, **r.options}
+        vals = [f'"{r.label}"'] + [str(o[k]) for k in keys] + [
+            str(steps), repr(r.seconds), repr(r.us_per_step)] + [repr(e) for e in r.errors] + [
+            str(r.status)]
+        lines.append(",".join(vals))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def format_table(cm, rows, steps) -> str:
+    head = (f"{cm.spec.name}: {steps} steps; errors relative to a reference run "
+            f"(full Newton, tol 1e-14, path_tol 1e-7)\n")
+    w = max(len(r.label) for r in rows)
+    out = [head, f"{'setting':<{w}}  {'time':>9}  {'us/step':>8}  {'position':>9}  "
+                 f"{'velocity':>9}  {'accel.':>9}"]
+    for r in rows:
+        e = ["{:9.1e}".format(x) if np.isfinite(x) else "        -" for x in r.errors]
+        out.append(f"{r.label:<{w}}  {r.seconds * 1e3:7.1f}ms  {r.us_per_step:8.2f}  "
+                   f"{e[0]}  {e[1]}  {e[2]}" + ("" if r.status == 0 else "  (failed)"))
+    return "\n".join(out)
+
+
+def _plot(cm, rows, path: Path, steps):
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(8, 5.5))
+    ax = fig.add_subplot()
+    marks = (("position", "o", "C0"), ("velocity", "s", "C1"), ("acceleration", "^", "C2"))
+    floor = 1e-17
+    for k, (name, m, c) in enumerate(marks):
+        pts = [(r.us_per_step, max(r.errors[k], floor), r.label) for r in rows
+               if np.isfinite(r.errors[k])]
+        if not pts:
+            continue
+        x, y, _ = zip(*pts)
+        ax.scatter(x, y, marker=m, color=c, label=name, zorder=3)
+        front = _pareto(list(zip(x, y)))
+        if len(front) > 1:
+            fx, fy = zip(*front)
+            ax.step(fx, fy, where="post", color=c, alpha=0.5, lw=1)
+    for r in rows:
+        if np.isfinite(r.errors[0]):
+            ax.annotate(r.label, (r.us_per_step, max(r.errors[0], floor)), fontsize=7,
+                        xytext=(4, 3), textcoords="offset points")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("time per step [us] (whole analysis, in process)")
+    ax.set_ylabel("max relative error against the reference")
+    ax.set_title(f"{cm.spec.name}: speed against accuracy ({steps} steps)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    return path
+
+
+def _pareto(points):
+    """Points not dominated in (time, error), sorted by time."""
+    pts = sorted(points)
+    out = []
+    best = float("inf")
+    for x, y in pts:
+        if y < best:
+            out.append((x, y))
+            best = y
+    return out
