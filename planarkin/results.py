@@ -204,7 +204,7 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
 def _take(ch: Chunk, sel) -> Chunk:
     g = lambda a: None if a is None else a[sel]
     return Chunk(ch.t[sel], ch.q[sel], g(ch.qd), g(ch.qdd), ch.p[sel], g(ch.pd), g(ch.pdd),
-                 ch.iterations[sel], ch.cond[sel], ch.residual[sel], ch.refine[sel])
+                 ch.iterations[sel], ch.cond[sel], ch.residual[sel])
 
 
 def _concat(parts: list[Chunk]) -> Chunk:
@@ -212,7 +212,7 @@ def _concat(parts: list[Chunk]) -> Chunk:
         arrays = [getattr(p, name) for p in parts]
         return None if arrays[0] is None else np.concatenate(arrays)
     return Chunk(*(cat(f) for f in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond",
-                                    "residual", "refine")))
+                                    "residual")))
 
 
 class Result:
@@ -235,7 +235,7 @@ class Result:
             n, P = model.n, len(model.point_names)
             z = lambda *s: np.zeros((0,) + s)
             chunk = Chunk(z(), z(n), z(n), z(n), z(P, 2), z(P, 2), z(P, 2),
-                          np.zeros(0, int), z(), z(), z())
+                          np.zeros(0, int), z(), z())
         self._chunk = chunk
         for name in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond", "residual"):
             setattr(self, name, getattr(chunk, name))

@@ -401,7 +401,6 @@ class Chunk:
     iterations: np.ndarray
     cond: np.ndarray
     residual: np.ndarray
-    refine: np.ndarray
 
 
 class Analysis:
@@ -472,13 +471,11 @@ class Analysis:
         if opts.interpolate:
             iters = np.zeros(N, dtype=np.int64)
             cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
-            refine = np.zeros(N)
         else:
             info = S.solve_batch(t, Q, Qd, Qdd, policy=opts.newton, tol=opts.tol,
                                  maxit=opts.iterations, order=opts.order)
             iters = info.iterations
             cond = _cond(info)
-            refine = info.refine
             ok = (info.ratio <= KAPPA) & np.isfinite(Q).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
@@ -495,9 +492,9 @@ class Analysis:
                                        f"the branch followed so far")
                     keep = t < t[i]
                     return self._chunk(t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep],
-                                       cond[keep], refine[keep]) if keep.any() else None
+                                       cond[keep]) if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
-        return self._chunk(t, Q, Qd, Qdd, iters, cond, refine)
+        return self._chunk(t, Q, Qd, Qdd, iters, cond)
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
@@ -522,7 +519,8 @@ class Analysis:
             pass
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond, refine) -> Chunk:
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond) -> Chunk:
+        """Residual of every equation (redundant ones included) at the results, user units."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
         residual = np.abs(S_all.residual(Q, t)).max(axis=1) if cm.m else np.zeros(len(t))
@@ -540,8 +538,8 @@ class Analysis:
                                    f"poses; remove the joint")
                 self.t_stop = float(t[i])
                 keep = slice(0, i)
-                t, Q, Qd, Qdd, iters, cond, refine, residual = (
-                    t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep], cond[keep], refine[keep],
+                t, Q, Qd, Qdd, iters, cond, residual = (
+                    t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep], cond[keep],
                     residual[keep])
         order = self.opts.order
         L, af = cm.L, cm.angle_factor
@@ -552,7 +550,7 @@ class Analysis:
         p, pd, pdd = point_kinematics(cm, Q, Qd if order >= 1 else None,
                                       Qdd if order >= 2 else None)
         return Chunk(t, q, qd, qdd, p * L, None if pd is None else pd * L,
-                     None if pdd is None else pdd * L, iters, cond, residual, refine)
+                     None if pdd is None else pdd * L, iters, cond, residual)
 
 
 def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):

@@ -6,10 +6,10 @@ Two views of the same equations:
 * block-triangular (the time-stepping solver): the active equations are permuted into small
   square diagonal blocks (`planarkin.structure`) and `solve_batch` runs Newton-Raphson for
   positions, then the velocity and acceleration systems, block by block, each block for a whole
-  batch of time points at once. One factorisation per block and time point serves the Newton
-  iterations ("reuse" policy) and, by iterative refinement against the exact Jacobian at the
-  converged positions, the velocity and acceleration solves: the results solve the exact linear
-  systems Phi_q qdot = nu and Phi_q qddot = gamma to rounding error, with no second factorisation.
+  batch of time points at once. The Newton iterations reuse one factorisation per block and
+  point (taken at the prediction, "reuse" policy); the velocity and acceleration systems use the
+  diagonal block at the converged positions, factored once for both, so they are the exact linear
+  systems Phi_q qdot = nu and Phi_q qddot = gamma, solved to rounding error.
 
 All arrays are in internal units (length / L, radians, seconds).
 """
@@ -62,7 +62,6 @@ class BatchInfo:
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
     sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
     smin: np.ndarray                  # (N, nblocks) lower bound of each solve block's sigma_min
-    refine: np.ndarray = field(default=None)   # largest relative velocity/acceleration residual
 
 
 class System:
@@ -282,27 +281,27 @@ class System:
         conv = np.ones(N, dtype=bool)
         sign = np.zeros((N, self.nfine))
         smin = np.zeros((N, nblk))
-        refine = np.zeros(N)
         with np.errstate(all="ignore"):
             for b, B in enumerate(self.blocks):
                 cols = B.cols
+                one = len(cols) == 1           # the common case: a scalar equation
                 pcol = 3 * B.phis + 2
                 Minv = None
                 size = np.zeros(N)
                 for it in range(maxit):
                     if Minv is None or policy == "full":
                         J = self.block_matrix(B, self.block_grads(B, F))
-                        Minv, sg, ok = inv_batched(J)
+                        Minv, sg, sm = _invert(J, one)
                         if it == 0:
                             sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
-                            smin[:, b] = np.where(ok, sigma_min_lower(Minv), 0.0)
+                            smin[:, b] = sm
                     r = self.block_residual(B, F, T)
-                    dx = matvec(Minv, r)
+                    dx = r * Minv if one else matvec(Minv, r)
                     Q[:, cols] -= dx
                     if len(pcol):
                         c[:, B.phis] = np.cos(Q[:, pcol])
                         s[:, B.phis] = np.sin(Q[:, pcol])
-                    size = np.abs(dx).max(axis=1)
+                    size = np.abs(dx[:, 0]) if one else np.abs(dx).max(axis=1)
                     size[~np.isfinite(size)] = np.inf
                     if it == 0:
                         first = np.maximum(first, size)
@@ -318,30 +317,30 @@ class System:
                 last = np.maximum(last, size)
                 if order < 1:
                     continue
+                # velocities and accelerations: the diagonal block at the converged positions,
+                # factored exactly, and the known columns moved to the right-hand side
                 grads = self.block_grads(B, F)
-                refine = np.maximum(refine, self._refine(B, grads, Minv, NU[:, B.rows], Qd))
+                Minv, _, _ = _invert(self.block_matrix(B, grads), one)
+                self._direct(B, grads, Minv, one, NU[:, B.rows], Qd)
                 if order < 2:
                     continue
                 rhs = self.block_gamma(B, Frame(Q, c, s, Qd)) + FDD[:, B.rows]
-                refine = np.maximum(refine, self._refine(B, grads, Minv, rhs, Qdd))
-        return BatchInfo(iters, first, last, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin,
-                         refine)
+                self._direct(B, grads, Minv, one, rhs, Qdd)
+        return BatchInfo(iters, first, last, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
 
-    def _refine(self, B: Block, grads, Minv, rhs, X, sweeps: int = 6) -> np.ndarray:
-        """Solve the block rows of Phi_q x = rhs for the block's columns of X (in place), the other
-        columns of X known. Minv approximates the inverse of the diagonal block (it was factored at
-        the Newton prediction); the residual is updated with the exact diagonal block at the
-        converged positions, so the fixed point is the exact solution (iterative refinement).
-        Returns the final relative residual per point."""
-        cols = B.cols
+    def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:
+        """Block rows of Phi_q x = rhs solved for the block's columns of X (in place), the other
+        columns of X known (earlier blocks)."""
+        X[:, B.cols] = 0.0
         r = rhs - self.block_product(B, grads, X)
-        Jbb = self.block_matrix(B, grads)
-        for _ in range(sweeps):
-            dx = matvec(Minv, r)
-            X[:, cols] += dx
-            r = r - matvec(Jbb, dx)
-            scale = np.abs(X[:, cols]).max(axis=1) + 1e-300
-            if (np.abs(dx).max(axis=1) <= 4 * EPS * scale).all():
-                break
-        return np.abs(r).max(axis=1) / (np.abs(rhs).max(axis=1) + np.abs(X[:, cols]).max(axis=1)
-                                        + 1e-300)
+        X[:, B.cols] = r * Minv if one else matvec(Minv, r)
+
+
+def _invert(J: np.ndarray, one: bool):
+    """(inverse, det sign, sigma_min lower bound) of a batch of diagonal blocks; for 1x1 blocks
+    the inverse is returned as an (N, 1) array."""
+    if one:
+        j = J[:, 0, :]
+        return 1.0 / j, np.sign(j[:, 0]), np.abs(j[:, 0])
+    Minv, sg, ok = inv_batched(J)
+    return Minv, sg, np.where(ok, sigma_min_lower(Minv), 0.0)
