@@ -211,9 +211,11 @@ def check(models, quiet):
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Output directory; writes DIR/<file stem>/tradeoff.csv and tradeoff.png.")
 @click.option("--steps", type=click.IntRange(1, 10**8), help="Grid intervals for every setting.")
+@click.option("--repeats", type=click.IntRange(1, 100), default=3, show_default=True,
+              help="Runs per setting; the best time counts.")
 @click.option("--no-plots", is_flag=True, help="Skip tradeoff.png.")
 @click.option("--quiet", "-q", is_flag=True, help="Only the table.")
-def tradeoff(model_path, out, steps, no_plots, quiet):
+def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     """Run MODEL at a range of solver settings and measure wall time against the achieved
     errors in positions, velocities and accelerations (against a tight reference run)."""
     from .diagnostics import InputError
@@ -224,7 +226,7 @@ def tradeoff(model_path, out, steps, no_plots, quiet):
         sys.exit(report.exit_code)
     outdir = Path(out) / Path(model_path).stem
     try:
-        table = run_tradeoff(model, outdir, steps=steps, plot=not no_plots)
+        table = run_tradeoff(model, outdir, steps=steps, plot=not no_plots, repeats=repeats)
     except InputError as e:
         report.invalid(model_path, e.diagnostics)
         sys.exit(report.exit_code)

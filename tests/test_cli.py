@@ -1,0 +1,138 @@
+"""The command line end to end, through the installed console script."""
+
+import csv
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from clitools import ROOT, run_cli
+
+SC = "mechanisms/slider-crank.yaml"
+
+
+def test_version_and_help():
+    r = run_cli("--version")
+    assert r.returncode == 0 and "planarkin" in r.stdout
+    r = run_cli("--help")
+    assert r.returncode == 0 and "run" in r.stdout and "check" in r.stdout
+
+
+def test_python_dash_m_works():
+    r = subprocess.run([sys.executable, "-m", "planarkin", "--version"], cwd=ROOT,
+                       capture_output=True, text=True)
+    assert r.returncode == 0
+
+
+def test_run_writes_tables_summary_and_plots(tmp_path):
+    r = run_cli("run", SC, "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    d = tmp_path / "slider-crank"
+    for name in ("bodies.csv", "points.csv", "summary.json", "bodies.png", "mechanism.png"):
+        assert (d / name).stat().st_size > 0, name
+    with open(d / "bodies.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0][:4] == ["t [s]", "crank.x [m]", "crank.y [m]", "crank.phi [rad]"]
+    assert rows[0][-1] == "slider.alpha [rad/s^2]"
+    assert len(rows) == 362                         # header + steps + 1
+    s = json.loads((d / "summary.json").read_text())
+    assert s["status"] == "ok" and s["exit_code"] == 0 and s["dof"] == 1
+    assert s["time"]["rows_written"] == 361
+    assert s["residual"]["max"] < 1e-14
+    assert "slider.x [m]" in s["columns"]["bodies.csv"]
+    assert "1 model analysed: 1 ok" in r.stdout
+
+
+def test_csv_is_byte_identical_and_full_precision(tmp_path):
+    for k in (1, 2):
+        r = run_cli("run", SC, "--out", tmp_path / str(k), "--no-plots", "--steps", "50")
+        assert r.returncode == 0
+    a = (tmp_path / "1" / "slider-crank" / "bodies.csv").read_bytes()
+    b = (tmp_path / "2" / "slider-crank" / "bodies.csv").read_bytes()
+    assert a == b
+    import planarkin
+    res = planarkin.solve(planarkin.load(ROOT / SC), steps=50)
+    data = np.loadtxt(tmp_path / "1" / "slider-crank" / "bodies.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(data[:, 19], res.body("slider")["x"])   # bit for bit
+
+
+def test_options_override_the_model(tmp_path):
+    r = run_cli("run", SC, "--out", tmp_path, "--no-plots", "--steps", "10", "--end", "0.5",
+                "--up-to", "velocity")
+    assert r.returncode == 0, r.stderr
+    header = (tmp_path / "slider-crank" / "bodies.csv").read_text().splitlines()[0]
+    assert "crank.omega [rad/s]" in header and "alpha" not in header
+    lines = (tmp_path / "slider-crank" / "bodies.csv").read_text().splitlines()
+    assert len(lines) == 12 and lines[-1].startswith("0.5,")
+
+
+def test_several_models_worst_exit_status(tmp_path):
+    r = run_cli("run", SC, "tests/cases/unknown-body.yaml", "mechanisms/four-bar.yaml",
+                "--out", tmp_path, "--no-plots")
+    assert r.returncode == 2
+    assert "3 models analysed: 2 ok, 1 invalid" in r.stdout
+    assert "unknown-body.yaml:7: error:" in r.stderr
+    assert (tmp_path / "four-bar" / "bodies.csv").exists()
+
+
+def test_analysis_failure_exits_1_and_keeps_results(tmp_path):
+    text = (ROOT / SC).read_text().replace("b: 3*a", "b: a")     # rod equal to crank
+    model = tmp_path / "equal.yaml"
+    model.write_text(text)
+    r = run_cli("run", model, "--out", tmp_path / "o", "--no-plots")
+    assert r.returncode == 1
+    assert "singular" in r.stderr and "bifurcation" in r.stderr
+    s = json.loads((tmp_path / "o" / "equal" / "summary.json").read_text())
+    assert s["status"] == "failed" and s["exit_code"] == 1
+    assert abs(s["event"]["t"] - 0.25) < 1e-6
+    rows = (tmp_path / "o" / "equal" / "bodies.csv").read_text().splitlines()
+    assert 2 < len(rows) < 362 and float(rows[-1].split(",")[0]) <= 0.25
+
+
+def test_missing_file_and_usage_errors(tmp_path):
+    r = run_cli("run", tmp_path / "nope.yaml")
+    assert r.returncode == 2 and "cannot read file" in r.stderr and "Traceback" not in r.stderr
+    r = run_cli("run", SC, "--steps", "0")
+    assert r.returncode == 2
+    r = run_cli("frobnicate")
+    assert r.returncode == 2
+
+
+def test_check_reports_dof_and_branches():
+    r = run_cli("check", "mechanisms/four-bar.yaml")
+    assert r.returncode == 0
+    assert "1 DOF" in r.stdout and "coupler+rocker: -" in r.stdout
+
+
+def test_no_plots_does_not_import_matplotlib(tmp_path):
+    code = ("import sys; from planarkin.cli import main\n"
+            "try:\n    main(['run', %r, '--out', %r, '--no-plots'])\n"
+            "except SystemExit as e:\n    assert e.code == 0\n"
+            "assert 'matplotlib' not in sys.modules, 'matplotlib imported'\n") % (
+        str(ROOT / SC), str(tmp_path))
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("fmt", ["svg", "pdf"])
+def test_plot_formats(tmp_path, fmt):
+    r = run_cli("run", SC, "--out", tmp_path, "--steps", "40", "--format", fmt)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "slider-crank" / f"mechanism.{fmt}").exists()
+
+
+def test_tradeoff_writes_table_and_plot(tmp_path):
+    r = run_cli("tradeoff", "mechanisms/four-bar.yaml", "--out", tmp_path, "--steps", "2000",
+                "--repeats", "1")
+    assert r.returncode == 0, r.stderr
+    rows = (tmp_path / "four-bar" / "tradeoff.csv").read_text().splitlines()
+    assert len(rows) >= 5
+    errs = []
+    for line in rows[1:]:
+        fields = line.split(",")
+        errs.append(float(fields[-4]))          # position error
+    positive = [e for e in errs if e > 0]
+    assert max(positive) / min(positive) >= 1e3
+    assert (tmp_path / "four-bar" / "tradeoff.png").exists()
