@@ -1,0 +1,866 @@
+"""Plots of a run: time histories, point paths, the mechanism at several instants, an animation.
+
+Called by `results.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
+few thousand rows, user units). matplotlib is imported inside the functions only, and only through
+its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
+switch, no windows, no global state (except one rcParam for the duration of an svg save, see
+`_save`).
+
+Files (``<fmt>`` is png at 150 dpi, svg or pdf):
+
+- ``bodies.<fmt>``: x, y and phi of every body frame against time, with their derivatives as far
+  as the run computed them (rows position / velocity / acceleration; columns translation,
+  rotation);
+- ``points.<fmt>`` and ``trajectories.<fmt>`` (models with points): the same for the points of
+  interest, and their paths in the plane;
+- ``mechanism.<fmt>``: the mechanism at six instants and the paths of its joints and points;
+- ``animation.gif`` (`write_animation`): the mechanism moving, paths growing.
+
+A failed run marks its stopping time in the time histories (red dashed line); near-singular
+passages are thin orange lines, bifurcations stepped over are purple.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .tables import BODY_QUANTITIES, POINT_QUANTITIES, units
+
+DPI = 150                      # raster output (png)
+INSTANTS = 6                   # mechanism drawings in mechanism.<fmt>
+ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has fewer rows)
+ANIM_FPS = 20
+ANIM_DPI = 100                 # 6.4 in wide -> 640 px
+FONT = 9                       # legends, annotations (ticks and labels use matplotlib's 10 pt)
+GRID = dict(color="0.88", linewidth=0.6)
+GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
+ROW_NAMES = ("position", "velocity", "acceleration")
+
+
+# -- public API ----------------------------------------------------------------------------------
+
+def write_plots(cm, data, info, out: Path, fmt: str = "png") -> list[Path]:
+    """Write bodies, points, trajectories and mechanism plots into directory out.
+
+    cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
+    event and warnings are marked on the time axes; None is allowed). Returns the files written
+    (points and trajectories only when the model has points; nothing when data has no rows).
+    """
+    out = Path(out)
+    fmt = fmt.lower().lstrip(".")
+    if not len(data.t):
+        return []
+    scene = _Scene(cm, data)
+    files = [_save(_bodies_figure(cm, data, info), out / f"bodies.{fmt}")]
+    if len(cm.point_names):
+        files.append(_save(_points_figure(cm, data, info), out / f"points.{fmt}"))
+        files.append(_save(_trajectories_figure(cm, scene), out / f"trajectories.{fmt}"))
+    files.append(_save(_mechanism_figure(cm, scene), out / f"mechanism.{fmt}"))
+    return files
+
+
+def write_animation(cm, data, out: Path) -> Path:
+    """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
+    joint and point paths growing), up to ANIM_FRAMES frames at ANIM_FPS frames per second.
+
+    Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
+    the moving artists on that background (a full matplotlib redraw per frame costs ten times
+    more), and every frame is mapped onto one shared palette before Pillow writes the GIF."""
+    from matplotlib.animation import PillowWriter
+    from matplotlib.backends.backend_agg import RendererAgg
+    from PIL import Image
+
+    path = Path(out) / "animation.gif"
+    scene = _Scene(cm, data)
+    N = len(data.t)
+    rows = np.unique(np.linspace(0, max(N - 1, 0), min(ANIM_FRAMES, max(N, 1))).round().astype(int))
+    fig, ax, beside = _plane_figure(cm, scene, 6.4, 0.55 + _text_width(cm.body_names),
+                                    dpi=ANIM_DPI)
+    traces = [ax.plot([], [], color=c, lw=w, zorder=5)[0] for _, _, c, w in scene.trace_styles]
+    drawing = _Drawing(ax, scene, rows[-1], body_colors=True, zorder=10)
+    stamp = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=FONT,
+                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
+                    zorder=30)
+    fig.legend(handles=drawing.legend_handles(), loc="upper left", bbox_to_anchor=beside,
+               fontsize=FONT, frameon=False)
+    ax.set_title(f"{cm.spec.name}: motion", fontsize=11)
+    moving = traces + drawing.artists + [stamp]
+    for a in moving:
+        a.set_animated(True)
+    w, h = (int(round(v * ANIM_DPI)) for v in fig.get_size_inches())
+    renderer = RendererAgg(w, h, ANIM_DPI)
+    fig.draw(renderer)                      # everything that does not move
+    background = renderer.copy_from_bbox(fig.bbox)
+
+    def render(i) -> "Image.Image":
+        drawing.set_row(i)
+        for line, xy in zip(traces, scene.traces):
+            line.set_data(xy[: i + 1, 0], xy[: i + 1, 1])
+        stamp.set_text(f"t = {data.t[i]:.4g} s")
+        renderer.restore_region(background)
+        for a in moving:
+            a.draw(renderer)
+        return Image.frombuffer("RGBA", (w, h), renderer.buffer_rgba(), "raw", "RGBA", 0,
+                                1).convert("RGB")
+
+    class BlitWriter(PillowWriter):
+        """PillowWriter whose frames come from render(); one palette for the whole GIF (taken
+        from the last frame, where every path is complete)."""
+
+        def setup(self, fig, outfile, dpi=None):
+            super().setup(fig, outfile, dpi=dpi)
+            self.images = []
+
+        def grab_frame(self, **savefig_kwargs):
+            self.images.append(render(self.row))
+
+        def finish(self):
+            dither = Image.Dither.NONE
+            palette = self.images[-1].quantize(255, method=Image.Quantize.MEDIANCUT,
+                                               dither=dither)
+            # Pillow maps colours to the palette through a cache of 4-level cells: white
+            # would become a near-white neighbour, so those all become white
+            colors = np.array(palette.getpalette(), dtype=np.uint8).reshape(-1, 3)
+            colors[colors.min(axis=1) >= 248] = 255
+            palette.putpalette(colors.ravel().tolist())
+            frames = [im.quantize(palette=palette, dither=dither) for im in self.images]
+            frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
+                           duration=int(1000 / self.fps), loop=0)
+
+    writer = BlitWriter(fps=ANIM_FPS)
+    writer.setup(fig, path, ANIM_DPI)       # (not writer.saving(): it changes rcParams)
+    for i in rows:
+        writer.row = i
+        writer.grab_frame()
+    writer.finish()
+    return path
+
+
+# -- time histories ------------------------------------------------------------------------------
+
+def _bodies_figure(cm, data, info):
+    """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time."""
+    from matplotlib.lines import Line2D
+
+    series = [a for a in (data.q, data.qd, data.qdd) if a is not None]
+    nb = cm.nb
+    colors = _palette(nb)
+    fig, axes = _time_grid(len(series), 2)
+    lu, au = cm.spec.length_unit, cm.spec.angle_unit
+    T = _duration(data, info)
+    for o, arr in enumerate(series):
+        tu, ru = (_pretty(u) for u in units(lu, au, o))
+        qx, qy, qphi = BODY_QUANTITIES[o]
+        left, right = axes[o]
+        for b in range(nb):
+            left.plot(data.t, arr[:, 3 * b], color=colors[b], lw=1.4)
+            left.plot(data.t, arr[:, 3 * b + 1], color=colors[b], lw=1.4, ls="--")
+            right.plot(data.t, arr[:, 3 * b + 2], color=colors[b], lw=1.4)
+        left.set_ylabel(f"{qx}, {qy} [{tu}]")
+        right.set_ylabel(f"{qphi} [{ru}]")
+        _tidy_ylim(left, arr[:, 0::3], arr[:, 1::3], ref=cm.L / T ** o)
+        _tidy_ylim(right, arr[:, 2::3], ref=1.0 / cm.angle_factor / T ** o)
+    axes[0][0].set_title("translation of the body frames", fontsize=10)
+    axes[0][1].set_title("rotation", fontsize=10)
+    handles = []
+    for b, name in enumerate(cm.body_names):
+        handles += [Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.x"),
+                    Line2D([], [], color=colors[b], lw=1.4, ls="--", label=f"{name}.y"),
+                    Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.phi")]
+    _finish_time_axes(axes, data, info)
+    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]), info)
+    _arrange_time_grid(fig, axes, handles, 3, title, width=10.0, row_height=1.75)
+    return fig
+
+
+def _points_figure(cm, data, info):
+    """One column: x, y of every point (and their derivatives) against time."""
+    from matplotlib.lines import Line2D
+
+    series = [a for a in (data.p, data.pd, data.pdd) if a is not None]
+    P = len(cm.point_names)
+    colors = _point_palette(P)
+    fig, axes = _time_grid(len(series), 1)
+    T = _duration(data, info)
+    for o, arr in enumerate(series):
+        tu, _ = (_pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
+        qx, qy = POINT_QUANTITIES[o]
+        ax = axes[o][0]
+        for k in range(P):
+            ax.plot(data.t, arr[:, k, 0], color=colors[k], lw=1.4)
+            ax.plot(data.t, arr[:, k, 1], color=colors[k], lw=1.4, ls="--")
+        ax.set_ylabel(f"{qx}, {qy} [{tu}]")
+        _tidy_ylim(ax, arr[:, :, 0], arr[:, :, 1], ref=cm.L / T ** o)
+    handles = []
+    for k, name in enumerate(cm.point_names):
+        handles += [Line2D([], [], color=colors[k], lw=1.4, label=f"{name}.x"),
+                    Line2D([], [], color=colors[k], lw=1.4, ls="--", label=f"{name}.y")]
+    _finish_time_axes(axes, data, info)
+    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]), info)
+    _arrange_time_grid(fig, axes, handles, 2, title, width=7.0, row_height=1.7)
+    return fig
+
+
+def _time_grid(nrows, ncols):
+    """Figure and (nrows, ncols) axes sharing the time axis; sized by _arrange_time_grid."""
+    from matplotlib.figure import Figure
+
+    fig = Figure()
+    axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
+    for row in axes:
+        for ax in row:
+            ax.grid(True, **GRID)
+            ax.tick_params(labelsize=9)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    return fig, axes
+
+
+def _arrange_time_grid(fig, axes, handles, group, title, width, row_height):
+    """Size the figure and place axes, title and legend, in inches.
+
+    A fixed layout computed here costs nothing, where matplotlib's constrained layout measures
+    every text (a third of the time of writing these figures). Tick-label widths come from the
+    axes' own locators and formatters. The legend below the axes is a table read row by row,
+    `group` entries (one body or point) per group of columns, as many groups as fit the width.
+    """
+    from matplotlib.lines import Line2D
+
+    nrows, ncols = len(axes), len(axes[0])
+    label_w = [max(_tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
+               for col in zip(*axes)]
+    room = [w + 0.5 for w in label_w]           # tick labels, ticks, y label (inches)
+    right = 0.2
+    gap_h = 0.12
+    per_row = group * max(1, min(len(handles) // group,
+                                 int((width - 0.6) / (group * _entry_width(handles)))))
+    blank = Line2D([], [], alpha=0.0, label=" ")
+    cells = list(handles) + [blank] * (-len(handles) % per_row)
+    legend_rows = len(cells) // per_row
+    # matplotlib fills legend columns first: transpose the row-major table
+    ordered = [cells[r * per_row + c] for c in range(per_row) for r in range(legend_rows)]
+    top = 0.12 + 0.21 * (title.count("\n") + 1) + 0.12 + (0.22 if axes[0][0].get_title() else 0)
+    bottom = 0.6 + 0.2 * legend_rows
+    height = top + bottom + nrows * row_height + (nrows - 1) * gap_h
+    fig.set_size_inches(width, height)
+    aw = (width - sum(room) - right) / ncols
+    fig.subplots_adjust(left=room[0] / width, right=1 - right / width, bottom=bottom / height,
+                        top=1 - top / height, hspace=gap_h / row_height,
+                        wspace=(room[1] / aw) if ncols > 1 else 0.2)
+    fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+               fontsize=FONT, frameon=False, handlelength=2.2, columnspacing=1.4)
+    fig.suptitle(title, fontsize=12, y=1 - 0.12 / height, va="top")
+
+
+def _finish_time_axes(axes, data, info):
+    """Time range (the planned one, so that a failed run shows where it stopped) and the event
+    lines: the stop (red dashed), near-singular passages (thin orange), bifurcations stepped
+    over (purple); each kind labelled once, beside its first line, in the top row."""
+    from matplotlib.transforms import blended_transform_factory
+
+    lo, hi = float(data.t[0]), float(data.t[-1])
+    opts = getattr(info, "options", None)
+    if opts is not None:
+        lo, hi = min(lo, opts.start), max(hi, opts.end)
+    marks = []          # (times, style, label)
+    event = getattr(info, "event", None)
+    if info is not None and info.status == 1 and event is not None and math.isfinite(event.t):
+        what = "singular" if event.kind in ("lock-up", "bifurcation") else "stopped"
+        marks.append(([event.t], dict(color="red", ls="--", lw=1.5), f"{what} ({event.kind})"))
+        lo, hi = min(lo, event.t), max(hi, event.t)
+    warnings = getattr(info, "warnings", None) or []
+    for kind, style, label in (
+            ("near-singular", dict(color="tab:orange", ls="-", lw=0.8), "near-singular"),
+            ("bifurcation", dict(color="tab:purple", ls="-.", lw=1.0), "bifurcation passed")):
+        ts = sorted({w.t for w in warnings if w.kind == kind and math.isfinite(w.t)
+                     and lo <= w.t <= hi})
+        if ts:
+            marks.append((ts, style, label))
+    for r, row in enumerate(axes):
+        for ax in row:
+            for ts, style, label in marks:
+                for t in ts:
+                    ax.axvline(t, zorder=1.5, **style)
+                if r == 0:
+                    # on the empty side of a stop line: after it, unless the run ends there
+                    right = ts[0] < lo + 0.85 * (hi - lo)
+                    ax.annotate(label, (ts[0], 0.97), xytext=(3 if right else -3, 0),
+                                textcoords="offset points", rotation=90, va="top",
+                                ha="left" if right else "right", fontsize=FONT,
+                                color=style["color"], zorder=20,
+                                xycoords=blended_transform_factory(ax.transData, ax.transAxes))
+    if hi > lo:
+        axes[0][0].set_xlim(lo, hi)
+
+
+def _tidy_ylim(ax, *arrays, ref):
+    """A quantity constant over the run, up to rounding noise (a slider's y of 1e-17 m), would
+    be drawn on a 1e-17 scale: show it on the scale of the model instead (ref: model length /
+    duration^order, or one radian in the angle unit)."""
+    values = np.concatenate([np.ravel(a) for a in arrays])
+    values = values[np.isfinite(values)]
+    if not len(values) or not ref > 0 or not math.isfinite(ref):
+        return
+    lo, hi = values.min(), values.max()
+    if hi - lo <= 1e-9 * max(ref, abs(lo), abs(hi)):
+        c = 0.5 * (lo + hi)
+        if abs(c) < 1e-9 * ref:
+            c = 0.0
+        d = max(0.1 * abs(c), 0.1 * ref)
+        ax.set_ylim(c - d, c + d)
+
+
+def _text_width(labels) -> float:
+    """Generous width in inches of the longest label at FONT pt."""
+    return 0.08 * max(len(s) for s in labels)
+
+
+def _entry_width(handles) -> float:
+    """Width of one legend entry in inches at FONT pt (handle, text, column spacing)."""
+    return 0.5 + _text_width([h.get_label() for h in handles])
+
+
+def _tick_label_width(axis, lo, hi) -> float:
+    """Rough width in inches of the widest tick label the axis shows for the range lo..hi."""
+    ticks = np.asarray(axis.get_major_locator().tick_values(min(lo, hi), max(lo, hi)))
+    eps = 1e-9 * abs(hi - lo)
+    ticks = ticks[(ticks >= min(lo, hi) - eps) & (ticks <= max(lo, hi) + eps)]
+    return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
+
+
+def _duration(data, info) -> float:
+    opts = getattr(info, "options", None)
+    T = (opts.end - opts.start) if opts is not None else float(data.t[-1] - data.t[0])
+    return T if T > 0 and math.isfinite(T) else 1.0
+
+
+def _title(cm, what, info=None) -> str:
+    s = f"{cm.spec.name}: {what}"
+    if info is not None and info.status == 1 and getattr(info, "event", None) is not None:
+        s += f"\nrun stopped at t = {info.event.t:.6g} s ({info.event.kind})"
+    return s
+
+
+def _pretty(unit: str) -> str:
+    return unit.replace("^2", "\u00b2")
+
+
+# -- the mechanism in the plane ------------------------------------------------------------------
+
+class _Scene:
+    """Geometry of the mechanism over the run, user units.
+
+    Each moving body is drawn from body-fixed vertices: a translucent polygon (the convex hull
+    of its frame origin, joint points and points of interest), a thick bar when those are
+    collinear, or a block oriented along its slide when they are a single point; plus dashed
+    body-fixed lines (slots, gear pitch circles). Ground carries pivots (revolute and distance
+    points on ground) and slide axes (translational, pin-slot and slide lines on ground). The
+    paths (traces) are those of the points of interest and of every moving joint point.
+    """
+
+    def __init__(self, cm, data):
+        self.cm = cm
+        self.t = data.t
+        self.nb = cm.nb
+        self.names = cm.body_names
+        self.colors = _palette(cm.nb)
+        self.point_colors = _point_palette(len(cm.point_names))
+        q = data.q
+        self.x, self.y = q[:, 0::3], q[:, 1::3]
+        phi = q[:, 2::3] * cm.angle_factor
+        self.c, self.s = np.cos(phi), np.sin(phi)
+        attach, joint_pts, slides, slide_dir, revolutes, gears = self._elements(cm)
+
+        # the drawing's scale: extent of all attachment points over the run
+        attach = [_unique(a) for a in attach]
+        X, Y = (np.concatenate([g[k].ravel() for g in (self.to_global(b, a)
+                                                       for b, a in enumerate(attach))])
+                for k in (0, 1))
+        span = max(np.nanmax(X) - np.nanmin(X), np.nanmax(Y) - np.nanmin(Y))
+        self.span = span if span > 1e-12 * cm.L else cm.L
+        self.size = 0.07 * self.span                    # slider blocks, ground pivots
+        first = np.r_[[g[0] for g in (self.at(b, a, 0) for b, a in enumerate(attach))]]
+        last = np.r_[[g[0] for g in (self.at(b, a, -1) for b, a in enumerate(attach))]]
+        self.closed = len(self.t) > 2 and np.nanmax(np.abs(first - last)) <= 1e-6 * self.span
+
+        self._shapes(attach, slide_dir, revolutes, gears)
+        self._slides(slides)
+        self._traces(data, joint_pts)
+        self._bounds()
+
+    def _elements(self, cm):
+        """Walk the elements: attachment points per body (body frame, user units), joint points
+        to trace, pins, ground pivots, distance links, slides, slide directions, gears."""
+        L, ground = cm.L, cm.nb
+        attach = [[np.zeros(2)] for _ in range(cm.nb)]
+        joint_pts = []                                  # (body, s')
+        self.pins = []                                  # (body, s')
+        self.pivots = []                                # global points on ground
+        self.links = []                                 # distance: (bi, si, bj, sj)
+        slides = []                                     # (bi, si, vi, bj, sj)
+        slide_dir = {}                                  # body -> body-frame slide direction
+        revolutes, gears = [], []
+        for G in cm.groups:
+            kind = G.kind.name
+            par = G.params
+            for k in range(len(G)):
+                bi, bj = int(G.bodies[k, 0]), int(G.bodies[k, 1])
+                si = par["si"][k] * L if "si" in par else None
+                sj = par["sj"][k] * L if "sj" in par else None
+                for b, s in ((bi, si), (bj, sj)):
+                    if s is not None and b != ground:
+                        attach[b].append(s)
+                        joint_pts.append((b, s))
+                if kind in ("revolute", "distance"):
+                    for b, s in ((bi, si), (bj, sj)):
+                        (self.pivots.append(s) if b == ground else self.pins.append((b, s)))
+                if kind == "revolute":
+                    revolutes.append((bi, si, bj, sj))
+                elif kind == "distance":
+                    self.links.append((bi, si, bj, sj))
+                elif kind in ("translational", "pin-slot", "slide"):
+                    vi = par["vi"][k]
+                    slides.append((bi, si, vi, bj, sj))
+                    if kind == "translational":
+                        if bj != ground:
+                            slide_dir.setdefault(bj, par["vj"][k])
+                        elif bi != ground:
+                            slide_dir.setdefault(bi, vi)
+                    if kind == "pin-slot" and bj != ground:
+                        self.pins.append((bj, sj))
+                elif kind == "gear":
+                    bk = int(G.bodies[k, 2])
+                    gears += [(bi, par["ri"][k] * L, bk), (bj, par["rj"][k] * L, bk)]
+        for b, s in zip(cm.point_body, cm.point_s):
+            if int(b) != ground:
+                attach[int(b)].append(np.asarray(s) * L)
+        return attach, joint_pts, slides, slide_dir, revolutes, gears
+
+    def _shapes(self, attach, slide_dir, revolutes, gears):
+        """Body-frame outlines: fills (polygons), bars (thick lines), dashed (gear circles)."""
+        nb, size = self.nb, self.size
+        self.fills = [None] * nb                        # (k, 2) polygon vertices
+        self.bars = [None] * nb                         # (2, 2) thick line
+        self.dashed = [[] for _ in range(nb)]           # body-fixed dashed polylines
+        geared = {b for b, _, _ in gears}
+        for b, P in enumerate(attach):
+            if len(P) == 1:
+                if b not in geared:                     # a block along the slide
+                    u = np.asarray(slide_dir.get(b, (1.0, 0.0)), float)
+                    n = np.array([-u[1], u[0]])
+                    w, h = 0.6 * size, 0.38 * size
+                    self.fills[b] = P[0] + np.array([w * u + h * n, -w * u + h * n,
+                                                     -w * u - h * n, w * u - h * n])
+                continue
+            hull = _hull(P)
+            ext = np.ptp(P, axis=0).max()
+            if len(hull) >= 3 and _area(hull) > 1e-3 * ext * ext:
+                self.fills[b] = hull
+            else:
+                d = P[np.argmax(np.hypot(*(P - P[0]).T))] - P[0]
+                proj = (P - P[0]) @ d
+                self.bars[b] = np.array([P[np.argmin(proj)], P[np.argmax(proj)]])
+        for b, r, bk in gears:
+            if b == nb or not r:
+                continue
+            centre = np.zeros(2)                        # the gear's pivot on its carrier
+            for i, si, j, sj in revolutes:
+                if {i, j} == {b, bk}:
+                    centre = si if i == b else sj
+                    break
+            a = np.linspace(0.0, 2 * np.pi, 61)
+            self.dashed[b].append(centre + abs(r) * np.c_[np.cos(a), np.sin(a)])
+            self.dashed[b].append(np.array([centre, centre + (abs(r), 0.0)]))
+
+    def _slides(self, slides):
+        """Slide axes on ground (self.axes, global) and slots on moving bodies (dashed), along
+        the range the sliding point covers."""
+        ground = self.nb
+        self.axes = []                                  # global (2, 2) lines on ground
+        for bi, si, vi, bj, sj in slides:
+            u = vi / np.hypot(*vi)
+            xy = self.at_all(bj, sj)
+            if bi != ground:                            # in body i's frame
+                dx, dy = xy[:, 0] - self.x[:, bi], xy[:, 1] - self.y[:, bi]
+                ci, sn = self.c[:, bi], self.s[:, bi]
+                xy = np.c_[ci * dx + sn * dy, -sn * dx + ci * dy]
+            proj = (xy - si) @ u
+            proj = proj[np.isfinite(proj)]
+            lo, hi = (proj.min(), proj.max()) if len(proj) else (0.0, 0.0)
+            pad = 0.15 * (hi - lo) + self.size
+            seg = np.array([si + (lo - pad) * u, si + (hi + pad) * u])
+            (self.axes if bi == ground else self.dashed[bi]).append(seg)
+
+    def _traces(self, data, joint_pts):
+        """Paths: the points of interest (coloured), then each moving joint point once (grey).
+        trace_styles: (legend label, is a point, colour, line width) of each."""
+        self.traces, self.trace_styles = [], []
+        for k, name in enumerate(self.cm.point_names):
+            self.traces.append(data.p[:, k, :])
+            self.trace_styles.append((name, True, self.point_colors[k], 1.3))
+        tol = 1e-6 * self.span
+        for b, s in joint_pts:
+            xy = self.at_all(b, s)
+            if np.nanmax(np.ptp(xy, axis=0)) <= tol:
+                continue                                # does not move
+            if any(np.nanmax(np.abs(xy - other)) <= tol for other in self.traces):
+                continue                                # the other side of a revolute, ...
+            self.traces.append(xy)
+            self.trace_styles.append(("joint paths", False, "0.55", 0.8))
+
+    def _bounds(self):
+        """(x0, x1, y0, y1): everything drawn over the run, with a margin."""
+        size = self.size
+        parts = [np.asarray(p, float).reshape(-1, 2) for p in self.axes + self.traces]
+        parts += [np.array([p - (size, 1.6 * size), p + (size, 0.0)]) for p in self.pivots]
+        for b in range(self.nb):
+            for V in [self.fills[b], self.bars[b]] + self.dashed[b]:
+                if V is not None:
+                    X, Y = self.to_global(b, V)
+                    parts.append(np.c_[X.ravel(), Y.ravel()])
+        allp = np.concatenate(parts)
+        lo, hi = np.nanmin(allp, axis=0) - 0.6 * size, np.nanmax(allp, axis=0) + 0.6 * size
+        self.bounds = (lo[0], hi[0], lo[1], hi[1])
+
+    def instants(self, n: int) -> np.ndarray:
+        """n rows evenly spread over the run; a full cycle leaves out its end (same pose as
+        the start)."""
+        N = len(self.t)
+        if self.closed and N > n:
+            return np.unique(np.linspace(0, N - 1, n + 1)[:-1].round().astype(int))
+        return np.unique(np.linspace(0, N - 1, min(n, N)).round().astype(int))
+
+    def to_global(self, b: int, S, rows=slice(None)):
+        """Global x, y (N, k) of body-fixed points S (k, 2) of body b at the given rows."""
+        S = np.asarray(S, float).reshape(-1, 2)
+        c, s = self.c[rows, b][:, None], self.s[rows, b][:, None]
+        return (self.x[rows, b][:, None] + c * S[:, 0] - s * S[:, 1],
+                self.y[rows, b][:, None] + s * S[:, 0] + c * S[:, 1])
+
+    def at(self, b: int, S, i: int) -> np.ndarray:
+        """(k, 2) global positions of body-fixed points S of body b at row i (ground: S)."""
+        if b == self.nb:
+            return np.asarray(S, float).reshape(-1, 2)
+        X, Y = self.to_global(b, S, [i])
+        return np.c_[X[0], Y[0]]
+
+    def at_all(self, b: int, s) -> np.ndarray:
+        """(N, 2) global path of one body-fixed point s of body b (ground: s at every row)."""
+        if b == self.nb:
+            return np.tile(np.asarray(s, float), (len(self.t), 1))
+        X, Y = self.to_global(b, s)
+        return np.c_[X[:, 0], Y[:, 0]]
+
+
+class _Drawing:
+    """The artists of the mechanism at one row; set_row moves them (the animation reuses them).
+
+    color: one colour for every body (instants of mechanism.png) or body_colors=True for each
+    body's own colour (as in bodies.<fmt>)."""
+
+    def __init__(self, ax, scene: _Scene, row: int, color=None, body_colors=False, alpha=1.0,
+                 fill=0.25, zorder=10.0, labels=False):
+        from matplotlib.patches import Polygon
+
+        self.scene = scene
+        self.ax = ax
+        cm = scene.cm
+        col = (lambda b: scene.colors[b]) if body_colors else (lambda b: color)
+        self.parts = []                 # (artist, body, vertices, kind)
+        for b in range(scene.nb):
+            c = col(b)
+            if scene.fills[b] is not None:
+                patch = Polygon(scene.fills[b], closed=True, fc=_with_alpha(c, fill * alpha),
+                                ec=_with_alpha(c, alpha), lw=2.0, zorder=zorder)
+                ax.add_patch(patch)
+                self.parts.append((patch, b, scene.fills[b], "fill"))
+            if scene.bars[b] is not None:
+                line, = ax.plot([], [], color=c, lw=4.5, alpha=alpha, solid_capstyle="round",
+                                zorder=zorder)
+                self.parts.append((line, b, scene.bars[b], "line"))
+            for poly in scene.dashed[b]:
+                line, = ax.plot([], [], color=c, lw=1.0, ls="--", alpha=alpha, zorder=zorder + 0.1)
+                self.parts.append((line, b, poly, "line"))
+        edge = color if color is not None else "0.15"
+        self.links = [ax.plot([], [], color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)[0]
+                      for _ in scene.links]
+        self.pins, = ax.plot([], [], ls="none", marker="o", ms=5.5, mfc="white", mec=edge,
+                             mew=1.3, alpha=alpha, zorder=zorder + 0.5)
+        self.points = [ax.plot([], [], ls="none", marker="D", ms=5, mfc=scene.point_colors[k],
+                               mec=edge, mew=0.8, alpha=alpha, zorder=zorder + 0.6)[0]
+                       for k in range(len(cm.point_names))]
+        self.artists = ([a for a, _, _, _ in self.parts] + self.links + [self.pins]
+                        + self.points)
+        self.set_row(row)
+        if labels:
+            self._annotate(row)
+
+    def set_row(self, i: int) -> None:
+        sc = self.scene
+        for artist, b, V, kind in self.parts:
+            xy = sc.at(b, V, i)
+            if kind == "fill":
+                artist.set_xy(xy)
+            else:
+                artist.set_data(xy[:, 0], xy[:, 1])
+        for line, (bi, si, bj, sj) in zip(self.links, sc.links):
+            ends = np.r_[sc.at(bi, si, i), sc.at(bj, sj, i)]
+            line.set_data(ends[:, 0], ends[:, 1])
+        if sc.pins:
+            pins = np.concatenate([sc.at(b, s, i) for b, s in sc.pins])
+            self.pins.set_data(pins[:, 0], pins[:, 1])
+        for m, xy in zip(self.points, sc.traces):      # the points' paths come first
+            m.set_data(xy[i:i + 1, 0], xy[i:i + 1, 1])
+
+    def _annotate(self, i):
+        """Body names (and point names) at row i, beside each body's centre."""
+        sc = self.scene
+        box = dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.75)
+        placed = []
+        for b, name in enumerate(sc.names):
+            V = sc.fills[b] if sc.fills[b] is not None else sc.bars[b]
+            if V is None:
+                V = sc.dashed[b][0] if sc.dashed[b] else np.zeros((1, 2))
+            p = sc.at(b, V, i).mean(axis=0)
+            # labels of nearby bodies alternate above and below, further out each time
+            near = sum(np.hypot(*(p - q)) < 0.12 * sc.span for q in placed)
+            placed.append(p)
+            dy = (9 + 12 * (near // 2)) * (1 if near % 2 == 0 else -1.6)
+            self.ax.annotate(name, p, xytext=(0, dy), textcoords="offset points", ha="center",
+                             va="center", fontsize=FONT, color=_darker(sc.colors[b]),
+                             fontweight="bold", bbox=box, zorder=40)
+        for k, name in enumerate(sc.cm.point_names):
+            self.ax.annotate(name, sc.traces[k][i], xytext=(6, -12), textcoords="offset points",
+                             fontsize=FONT, color=_darker(sc.point_colors[k]), bbox=box,
+                             zorder=40)
+
+    def legend_handles(self):
+        from matplotlib.patches import Patch
+        sc = self.scene
+        return [Patch(fc=_with_alpha(sc.colors[b], 0.35), ec=sc.colors[b], label=name)
+                for b, name in enumerate(sc.names)]
+
+
+def _plane_figure(cm, scene: _Scene, width, beside, dpi=DPI, ground_alpha=1.0):
+    """Figure with one equal-aspect axes for drawings of the mechanism, sized to the drawing.
+
+    width: figure width and beside: room right of the axes (legend), inches. The height follows
+    the drawing's aspect ratio (within limits: the equal aspect widens the other range). Returns
+    (figure, axes, upper-left corner of the room beside the axes in figure coordinates)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(dpi=dpi)
+    ax = fig.add_axes((0, 0, 1, 1))
+    _mechanism_axes(ax, cm, scene, ground_alpha)
+    x0, x1, y0, y1 = scene.bounds
+    left = _tick_label_width(ax.yaxis, y0, y1) + 0.5
+    bottom, top = 0.55, 0.45
+    aw = width - left - beside
+    ah = float(np.clip(aw * (y1 - y0) / (x1 - x0), 2.4, 6.8)) if x1 > x0 else aw
+    height = ah + bottom + top
+    fig.set_size_inches(width, height)
+    ax.set_position((left / width, bottom / height, aw / width, ah / height))
+    return fig, ax, ((left + aw + 0.15) / width, (bottom + ah) / height)
+
+
+def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
+    """Equal-aspect axes in the length unit, with the ground pivots and slide axes drawn."""
+    from matplotlib.patches import Polygon, Rectangle
+
+    unit = cm.spec.length_unit
+    ax.set_xlabel(f"x [{unit}]")
+    ax.set_ylabel(f"y [{unit}]")
+    ax.grid(True, **GRID)
+    ax.tick_params(labelsize=9)
+    x0, x1, y0, y1 = scene.bounds
+    ax.update_datalim([(x0, y0), (x1, y1)])     # limits stay automatic: the equal aspect
+    ax.margins(0.0)                             # widens whichever range the axes need
+    ax.set_aspect("equal", adjustable="datalim")
+    h = 0.55 * scene.size
+    for p in scene.pivots:
+        px, py = p
+        # above the bodies (which pass over their pivots), with a pin of its own on top
+        ax.add_patch(Polygon([(px, py), (px - 0.6 * h, py - h), (px + 0.6 * h, py - h)],
+                             closed=True, fc="0.85", ec="0.25", lw=1.0, alpha=ground_alpha,
+                             zorder=GROUND_Z))
+        ax.add_patch(Rectangle((px - 0.9 * h, py - 1.35 * h), 1.8 * h, 0.35 * h, fc="none",
+                               ec="0.35", lw=0.0, hatch="/////", alpha=ground_alpha,
+                               zorder=GROUND_Z))
+    if scene.pivots:
+        P = np.array(scene.pivots)
+        ax.plot(P[:, 0], P[:, 1], ls="none", marker="o", ms=5.5, mfc="white", mec="0.15",
+                mew=1.3, alpha=ground_alpha, zorder=GROUND_Z + 0.5)
+    for seg in scene.axes:
+        ax.plot(seg[:, 0], seg[:, 1], color="0.3", lw=1.0, ls=(0, (6, 3)), alpha=ground_alpha,
+                zorder=7)
+
+
+def _trajectories_figure(cm, scene: _Scene):
+    """Paths of the points of interest, start dots, direction arrows, the mechanism faint at
+    t = start."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import FancyArrowPatch
+
+    fig, ax, _ = _plane_figure(cm, scene, 8.0, 0.25, ground_alpha=0.5)
+    _Drawing(ax, scene, 0, color="0.6", alpha=0.45, zorder=9)
+    handles = []
+    for k, name in enumerate(cm.point_names):
+        xy = scene.traces[k]
+        c = scene.point_colors[k]
+        line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=1.6, zorder=12, label=name)
+        ax.plot(xy[0, 0], xy[0, 1], "o", color=c, ms=6, zorder=13)
+        handles.append(line)
+        for a, b in _arrow_spots(xy, 0.04 * scene.span):
+            ax.add_patch(FancyArrowPatch(a, b, arrowstyle="-|>", mutation_scale=13, color=c,
+                                         lw=0, zorder=13))
+    handles += [Line2D([], [], ls="none", marker="o", color="0.2", ms=6, label="start"),
+                Line2D([], [], ls="none", marker=">", color="0.2", ms=6, label="direction"),
+                Line2D([], [], color="0.6", lw=3, alpha=0.6, label=f"mechanism at t = "
+                                                                   f"{scene.t[0]:.4g} s")]
+    ax.legend(handles=handles, loc="best", fontsize=FONT,
+              ncol=1 if len(handles) <= 12 else 2, framealpha=0.85)
+    ax.set_title(f"{cm.spec.name}: paths of the points "
+                 f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12)
+    return fig
+
+
+def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
+    """Arrow (tail, head) pairs at the given fractions of a path's length, tangent to it (not
+    symmetric about 0.5, so that a path run there and back does not get opposite arrows on the
+    same spot)."""
+    ok = np.all(np.isfinite(xy), axis=1)
+    xy = xy[ok]
+    if len(xy) < 2:
+        return []
+    seg = np.hypot(*np.diff(xy, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] <= 0:
+        return []
+    out = []
+    for f in fractions:
+        i = min(int(np.searchsorted(s, f * s[-1])), len(xy) - 2)
+        j0, j1 = max(i - 2, 0), min(i + 3, len(xy) - 1)
+        d = xy[j1] - xy[j0]
+        nd = np.hypot(*d)
+        if nd <= 0:
+            continue
+        d = d / nd * length
+        out.append((tuple(xy[i] - 0.5 * d), tuple(xy[i] + 0.5 * d)))
+    return out
+
+
+def _mechanism_figure(cm, scene: _Scene):
+    """The mechanism at INSTANTS evenly spread times (light to dark) and every path of the run."""
+    from matplotlib import colormaps
+    from matplotlib.lines import Line2D
+
+    rows = scene.instants(INSTANTS)
+    labels = [f"t = {scene.t[i]:.4g} s" for i in rows] + [s[0] for s in scene.trace_styles]
+    fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
+    cmap = colormaps["viridis"]
+    shades = [cmap(v) for v in np.linspace(0.78, 0.0, len(rows))]   # later = darker
+    handles, seen = [], set()
+    for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
+        line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=w, zorder=5,
+                        ls="-" if is_point else (0, (4, 2)))
+        if label not in seen:
+            seen.add(label)
+            line.set_label(label)
+            handles.append(line)
+    for k, (i, c) in enumerate(zip(rows, shades)):
+        _Drawing(ax, scene, i, color=c, fill=0.12, zorder=10 + k, labels=(k == 0))
+        handles.append(Line2D([], [], color=c, lw=4, label=labels[k]))
+    fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside, fontsize=FONT,
+               frameon=False, borderaxespad=0)
+    ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
+                 f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12)
+    return fig
+
+
+# -- small helpers -------------------------------------------------------------------------------
+
+def _save(fig, path: Path) -> Path:
+    """Save and release a figure: png at DPI; svg and pdf without a date and (svg) with fixed
+    element ids, so that the same run gives byte-identical files."""
+    from contextlib import nullcontext
+
+    import matplotlib as mpl
+
+    fmt = path.suffix[1:]
+    meta = {"svg": {"Date": None}, "pdf": {"CreationDate": None}}.get(fmt)
+    # svg ids are salted with a random uuid unless this rcParam is set: the only rcParams use,
+    # for the duration of one save
+    salt = mpl.rc_context({"svg.hashsalt": "planarkin"}) if fmt == "svg" else nullcontext()
+    with salt:
+        fig.savefig(path, format=fmt, dpi=DPI, metadata=meta)
+    fig.clear()
+    return path
+
+
+def _palette(n: int) -> list:
+    """Body colours: tab10, tab20 beyond ten bodies, then evenly spaced hues."""
+    from matplotlib import colormaps
+    if n <= 10:
+        return [colormaps["tab10"](k) for k in range(n)]
+    if n <= 20:
+        return [colormaps["tab20"](k) for k in range(n)]
+    return [colormaps["turbo"](v) for v in np.linspace(0.05, 0.95, n)]
+
+
+def _point_palette(n: int) -> list:
+    """Point colours: Dark2 (distinct from the body colours where it matters), then tab20."""
+    from matplotlib import colormaps
+    if n <= 8:
+        return [colormaps["Dark2"](k) for k in range(n)]
+    return _palette(n)
+
+
+def _darker(color, f=0.7):
+    """The colour darkened (light palette entries as legible text)."""
+    from matplotlib.colors import to_rgb
+    return tuple(f * v for v in to_rgb(color))
+
+
+def _with_alpha(color, alpha):
+    from matplotlib.colors import to_rgba
+    return to_rgba(color, alpha)
+
+
+def _unique(points, tol=1e-9) -> np.ndarray:
+    """(k, 2) distinct points (relative tolerance), in first-seen order."""
+    P = np.asarray(points, float).reshape(-1, 2)
+    scale = max(np.abs(P).max(), 1e-300)
+    out = []
+    for p in P:
+        if not any(np.abs(p - o).max() <= tol * scale for o in out):
+            out.append(p)
+    return np.array(out)
+
+
+def _hull(P: np.ndarray) -> np.ndarray:
+    """Convex hull (counter-clockwise, Andrew's monotone chain) of (k, 2) points."""
+    pts = sorted(map(tuple, P))
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _area(V: np.ndarray) -> float:
+    x, y = V[:, 0], V[:, 1]
+    return 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))

@@ -1,0 +1,196 @@
+"""Plots and animation (planarkin.output.plots): files, formats, failed and partial runs, and the
+geometry of the mechanism drawing."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import planarkin
+from planarkin.output import plots
+from planarkin.solver import Event
+
+ROOT = Path(__file__).resolve().parents[1]
+SLIDER_CRANK = ROOT / "mechanisms" / "slider-crank.yaml"
+
+# The slider-crank driven by its slider: the crank reaches dead centre (x = a + b) at t = 0.5 s.
+SLIDER_DRIVEN = """\
+name: slider-driven
+units: {length: m, angle: rad}
+parameters: {a: 0.1, b: 0.3}
+bodies:
+  crank:  {q: [0.05, 0.0, 0.8]}
+  rod:    {q: [0.2, 0.02, -0.2]}
+  slider: {q: [0.32, 0.0, 0.0]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: crank, j: rod, si: [a, 0], sj: [0, 0]}
+  - {type: revolute, i: rod, j: slider, si: [b, 0], sj: [0, 0]}
+  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
+drivers:
+  - {type: x, body: slider, f: "0.32 + 0.16*t"}
+analysis: {start: 0, end: 1, steps: 100}
+"""
+
+MAGIC = {"png": b"\x89PNG\r\n\x1a\n", "pdf": b"%PDF-", "gif": b"GIF89a"}
+
+
+@pytest.fixture(scope="module")
+def model():
+    return planarkin.load(SLIDER_CRANK)
+
+
+@pytest.fixture(scope="module")
+def result(model):
+    return planarkin.solve(model, steps=180)
+
+
+@pytest.fixture(scope="module")
+def written(result, tmp_path_factory):
+    """The slider-crank written the way `planarkin run` writes it (DirectoryWriter.finish)."""
+    out = tmp_path_factory.mktemp("slider-crank")
+    return out, result.write(out, plots="png")
+
+
+def check_file(path: Path, fmt: str, min_bytes=10_000):
+    data = path.read_bytes()
+    assert len(data) > min_bytes, path
+    if fmt == "svg":
+        assert data.startswith(b"<?xml") and b"<svg" in data[:2000]
+    else:
+        assert data.startswith(MAGIC[fmt]), path
+
+
+def test_png_plots_from_result_write(written):
+    from PIL import Image
+    out, summary = written
+    names = ["bodies.png", "points.png", "trajectories.png", "mechanism.png"]
+    assert summary["plots"] == names
+    for name in names:
+        check_file(out / name, "png")
+        with Image.open(out / name) as im:
+            assert round(im.info["dpi"][0]) == 150
+            assert 1000 <= im.width <= 1600 and 500 <= im.height <= 1500   # 7 to 10 in wide
+
+
+@pytest.fixture(scope="module")
+def positions(model):
+    """A run that computed positions only (order 0): no velocities, no accelerations."""
+    return planarkin.solve(model, steps=60, order=0)
+
+
+@pytest.mark.parametrize("fmt", ["svg", "pdf"])
+def test_vector_formats(model, positions, tmp_path, fmt):
+    files = plots.write_plots(model, positions._chunk, positions.info, tmp_path, fmt=fmt)
+    assert [f.name for f in files] == [f"{n}.{fmt}" for n in
+                                       ("bodies", "points", "trajectories", "mechanism")]
+    for f in files:
+        check_file(f, fmt)
+
+
+def test_failed_run_marks_the_stopping_time(tmp_path):
+    model = planarkin.load("slider-driven.yaml", text=SLIDER_DRIVEN)
+    res = planarkin.solve(model)
+    assert res.status == 1 and res.event.kind == "lock-up"
+    t_stop = res.event.t
+    assert res.t[-1] < t_stop
+    files = plots.write_plots(model, res._chunk, res.info, tmp_path)
+    for f in files:
+        check_file(f, "png")
+
+    fig = plots._bodies_figure(model, res._chunk, res.info)
+    axes = fig.axes
+    assert len(axes) == 6
+    for ax in axes:
+        stops = [ln for ln in ax.get_lines() if ln.get_color() == "red"
+                 and ln.get_linestyle() == "--" and np.allclose(ln.get_xdata(), t_stop)]
+        assert len(stops) == 1
+        assert ax.get_xlim() == (0.0, 1.0)          # the planned range: the stop is visible
+    labels = [t.get_text() for ax in axes for t in ax.texts]
+    assert labels.count("singular (lock-up)") == 2    # once per column, top row
+    assert "run stopped at t = 0.5 s (lock-up)" in fig._suptitle.get_text()
+
+
+def test_near_singular_warnings_are_thin_orange_lines(model, result):
+    warn = [Event("near-singular", 0.25, "passed"), Event("near-singular", 0.75, "passed")]
+    info = dataclasses.replace(result.info, warnings=warn)
+    fig = plots._bodies_figure(model, result._chunk, info)
+    for ax in fig.axes:
+        orange = sorted(float(ln.get_xdata()[0]) for ln in ax.get_lines()
+                        if ln.get_color() == "tab:orange")
+        assert orange == [0.25, 0.75]
+        assert not any(ln.get_color() == "red" for ln in ax.get_lines())
+
+
+def test_positions_only(model, positions, tmp_path):
+    res = positions
+    assert res.qd is None and res.qdd is None and res.pd is None and res.pdd is None
+    files = plots.write_plots(model, res._chunk, res.info, tmp_path)
+    assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
+                                       "mechanism.png"]
+    fig = plots._bodies_figure(model, res._chunk, res.info)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["x, y [m]", "phi [rad]"]
+
+
+def test_model_without_points_skips_points_and_trajectories(tmp_path):
+    text = SLIDER_CRANK.read_text()
+    start = text.index("points:")
+    text = text[:start] + text[text.index("analysis:", start):]
+    model = planarkin.load("no-points.yaml", text=text)
+    assert model.point_names == ()
+    res = planarkin.solve(model, steps=60)
+    files = plots.write_plots(model, res._chunk, res.info, tmp_path)
+    assert [f.name for f in files] == ["bodies.png", "mechanism.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bodies.png", "mechanism.png"]
+
+
+def test_drawing_closes_the_slider_crank_loop(model, result):
+    """The drawing is built from the joints: crank and rod are bars between their pins, the
+    slider a block on a ground axis along x, one ground pivot; drawn at any instant the crank
+    tip meets the rod, the rod's end meets the slider and point B."""
+    sc = plots._Scene(model, result._chunk)
+    crank, rod, slider = range(3)
+    a, b = 0.1, 0.3
+    assert np.allclose(sc.bars[crank], [[0, 0], [a, 0]])
+    assert np.allclose(sc.bars[rod], [[0, 0], [b, 0]])
+    assert sc.bars[slider] is None and len(sc.fills[slider]) == 4
+    assert np.allclose(sc.pivots, [[0, 0]])
+    (axis,) = sc.axes
+    assert np.allclose(axis[:, 1], 0) and axis[0, 0] < 0.2 and axis[1, 0] > 0.4
+    for i in (0, 40, 97, len(result.t) - 1):
+        tip = sc.at(crank, sc.bars[crank], i)[1]
+        rod_ends = sc.at(rod, sc.bars[rod], i)
+        assert np.allclose(tip, rod_ends[0])
+        assert np.allclose(rod_ends[1], sc.at(slider, [0, 0], i)[0])
+        assert np.allclose(rod_ends[1], result.p[i, 0])
+        assert np.allclose(sc.fills[slider].mean(axis=0), 0)       # block centred on the pin
+    assert sc.closed                                  # one full crank turn
+    assert list(sc.instants(6)) == [0, 30, 60, 90, 120, 150]
+
+
+def test_constant_quantity_is_drawn_on_the_model_scale():
+    """A slider's y of rounding noise (1e-17 m) gets the model's scale, not a 1e-17 axis."""
+    from matplotlib.figure import Figure
+    ax = Figure().add_subplot()
+    noise = np.array([1e-17, -2e-17, 0.0, 3e-17])
+    ax.plot(np.arange(4), noise)
+    plots._tidy_ylim(ax, noise, ref=0.5)
+    assert ax.get_ylim() == pytest.approx((-0.05, 0.05))
+    ax.plot(np.arange(4), [0.0, 0.2, 0.1, 0.0])        # a real motion keeps automatic limits
+    lim = ax.get_ylim()
+    plots._tidy_ylim(ax, [0.0, 0.2, 0.1, 0.0], ref=0.5)
+    assert ax.get_ylim() == lim
+
+
+@pytest.mark.slow
+def test_animation_gif(model, result, tmp_path):
+    from PIL import Image
+    path = plots.write_animation(model, result._chunk, tmp_path)
+    assert path == tmp_path / "animation.gif"
+    check_file(path, "gif")
+    assert path.stat().st_size < 3_000_000
+    with Image.open(path) as im:
+        assert im.n_frames > 10
+        assert im.info["duration"] == 50           # 20 frames per second
+        im.seek(im.n_frames - 1)                   # every frame decodes
