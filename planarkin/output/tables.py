@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .fastcsv import format_table
+from .fastcsv import write_table
 
 BODY_QUANTITIES = (("x", "y", "phi"), ("vx", "vy", "omega"), ("ax", "ay", "alpha"))
 POINT_QUANTITIES = (("x", "y"), ("vx", "vy"), ("ax", "ay"))
@@ -92,7 +92,7 @@ class CsvWriter:
 
     def write(self, X: np.ndarray) -> None:
         if len(X):
-            self.f.write(format_table(X))
+            write_table(self.f, X)
 
     def close(self) -> None:
         self.f.close()
