@@ -397,6 +397,9 @@ def _apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
             J = S.block_matrix(B, S.block_grads(B, F))[0]
             if np.sign(np.linalg.det(J)) == want:
                 found = Q[0, : cm.n].copy()
+                # the same pose with each angle the turn nearest the user's estimate
+                phi = found[2::3]
+                found[2::3] = phi - 2 * np.pi * np.round((phi - cm.q0[2::3]) / (2 * np.pi))
                 break
         if found is None:
             raise InputError([Diagnostic(cm.spec.file, line,

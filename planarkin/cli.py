@@ -150,7 +150,8 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
                 "end", model.spec.analysis.line) or None,
                 f"analysis: end ({opts.end:g}) must be greater than start ({opts.start:g})")])
             return
-        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate)
+        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
+                                 background=True)
         progress = _Progress(opts.steps + 1, Path(path).name)
         try:
             info, _ = analyse(model, opts, sink=writer, progress=progress)
@@ -162,7 +163,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     report.diagnostics(info.diagnostics)
     for w in info.warnings:
         report.warning(path, w.message)
-    summary = writer.finish(info, wall=time.perf_counter() - t0)
+    summary = writer.finish(info, started=t0)
     rows = summary["time"]["rows_written"]
     detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
               f"{summary['residual']['max']:.1e}, {time.perf_counter() - t0:.2f} s -> {outdir}/")

@@ -92,10 +92,16 @@ class PlotBuffer:
 
 class DirectoryWriter:
     """Streams chunks into DIR/bodies.csv and DIR/points.csv, and writes summary.json and the
-    plots at the end."""
+    plots at the end.
+
+    With background=True the tables are formatted and written by a second thread while the
+    solver computes the next chunk: both spend most of their time inside numpy calls, which
+    release the GIL, so on two cores the writing largely hides behind the solving. Chunks are
+    written in order by that one thread, so the files are the same either way.
+    """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False):
+                 animate: bool = False, background: bool = False):
         self.cm = cm
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
@@ -111,8 +117,33 @@ class DirectoryWriter:
         self.animate = animate
         self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
         self.t_write = 0.0
+        self.queue = None
+        self.error: BaseException | None = None
+        if background:
+            import queue
+            import threading
+            self.queue = queue.Queue(maxsize=2)
+            self.thread = threading.Thread(target=self._drain, daemon=True)
+            self.thread.start()
+
+    def _drain(self) -> None:
+        while True:
+            ch = self.queue.get()
+            if ch is None:
+                return
+            if self.error is None:
+                try:
+                    self._write(ch)
+                except BaseException as e:      # re-raised in the main thread by finish()
+                    self.error = e
 
     def add(self, ch: Chunk) -> None:
+        if self.queue is not None:
+            self.queue.put(ch)
+        else:
+            self._write(ch)
+
+    def _write(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
         X = self.layout.body_table(ch)
         self.bodies.write(X)
@@ -126,7 +157,16 @@ class DirectoryWriter:
             self.buffer.add(ch)
         self.t_write += time.perf_counter() - t0
 
-    def finish(self, info: RunInfo, wall: float | None = None) -> dict:
+    def finish(self, info: RunInfo, started: float | None = None) -> dict:
+        """Close the tables, write summary.json (wall time since `started`, a perf_counter
+        value) and the plots; returns the summary."""
+        if self.queue is not None:
+            self.queue.put(None)
+            self.thread.join()
+            self.queue = None
+            if self.error is not None:
+                raise self.error
+        wall = None if started is None else time.perf_counter() - started
         self.bodies.close()
         if self.points is not None:
             self.points.close()
@@ -297,8 +337,8 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
         if progress is not None:
             progress(len(ch.t))
     an.timings["grid"] = time.perf_counter() - t2
-    if sink is not None:
-        an.timings["grid"] -= getattr(sink, "t_write", 0.0)
+    if sink is not None and getattr(sink, "queue", None) is None:
+        an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this thread
     info = run_info(an)
     result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
     return info, result

@@ -35,6 +35,11 @@ from .model.compile import CompiledModel
 from .system import System
 
 KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
+# Past this condition estimate the path is taken to be at a singular configuration: there
+# velocities lose ~6 digits and accelerations (error ~ cond^2 eps) are no longer meaningful, so
+# neither are the predictions built from them.
+COND_SINGULAR = 1e6
+COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 MAX_NODES = 2_000_000
 PATH_BLOCK = 64       # largest solve block of the path follower (unknowns)
@@ -74,7 +79,9 @@ class Options:
 @dataclass
 class Nodes:
     """Internal nodes of the path (exact solutions): t (K,), q, qd, qdd (K, n + 3) internal units,
-    sign (K, nblocks) determinant signs, cond (K,) condition estimate."""
+    sign: per node the determinant signs of the fine blocks, cond (K,) condition estimate,
+    seg (K,) which set of equations (segment) the node was solved with: a model with redundant
+    constraints may switch the set along the path, the switch node then appears twice."""
 
     t: list = field(default_factory=list)
     q: list = field(default_factory=list)
@@ -82,21 +89,28 @@ class Nodes:
     qdd: list = field(default_factory=list)
     sign: list = field(default_factory=list)
     cond: list = field(default_factory=list)
+    seg: list = field(default_factory=list)
 
-    def add(self, t, q, qd, qdd, sign, cond):
+    def add(self, t, q, qd, qdd, sign, cond, seg=0):
         self.t.append(float(t))
         self.q.append(q)
         self.qd.append(qd)
         self.qdd.append(qdd)
         self.sign.append(sign)
         self.cond.append(float(cond))
+        self.seg.append(seg)
+
+    def truncate(self, k: int) -> None:
+        """Keep nodes 0..k."""
+        for lst in (self.t, self.q, self.qd, self.qdd, self.sign, self.cond, self.seg):
+            del lst[k + 1:]
+
+    def copy_from(self, other: "Nodes", k: int) -> None:
+        for name in ("t", "q", "qd", "qdd", "sign", "cond", "seg"):
+            getattr(self, name).append(getattr(other, name)[k])
 
     def __len__(self):
         return len(self.t)
-
-    def arrays(self):
-        return (np.array(self.t), np.array(self.q), np.array(self.qd), np.array(self.qdd),
-                np.array(self.sign), np.array(self.cond))
 
 
 @dataclass
@@ -156,12 +170,17 @@ def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
 class PathFollower:
     """Adaptive continuation along the assembled branch; see the module docstring."""
 
-    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, systems=None, seg=0):
         self.cm = cm
-        # few large blocks: at a handful of candidate points per call, Python overhead per block
+        self.A = A
+        # systems[seg] = (fine blocks for the grid, merged blocks for the path). Few large blocks
+        # on the path: at a handful of candidate points per call, Python overhead per block
         # dominates, so the path is solved in blocks of up to 64 unknowns (the whole system for
-        # small models); determinant signs are still those of the fine blocks
-        self.S: System = A.system.merged(PATH_BLOCK)
+        # small models); determinant signs are still those of the fine blocks.
+        self.systems = systems if systems is not None else [
+            (A.system, A.system.merged(PATH_BLOCK))]
+        self.seg = seg
+        self.S: System = self.systems[seg][1]
         self.opts = opts
         span = opts.end - opts.start
         self.span = span
@@ -175,8 +194,9 @@ class PathFollower:
         self.ok_signs_flip = False
 
     # -- one batch of candidate steps -------------------------------------------------------
-    def _candidates(self, k: int, hs: np.ndarray, check_sign: bool = True, jerk=True):
-        """Try steps hs from node k. Returns (ok mask, err, Q, Qd, Qdd, info)."""
+    def _candidates(self, k: int, hs: np.ndarray, check_sign: bool = True, jerk=True, tol=None):
+        """Try steps hs from node k. Returns (ok mask, err, Q, Qd, Qdd, info); tol: predictor
+        error allowed (default path_tol)."""
         N = self.nodes
         t0, q0, qd0, qdd0, sg0 = N.t[k], N.q[k], N.qd[k], N.qdd[k], N.sign[k]
         j3 = np.zeros_like(q0)
@@ -196,8 +216,9 @@ class PathFollower:
         qb = Q - h * Qd + 0.5 * h * h * Qdd - h ** 3 / 6.0 * j3c
         eb = np.abs(qb[:, :n] - q0[:n]).max(axis=1)
         err = np.maximum(ef, eb)
-        ok = info.converged & (err <= self.opts.path_tol) & (info.ratio <= KAPPA)
-        ok &= np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
+        ok = info.converged & (err <= (self.opts.path_tol if tol is None else tol))
+        ok &= (info.ratio <= KAPPA) & np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
+        ok &= _cond(info) <= COND_SINGULAR
         if check_sign:
             ok &= (info.sign == sg0).all(axis=1)
         return ok, err, Q, Qd, Qdd, info
@@ -210,7 +231,7 @@ class PathFollower:
         Qd = np.zeros_like(Q)
         Qdd = np.zeros_like(Q)
         info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12)
-        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0])
+        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
 
     def run(self) -> Event | None:
@@ -237,7 +258,7 @@ class PathFollower:
                 j = int(np.nonzero(ok)[0][-1])
                 hj = hs[j]
                 tn = end if hj == remaining else t + hj
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j])
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
                 self.rejected += int((~ok[: j + 1]).sum())
                 grow = 4.0 if err[j] == 0 else min(4.0, max(0.3, 0.8 * (self.opts.path_tol
                                                                           / err[j]) ** 0.25))
@@ -251,6 +272,9 @@ class PathFollower:
             self.rejected += len(hs)
             h = hs[0] / 8.0
             if h < self.h_min:
+                if self.A.redundant_rows and self._reselect(k):
+                    h = max(self.span * 1e-6, self.h_min * 100)
+                    continue
                 ev = self._singular(k)
                 if ev.kind == "bifurcation" and self.opts.bifurcation == "continue":
                     if self._step_over(ev):
@@ -266,6 +290,53 @@ class PathFollower:
         self.event = ev
         self._near_singular_warnings()
         return ev
+
+    # -- redundant constraints ---------------------------------------------------------------
+    def _reselect(self, k: int) -> bool:
+        """The equations solved (all but the redundant ones) became singular at node k: if the
+        whole set is still regular there, solve from here on with another choice of the rows to
+        leave out (the n most independent rows at node k). Returns True when switched."""
+        cm, N = self.cm, self.nodes
+        if cm.n > DENSE_LIMIT:
+            return False
+        S_all = System(cm)
+        J = S_all.jacobian(S_all.ext(N.q[k][: cm.n]))[0]
+        nrm = np.linalg.norm(J, axis=1)
+        Jn = J / np.where(nrm > 0, nrm, 1)[:, None]
+        sv = np.linalg.svd(Jn, compute_uv=False)
+        if len(sv) < cm.n or sv[cm.n - 1] < 1e-4 * sv[0]:
+            return False              # singular with every equation: a real singularity
+        rows = _independent_rows(Jn, cm.n)
+        if set(rows.tolist()) == set(self.S.rows.tolist()):
+            return False
+        from .structure import StructurallySingular
+        S = System(cm, np.sort(rows))
+        try:
+            S.build_blocks()
+        except StructurallySingular:
+            return False
+        Sp = S.merged(PATH_BLOCK)
+        Q = S.ext(N.q[k][: cm.n])
+        Qd = np.zeros_like(Q)
+        Qdd = np.zeros_like(Q)
+        info = Sp.solve_batch(np.array([N.t[k]]), Q, Qd, Qdd, policy="full", tol=NODE_TOL,
+                              maxit=12)
+        if not info.converged[0]:
+            return False
+        old = sorted(set(self.S.rows.tolist()) - set(rows.tolist()))
+        new = sorted(set(range(cm.m)) - set(rows.tolist()))
+        self.systems.append((S, Sp))
+        self.seg = len(self.systems) - 1
+        self.S = Sp
+        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self.warnings.append(Event(
+            "redundant", N.t[k],
+            f"at t = {N.t[k]:.6g} the equations left out as redundant were changed (now "
+            f"{'; '.join(cm.row_label[r] for r in new)} instead of "
+            f"{'; '.join(cm.row_label[r] for r in old) or 'none'}): the former set became "
+            f"singular while the whole mechanism stays regular", cond=float(1 / (sv[cm.n - 1]
+                                                                                / sv[0]))))
+        return True
 
     # -- singular configurations -------------------------------------------------------------
     def _singular(self, k: int) -> Event:
@@ -291,14 +362,15 @@ class PathFollower:
         U, sv, Vt = np.linalg.svd(Jn)
         srel = sv[-1] / sv[0]
         cond = 1.0 / max(srel, 1e-300)
-        if srel > 1e-5:
+        if srel > 1e-4:
             return Event("failure", t,
                          f"the path cannot be continued after t = {t:.10g} although the "
                          f"Jacobian is regular (condition {cond:.3g}): the motion is not smooth "
                          f"there (a kink or jump in a driver function?)", cond=cond)
         u = np.abs(U[:, -1])
-        rows = S.rows[np.nonzero(u >= 0.3 * u.max())[0]]
-        labels = list(dict.fromkeys(cm.element_of_row(r).label for r in rows))
+        big = [i for i in np.argsort(-u) if u[i] >= 0.3 * u.max()]
+        rows = S.rows[np.array(big, dtype=np.intp)]
+        labels = list(dict.fromkeys(cm.element_of_row(r).label for r in rows))[:5]
         v = np.abs(Vt[-1])
         per_body = v.reshape(-1, 3).max(axis=1)
         bodies = [cm.body_names[b] for b in np.nonzero(per_body >= 0.3 * per_body.max())[0]]
@@ -322,40 +394,65 @@ class PathFollower:
             what = (f"lock-up of {', '.join(dict.fromkeys(drv))} (toggle / dead centre): the "
                     f"mechanism cannot move the way the driver demands")
             fix = "; drive another link or limit the driver's range"
-        msg = (f"singular configuration at t = {t:.10g} {unit}: {what}; constraints involved: "
-               f"{'; '.join(labels)}; bodies: {', '.join(bodies)}{fix}")
-        return Event(kind, t, msg, cond=cond, constraints=labels, bodies=bodies)
+        ts = self._singular_time(k, kind)
+        msg = (f"singular configuration at t = {ts:.10g} {unit}: {what}; constraints involved: "
+               f"{'; '.join(labels)}; bodies: {', '.join(bodies)}; results are written up to "
+               f"t = {t:.10g}{fix}")
+        return Event(kind, ts, msg, cond=cond, constraints=labels, bodies=bodies)
+
+    def _singular_time(self, k: int, kind: str) -> float:
+        """Where sigma_min reaches zero, extrapolated from the last nodes: sigma_min is linear in
+        time through a transversal crossing (bifurcation) and goes like the square root of the
+        remaining time at a fold (lock-up)."""
+        N = self.nodes
+        tk, sk = N.t[k], 1.0 / N.cond[k]
+        for j in range(k - 1, max(k - 30, -1), -1):
+            sj = 1.0 / N.cond[j]
+            if sj >= 2 * sk and N.t[j] < tk:
+                p = 1 if kind == "bifurcation" else 2
+                dt = (tk - N.t[j]) * sk ** p / (sj ** p - sk ** p)
+                return tk + min(max(dt, 0.0), tk - N.t[j])
+        return tk
 
     def _step_over(self, ev: Event) -> bool:
         """Continue on the smooth branch past a bifurcation at ev.t: from an earlier node where the
-        Jacobian is still regular, predict to the symmetric time past the singular point."""
+        Jacobian is well conditioned, predict to a time past the singular point and accept the
+        step only if it really crossed (a fine block's determinant sign flipped) onto a well
+        conditioned pose. The nodes in between are dropped: the grid points of the crossing
+        interval are interpolated from the two ends."""
         N = self.nodes
         ts = ev.t
         k_last = len(N) - 1
-        for back in range(1, min(k_last, 40) + 1):
-            k = k_last - back
+        for k in range(k_last, max(k_last - 60, -1), -1):
             d = ts - N.t[k]
-            if d <= 0:
+            if d <= 0 or N.cond[k] > 10 * COND_WARN:
                 continue
-            hs = np.array([1.5, 2.0, 2.5, 3.0]) * d
-            hs = np.minimum(hs, self.opts.end - N.t[k])
-            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False)
-            past = N.t[k] + hs > ts
-            good = ok & past
+            hs = np.minimum(np.array([1.5, 2.0, 3.0, 4.0]) * d, self.opts.end - N.t[k])
+            hs = np.unique(hs[hs > d])
+            if not len(hs):
+                continue
+            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False,
+                                                         tol=np.inf)
+            # a larger step than path_tol allows, so smoothness is judged against the motion:
+            # the other branch through the singular point leaves it with a different tangent,
+            # a deviation of the order of the step itself
+            moved = np.abs(Q[:, : self.S.n] - N.q[k][: self.S.n]).max(axis=1)
+            crossed = (info.sign != N.sign[k]).any(axis=1)
+            good = ok & crossed & (err <= np.maximum(self.opts.path_tol, 1e-2 * moved)) \
+                & (_cond(info) <= 10 * COND_WARN)
             if good.any():
                 j = int(np.nonzero(good)[0][0])
-                # drop the nodes between k and the singular point: their velocities are
-                # ill-conditioned; the Hermite interval now spans the crossing
-                del N.t[k + 1:], N.q[k + 1:], N.qd[k + 1:], N.qdd[k + 1:], N.sign[k + 1:], \
-                    N.cond[k + 1:]
-                N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j])
+                N.truncate(k)
+                N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j],
+                      self.seg)
                 ev.message = ev.message.split("; to follow")[0] + (
-                    f"; continued on the smooth branch (bifurcation: continue): results near "
-                    f"t = {ts:.6g} are interpolated across the crossing and less accurate")
+                    f"; continued on the smooth branch (bifurcation: continue): results between "
+                    f"t = {N.t[k]:.6g} and {N.t[-1]:.6g} are interpolated across the crossing and "
+                    f"less accurate")
                 return True
         return False
 
-    def _near_singular_warnings(self, threshold: float = 1e3) -> None:
+    def _near_singular_warnings(self, threshold: float = COND_WARN) -> None:
         """Local maxima of the condition estimate above threshold that the path got through."""
         c = np.array(self.nodes.cond)
         t = np.array(self.nodes.t)
@@ -372,6 +469,21 @@ class PathFollower:
                 f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
                 f"{c[i]:.3g}): the assembly branches come close here; results were followed "
                 f"with smaller internal steps", cond=float(c[i])))
+
+
+def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
+    """n rows of a full-column-rank Jn chosen greedily by largest remaining norm (pivoted
+    Gram-Schmidt): the best-conditioned square subsystem a greedy choice finds."""
+    R = Jn.copy()
+    chosen = []
+    for _ in range(n):
+        norms = np.linalg.norm(R, axis=1)
+        norms[chosen] = -1
+        i = int(np.argmax(norms))
+        chosen.append(i)
+        v = R[i] / norms[i]
+        R -= np.outer(R @ v, v)
+    return np.array(chosen, dtype=np.intp)
 
 
 def _cond(info) -> np.ndarray:
@@ -430,7 +542,16 @@ class Analysis:
             self.event = f.run()
             if self.event is not None:
                 self.t_stop = f.nodes.t[-1]
-        self.nodes = f.nodes.arrays()
+        N = f.nodes
+        self.Tn = np.array(N.t)
+        self.Qn, self.Qdn, self.Qddn = np.array(N.q), np.array(N.qd), np.array(N.qdd)
+        self.Cn = np.array(N.cond)
+        self.seg = np.array(N.seg, dtype=np.intp)
+        # per interval [node i, node i+1]: the sign of a fine block flips inside (a bifurcation
+        # passed with bifurcation: continue); intervals between segments have zero length
+        self.crossing = np.array([N.seg[i] == N.seg[i + 1] and bool(
+            (np.asarray(N.sign[i]) != np.asarray(N.sign[i + 1])).any())
+            for i in range(len(N) - 1)] + [False], dtype=bool)
         self.timings["path"] = time.perf_counter() - t0
         return self.event
 
@@ -451,8 +572,8 @@ class Analysis:
             yield ch
 
     def _dense(self, t: np.ndarray) -> Chunk | None:
-        S, cm, opts = self.S, self.cm, self.opts
-        Tn, Qn, Qdn, Qddn, Sn, Cn = self.nodes
+        cm, opts = self.cm, self.opts
+        Tn, Qn, Qdn, Qddn, Cn = self.Tn, self.Qn, self.Qdn, self.Qddn, self.Cn
         K = len(Tn)
         N = len(t)
         if K == 1:
@@ -468,22 +589,33 @@ class Analysis:
             Q = hermite5(*args)
             Qd = hermite5(*args, deriv=1)
             Qdd = hermite5(*args, deriv=2)
+        iters = np.zeros(N, dtype=np.int64)
+        cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
+        segs = self.seg[idx]
         if opts.interpolate:
-            iters = np.zeros(N, dtype=np.int64)
-            cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
-        else:
-            info = S.solve_batch(t, Q, Qd, Qdd, policy=opts.newton, tol=opts.tol,
-                                 maxit=opts.iterations, order=opts.order)
-            iters = info.iterations
-            cond = _cond(info)
-            ok = (info.ratio <= KAPPA) & np.isfinite(Q).all(axis=1)
+            return self._chunk(t, Q, Qd, Qdd, iters, cond, segs)
+        # points between nodes on either side of a bifurcation passed with bifurcation: continue
+        # keep their interpolated values: the Jacobian is singular somewhere in that interval
+        solve = ~self.crossing[idx]
+        signs = self.follower.nodes.sign
+        for u in np.unique(segs[solve]):
+            sel = np.nonzero(solve & (segs == u))[0]
+            whole = len(sel) == N
+            tq = t if whole else t[sel]
+            Qs, Qds, Qdds = (Q, Qd, Qdd) if whole else (Q[sel], Qd[sel], Qdd[sel])
+            info = self.follower.systems[u][0].solve_batch(
+                tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
+                order=opts.order)
+            ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
             if K > 1:
-                s0, s1 = Sn[idx], Sn[np.minimum(idx + 1, K - 1)]
-                same = (s0 == s1).all(axis=1)
-                ok &= ~same | (info.sign == s0).all(axis=1)
-            for i in np.nonzero(~ok)[0]:
+                ok &= (info.sign == np.array([signs[i] for i in idx[sel]])).all(axis=1)
+            if not whole:
+                Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
+            iters[sel] = info.iterations
+            cond[sel] = _cond(info)
+            for i in sel[~ok]:
                 self.fallbacks += 1
                 res = self._follow_to(int(idx[i]), float(t[i]))
                 if res is None:
@@ -492,48 +624,46 @@ class Analysis:
                                        f"the branch followed so far")
                     keep = t < t[i]
                     return self._chunk(t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep],
-                                       cond[keep]) if keep.any() else None
+                                       cond[keep], segs[keep]) if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
-        return self._chunk(t, Q, Qd, Qdd, iters, cond)
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs)
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
-        f = PathFollower(self.cm, self.A, self.opts)
-        Tn, Qn, Qdn, Qddn, Sn, Cn = self.nodes
-        f.nodes.add(Tn[k], Qn[k], Qdn[k], Qddn[k], Sn[k], Cn[k])
-        if k > 0:
-            f.nodes.t.insert(0, Tn[k - 1])
-            f.nodes.q.insert(0, Qn[k - 1])
-            f.nodes.qd.insert(0, Qdn[k - 1])
-            f.nodes.qdd.insert(0, Qddn[k - 1])
-            f.nodes.sign.insert(0, Sn[k - 1])
-            f.nodes.cond.insert(0, Cn[k - 1])
+        src = self.follower.nodes
+        f = PathFollower(self.cm, self.A, self.opts, self.follower.systems, src.seg[k])
+        if k > 0 and src.seg[k - 1] == src.seg[k]:
+            f.nodes.copy_from(src, k - 1)          # for the third-derivative estimate
+        f.nodes.copy_from(src, k)
         f.opts = Options(**{**self.opts.__dict__, "end": t_target})
-        f.span = max(t_target - Tn[k], 1e-300)
+        f.span = max(t_target - src.t[k], 1e-300)
         f.h_max = f.span
         f.h_min = self.follower.h_min
-        if t_target > Tn[k] and f.run() is not None:
+        if t_target > src.t[k] and f.run() is not None:
             return None
         n = f.nodes
-        if self.opts.newton == "fixed" or self.opts.order < 2:
-            pass
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond) -> Chunk:
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs) -> Chunk:
         """Residual of every equation (redundant ones included) at the results, user units."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
-        residual = np.abs(S_all.residual(Q, t)).max(axis=1) if cm.m else np.zeros(len(t))
+        R = np.abs(S_all.residual(Q, t)) if cm.m else np.zeros((len(t), 1))
+        residual = R.max(axis=1)
         if self.A.redundant_rows and self.event is None:
-            r = np.abs(S_all.residual(Q, t)[:, self.A.redundant_rows]).max(axis=1)
-            bad = np.nonzero(r > 1e-8)[0]
+            # the rows left out of the solve must stay satisfied
+            left_out = np.zeros_like(R)
+            for u in np.unique(segs):
+                out = np.setdiff1d(np.arange(cm.m), self.follower.systems[u][0].rows)
+                left_out[np.ix_(segs == u, out)] = R[np.ix_(segs == u, out)]
+            worst = left_out.max(axis=1)
+            bad = np.nonzero(worst > 1e-8)[0]
             if bad.size:
                 i = int(bad[0])
-                row = self.A.redundant_rows[int(np.argmax(np.abs(S_all.residual(
-                    Q[i:i + 1], t[i])[0, self.A.redundant_rows])))]
+                row = int(np.argmax(left_out[i]))
                 self.event = Event("redundant", float(t[i]),
                                    f"{cm.row_label[row]}, redundant at the assembly pose, is "
-                                   f"violated at t = {t[i]:.10g} (by {r[i] * cm.L:.3g} "
+                                   f"violated at t = {t[i]:.10g} (by {worst[i] * cm.L:.3g} "
                                    f"{cm.spec.length_unit}): the redundancy holds only at some "
                                    f"poses; remove the joint")
                 self.t_stop = float(t[i])
