@@ -73,6 +73,8 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300, 
         if not np.isfinite(cost) or np.abs(r).max() <= 1e-14:
             break
         J = jac(q)
+        if not np.isfinite(J).all():
+            break
         A = J.T @ J
         g = J.T @ r
         d = np.diag(A).copy()
@@ -99,7 +101,12 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300, 
     # Newton polish (quadratic convergence near a regular solution)
     for _ in range(8):
         J = jac(q)
-        step = -np.linalg.lstsq(J, r, rcond=None)[0]
+        if not (np.isfinite(J).all() and np.isfinite(r).all()):
+            break
+        try:
+            step = -np.linalg.lstsq(J, r, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            break
         r_new = res(q + step)
         if not (r_new @ r_new <= cost or np.abs(r_new).max() <= 1e-14):
             break
@@ -147,21 +154,42 @@ def _bodies_of(cm: CompiledModel, vec: np.ndarray, frac: float = 0.3) -> list[st
 def assemble(cm: CompiledModel) -> Assembly:
     """Assemble the model at t = start and check its degrees of freedom; raise InputError when it
     cannot be analysed."""
+    with np.errstate(all="ignore"):
+        return _assemble(cm)
+
+
+def _assemble(cm: CompiledModel) -> Assembly:
     spec = cm.spec
     t0 = spec.analysis.start
     S_all = System(cm)
     n, m = cm.n, cm.m
     problems: list[Diagnostic] = []
 
-    # driver functions must be defined at t0
+    # driver functions must be defined at t0, and distances positive
     if cm.driver_funcs:
         T, NU, FDD = S_all.driver_values(np.array([t0]))
         for r in cm.driver_rows:
+            el = cm.element_of_row(r)
+            line = el.param_lines.get("f", el.line)
             if not (np.isfinite(T[0, r]) and np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r])):
-                el = cm.element_of_row(r)
-                raise InputError([Diagnostic(spec.file, el.param_lines.get("f", el.line),
+                raise InputError([Diagnostic(spec.file, line,
                                              f"{el.label}: f or its derivatives are not finite at "
                                              f"t = start = {t0:g} (f = {el.f.text})")])
+            if el.kind == "distance" and not T[0, r] > 0:
+                raise InputError([Diagnostic(spec.file, line,
+                                             f"{el.label}: f must be a positive distance, but "
+                                             f"f({t0:g}) = {T[0, r] * cm.L:g}")])
+    # an element that cannot be differentiated at the estimates (the two points of a distance
+    # on top of each other) would poison every step of the assembly
+    with np.errstate(all="ignore"):
+        J0 = S_all.jacobian(S_all.ext(cm.q0))[0]
+    bad_rows = np.nonzero(~np.isfinite(J0).all(axis=1))[0]
+    if bad_rows.size:
+        raise InputError([_diag(cm, int(r), f"{cm.element_of_row(r).label}: its two points "
+                                            f"coincide at the body estimates q, where the "
+                                            f"distance has no direction; move the estimates "
+                                            f"apart (a distance of zero is a revolute joint)")
+                          for r in bad_rows[:1]])
     if n > DENSE_LIMIT:
         return _assemble_large(cm, S_all)
 
@@ -170,6 +198,11 @@ def assemble(cm: CompiledModel) -> Assembly:
     if not (np.abs(r).max() <= ASSEMBLED):
         raise InputError(_not_assembled(cm, S_all, q, r, its))
     J = S_all.jacobian(S_all.ext(q))[0]
+    if not np.isfinite(J).all():
+        row = int(np.nonzero(~np.isfinite(J).all(axis=1))[0][0])
+        raise InputError([_diag(cm, row, f"{cm.element_of_row(row).label} has no direction at "
+                                         f"the assembled pose (its two points coincide); a "
+                                         f"distance of zero is a revolute joint")])
     Jn = _row_normalised(J)
     sv = np.linalg.svd(Jn, compute_uv=False) if m else np.zeros(0)
     rank = int((sv > RANK_TOL * (sv[0] if sv.size else 1.0)).sum())
@@ -251,6 +284,8 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
             if not np.abs(r2[keep]).max() <= ASSEMBLED:
                 continue
             J2 = S_all.jacobian(S_all.ext(q2))[0]
+            if not np.isfinite(J2).all():
+                continue
             Jk = _row_normalised(J2[keep])
             sv = np.linalg.svd(Jk, compute_uv=False)
             rows_e = np.nonzero(cm.row_element == e)[0]

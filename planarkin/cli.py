@@ -115,7 +115,7 @@ def _analysis_options(f):
 
 
 @main.command()
-@click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Output directory; each model writes DIR/<file stem>/.")
 @_analysis_options
@@ -160,6 +160,10 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     except InputError as e:
         report.invalid(path, e.diagnostics)
         return
+    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
+        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
+                            f"(please report)")
+        return
     report.diagnostics(info.diagnostics)
     for w in info.warnings:
         report.warning(path, w.message)
@@ -174,7 +178,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
 
 
 @main.command()
-@click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 def check(models, quiet):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
@@ -190,6 +194,12 @@ def check(models, quiet):
             A = assemble(model)
         except InputError as e:
             report.invalid(path, e.diagnostics)
+            continue
+        except Exception as e:  # noqa: BLE001 - never a traceback
+            from .diagnostics import Diagnostic
+            report.invalid(path, [Diagnostic(path, None, f"internal error while assembling: "
+                                                         f"{type(e).__name__}: {e} (please "
+                                                         f"report)")])
             continue
         report.diagnostics(A.warnings)
         ndrv = len(model.driver_rows)
@@ -208,7 +218,7 @@ def check(models, quiet):
 
 
 @main.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False))
+@click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Output directory; writes DIR/<file stem>/tradeoff.csv and tradeoff.png.")
 @click.option("--steps", type=click.IntRange(1, 10**8), help="Grid intervals for every setting.")

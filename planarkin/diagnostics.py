@@ -28,11 +28,20 @@ class Diagnostic:
     severity: str = "error"
 
     def format(self) -> str:
+        """One line, whatever the message quotes from the file (control characters such as a
+        line break inside a quoted name are shown escaped, so every line starts FILE:LINE)."""
         where = self.file if self.line is None else f"{self.file}:{self.line}"
-        return f"{where}: {self.severity}: {self.message}"
+        return _one_line(f"{where}: {self.severity}: {self.message}")
 
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.format()
+
+
+_CONTROL = {c: f"\\x{c:02x}" for c in range(32)} | {10: "\\n", 13: "\\r", 9: "\\t", 127: "\\x7f"}
+
+
+def _one_line(text: str) -> str:
+    return text.translate(_CONTROL)
 
 
 class InputError(Exception):

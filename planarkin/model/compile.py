@@ -91,7 +91,8 @@ def _characteristic_length(spec: ModelSpec) -> float:
     big = max(sizes)
     if not big > 0 or not math.isfinite(big):
         return 1.0
-    return 2.0 ** round(math.log2(big))
+    mant, exp = math.frexp(big)            # big = mant * 2**exp, 0.5 <= mant < 1
+    return math.ldexp(1.0, min(exp if mant > math.sqrt(0.5) else exp - 1, 1000))
 
 
 def compile_model(spec: ModelSpec) -> CompiledModel:

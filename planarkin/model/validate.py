@@ -29,6 +29,7 @@ ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
                  "interpolate", "bifurcation")
 MAX_STEPS = 10**9
+MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
 def _type_name(node: Node) -> str:
@@ -51,6 +52,7 @@ class _Validator:
         self.C = Collector(file)
         self.params: dict[str, float] = {}
         self.body_names: list[str] = []
+        self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
 
     # -- small typed readers -------------------------------------------------------------------
@@ -86,6 +88,10 @@ class _Validator:
         if not math.isfinite(x):
             self.err(node, f"{what} must be finite, not {node.text}")
             return None
+        if abs(x) > MAX_MAGNITUDE:
+            self.err(node, f"{what}: {x:.3g} is too large (numbers up to {MAX_MAGNITUDE:g} in "
+                           f"magnitude are accepted)")
+            return None
         return x
 
     def vector(self, node: Node, what: str, size: int = 2) -> tuple | None:
@@ -109,17 +115,19 @@ class _Validator:
         if name is None:
             return None
         if not self.bodies_ok:
-            return name if name in self.body_names or name == "ground" else None
+            return name if name in self.body_set or name == "ground" else None
         if name == "ground":
             if allow_ground:
                 return name
             self.err(node, f"{what}: 'ground' is not a moving body here")
             return None
-        if name not in self.body_names:
+        if name not in self.body_set:
             choices = self.body_names + (["ground"] if allow_ground else [])
             hint = did_you_mean(name, choices)
             if not hint:
-                hint = f" (bodies: {', '.join(self.body_names) or 'none defined'})"
+                shown = ", ".join(self.body_names[:10]) + (", ..." if len(self.body_names) > 10
+                                                            else "")
+                hint = f" (bodies: {shown or 'none defined'})"
             self.err(node, f"{what}: unknown body '{name}'{hint}")
             return None
         return name
@@ -219,10 +227,11 @@ class _Validator:
                                "bodies")
             elif self.identifier(key, line, "body"):
                 self.body_names.append(key)
+                self.body_set.add(key)
         if not node.value:
             self.err(node, "bodies is empty: a mechanism needs at least one moving body")
         for key, val in node.value.items():
-            if key not in self.body_names:
+            if key not in self.body_set:
                 continue
             what = f"body '{key}'"
             if val.kind == "seq":
@@ -432,6 +441,8 @@ class _Validator:
             return TimeFunction(v if isinstance(v, str) else float(v), self.params)
         except ExprError as e:
             self.err(node, f"{what}: f: {e}")
+        except OverflowError:
+            self.err(node, f"{what}: f: the number {node.text[:40]} is too large")
         return None
 
     def unique_names(self, elements: list[ElementSpec]) -> None:
@@ -572,7 +583,7 @@ class _Validator:
         out, lines = {}, {}
         for key, val in b.value.items():
             line = b.key_lines[key]
-            if key not in self.body_names:
+            if key not in self.body_set:
                 self.err(line, f"assembly: branch: unknown body '{key}'"
                                f"{did_you_mean(key, self.body_names)}")
                 continue

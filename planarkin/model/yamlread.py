@@ -333,6 +333,10 @@ def _read_yaml(text: "str | bytes", filename: str) -> Node:
         col.error(_line_of(text, e.position), f"YAML error: {_clip(str(e), 200)}")
     except yaml.YAMLError as e:
         col.error(None, f"YAML error: {_clip(str(e), 200)}")
+    except (ValueError, OverflowError) as e:
+        # PyYAML's scanner lets chr() fail on escapes such as "\U0011ffff"
+        col.error(getattr(parser, "line", 0) + 1,
+                  f"YAML syntax error: invalid escape or character code ({_clip(str(e), 120)})")
     finally:
         parser.dispose()
     col.raise_if_any()
