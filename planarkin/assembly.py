@@ -20,6 +20,7 @@ import numpy as np
 
 from .diagnostics import Diagnostic, InputError
 from .model.compile import CompiledModel
+from .linalg import noise
 from .system import System
 
 ASSEMBLED = 1e-10        # largest |Phi| (internal units) of an assembled pose
@@ -369,8 +370,7 @@ def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
 
 
 def _block_is_nonlinear(S: System, B, q: np.ndarray) -> bool:
-    rng = np.random.default_rng(7)
-    Qs = S.ext(np.stack([q, q + rng.normal(size=q.shape)]))
+    Qs = S.ext(np.stack([q, q + noise(q.shape[0], 7)]))
     F = S.frame(Qs)
     J = S.block_matrix(B, S.block_grads(B, F))
     return not np.allclose(J[0], J[1], rtol=1e-12, atol=1e-12)

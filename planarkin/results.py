@@ -90,14 +90,58 @@ class PlotBuffer:
         return _concat(parts) if parts else None
 
 
+class TableSink:
+    """bodies.csv and points.csv with their column statistics, fed table by table."""
+
+    def __init__(self, out: Path, layout: Layout):
+        self.bodies = CsvWriter(out / "bodies.csv", layout.body_header)
+        self.points = CsvWriter(out / "points.csv", layout.point_header) \
+            if layout.points else None
+        self.body_stats = ColumnStats(layout.body_header)
+        self.point_stats = ColumnStats(layout.point_header)
+        self.busy = 0.0
+
+    def add(self, X: np.ndarray, P: np.ndarray | None) -> None:
+        t0 = time.perf_counter()
+        self.bodies.write(X)
+        self.body_stats.add(X)
+        if self.points is not None:
+            self.points.write(P)
+            self.point_stats.add(P)
+        self.busy += time.perf_counter() - t0
+
+    def close(self):
+        self.bodies.close()
+        if self.points is not None:
+            self.points.close()
+        return self.body_stats, (self.point_stats if self.points is not None else None), \
+            self.busy
+
+
+def _table_process(out: Path, layout: Layout, inbox, outbox) -> None:
+    """Body of the writer process: tables in, statistics out."""
+    try:
+        sink = TableSink(out, layout)
+        while True:
+            item = inbox.get()
+            if item is None:
+                break
+            sink.add(*item)
+        outbox.put(("ok", sink.close()))
+    except BaseException as e:  # noqa: BLE001 - reported by the parent
+        outbox.put(("error", f"{type(e).__name__}: {e}"))
+
+
 class DirectoryWriter:
     """Streams chunks into DIR/bodies.csv and DIR/points.csv, and writes summary.json and the
     plots at the end.
 
-    With background=True the tables are formatted and written by a second thread while the
-    solver computes the next chunk: both spend most of their time inside numpy calls, which
-    release the GIL, so on two cores the writing largely hides behind the solving. Chunks are
-    written in order by that one thread, so the files are the same either way.
+    With background=True (Linux), formatting and writing the tables runs in a forked process
+    while this one solves the next chunk: CSV formatting costs about as much per step as
+    solving, so on two cores the writing hides behind the solve. A thread would not: both sides
+    spend much of their time in the interpreter, under the GIL. The tables travel through a
+    bounded queue (at most a few chunks in flight) and are written in order by the one process,
+    so the files are identical either way.
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
@@ -107,72 +151,61 @@ class DirectoryWriter:
         self.out.mkdir(parents=True, exist_ok=True)
         spec = cm.spec.output
         self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
-        self.bodies = CsvWriter(self.out / "bodies.csv", self.layout.body_header)
-        self.points = CsvWriter(self.out / "points.csv", self.layout.point_header) \
-            if self.layout.points else None
-        self.body_stats = ColumnStats(self.layout.body_header)
-        self.point_stats = ColumnStats(self.layout.point_header)
         self.steps = StepStats()
         self.plots = plots
         self.animate = animate
         self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
         self.t_write = 0.0
-        self.queue = None
-        self.error: BaseException | None = None
+        self.proc = None
+        self.sink = None
         if background:
-            import queue
-            import threading
-            self.queue = queue.Queue(maxsize=2)
-            self.thread = threading.Thread(target=self._drain, daemon=True)
-            self.thread.start()
+            self._start_process()
+        if self.proc is None:
+            self.sink = TableSink(self.out, self.layout)
 
-    def _drain(self) -> None:
-        while True:
-            ch = self.queue.get()
-            if ch is None:
-                return
-            if self.error is None:
-                try:
-                    self._write(ch)
-                except BaseException as e:      # re-raised in the main thread by finish()
-                    self.error = e
+    def _start_process(self) -> None:
+        import multiprocessing as mp
+        try:
+            ctx = mp.get_context("fork")
+        except ValueError:           # no fork on this platform: write in this process
+            return
+        self.inbox = ctx.Queue(maxsize=3)
+        self.outbox = ctx.Queue()
+        self.proc = ctx.Process(target=_table_process, daemon=True,
+                                args=(self.out, self.layout, self.inbox, self.outbox))
+        self.proc.start()
 
     def add(self, ch: Chunk) -> None:
-        if self.queue is not None:
-            self.queue.put(ch)
-        else:
-            self._write(ch)
-
-    def _write(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
         X = self.layout.body_table(ch)
-        self.bodies.write(X)
-        self.body_stats.add(X)
-        if self.points is not None:
-            P = self.layout.point_table(ch)
-            self.points.write(P)
-            self.point_stats.add(P)
+        P = self.layout.point_table(ch) if self.layout.points else None
+        if self.proc is not None:
+            self.inbox.put((X, P))
+        else:
+            self.sink.add(X, P)
         self.steps.add(ch)
         if self.buffer is not None:
             self.buffer.add(ch)
         self.t_write += time.perf_counter() - t0
 
+    def _close_tables(self):
+        if self.proc is None:
+            return self.sink.close()
+        self.inbox.put(None)
+        status, payload = self.outbox.get()
+        self.proc.join()
+        self.proc = None
+        if status != "ok":
+            raise RuntimeError(f"writing the tables failed: {payload}")
+        return payload
+
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
         value) and the plots; returns the summary."""
-        if self.queue is not None:
-            self.queue.put(None)
-            self.thread.join()
-            self.queue = None
-            if self.error is not None:
-                raise self.error
+        body_stats, point_stats, busy = self._close_tables()
         wall = None if started is None else time.perf_counter() - started
-        self.bodies.close()
-        if self.points is not None:
-            self.points.close()
-        info.timings["write"] = self.t_write
-        summary = build_summary(self.cm, info, self.steps, self.body_stats,
-                                self.point_stats if self.points is not None else None, wall)
+        info.timings["write"] = busy
+        summary = build_summary(self.cm, info, self.steps, body_stats, point_stats, wall)
         if self.buffer is not None:
             data = self.buffer.chunk()
             if data is not None:
@@ -337,8 +370,8 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
         if progress is not None:
             progress(len(ch.t))
     an.timings["grid"] = time.perf_counter() - t2
-    if sink is not None and getattr(sink, "queue", None) is None:
-        an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this thread
+    if sink is not None and getattr(sink, "proc", None) is None:
+        an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this process
     info = run_info(an)
     result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
     return info, result

@@ -60,7 +60,7 @@ class Options:
     interpolate: bool = False
     bifurcation: str = "stop"
     order: int = 2
-    chunk: int = 4096
+    chunk: int = 8192
 
     @classmethod
     def from_model(cls, cm: CompiledModel, **overrides) -> "Options":
@@ -250,9 +250,9 @@ class PathFollower:
             if remaining <= 1e-14 * max(abs(end), 1.0):
                 N.t[-1] = end   # rounding of the accumulated steps
                 break
-            hs = np.array([0.25, 0.5, 1.0, 2.0]) * h
-            hs = np.minimum(hs, min(remaining, self.h_max))
-            hs = np.unique(hs)
+            cap = min(remaining, self.h_max)
+            # sorted distinct candidates (np.unique would import numpy.ma: 10 ms of start-up)
+            hs = np.array(sorted({min(f * h, cap) for f in (0.25, 0.5, 1.0, 2.0)}))
             ok, err, Q, Qd, Qdd, info = self._candidates(k, hs)
             if ok.any():
                 j = int(np.nonzero(ok)[0][-1])
@@ -427,8 +427,8 @@ class PathFollower:
             d = ts - N.t[k]
             if d <= 0 or N.cond[k] > 10 * COND_WARN:
                 continue
-            hs = np.minimum(np.array([1.5, 2.0, 3.0, 4.0]) * d, self.opts.end - N.t[k])
-            hs = np.unique(hs[hs > d])
+            hs = np.array(sorted({min(f * d, self.opts.end - N.t[k]) for f in (1.5, 2, 3, 4)}))
+            hs = hs[hs > d]
             if not len(hs):
                 continue
             ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False,
@@ -469,6 +469,11 @@ class PathFollower:
                 f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
                 f"{c[i]:.3g}): the assembly branches come close here; results were followed "
                 f"with smaller internal steps", cond=float(c[i])))
+
+
+def _distinct(a: np.ndarray) -> np.ndarray:
+    """Sorted distinct small non-negative integers (np.unique imports numpy.ma: 10 ms)."""
+    return np.flatnonzero(np.bincount(a)) if len(a) else a
 
 
 def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
@@ -552,6 +557,12 @@ class Analysis:
         self.crossing = np.array([N.seg[i] == N.seg[i + 1] and bool(
             (np.asarray(N.sign[i]) != np.asarray(N.sign[i + 1])).any())
             for i in range(len(N) - 1)] + [False], dtype=bool)
+        # node signs as one array per segment (rows of other segments are never compared)
+        self.signs = {}
+        for u in set(N.seg):
+            width = len(next(sg for sg, su in zip(N.sign, N.seg) if su == u))
+            self.signs[u] = np.array([sg if su == u else np.zeros(width)
+                                      for sg, su in zip(N.sign, N.seg)])
         self.timings["path"] = time.perf_counter() - t0
         return self.event
 
@@ -587,8 +598,14 @@ class Analysis:
             s = (t[:, None] - Tn[idx][:, None]) / h
             args = (s, h, Qn[idx], Qdn[idx], Qddn[idx], Qn[idx + 1], Qdn[idx + 1], Qddn[idx + 1])
             Q = hermite5(*args)
-            Qd = hermite5(*args, deriv=1)
-            Qdd = hermite5(*args, deriv=2)
+            # the solver computes velocities and accelerations from scratch: their
+            # interpolated values are needed only where no solve happens
+            if opts.interpolate or self.crossing[idx].any():
+                Qd = hermite5(*args, deriv=1)
+                Qdd = hermite5(*args, deriv=2)
+            else:
+                Qd = np.zeros_like(Q)
+                Qdd = np.zeros_like(Q)
         iters = np.zeros(N, dtype=np.int64)
         cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
         segs = self.seg[idx]
@@ -597,8 +614,7 @@ class Analysis:
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
         # keep their interpolated values: the Jacobian is singular somewhere in that interval
         solve = ~self.crossing[idx]
-        signs = self.follower.nodes.sign
-        for u in np.unique(segs[solve]):
+        for u in _distinct(segs[solve]):
             sel = np.nonzero(solve & (segs == u))[0]
             whole = len(sel) == N
             tq = t if whole else t[sel]
@@ -610,7 +626,7 @@ class Analysis:
             if opts.newton != "fixed":
                 ok &= info.converged
             if K > 1:
-                ok &= (info.sign == np.array([signs[i] for i in idx[sel]])).all(axis=1)
+                ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
             iters[sel] = info.iterations
@@ -653,7 +669,7 @@ class Analysis:
         if self.A.redundant_rows and self.event is None:
             # the rows left out of the solve must stay satisfied
             left_out = np.zeros_like(R)
-            for u in np.unique(segs):
+            for u in _distinct(segs):
                 out = np.setdiff1d(np.arange(cm.m), self.follower.systems[u][0].rows)
                 left_out[np.ix_(segs == u, out)] = R[np.ix_(segs == u, out)]
             worst = left_out.max(axis=1)

