@@ -91,56 +91,70 @@ class PlotBuffer:
 
 
 class TableSink:
-    """bodies.csv and points.csv with their column statistics, fed table by table."""
+    """One CSV table with its column statistics, fed block by block."""
 
-    def __init__(self, out: Path, layout: Layout):
-        self.bodies = CsvWriter(out / "bodies.csv", layout.body_header)
-        self.points = CsvWriter(out / "points.csv", layout.point_header) \
-            if layout.points else None
-        self.body_stats = ColumnStats(layout.body_header)
-        self.point_stats = ColumnStats(layout.point_header)
+    def __init__(self, path: Path, header: list[str]):
+        self.csv = CsvWriter(path, header)
+        self.stats = ColumnStats(header)
         self.busy = 0.0
 
-    def add(self, X: np.ndarray, P: np.ndarray | None) -> None:
+    def add(self, X: np.ndarray) -> None:
         t0 = time.perf_counter()
-        self.bodies.write(X)
-        self.body_stats.add(X)
-        if self.points is not None:
-            self.points.write(P)
-            self.point_stats.add(P)
+        self.csv.write(X)
+        self.stats.add(X)
         self.busy += time.perf_counter() - t0
 
     def close(self):
-        self.bodies.close()
-        if self.points is not None:
-            self.points.close()
-        return self.body_stats, (self.point_stats if self.points is not None else None), \
-            self.busy
+        self.csv.close()
+        return self.stats, self.busy
 
 
-def _table_process(out: Path, layout: Layout, inbox, outbox) -> None:
-    """Body of the writer process: tables in, statistics out."""
+def _sink_process(path: Path, header: list[str], inbox, outbox) -> None:
+    """Body of a writer process: blocks of rows in, statistics out."""
     try:
-        sink = TableSink(out, layout)
+        sink = TableSink(path, header)
         while True:
-            item = inbox.get()
-            if item is None:
+            X = inbox.get()
+            if X is None:
                 break
-            sink.add(*item)
+            sink.add(X)
         outbox.put(("ok", sink.close()))
     except BaseException as e:  # noqa: BLE001 - reported by the parent
         outbox.put(("error", f"{type(e).__name__}: {e}"))
+
+
+class ProcessSink:
+    """A TableSink in a forked process: add() hands the block to a bounded queue and returns
+    at once, so formatting runs in parallel with the solver."""
+
+    def __init__(self, ctx, path: Path, header: list[str]):
+        self.inbox = ctx.Queue(maxsize=3)
+        self.outbox = ctx.Queue()
+        self.proc = ctx.Process(target=_sink_process, daemon=True,
+                                args=(path, header, self.inbox, self.outbox))
+        self.proc.start()
+
+    def add(self, X: np.ndarray) -> None:
+        self.inbox.put(X)
+
+    def close(self):
+        self.inbox.put(None)
+        status, payload = self.outbox.get()
+        self.proc.join()
+        if status != "ok":
+            raise RuntimeError(f"writing a table failed: {payload}")
+        return payload
 
 
 class DirectoryWriter:
     """Streams chunks into DIR/bodies.csv and DIR/points.csv, and writes summary.json and the
     plots at the end.
 
-    With background=True (Linux), formatting and writing the tables runs in a forked process
-    while this one solves the next chunk: CSV formatting costs about as much per step as
-    solving, so on two cores the writing hides behind the solve. A thread would not: both sides
-    spend much of their time in the interpreter, under the GIL. The tables travel through a
-    bounded queue (at most a few chunks in flight) and are written in order by the one process,
+    With background=True (where fork exists), each table is formatted and written by its own
+    forked process while this one solves the next chunk: CSV formatting costs about as much per
+    step as solving, so on two cores the writing hides behind the solve. Threads would not help:
+    both sides spend much of their time in the interpreter, under the GIL. Blocks travel through
+    bounded queues (a few chunks in flight) and each table is written in order by one process,
     so the files are identical either way.
     """
 
@@ -156,48 +170,39 @@ class DirectoryWriter:
         self.animate = animate
         self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
         self.t_write = 0.0
-        self.proc = None
-        self.sink = None
+        ctx = None
         if background:
-            self._start_process()
-        if self.proc is None:
-            self.sink = TableSink(self.out, self.layout)
+            import multiprocessing as mp
+            try:
+                ctx = mp.get_context("fork")
+            except ValueError:      # no fork on this platform: write in this process
+                ctx = None
+        self.background = ctx is not None
 
-    def _start_process(self) -> None:
-        import multiprocessing as mp
-        try:
-            ctx = mp.get_context("fork")
-        except ValueError:           # no fork on this platform: write in this process
-            return
-        self.inbox = ctx.Queue(maxsize=3)
-        self.outbox = ctx.Queue()
-        self.proc = ctx.Process(target=_table_process, daemon=True,
-                                args=(self.out, self.layout, self.inbox, self.outbox))
-        self.proc.start()
+        def sink(name, header):
+            path = self.out / name
+            return ProcessSink(ctx, path, header) if ctx else TableSink(path, header)
+        self.bodies = sink("bodies.csv", self.layout.body_header)
+        self.points = sink("points.csv", self.layout.point_header) \
+            if self.layout.points else None
 
     def add(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
-        X = self.layout.body_table(ch)
-        P = self.layout.point_table(ch) if self.layout.points else None
-        if self.proc is not None:
-            self.inbox.put((X, P))
-        else:
-            self.sink.add(X, P)
+        self.bodies.add(self.layout.body_table(ch))
+        if self.points is not None:
+            self.points.add(self.layout.point_table(ch))
         self.steps.add(ch)
         if self.buffer is not None:
             self.buffer.add(ch)
         self.t_write += time.perf_counter() - t0
 
     def _close_tables(self):
-        if self.proc is None:
-            return self.sink.close()
-        self.inbox.put(None)
-        status, payload = self.outbox.get()
-        self.proc.join()
-        self.proc = None
-        if status != "ok":
-            raise RuntimeError(f"writing the tables failed: {payload}")
-        return payload
+        body_stats, busy = self.bodies.close()
+        point_stats = None
+        if self.points is not None:
+            point_stats, busy2 = self.points.close()
+            busy = max(busy, busy2) if self.background else busy + busy2
+        return body_stats, point_stats, busy
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
@@ -370,7 +375,7 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
         if progress is not None:
             progress(len(ch.t))
     an.timings["grid"] = time.perf_counter() - t2
-    if sink is not None and getattr(sink, "proc", None) is None:
+    if sink is not None and not getattr(sink, "background", False):
         an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this process
     info = run_info(an)
     result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
