@@ -20,7 +20,6 @@ import numpy as np
 
 from .diagnostics import Diagnostic, InputError
 from .model.compile import CompiledModel
-from .linalg import noise
 from .system import System
 
 ASSEMBLED = 1e-10        # largest |Phi| (internal units) of an assembled pose
@@ -369,21 +368,14 @@ def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
     return A
 
 
-def _block_is_nonlinear(S: System, B, q: np.ndarray) -> bool:
-    Qs = S.ext(np.stack([q, q + noise(q.shape[0], 7)]))
-    F = S.frame(Qs)
-    J = S.block_matrix(B, S.block_grads(B, F))
-    return not np.allclose(J[0], J[1], rtol=1e-12, atol=1e-12)
-
-
 def block_modes(cm: CompiledModel, S: System, q: np.ndarray) -> list[Mode]:
-    """Sign of det of every diagonal block whose Jacobian depends on the pose (the blocks where
-    more than one assembly is possible), keyed by the first of its bodies in file order."""
+    """Sign of det of every diagonal block that is not affine in its own unknowns (the blocks
+    where more than one assembly is possible), keyed by the first of its bodies in file order."""
     Q = S.ext(q)
     F = S.frame(Q)
     out = []
     for B in S.blocks:
-        if not _block_is_nonlinear(S, B, q):
+        if B.affine:              # one solution: nothing to choose
             continue
         J = S.block_matrix(B, S.block_grads(B, F))[0]
         sign = int(np.sign(np.linalg.det(J)))

@@ -41,8 +41,13 @@ KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma
 COND_SINGULAR = 1e6
 COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
-MAX_NODES = 2_000_000
-PATH_BLOCK = 64       # largest solve block of the path follower (unknowns)
+MAX_NODES = 500_000
+PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
+def path_block(n: int) -> int:
+    """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
+    Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
+    the N = 1000 four-bar chain spend 8 s in LAPACK, 12-blocks keep both costs small)."""
+    return n if n <= 64 else 12
 
 
 @dataclass(frozen=True)
@@ -178,7 +183,7 @@ class PathFollower:
         # dominates, so the path is solved in blocks of up to 64 unknowns (the whole system for
         # small models); determinant signs are still those of the fine blocks.
         self.systems = systems if systems is not None else [
-            (A.system, A.system.merged(PATH_BLOCK))]
+            (A.system, A.system.merged(path_block(cm.n)))]
         self.seg = seg
         self.S: System = self.systems[seg][1]
         self.opts = opts
@@ -209,7 +214,7 @@ class PathFollower:
         Qdd = qdd0 + h * j3
         t = t0 + hs
         self.evaluations += len(hs)
-        info = self.S.solve_batch(t, Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12, order=2)
+        info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12, order=2)
         n = self.S.n
         ef = np.abs(Q[:, :n] - Qp[:, :n]).max(axis=1)
         j3c = (Qdd - qdd0) / h
@@ -315,7 +320,7 @@ class PathFollower:
             S.build_blocks()
         except StructurallySingular:
             return False
-        Sp = S.merged(PATH_BLOCK)
+        Sp = S.merged(path_block(cm.n))
         Q = S.ext(N.q[k][: cm.n])
         Qd = np.zeros_like(Q)
         Qdd = np.zeros_like(Q)
@@ -573,9 +578,10 @@ class Analysis:
         return g
 
     def chunks(self):
-        """Yield Chunk objects over the grid (up to the stopping time)."""
+        """Yield Chunk objects over the grid (up to the stopping time). Chunks hold at most about
+        4 million coordinates, so a 6000-coordinate model uses ~700 points per chunk."""
         g = self.grid()
-        size = self.opts.chunk
+        size = max(16, min(self.opts.chunk, (1 << 22) // (self.cm.n + 3)))
         for a in range(0, len(g), size):
             ch = self._dense(g[a: a + size])
             if ch is None:

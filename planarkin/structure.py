@@ -175,11 +175,3 @@ def block_triangular(rows: list[list[int]], ncols: int, merge_to: int = 1) -> Bl
     for cols in out_cols:
         out_rows.append(np.array(sorted(row_of_col[c] for c in cols), dtype=np.intp))
     return Blocks(tuple(out_rows), tuple(out_cols))
-
-
-def pattern_rows(J_samples: list[np.ndarray]) -> list[list[int]]:
-    """Sparsity pattern (union of nonzeros) of dense Jacobian samples (m, n) as row lists."""
-    nz = np.zeros_like(J_samples[0], dtype=bool)
-    for J in J_samples:
-        nz |= J != 0
-    return [np.nonzero(r)[0].tolist() for r in nz]

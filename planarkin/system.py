@@ -23,7 +23,7 @@ import numpy as np
 from .elements.base import Frame, Group
 from .linalg import inv_batched, matvec, noise, sigma_min_lower
 from .model.compile import CompiledModel
-from .structure import Blocks, block_triangular, pattern_rows
+from .structure import Blocks, block_triangular
 
 EPS = np.finfo(float).eps
 
@@ -138,18 +138,27 @@ class System:
         return out + FDD
 
     # -- block structure -----------------------------------------------------------------------
-    def build_blocks(self, samples: list[np.ndarray] | None = None) -> Blocks:
+    def build_blocks(self) -> Blocks:
         """Block-triangular form of the active rows (must be square). The sparsity pattern is the
-        union of nonzeros of the Jacobian at a few random states (zeros that hold for every state,
-        like the phi column of a pin at a body's origin, are structural). The fine blocks are kept
-        (`fine`); solve blocks merge consecutive fine blocks up to ``merge_to`` unknowns."""
-        if samples is None:
-            samples = []
-            for k in range(3):
-                q = self.cm.q0 + noise(self.n, 1 + k)
-                samples.append(self.jacobian(self.ext(q))[0])
-        pat = pattern_rows([J[self.rows] for J in samples])
-        fine = block_triangular(pat, self.n, merge_to=1)
+        union of nonzero gradient entries at a few random states (zeros that hold for every state,
+        like the phi column of a pin at a body's origin, are structural); it is read per element,
+        so it costs O(equations), never a dense m x n matrix. The fine blocks are kept (`fine`);
+        solve blocks merge consecutive fine blocks up to ``merge_to`` unknowns."""
+        n = self.n
+        states = np.stack([self.cm.q0 + noise(n, 1 + k) for k in range(3)])
+        F = self.frame(self.ext(states))
+        active = np.zeros(self.cm.m, dtype=bool)
+        active[self.rows] = True
+        pattern: dict[int, list[int]] = {}
+        for G in self.cm.groups:
+            nz = (G.grad(F) != 0).any(axis=0)                   # (K, neq, nc)
+            for k in range(len(G)):
+                for e in range(G.kind.neq):
+                    r = int(G.rows[k, e])
+                    if active[r]:
+                        pattern[r] = [int(c) for c, z in zip(G.cols[k], nz[k, e]) if z and c < n]
+        pat = [pattern[int(r)] for r in self.rows]
+        fine = block_triangular(pat, n, merge_to=1)
         self.fine = Blocks(tuple(self.rows[r] for r in fine.rows), fine.cols)
         self._merge()
         return self.fine
@@ -171,51 +180,36 @@ class System:
             else:
                 groups.append([k])
                 size = len(cols)
+        # where each equation lives: row -> (group, instance, equation)
+        where = {}
+        for gi, G in enumerate(self.cm.groups):
+            for k in range(len(G)):
+                for e in range(G.kind.neq):
+                    where[int(G.rows[k, e])] = (gi, k, e)
+        base = _ClassifyState(self)
         blocks = []
         for g in groups:
             rows = np.concatenate([self.fine.rows[k] for k in g])
             cols = np.concatenate([self.fine.cols[k] for k in g])
-            blocks.append(self._classify(self._block(
-                rows, cols, tuple(len(self.fine.cols[k]) for k in g), g[0])))
+            B = self._block(rows, cols, tuple(len(self.fine.cols[k]) for k in g), g[0], where)
+            blocks.append(base.classify(B))
         self.blocks = tuple(blocks)
         self.nfine = len(self.fine.cols)
 
-    def _classify(self, B: Block) -> Block:
-        """Set affine / fixed_grad by evaluating the block's gradients at random states that
-        differ only in the block's own unknowns (a generic test: the functions are analytic)."""
-        from dataclasses import replace
-        affine = fixed = True
-        for k in range(2):
-            Q = self.ext(self.cm.q0 + noise(self.n, 10 + k))
-            Q2 = Q.copy()
-            Q2[0, B.cols] += noise(len(B.cols), 20 + k)
-            g1 = self.block_grads(B, self.frame(Q))
-            g2 = self.block_grads(B, self.frame(Q2))
-            J1, J2 = self.block_matrix(B, g1), self.block_matrix(B, g2)
-            affine &= bool(np.allclose(J1, J2, rtol=1e-13, atol=1e-13))
-            fixed &= all(np.allclose(a[:, :, :, :], b, rtol=1e-13, atol=1e-13)
-                         for a, b in zip(self._rows_of(B, g1), self._rows_of(B, g2)))
-        return replace(B, affine=affine, fixed_grad=fixed and affine)
-
-    @staticmethod
-    def _rows_of(B: Block, grads):
-        """The gradient entries of the block's rows only (an element may have other rows)."""
-        out = []
-        for p, g in zip(B.parts, grads):
-            N, K, neq, nc = g.shape
-            out.append(g.reshape(N, K * neq, nc)[:, p.res_src][:, :, None, :])
-        return out
-
-    def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int) -> Block:
+    def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int,
+               where: dict) -> Block:
         rowpos = {r: k for k, r in enumerate(grows.tolist())}
         colpos = {c: k for k, c in enumerate(cols.tolist())}
         kb = len(cols)
+        per_group: dict[int, list[int]] = {}
+        for r in rowpos:
+            gi, k, _ = where[r]
+            per_group.setdefault(gi, [])
+            if k not in per_group[gi]:
+                per_group[gi].append(k)
         parts = []
-        for G in self.cm.groups:
-            inst = [k for k in range(len(G)) if set(rowpos) & set(G.rows[k].tolist())]
-            if not inst:
-                continue
-            sub = G.take(inst)
+        for gi in sorted(per_group):
+            sub = self.cm.groups[gi].take(sorted(per_group[gi]))
             neq = sub.kind.neq
             nc = sub.cols.shape[1]
             res_src, res_dst, jac_src, jac_dst = [], [], [], []
@@ -236,6 +230,15 @@ class System:
                               np.array(jac_src, np.intp), np.array(jac_dst, np.intp)))
         phis = np.array(sorted({c // 3 for c in cols.tolist() if c % 3 == 2}), dtype=np.intp)
         return Block(grows, cols, phis, tuple(parts), sizes, first)
+
+    @staticmethod
+    def _rows_of(B: Block, grads):
+        """The gradient entries of the block's rows only (an element may have other rows)."""
+        out = []
+        for p, g in zip(B.parts, grads):
+            N, K, neq, nc = g.shape
+            out.append(g.reshape(N, K * neq, nc)[:, p.res_src])
+        return out
 
     def fine_signs(self, B: Block, J: np.ndarray, sign: np.ndarray | None = None) -> np.ndarray:
         """(N, len(B.sizes)) determinant signs of the fine diagonal blocks inside solve block B."""
@@ -371,6 +374,35 @@ class System:
         X[:, B.cols] = 0.0
         r = rhs - self.block_product(B, grads, X)
         X[:, B.cols] = r * Minv if one else matvec(Minv, r)
+
+
+class _ClassifyState:
+    """Decides whether a block's equations are affine in its own unknowns (and whether their
+    whole gradient ignores them), by comparing gradients at a random state and at the same state
+    with only the block's unknowns moved: a generic test, the functions being analytic. The
+    random state's frame is computed once for all blocks."""
+
+    def __init__(self, S: "System"):
+        self.S = S
+        self.Q = S.ext(S.cm.q0 + noise(S.n, 10))
+        self.F = S.frame(self.Q)
+
+    def classify(self, B: Block) -> Block:
+        from dataclasses import replace
+        S = self.S
+        Q2 = self.Q.copy()
+        Q2[0, B.cols] += noise(len(B.cols), 20 + int(B.cols[0]))
+        c, s = self.F.c.copy(), self.F.s.copy()
+        if len(B.phis):
+            c[:, B.phis] = np.cos(Q2[:, 3 * B.phis + 2])
+            s[:, B.phis] = np.sin(Q2[:, 3 * B.phis + 2])
+        g1 = S.block_grads(B, self.F)
+        g2 = S.block_grads(B, Frame(Q2, c, s))
+        affine = bool(np.allclose(S.block_matrix(B, g1), S.block_matrix(B, g2),
+                                  rtol=1e-13, atol=1e-13))
+        fixed = affine and all(np.allclose(a, b, rtol=1e-13, atol=1e-13)
+                               for a, b in zip(S._rows_of(B, g1), S._rows_of(B, g2)))
+        return replace(B, affine=affine, fixed_grad=fixed)
 
 
 def _invert(J: np.ndarray, one: bool):
