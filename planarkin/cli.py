@@ -253,6 +253,8 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     errors in positions, velocities and accelerations (against a tight reference run)."""
     from .diagnostics import InputError
     from .tradeoff import run_tradeoff
+    if sys.platform.startswith("linux"):
+        _tune_malloc()
     report = Report(quiet)
     model = _load(model_path, report)
     if model is None:
