@@ -227,7 +227,7 @@ def bench_cli(steps, repeat, tb_us, out):
           f"planarkin --version: {ver:.3f} s)")
     print(f"  marginal cost per step            {marginal:8.3f} us/step   (CPU {marginal_cpu:.3f}"
           f" us/step): (run - fixed) / steps")
-    print(f"  planarkin's own split (summary.json of the last run): "
+    print("  planarkin's own split (summary.json of the last run): "
           + ", ".join(f"{k} {v:.3f} s" for k, v in wt.items()))
     print(f"  written: {rows} rows, {size / 1e6:.1f} MB of CSV; bodies.csv vs closed form: "
           f"{fmt_err(err)}{flag(err, 1e-9)}")

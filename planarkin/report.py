@@ -4,7 +4,6 @@ status decided here and nowhere else: 0 all ok, 1 an analysis failed, 2 invalid 
 
 from __future__ import annotations
 
-import sys
 
 import click
 

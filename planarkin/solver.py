@@ -356,15 +356,21 @@ class PathFollower:
             el = cm.element_of_row(bad[0])
             return Event("driver", t, f"{el.label}: f = {el.f.text} or its derivatives are not "
                                       f"finite just after t = {t:.10g}")
-        if S.n > DENSE_LIMIT:
-            b = int(np.argmax(1.0 / np.maximum(N.cond[k], 1e-300)))
-            return Event("failure", t, f"the path cannot be continued after t = {t:.10g} "
-                                       f"(condition estimate {N.cond[k]:.3g})", cond=N.cond[k])
         Q = S.ext(N.q[k][: S.n])
-        J = S.jacobian(Q)[0][S.rows]
+        if S.n > DENSE_LIMIT:
+            # too large for a dense SVD: classify within the worst-conditioned solve block
+            F = S.frame(Q)
+            mats = [S.block_matrix(B, S.block_grads(B, F))[0] for B in S.blocks]
+            b = int(np.argmin([np.linalg.svd(M, compute_uv=False)[-1] for M in mats]))
+            J = np.zeros((len(S.blocks[b].rows), S.n))
+            J[:, S.blocks[b].cols] = mats[b]
+            rows_of = S.blocks[b].rows
+        else:
+            J = S.jacobian(Q)[0][S.rows]
+            rows_of = S.rows
         nrm = np.linalg.norm(J, axis=1)
         Jn = J / np.where(nrm > 0, nrm, 1)[:, None]
-        U, sv, Vt = np.linalg.svd(Jn)
+        U, sv, Vt = np.linalg.svd(Jn, full_matrices=False)
         srel = sv[-1] / sv[0]
         cond = 1.0 / max(srel, 1e-300)
         if srel > 1e-4:
@@ -374,16 +380,16 @@ class PathFollower:
                          f"there (a kink or jump in a driver function?)", cond=cond)
         u = np.abs(U[:, -1])
         big = [i for i in np.argsort(-u) if u[i] >= 0.3 * u.max()]
-        rows = S.rows[np.array(big, dtype=np.intp)]
+        rows = rows_of[np.array(big, dtype=np.intp)]
         labels = list(dict.fromkeys(cm.element_of_row(r).label for r in rows))[:5]
         v = np.abs(Vt[-1])
         per_body = v.reshape(-1, 3).max(axis=1)
         bodies = [cm.body_names[b] for b in np.nonzero(per_body >= 0.3 * per_body.max())[0]]
-        kin = S.rows < cm.m_joint
+        kin = rows_of < cm.m_joint
         skrel = 1.0
         if kin.any():
             svk = np.linalg.svd(Jn[kin], compute_uv=False)
-            kmin = svk[min(kin.sum(), S.n) - 1] if len(svk) else 1.0
+            kmin = svk[min(int(kin.sum()), Jn.shape[1]) - 1] if len(svk) else 1.0
             skrel = kmin / svk[0]
         unit = "s"
         if skrel < 1e-4:
@@ -589,7 +595,7 @@ class Analysis:
             yield ch
 
     def _dense(self, t: np.ndarray) -> Chunk | None:
-        cm, opts = self.cm, self.opts
+        opts = self.opts
         Tn, Qn, Qdn, Qddn, Cn = self.Tn, self.Qn, self.Qdn, self.Qddn, self.Cn
         K = len(Tn)
         N = len(t)

@@ -16,7 +16,7 @@ All arrays are in internal units (length / L, radians, seconds).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

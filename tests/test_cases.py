@@ -6,7 +6,6 @@ lines fail). Regenerate after a deliberate wording change with
 `PLANARKIN_REGEN=1 python -m pytest tests/test_cases.py` and review the diff."""
 
 import os
-from pathlib import Path
 
 import pytest
 

@@ -14,7 +14,7 @@ model's characteristic length, angles in radians.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

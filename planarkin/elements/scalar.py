@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, omega
+from .base import Kind, Param, relative_point, relative_velocity, omega
 
 _POINTS = (
     Param("si", "point", "point on body i in its frame"),

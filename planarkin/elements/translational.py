@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Frame, Group, Kind, Param, empty, omega, relative_point, relative_velocity, rotate
+from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, rotate
 from .revolute import dir_to_body, to_body
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..elements import KINDS, Group
+from ..elements import KINDS
 from ..elements.base import group as make_group
 from .spec import ElementSpec, ModelSpec
 
