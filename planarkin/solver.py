@@ -8,11 +8,13 @@ Two passes, so that a coarse grid changes the cost and never the answer:
    both forward and backward within ``path_tol``, the correction is small against the
    Jacobian's smallest singular value (a Kantorovich-style radius: Newton cannot reach another
    root from there), and the sign of every diagonal block's determinant is unchanged (crossing
-   to another assembly branch flips it). Failing steps are subdivided. When steps shrink below
-   ``h_min`` the path has met a singular configuration, located to within h_min by this very
-   process (bisection in effect); it is classified from the singular vectors: lock-up of a driver
-   (toggle, dead centre) when the joints alone keep full rank, bifurcation (change point) when
-   they lose rank.
+   to another assembly branch flips it); poses whose condition estimate exceeds COND_SINGULAR
+   are not accepted (their accelerations would be meaningless). Failing steps are subdivided.
+   When steps shrink below ``h_min`` the path has met a singular configuration, approached by
+   this very process (bisection in effect); its time is extrapolated from sigma_min and it is
+   classified from the singular vectors: lock-up of a driver (toggle, dead centre) when the
+   joints alone keep full rank, bifurcation (change point) when they lose rank. A model with
+   consistent redundant constraints may first switch which rows it leaves out.
 2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
    quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
    velocity and acceleration systems are solved exactly. Every point is checked like a path step
