@@ -539,7 +539,6 @@ class Analysis:
     def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
         self.cm = cm
         self.A = A
-        self.S = A.system
         self.S_all = System(cm)
         self.opts = opts
         self.follower = PathFollower(cm, A, opts)
@@ -623,8 +622,9 @@ class Analysis:
         iters = np.zeros(N, dtype=np.int64)
         cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
         segs = self.seg[idx]
+        drivers = self.S_all.driver_values(t)          # shared by the solve and the residual
         if opts.interpolate:
-            return self._chunk(t, Q, Qd, Qdd, iters, cond, segs)
+            return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
         # keep their interpolated values: the Jacobian is singular somewhere in that interval
         solve = ~self.crossing[idx]
@@ -635,7 +635,7 @@ class Analysis:
             Qs, Qds, Qdds = (Q, Qd, Qdd) if whole else (Q[sel], Qd[sel], Qdd[sel])
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
-                order=opts.order)
+                order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers))
             ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
@@ -654,9 +654,10 @@ class Analysis:
                                        f"the branch followed so far")
                     keep = t < t[i]
                     return self._chunk(t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep],
-                                       cond[keep], segs[keep]) if keep.any() else None
+                                       cond[keep], segs[keep], drivers[0][keep]) \
+                        if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
-        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs)
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
@@ -674,11 +675,12 @@ class Analysis:
         n = f.nodes
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs) -> Chunk:
-        """Residual of every equation (redundant ones included) at the results, user units."""
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T) -> Chunk:
+        """Residual of every equation (redundant ones included) at the results, user units.
+        T: the equations' targets at t."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
-        R = np.abs(S_all.residual(Q, t)) if cm.m else np.zeros((len(t), 1))
+        R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
         residual = R.max(axis=1)
         if self.A.redundant_rows and self.event is None:
             # the rows left out of the solve must stay satisfied

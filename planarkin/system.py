@@ -61,8 +61,6 @@ class BatchInfo:
     """Per-point diagnostics of one `solve_batch` call (all arrays of length N)."""
 
     iterations: np.ndarray            # Newton iterations used (max over blocks)
-    first: np.ndarray                 # largest first Newton correction (internal units)
-    last: np.ndarray                  # largest last Newton correction
     converged: np.ndarray             # bool
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
     sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
@@ -108,10 +106,12 @@ class System:
         return T, NU, FDD
 
     # -- dense whole-system view -----------------------------------------------------------------
-    def residual(self, Q: np.ndarray, t) -> np.ndarray:
-        """Phi for all m rows: (N, m). Q extended (N, n + 3)."""
+    def residual(self, Q: np.ndarray, t, T: np.ndarray | None = None) -> np.ndarray:
+        """Phi for all m rows: (N, m). Q extended (N, n + 3); T: the targets at t when already
+        computed (driver_values), to skip evaluating the driver functions again."""
         F = self.frame(Q)
-        T, _, _ = self.driver_values(np.broadcast_to(t, (Q.shape[0],)))
+        if T is None:
+            T, _, _ = self.driver_values(np.broadcast_to(t, (Q.shape[0],)))
         out = np.empty((Q.shape[0], self.cm.m))
         for G in self.cm.groups:
             out[:, G.rows.ravel()] = G.g(F).reshape(Q.shape[0], -1)
@@ -291,25 +291,25 @@ class System:
         return self._gather(B, N, [p.group.gamma(F).reshape(N, -1) for p in B.parts])
 
     # -- the batched solver ----------------------------------------------------------------------
-    def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2):
+    def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
+                    drivers=None):
         """Positions, velocities and accelerations at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
         with the solution. policy: 'reuse' (Jacobian factored once, at the prediction), 'full'
         (refactored every iteration) or 'fixed' (exactly maxit iterations, reused Jacobian).
-        order: 0 positions only, 1 with velocities, 2 with accelerations.
+        order: 0 positions only, 1 with velocities, 2 with accelerations. drivers: the
+        (T, NU, FDD) of driver_values(t) when the caller already has them.
         Returns BatchInfo.
         """
         N = Q.shape[0]
         nblk = len(self.blocks)
-        T, NU, FDD = self.driver_values(t)
+        T, NU, FDD = self.driver_values(t) if drivers is None else drivers
         phi = Q[:, 2::3]
         c = np.cos(phi)
         s = np.sin(phi)
         F = Frame(Q, c, s)
         iters = np.zeros(N, dtype=np.int64)
-        first = np.zeros(N)
-        last = np.zeros(N)
         ratio = np.zeros(N)
         conv = np.ones(N, dtype=bool)
         sign = np.zeros((N, self.nfine))
@@ -338,7 +338,6 @@ class System:
                     size = np.abs(dx[:, 0]) if one else np.abs(dx).max(axis=1)
                     size[~np.isfinite(size)] = np.inf
                     if it == 0:
-                        first = np.maximum(first, size)
                         ratio = np.maximum(ratio, np.where(smin[:, b] > 0, size / smin[:, b],
                                                            np.inf))
                     iters = np.maximum(iters, it + 1)
@@ -351,7 +350,6 @@ class System:
                     conv &= size <= tol
                 else:
                     conv &= np.isfinite(size)
-                last = np.maximum(last, size)
                 if order < 1:
                     continue
                 # velocities and accelerations: the diagonal block at the converged positions,
@@ -366,7 +364,7 @@ class System:
                     continue
                 rhs = self.block_gamma(B, Frame(Q, c, s, Qd)) + FDD[:, B.rows]
                 self._direct(B, grads, Minv, one, rhs, Qdd)
-        return BatchInfo(iters, first, last, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
+        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
 
     def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:
         """Block rows of Phi_q x = rhs solved for the block's columns of X (in place), the other
