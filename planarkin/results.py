@@ -17,6 +17,7 @@ import numpy as np
 from .model.compile import CompiledModel
 from .output.summary import ColumnStats, StepStats, error_estimates, write_json
 from .output.tables import CsvWriter, Layout
+from .derived import derived_tables
 from .solver import Analysis, Chunk, Event, Options
 
 PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
@@ -91,28 +92,32 @@ class PlotBuffer:
 
 
 class TableSink:
-    """One CSV table with its column statistics, fed block by block."""
+    """One CSV table with its column statistics (and a room's accumulator), fed block by block."""
 
-    def __init__(self, path: Path, header: list[str]):
+    def __init__(self, path: Path, header: list[str], accumulator=None):
         self.csv = CsvWriter(path, header)
         self.stats = ColumnStats(header)
+        self.extra = accumulator() if accumulator is not None else None
         self.busy = 0.0
 
     def add(self, X: np.ndarray) -> None:
         t0 = time.perf_counter()
         self.csv.write(X)
         self.stats.add(X)
+        if self.extra is not None:
+            self.extra.add(X)
         self.busy += time.perf_counter() - t0
 
     def close(self):
+        """(column statistics, the accumulator's dict or None, seconds busy)"""
         self.csv.close()
-        return self.stats, self.busy
+        return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
 
 
-def _sink_process(path: Path, header: list[str], inbox, outbox) -> None:
+def _sink_process(path: Path, header: list[str], accumulator, inbox, outbox) -> None:
     """Body of a writer process: blocks of rows in, statistics out."""
     try:
-        sink = TableSink(path, header)
+        sink = TableSink(path, header, accumulator)
         while True:
             X = inbox.get()
             if X is None:
@@ -127,11 +132,11 @@ class ProcessSink:
     """A TableSink in a forked process: add() hands the block to a bounded queue and returns
     at once, so formatting runs in parallel with the solver."""
 
-    def __init__(self, ctx, path: Path, header: list[str]):
+    def __init__(self, ctx, path: Path, header: list[str], accumulator=None):
         self.inbox = ctx.Queue(maxsize=3)
         self.outbox = ctx.Queue()
         self.proc = ctx.Process(target=_sink_process, daemon=True,
-                                args=(path, header, self.inbox, self.outbox))
+                                args=(path, header, accumulator, self.inbox, self.outbox))
         self.proc.start()
 
     def add(self, X: np.ndarray) -> None:
@@ -179,38 +184,52 @@ class DirectoryWriter:
                 ctx = None
         self.background = ctx is not None
 
-        def sink(name, header):
+        def sink(name, header, accumulator=None):
             path = self.out / name
-            return ProcessSink(ctx, path, header) if ctx else TableSink(path, header)
+            return ProcessSink(ctx, path, header, accumulator) if ctx else \
+                TableSink(path, header, accumulator)
         self.bodies = sink("bodies.csv", self.layout.body_header)
         self.points = sink("points.csv", self.layout.point_header) \
             if self.layout.points else None
+        self.derived = derived_tables(cm, opts)
+        self.derived_sinks = [sink(d.filename, d.header, d.accumulator) for d in self.derived]
 
     def add(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
         self.bodies.add(self.layout.body_table(ch))
         if self.points is not None:
             self.points.add(self.layout.point_table(ch))
+        for d, s in zip(self.derived, self.derived_sinks):
+            s.add(d.compute(ch))
         self.steps.add(ch)
         if self.buffer is not None:
             self.buffer.add(ch)
         self.t_write += time.perf_counter() - t0
 
     def _close_tables(self):
-        body_stats, busy = self.bodies.close()
+        body_stats, _, busy = self.bodies.close()
         point_stats = None
         if self.points is not None:
-            point_stats, busy2 = self.points.close()
+            point_stats, _, busy2 = self.points.close()
             busy = max(busy, busy2) if self.background else busy + busy2
-        return body_stats, point_stats, busy
+        derived = []
+        for s in self.derived_sinks:
+            stats, extra, busy2 = s.close()
+            derived.append((stats, extra))
+            busy = max(busy, busy2) if self.background else busy + busy2
+        return body_stats, point_stats, derived, busy
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
         value) and the plots; returns the summary."""
-        body_stats, point_stats, busy = self._close_tables()
+        body_stats, point_stats, derived, busy = self._close_tables()
         wall = None if started is None else time.perf_counter() - started
         info.timings["write"] = busy
         summary = build_summary(self.cm, info, self.steps, body_stats, point_stats, wall)
+        for d, (stats, extra) in zip(self.derived, derived):
+            summary["columns"][d.filename] = stats.as_dict()
+            if d.section is not None and extra is not None:
+                summary[d.section] = extra
         if self.buffer is not None:
             data = self.buffer.chunk()
             if data is not None:
@@ -218,6 +237,9 @@ class DirectoryWriter:
                 files = []
                 if self.plots:
                     files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
+                    for d in self.derived:
+                        if d.plot is not None:
+                            files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
                 if self.animate:
                     files.append(plotting.write_animation(self.cm, data, self.out))
                 summary["plots"] = [f.name for f in files]
@@ -341,6 +363,18 @@ class Result:
             if arr is not None:
                 out[keys[0]], out[keys[1]] = arr[:, k, 0], arr[:, k, 1]
         return out
+
+    def table(self, filename: str) -> dict:
+        """Columns of a derived table (e.g. ``forces.csv``) by header name without the unit
+        (``{"t": ..., "crank-driver.torque": ...}``), computed from this result's arrays."""
+        for d in derived_tables(self.model, self.info.options):
+            if d.filename == filename:
+                X = d.compute(self._chunk)
+                return {h.split(" [", 1)[0]: X[:, k] for k, h in enumerate(d.header)}
+        from .diagnostics import did_you_mean
+        names = [d.filename for d in derived_tables(self.model, self.info.options)]
+        raise KeyError(f"this result has no table '{filename}'"
+                       f"{did_you_mean(filename, names) or ' (derived tables: ' + (', '.join(names) or 'none') + ')'}")
 
     def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out; returns the
