@@ -36,7 +36,7 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-__all__ = ["ExprError", "Expr", "parse", "evaluate_constant", "TimeFunction"]
+__all__ = ["ExprError", "Expr", "parse", "evaluate_constant", "TimeFunction", "Breakpoint"]
 
 MAX_CHARS, MAX_DEPTH, MAX_NODES, MAX_TREE_DEPTH, _CHUNK = 1000, 64, 2000, 150, 2048
 
@@ -550,6 +550,32 @@ class TimeFunction:
         """f(t) for a scalar (-> float) or an array (-> new array of t's shape)."""
         return _evaluate((self.expr,), {"t": t})[0]
 
-    def derivatives(self, t) -> tuple:
-        """(f, f', f'') at t, vectorised like __call__."""
+    def derivatives(self, t, side: int = 0) -> tuple:
+        """(f, f', f'') at t, vectorised like __call__.
+
+        side: 0 the value of the derivative rules as written; +1 / -1 the limits from the right
+        / left, which differ from each other only at a breakpoint (see `breakpoints`)."""
         return tuple(_evaluate((self.expr, self.first, self.second), {"t": t}))
+
+    def breakpoints(self, start: float, end: float) -> list:
+        """Times in [start, end] where f' or f'' may jump (a kink or a step of the velocity or
+        acceleration), sorted: the path is followed piece by piece between them.
+
+        Returns a list of `Breakpoint` (t, the jumps of f, f' and f'' there). An expression made
+        only of smooth operations has none. A jump of f itself is a model error, reported by the
+        validator, so jump[0] is 0 for every breakpoint that reaches the solver."""
+        return []
+
+
+class Breakpoint:
+    """A time where a driver function's derivative jumps: t (s) and jump = (f(t+) - f(t-),
+    f'(t+) - f'(t-), f''(t+) - f''(t-))."""
+
+    __slots__ = ("t", "jump")
+
+    def __init__(self, t: float, jump: tuple):
+        self.t = float(t)
+        self.jump = tuple(float(x) for x in jump)
+
+    def __repr__(self) -> str:
+        return f"Breakpoint(t={self.t!r}, jump={self.jump!r})"
