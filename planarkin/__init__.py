@@ -36,13 +36,15 @@ def load(path, text: str | None = None):
 
 def solve(model, **options):
     """Analyse a model (a path or the result of load). Options override the model's analysis:
-    block: start, end, steps, tol, newton ('reuse'|'full'|'fixed'), iterations, path_tol,
-    max_step, interpolate, bifurcation ('stop'|'continue'), order (0, 1, 2).
-    Returns a planarkin.results.Result; invalid models raise InputError."""
+    block, with the names and rules of the command line (planarkin.options.OPTIONS): start,
+    end, steps, tol, newton ('reuse'|'full'|'fixed'), iterations, path_tol, max_step,
+    interpolate, bifurcation ('stop'|'continue'), up_to ('position'|'velocity'|'acceleration'),
+    max_rows, max_nodes. Returns a planarkin.results.Result (status 0 ok, 1 analysis failure);
+    invalid models and invalid or unknown options raise InputError."""
+    from .options import resolve
     from .results import analyse
-    from .solver import Options
     if not hasattr(model, "spec"):
         model = load(model)
-    opts = Options.from_model(model, **options)
+    opts = resolve(model, options, source="api")
     _, result = analyse(model, opts)
     return result

@@ -151,9 +151,13 @@ def _bodies_of(cm: CompiledModel, vec: np.ndarray, frac: float = 0.3) -> list[st
     return [cm.body_names[i] for i in idx]
 
 
-def assemble(cm: CompiledModel) -> Assembly:
-    """Assemble the model at t = start and check its degrees of freedom; raise InputError when it
-    cannot be analysed."""
+def assemble(cm: CompiledModel, start: float | None = None) -> Assembly:
+    """Assemble the model at t = start (default: its analysis: start; a run whose start is set
+    on the command line or in the API assembles there) and check its degrees of freedom; raise
+    InputError when it cannot be analysed."""
+    if start is not None and start != cm.spec.analysis.start:
+        from dataclasses import replace
+        cm = replace(cm, spec=replace(cm.spec, analysis=replace(cm.spec.analysis, start=start)))
     with np.errstate(all="ignore"):
         return _assemble(cm)
 

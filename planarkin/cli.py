@@ -36,9 +36,6 @@ def _tune_malloc() -> None:
     mallopt(M_MMAP_THRESHOLD, 1 << 30)
     mallopt(M_TRIM_THRESHOLD, 1 << 30)
 
-NEWTON = ("reuse", "full", "fixed")
-BIFURCATION = ("stop", "continue")
-ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 
 
 def _load(path: str, report: Report):
@@ -58,25 +55,6 @@ def _load(path: str, report: Report):
     return None
 
 
-def _out_dirs(models: tuple[str, ...], out: Path) -> dict[str, Path]:
-    """DIR/<file stem>/ per model; a repeated stem gets -2, -3 ..."""
-    seen: dict[str, int] = {}
-    dirs = {}
-    for m in models:
-        stem = Path(m).stem
-        seen[stem] = seen.get(stem, 0) + 1
-        dirs[m] = out / (stem if seen[stem] == 1 else f"{stem}-{seen[stem]}")
-    return dirs
-
-
-def _options(model, **cli):
-    from .solver import Options
-    order = cli.pop("up_to", None)
-    if order is not None:
-        cli["order"] = ORDERS[order]
-    return Options.from_model(model, **cli)
-
-
 class _Progress:
     """A progress bar on stderr for long runs, only when stderr is a terminal."""
 
@@ -93,6 +71,7 @@ class _Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
+            self.bar = None
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -105,30 +84,42 @@ def main():
     """
 
 
+class _OptionType(click.ParamType):
+    """A command-line value checked by the rules of planarkin.options (the same rules and words
+    as the YAML and the API)."""
+
+    def __init__(self, opt):
+        self.opt = opt
+        self.name = {"int": "integer", "float": "number"}.get(opt.kind, opt.kind)
+
+    def convert(self, value, param, ctx):
+        if not isinstance(value, str):
+            return value
+        try:
+            x = int(value) if self.opt.kind == "int" and value.strip().lstrip("+-").isdigit() \
+                else float(value)
+        except ValueError:
+            self.fail(f"must be {self.opt.rule()}, not {value!r}", param, ctx)
+        v, msg = self.opt.check(x)
+        if msg is not None:
+            self.fail(msg, param, ctx)
+        return v
+
+
 def _analysis_options(f):
-    opts = [
-        click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals (rows - 1)."),
-        click.option("--end", type=float, help="End time, s."),
-        click.option("--tol", type=click.FloatRange(1e-15, 0.1),
-                     help="Newton tolerance: size of the last correction relative to the model's "
-                          "length (default 1e-10)."),
-        click.option("--newton", type=click.Choice(NEWTON),
-                     help="Iteration policy: reuse (one Jacobian per point), full (new Jacobian "
-                          "every iteration), fixed (exactly --iterations iterations)."),
-        click.option("--iterations", type=click.IntRange(1, 100),
-                     help="Maximum (or, with --newton fixed, exact) Newton iterations."),
-        click.option("--path-tol", type=click.FloatRange(1e-12, 0.1),
-                     help="Predictor error allowed between internal path nodes (default 1e-4)."),
-        click.option("--max-step", type=click.FloatRange(min=0, min_open=True),
-                     help="Largest internal step, s."),
-        click.option("--interpolate/--no-interpolate", default=None,
-                     help="P/V/A on the grid by quintic Hermite interpolation of the exact "
-                          "internal nodes instead of a Newton solve at every grid point."),
-        click.option("--bifurcation", type=click.Choice(BIFURCATION),
-                     help="At a bifurcation: stop (default) or continue on the smooth branch."),
-        click.option("--up-to", type=click.Choice(tuple(ORDERS)),
-                     help="Compute and write up to this derivative (default acceleration)."),
-    ]
+    """One click option per analysis option of planarkin.options, in its order."""
+    from .options import OPTIONS
+    opts = []
+    for o in OPTIONS.values():
+        if o.kind == "bool":
+            opts.append(click.option(f"{o.flag}/--no-{o.flag[2:]}", o.name, default=None,
+                                     help=o.doc[0].upper() + o.doc[1:] + "."))
+        elif o.kind == "choice":
+            opts.append(click.option(o.flag, o.name, type=click.Choice(o.choices),
+                                     help=o.doc[0].upper() + o.doc[1:] + "."))
+        else:
+            opts.append(click.option(o.flag, o.name, type=_OptionType(o),
+                                     help=f"{o.doc[0].upper() + o.doc[1:]} ({o.rule()})."))
     for o in reversed(opts):
         f = o(f)
     return f
@@ -146,50 +137,92 @@ def _analysis_options(f):
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 def run(models, out, no_plots, fmt, animate, quiet, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
+    from .output.directory import Interrupted, check_writable, interruptible, out_dirs
     if sys.platform.startswith("linux"):
         _tune_malloc()
+    problem = check_writable(Path(out))
+    if problem is not None:
+        raise click.BadParameter(problem, param_hint="'--out'")
     report = Report(quiet)
-    dirs = _out_dirs(models, Path(out))
-    for path in models:
-        model = _load(path, report)
-        if model is None:
-            continue
-        _run_one(path, model, dirs[path], report, dict(analysis),
-                 None if no_plots else fmt, animate)
+    with interruptible():
+        try:
+            for path, outdir in zip(models, out_dirs(models, Path(out))):
+                model = _load(path, report)
+                if model is not None:
+                    _run_one(path, model, outdir, report, dict(analysis),
+                             None if no_plots else fmt, animate)
+        except (KeyboardInterrupt, Interrupted) as e:
+            if report.signal is None:        # stopped before a model had its directory
+                report.interrupted(None, _signame(e), "nothing more was written")
     report.summary()
     sys.exit(report.exit_code)
 
 
+def _signame(e: BaseException) -> str:
+    return "SIGINT" if isinstance(e, KeyboardInterrupt) else "SIGTERM"
+
+
 def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate):
-    from .diagnostics import InputError
-    from .results import DirectoryWriter, analyse
+    """One model: options, preparation, then the directory. Invalid input (options, budget,
+    assembly, a busy or foreign directory) is reported before anything is written; an
+    interruption keeps the complete rows (status interrupted) and is raised again to stop the
+    batch."""
+    from .diagnostics import Diagnostic, InputError
+    from .options import resolve
+    from .output.directory import Interrupted, OutputError, WriteError
+    from .results import DirectoryWriter, prepare, run_info, stream
     t0 = time.perf_counter()
     try:
-        opts = _options(model, **analysis)
-        if opts.end <= opts.start:
-            from .diagnostics import Diagnostic
-            report.invalid(path, [Diagnostic(path, model.spec.analysis.lines.get(
-                "end", model.spec.analysis.line) or None,
-                f"analysis: end ({opts.end:g}) must be greater than start ({opts.start:g})")])
-            return
-        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
-                                 background=True)
-        progress = _Progress(opts.steps + 1, Path(path).name)
-        try:
-            info, _ = analyse(model, opts, sink=writer, progress=progress)
-        finally:
-            progress.close()
+        opts = resolve(model, analysis, source="cli")
+        an = prepare(model, opts)
     except InputError as e:
         report.invalid(path, e.diagnostics)
         return
+    except (KeyboardInterrupt, Interrupted):
+        raise
     except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
         report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
                             f"(please report)")
         return
-    report.diagnostics(info.diagnostics)
-    for w in info.warnings:
-        report.warning(path, w.message)
-    summary = writer.finish(info, started=t0)
+    try:
+        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
+                                 background=True)
+    except OutputError as e:
+        report.invalid(path, [Diagnostic(path, None, str(e))])
+        return
+    progress = _Progress(opts.steps + 1, Path(path).name)
+    try:
+        info, _ = stream(an, sink=writer, progress=progress)
+        progress.close()
+        report.diagnostics(info.diagnostics)
+        for w in info.warnings:
+            report.warning(path, w.message)
+        summary = writer.finish(info, started=t0)
+    except WriteError as e:
+        report.failed(path, f"{e}; {outdir}/ is left as it was")
+        return
+    except (KeyboardInterrupt, Interrupted) as e:
+        progress.close()
+        if not writer.committed:        # else: interrupted while plotting, already in place
+            info = run_info(an)
+            info.interrupted = _signame(e)
+            try:
+                writer.finish(info, started=t0)
+            except WriteError as w:
+                report.interrupted(path, _signame(e), f"{w}; {outdir}/ is left as it was")
+                raise e from None
+        rows = writer.rows
+        report.interrupted(path, _signame(e),
+                           f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
+                           f"{outdir}/" if rows else f"no rows -> {outdir}/")
+        raise
+    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
+        writer.abort()
+        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
+                            f"(please report); {outdir}/ is left as it was")
+        return
+    finally:
+        progress.close()
     rows = summary["time"]["rows_written"]
     detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
               f"{summary['residual']['max']:.1e}, {time.perf_counter() - t0:.2f} s -> {outdir}/")
@@ -243,7 +276,8 @@ def check(models, quiet):
 @click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Output directory; writes DIR/<file stem>/tradeoff.csv and tradeoff.png.")
-@click.option("--steps", type=click.IntRange(1, 10**8), help="Grid intervals for every setting.")
+@click.option("--steps", type=click.IntRange(1, 10**8),
+              help="Grid intervals for every setting (default: the model's, at least 20000).")
 @click.option("--repeats", type=click.IntRange(1, 100), default=3, show_default=True,
               help="Runs per setting; the best time counts.")
 @click.option("--no-plots", is_flag=True, help="Skip tradeoff.png.")
@@ -259,11 +293,18 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     model = _load(model_path, report)
     if model is None:
         sys.exit(report.exit_code)
-    outdir = Path(out) / Path(model_path).stem
+    from .options import resolve
+    from .output.directory import out_dirs
+    from .tradeoff import ReferenceFailed
+    outdir = out_dirs([model_path], Path(out))[0]
     try:
-        table = run_tradeoff(model, outdir, steps=steps, plot=not no_plots, repeats=repeats)
+        base = resolve(model, {"steps": steps}, source="cli")
+        table = run_tradeoff(model, outdir, base, plot=not no_plots, repeats=repeats)
     except InputError as e:
         report.invalid(model_path, e.diagnostics)
+        sys.exit(report.exit_code)
+    except ReferenceFailed as e:
+        report.failed(model_path, str(e))
         sys.exit(report.exit_code)
     click.echo(table)
     report.ok(model_path, f"-> {outdir}/tradeoff.csv")

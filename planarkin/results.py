@@ -15,8 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from .model.compile import CompiledModel
+from .output.directory import (Interrupted, ProcessSink, ResultDirectory, TableSink,
+                               fork_context, held_signals)
 from .output.summary import ColumnStats, StepStats, error_estimates, write_json
-from .output.tables import CsvWriter, Layout
+from .output.tables import Layout
 from .derived import derived_tables
 from .solver import Analysis, Chunk, Event, Options
 
@@ -38,6 +40,7 @@ class RunInfo:
     fallbacks: int
     timings: dict = field(default_factory=dict)
     diagnostics: list = field(default_factory=list)   # assembly warnings (FILE:LINE: warning)
+    interrupted: str | None = None   # 'SIGINT' / 'SIGTERM': the rows up to then are complete
 
     @property
     def success(self) -> bool:
@@ -91,160 +94,157 @@ class PlotBuffer:
         return _concat(parts) if parts else None
 
 
-class TableSink:
-    """One CSV table with its column statistics (and a room's accumulator), fed block by block."""
-
-    def __init__(self, path: Path, header: list[str], accumulator=None):
-        self.csv = CsvWriter(path, header)
-        self.stats = ColumnStats(header)
-        self.extra = accumulator() if accumulator is not None else None
-        self.busy = 0.0
-
-    def add(self, X: np.ndarray) -> None:
-        t0 = time.perf_counter()
-        self.csv.write(X)
-        self.stats.add(X)
-        if self.extra is not None:
-            self.extra.add(X)
-        self.busy += time.perf_counter() - t0
-
-    def close(self):
-        """(column statistics, the accumulator's dict or None, seconds busy)"""
-        self.csv.close()
-        return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
-
-
-def _sink_process(path: Path, header: list[str], accumulator, inbox, outbox) -> None:
-    """Body of a writer process: blocks of rows in, statistics out."""
-    try:
-        sink = TableSink(path, header, accumulator)
-        while True:
-            X = inbox.get()
-            if X is None:
-                break
-            sink.add(X)
-        outbox.put(("ok", sink.close()))
-    except BaseException as e:  # noqa: BLE001 - reported by the parent
-        outbox.put(("error", f"{type(e).__name__}: {e}"))
-
-
-class ProcessSink:
-    """A TableSink in a forked process: add() hands the block to a bounded queue and returns
-    at once, so formatting runs in parallel with the solver."""
-
-    def __init__(self, ctx, path: Path, header: list[str], accumulator=None):
-        self.inbox = ctx.Queue(maxsize=3)
-        self.outbox = ctx.Queue()
-        self.proc = ctx.Process(target=_sink_process, daemon=True,
-                                args=(path, header, accumulator, self.inbox, self.outbox))
-        self.proc.start()
-
-    def add(self, X: np.ndarray) -> None:
-        self.inbox.put(X)
-
-    def close(self):
-        self.inbox.put(None)
-        status, payload = self.outbox.get()
-        self.proc.join()
-        if status != "ok":
-            raise RuntimeError(f"writing a table failed: {payload}")
-        return payload
-
-
 class DirectoryWriter:
-    """Streams chunks into DIR/bodies.csv and DIR/points.csv, and writes summary.json and the
-    plots at the end.
+    """Streams chunks into the tables of one result directory (bodies.csv, points.csv and the
+    derived tables), then writes summary.json and the plots and puts the directory in place
+    (the output contract: planarkin.output.directory).
 
     With background=True (where fork exists), each table is formatted and written by its own
     forked process while this one solves the next chunk: CSV formatting costs about as much per
     step as solving, so on two cores the writing hides behind the solve. Threads would not help:
-    both sides spend much of their time in the interpreter, under the GIL. Blocks travel through
-    bounded queues (a few chunks in flight) and each table is written in order by one process,
-    so the files are identical either way.
+    both sides spend much of their time in the interpreter, under the GIL. Every table gets the
+    same blocks in the same order, so the files are identical either way, and stop at the same
+    row whenever the run stops. Raises OutputError (busy, not ours, not writable); add() and
+    finish() raise WriteError (disk full ...) after abandoning the new directory.
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
                  animate: bool = False, background: bool = False):
         self.cm = cm
-        self.out = Path(out)
-        self.out.mkdir(parents=True, exist_ok=True)
-        spec = cm.spec.output
-        self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
-        self.steps = StepStats()
-        self.plots = plots
-        self.animate = animate
-        self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
-        self.t_write = 0.0
-        ctx = None
-        if background:
-            import multiprocessing as mp
-            try:
-                ctx = mp.get_context("fork")
-            except ValueError:      # no fork on this platform: write in this process
-                ctx = None
-        self.background = ctx is not None
+        self.final = Path(out)
+        self.dir = ResultDirectory(self.final)
+        self.out = self.dir.tmp            # files are written here until commit()
+        self.sinks: dict = {}
+        self.rows = 0
+        self.committed = False             # the directory is in place
+        try:
+            spec = cm.spec.output
+            self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
+            self.steps = StepStats()
+            self.plots = plots
+            self.animate = animate
+            self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
+            self.t_write = 0.0
+            ctx = fork_context() if background else None
+            self.background = ctx is not None
 
-        def sink(name, header, accumulator=None):
-            path = self.out / name
-            return ProcessSink(ctx, path, header, accumulator) if ctx else \
-                TableSink(path, header, accumulator)
-        self.bodies = sink("bodies.csv", self.layout.body_header)
-        self.points = sink("points.csv", self.layout.point_header) \
-            if self.layout.points else None
-        self.derived = derived_tables(cm, opts)
-        self.derived_sinks = [sink(d.filename, d.header, d.accumulator) for d in self.derived]
+            def sink(name, header, accumulator=None):
+                path = self.out / name
+                self.sinks[name] = ProcessSink(ctx, path, header, accumulator) if ctx else \
+                    TableSink(path, header, accumulator)
+            sink("bodies.csv", self.layout.body_header)
+            if self.layout.points:
+                sink("points.csv", self.layout.point_header)
+            self.derived = derived_tables(cm, opts)
+            for d in self.derived:
+                sink(d.filename, d.header, d.accumulator)
+        except BaseException:
+            self.abort()
+            raise
+
+    def _tables(self, ch: Chunk) -> list:
+        out = [self.layout.body_table(ch)]
+        if self.layout.points:
+            out.append(self.layout.point_table(ch))
+        return out + [d.compute(ch) for d in self.derived]
 
     def add(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
-        self.bodies.add(self.layout.body_table(ch))
-        if self.points is not None:
-            self.points.add(self.layout.point_table(ch))
-        for d, s in zip(self.derived, self.derived_sinks):
-            s.add(d.compute(ch))
-        self.steps.add(ch)
-        if self.buffer is not None:
-            self.buffer.add(ch)
+        tables = self._tables(ch)          # all computed before any is sent: equal rows
+        with held_signals():               # an interruption waits until every table has them
+            try:
+                for s, X in zip(self.sinks.values(), tables):
+                    s.add(X)
+            except Exception:
+                self.abort()
+                raise
+            self.rows += len(ch.t)
+            self.steps.add(ch)
+            if self.buffer is not None:
+                self.buffer.add(ch)
         self.t_write += time.perf_counter() - t0
 
     def _close_tables(self):
-        body_stats, _, busy = self.bodies.close()
-        point_stats = None
-        if self.points is not None:
-            point_stats, _, busy2 = self.points.close()
-            busy = max(busy, busy2) if self.background else busy + busy2
-        derived = []
-        for s in self.derived_sinks:
-            stats, extra, busy2 = s.close()
-            derived.append((stats, extra))
-            busy = max(busy, busy2) if self.background else busy + busy2
-        return body_stats, point_stats, derived, busy
+        closed, busy = {}, 0.0
+        for name, s in self.sinks.items():
+            stats, extra, b = s.close()
+            closed[name] = (stats, extra)
+            busy = max(busy, b) if self.background else busy + b
+        return closed, busy
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
-        value) and the plots; returns the summary."""
-        body_stats, point_stats, derived, busy = self._close_tables()
-        wall = None if started is None else time.perf_counter() - started
-        info.timings["write"] = busy
-        summary = build_summary(self.cm, info, self.steps, body_stats, point_stats, wall)
-        for d, (stats, extra) in zip(self.derived, derived):
-            summary["columns"][d.filename] = stats.as_dict()
-            if d.section is not None and extra is not None:
-                summary[d.section] = extra
-        if self.buffer is not None:
-            data = self.buffer.chunk()
-            if data is not None:
-                from .output import plots as plotting   # matplotlib only when plotting
-                files = []
-                if self.plots:
-                    files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
-                    for d in self.derived:
-                        if d.plot is not None:
-                            files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
-                if self.animate:
-                    files.append(plotting.write_animation(self.cm, data, self.out))
-                summary["plots"] = [f.name for f in files]
-        write_json(self.out / "summary.json", summary)
+        value) and the plots, and put the directory in place; returns the summary. An
+        interruption while plotting keeps the complete tables (status interrupted) and is
+        raised again once the directory is in place."""
+        pending = None
+        try:
+            with held_signals():
+                closed, busy = self._close_tables()
+            wall = None if started is None else time.perf_counter() - started
+            info.timings["write"] = busy
+            summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
+                                    closed.get("points.csv", (None,))[0], wall)
+            for d in self.derived:
+                stats, extra = closed[d.filename]
+                summary["columns"][d.filename] = stats.as_dict()
+                if d.section is not None and extra is not None:
+                    summary[d.section] = extra
+            files = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
+                     for name in self.sinks}
+            plots: list = []
+            if self.buffer is not None and info.interrupted is None:
+                try:
+                    plots = self._plots(info)
+                except (KeyboardInterrupt, Interrupted) as e:
+                    pending = e
+                    info.interrupted = _signal_name(e)
+                    summary.update(_interrupted_status(info, "while plotting: the tables are "
+                                                             "complete, some plots are missing"))
+            summary["files"] = files
+            summary["plots"] = [f.name for f in plots if f.exists()]
+            with held_signals():
+                write_json(self.out / "summary.json", summary)
+                self.dir.commit()
+                self.committed = True
+        except BaseException:
+            self.abort()
+            raise
+        if pending is not None:
+            raise pending
         return summary
+
+    def _plots(self, info: RunInfo) -> list:
+        data = self.buffer.chunk()
+        if data is None:
+            return []
+        from .output import plots as plotting   # matplotlib only when plotting
+        files = []
+        if self.plots:
+            files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
+            for d in self.derived:
+                if d.plot is not None:
+                    files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
+        if self.animate:
+            files.append(plotting.write_animation(self.cm, data, self.out))
+        return files
+
+    def abort(self) -> None:
+        """Stop every writer and remove the new files; the previous directory stays."""
+        with held_signals():
+            for s in self.sinks.values():
+                s.kill()
+            self.dir.abandon()
+
+
+def _signal_name(e: BaseException) -> str:
+    return "SIGTERM" if isinstance(e, Interrupted) else "SIGINT"
+
+
+def _interrupted_status(info: RunInfo, how: str) -> dict:
+    code = 143 if info.interrupted == "SIGTERM" else 130
+    return {"status": "interrupted", "exit_code": code,
+            "message": f"interrupted by {info.interrupted} {how}"}
 
 
 def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats: ColumnStats,
@@ -260,6 +260,9 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "status": "ok" if info.status == 0 else "failed",
         "exit_code": info.status,
         "message": info.message,
+        **(_interrupted_status(info, f"at t = {steps.t_last:.10g} s (the rows up to then are "
+                                     f"complete)" if steps.rows else "before any row was "
+                                     "written") if info.interrupted else {}),
         "units": {"length": spec.length_unit, "angle": spec.angle_unit, "time": "s"},
         "time": {"start": o.start, "end": o.end, "steps": o.steps, "rows_planned": grid_rows,
                  "rows_written": steps.rows,
@@ -346,7 +349,7 @@ class Result:
 
     def body(self, name: str) -> dict:
         """Columns of one body: x, y, phi, vx, vy, omega, ax, ay, alpha (user units)."""
-        b = self.model.body_names.index(name)
+        b = _index(self.model.body_names, name, "body")
         out = {}
         for arr, keys in ((self.q, ("x", "y", "phi")), (self.qd, ("vx", "vy", "omega")),
                           (self.qdd, ("ax", "ay", "alpha"))):
@@ -357,7 +360,7 @@ class Result:
 
     def point(self, name: str) -> dict:
         """Columns of one point: x, y, vx, vy, ax, ay (user units)."""
-        k = self.model.point_names.index(name)
+        k = _index(self.model.point_names, name, "point")
         out = {}
         for arr, keys in ((self.p, ("x", "y")), (self.pd, ("vx", "vy")), (self.pdd, ("ax", "ay"))):
             if arr is not None:
@@ -377,10 +380,17 @@ class Result:
                        f"{did_you_mean(filename, names) or ' (derived tables: ' + (', '.join(names) or 'none') + ')'}")
 
     def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
-        """Write bodies.csv, points.csv, summary.json (and plots) into directory out; returns the
-        summary."""
-        w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
-                            animate=animate)
+        """Write bodies.csv, points.csv, summary.json (and plots) into directory out, under the
+        same output contract as `planarkin run` (raises planarkin.InputError when out is
+        being written by another run, is not a planarkin result directory, or cannot be
+        written); returns the summary."""
+        from .diagnostics import Diagnostic, InputError
+        from .output.directory import OutputError
+        try:
+            w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
+                                animate=animate)
+        except OutputError as e:
+            raise InputError([Diagnostic(self.model.spec.file, None, f"write(): {e}")]) from None
         w.add(self._chunk)
         return w.finish(self.info)
 
@@ -389,28 +399,111 @@ class Result:
                 f"{len(self.t)} rows, {self.message}>")
 
 
-def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
-    """Run an analysis: assembly (raises InputError), path, dense chunks into sink (an object
-    with add(chunk)) or into a Result. Returns (info, result or None)."""
+def _index(names, name: str, what: str) -> int:
+    """Position of name in names; an unknown name raises KeyError with a suggestion."""
+    try:
+        return list(names).index(name)
+    except ValueError:
+        from .diagnostics import did_you_mean
+        hint = did_you_mean(name, names) or f" ({what} names: {', '.join(names) or 'none'})"
+        raise KeyError(f"no {what} '{name}' in this model{hint}") from None
+
+
+def prepare(cm: CompiledModel, opts: Options) -> Analysis:
+    """Everything before the first row: the budget check, assembly and path following.
+    Invalid input (the budget, a model that cannot be assembled) raises InputError, so nothing
+    has been written yet when it does."""
     from .assembly import assemble
+    from .budget import preflight
+    from .diagnostics import Diagnostic, InputError
+    reason = preflight(cm, opts)
+    if reason is not None:
+        row = next((r for r in cm.driver_rows if reason.startswith(cm.row_label[r])), None)
+        line = cm.element_of_row(int(row)).line if row is not None else None
+        raise InputError([Diagnostic(cm.spec.file, line, reason)])
     t0 = time.perf_counter()
-    A = assemble(cm)
-    t1 = time.perf_counter()
+    A = assemble(cm, opts.start)
     an = Analysis(cm, A, opts)
-    an.timings["assembly"] = t1 - t0
+    an.timings["assembly"] = time.perf_counter() - t0
     an.follow()
+    return an
+
+
+def stream(an: Analysis, sink=None, progress=None):
+    """The grid pass: checked chunks into sink (an object with add(chunk)) or into a Result.
+    Returns (info, result or None)."""
     parts = []
     t2 = time.perf_counter()
     for ch in an.chunks():
-        if sink is not None:
-            sink.add(ch)
-        else:
-            parts.append(ch)
-        if progress is not None:
-            progress(len(ch.t))
+        ch = refuse(an, ch)
+        if len(ch.t):
+            if sink is not None:
+                sink.add(ch)
+            else:
+                parts.append(ch)
+            if progress is not None:
+                progress(len(ch.t))
+        if an.event is not None and an.event.kind in REFUSALS:
+            break
     an.timings["grid"] = time.perf_counter() - t2
     if sink is not None and not getattr(sink, "background", False):
         an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this process
     info = run_info(an)
-    result = None if sink is not None else Result(cm, _concat(parts) if parts else None, info)
+    result = None if sink is not None else Result(an.cm, _concat(parts) if parts else None, info)
     return info, result
+
+
+def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
+    """Run an analysis: prepare (raises InputError), then the grid pass into sink or a Result.
+    Returns (info, result or None)."""
+    return stream(prepare(cm, opts), sink, progress)
+
+
+REFUSALS = ("non-finite", "residual")
+
+
+def residual_limit(opts: Options) -> float:
+    """Largest constraint residual a written row may have (relative to the model's length):
+    ten times the Newton tolerance, or the path tolerance when the rows are interpolated."""
+    return 10 * max(opts.tol, opts.path_tol if opts.interpolate else 0.0)
+
+
+def refuse(an: Analysis, ch: Chunk) -> Chunk:
+    """Results are refused rather than written when they are not what they claim: the chunk is
+    cut before the first row with a non-finite time or value, or a residual above
+    residual_limit, and the run stops there (an event of kind 'non-finite' or 'residual')."""
+    arrays = [a for a in (ch.q, ch.qd, ch.qdd) if a is not None]
+    bad = ~np.isfinite(ch.t) | ~np.isfinite(ch.residual)
+    for a in arrays:
+        bad |= ~np.isfinite(a).all(axis=1)
+    for a in (ch.p, ch.pd, ch.pdd):
+        if a is not None and a.size:
+            bad |= ~np.isfinite(a).all(axis=(1, 2))
+    limit = residual_limit(an.opts)
+    high = np.isfinite(ch.residual) & (ch.residual > limit)
+    stop = bad | high
+    if not stop.any():
+        return ch
+    i = int(np.argmax(stop))
+    t = float(ch.t[i])
+    cm = an.cm
+    if bad[i]:
+        cols = []
+        layout = Layout(cm, an.opts.order)
+        row = layout.body_table(_take(ch, np.array([i])))[0]
+        cols = [h for h, v in zip(layout.body_header, row) if not np.isfinite(v)]
+        if not cols:
+            cols = ["a point's coordinates" if np.isfinite(ch.residual[i]) else "the residual"]
+        shown = ", ".join(cols[:4]) + (f" and {len(cols) - 4} more" if len(cols) > 4 else "")
+        msg = (f"non-finite results at t = {t:.10g} s ({shown}): a driver's velocity or "
+               f"acceleration does not exist there (a kink, a step, a square root at 0?) or the "
+               f"numbers overflowed; rows are written up to the one before")
+        kind = "non-finite"
+    else:
+        msg = (f"the constraint residual {ch.residual[i]:.3g} at t = {t:.10g} s is above the "
+               f"limit {limit:.3g} (10 x tol, relative to the model's size): that row would not "
+               f"be a solution; rows are written up to the one before")
+        kind = "residual"
+    an.event = Event(kind, t, msg)
+    an.t_stop = t
+    return _take(ch, np.arange(i))

@@ -33,7 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .assembly import DENSE_LIMIT, Assembly
+from .budget import node_limit
 from .model.compile import CompiledModel
+from .options import Options
 from .system import System
 
 KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
@@ -43,44 +45,12 @@ KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma
 COND_SINGULAR = 1e6
 COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
-MAX_NODES = 500_000
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
     the N = 1000 four-bar chain spend 8 s in LAPACK, 12-blocks keep both costs small)."""
     return n if n <= 64 else 12
-
-
-@dataclass(frozen=True)
-class Options:
-    """Resolved analysis settings (model's analysis: block, overridden by CLI options)."""
-
-    start: float
-    end: float
-    steps: int
-    tol: float = 1e-10
-    newton: str = "reuse"
-    iterations: int = 8
-    path_tol: float = 1e-4
-    max_step: float | None = None
-    interpolate: bool = False
-    bifurcation: str = "stop"
-    order: int = 2
-    chunk: int = 8192
-
-    @classmethod
-    def from_model(cls, cm: CompiledModel, **overrides) -> "Options":
-        a = cm.spec.analysis
-        vals = dict(start=a.start, end=a.end, steps=a.steps, tol=a.tol, newton=a.newton,
-                    iterations=a.iterations, path_tol=a.path_tol, max_step=a.max_step,
-                    interpolate=a.interpolate, bifurcation=a.bifurcation, order=cm.spec.output.order)
-        vals.update({k: v for k, v in overrides.items() if v is not None})
-        return cls(**vals)
-
-    @property
-    def grid(self) -> np.ndarray:
-        return np.linspace(self.start, self.end, self.steps + 1)
 
 
 @dataclass
@@ -194,6 +164,7 @@ class PathFollower:
         self.h_min = 1e-11 * max(span, 1e-300)
         self.h_max = min(span, opts.max_step or span) 
         self.nodes = Nodes()
+        self.max_nodes = node_limit(cm, opts)
         self.rejected = 0
         self.evaluations = 0
         self.warnings: list[Event] = []
@@ -270,11 +241,12 @@ class PathFollower:
                 grow = 4.0 if err[j] == 0 else min(4.0, max(0.3, 0.8 * (self.opts.path_tol
                                                                           / err[j]) ** 0.25))
                 h = min(hj * grow, self.h_max) if hj < remaining else max(h, hj)
-                if len(N) > MAX_NODES:
-                    return self._stop(Event("failure", N.t[-1],
-                                            f"more than {MAX_NODES} internal steps before t = "
-                                            f"{N.t[-1]:.6g}: the motion is too fast for the time "
-                                            f"range (raise path_tol?)"))
+                if len(N) > self.max_nodes:
+                    return self._stop(Event("budget", N.t[-1],
+                                            f"more than {self.max_nodes} internal steps before "
+                                            f"t = {N.t[-1]:.6g}: the motion is too fast for the "
+                                            f"time range (raise analysis: max_nodes, shorten "
+                                            f"the time range or raise path_tol)"))
                 continue
             self.rejected += len(hs)
             h = hs[0] / 8.0
@@ -579,21 +551,33 @@ class Analysis:
         return self.event
 
     def grid(self) -> np.ndarray:
-        g = self.opts.grid
-        if self.event is not None:
-            g = g[g <= self.t_stop]
-        return g
+        """Grid times up to the stopping time (s); the whole grid at once: for small runs."""
+        return np.concatenate(list(self._grid_chunks())) if self.opts.rows else np.zeros(0)
+
+    def _grid_chunks(self):
+        """Grid times chunk by chunk, up to the stopping time. Chunks hold at most about 4
+        million coordinates, so a 6000-coordinate model uses ~700 points per chunk; the grid
+        itself is never held whole (a 10^9-step grid is 8 GB)."""
+        size = max(16, min(self.opts.chunk, (1 << 22) // (self.cm.n + 3)))
+        for a in range(0, self.opts.rows, size):
+            g = self.opts.times(a, a + size)
+            if self.event is not None:
+                g = g[g <= self.t_stop]
+            if len(g):
+                yield g
+            if len(g) < size:
+                return
 
     def chunks(self):
-        """Yield Chunk objects over the grid (up to the stopping time). Chunks hold at most about
-        4 million coordinates, so a 6000-coordinate model uses ~700 points per chunk."""
-        g = self.grid()
-        size = max(16, min(self.opts.chunk, (1 << 22) // (self.cm.n + 3)))
-        for a in range(0, len(g), size):
-            ch = self._dense(g[a: a + size])
-            if ch is None:
+        """Yield Chunk objects over the grid (up to the stopping time); a grid point that fails
+        (an event set here) ends the stream after the rows before it."""
+        ev = self.event
+        for g in self._grid_chunks():
+            ch = self._dense(g)
+            if ch is not None and len(ch.t):
+                yield ch
+            if ch is None or self.event is not ev:
                 return
-            yield ch
 
     def _dense(self, t: np.ndarray) -> Chunk | None:
         opts = self.opts
@@ -666,7 +650,7 @@ class Analysis:
         if k > 0 and src.seg[k - 1] == src.seg[k]:
             f.nodes.copy_from(src, k - 1)          # for the third-derivative estimate
         f.nodes.copy_from(src, k)
-        f.opts = Options(**{**self.opts.__dict__, "end": t_target})
+        f.opts = self.opts.with_(end=t_target)
         f.span = max(t_target - src.t[k], 1e-300)
         f.h_max = f.span
         f.h_min = self.follower.h_min

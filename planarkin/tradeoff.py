@@ -17,7 +17,7 @@ import numpy as np
 
 from .model.compile import CompiledModel
 from .results import analyse
-from .solver import Options
+from .options import Options
 
 REFERENCE = dict(newton="full", tol=1e-14, path_tol=1e-7, iterations=20)
 
@@ -81,18 +81,26 @@ def _timed(cm, opts, repeats):
     return best, res
 
 
-def run_tradeoff(cm: CompiledModel, outdir: Path, steps: int | None = None, plot: bool = True,
-                 repeats: int = 3, settings=SETTINGS):
-    """Run every setting; write tradeoff.csv (and tradeoff.png); return the table as text."""
-    steps = steps or max(cm.spec.analysis.steps, 20000)
-    base = Options.from_model(cm, steps=steps)
-    ref_opts = Options(**{**base.__dict__, **REFERENCE, "interpolate": False})
+class ReferenceFailed(Exception):
+    """The tight reference run failed (an analysis failure, exit status 1, not invalid input)."""
+
+
+def run_tradeoff(cm: CompiledModel, outdir: Path, base: Options | None = None,
+                 plot: bool = True, repeats: int = 3, settings=SETTINGS):
+    """Run every setting on top of `base` (the model's options; steps default to at least
+    20000); write tradeoff.csv (and tradeoff.png); return the table as text."""
+    base = base if base is not None else Options.from_model(cm)
+    if base.sources.get("steps") in (None, "yaml"):
+        base = base.with_(steps=max(base.steps, 20000))
+    steps = base.steps
+    ref_opts = base.with_(**REFERENCE, interpolate=False)
     _, ref = analyse(cm, ref_opts)
     if ref.status != 0:
-        raise_failed(cm, ref)
+        raise ReferenceFailed(f"the reference run failed, so the trade-off cannot be measured: "
+                              f"{ref.message}")
     rows = []
     for label, extra in settings:
-        opts = Options(**{**base.__dict__, **extra})
+        opts = base.with_(**extra)
         secs, res = _timed(cm, opts, repeats)
         n = len(ref.t)
         errs = relative_errors(res, ref) if len(res.t) == n else (float("nan"),) * 3
@@ -103,12 +111,6 @@ def run_tradeoff(cm: CompiledModel, outdir: Path, steps: int | None = None, plot
     if plot:
         _plot(cm, rows, outdir / "tradeoff.png", steps)
     return format_table(cm, rows, steps)
-
-
-def raise_failed(cm, ref):
-    from .diagnostics import Diagnostic, InputError
-    raise InputError([Diagnostic(cm.spec.file, None, f"the reference run failed, so the trade-off "
-                                                     f"cannot be measured: {ref.message}")])
 
 
 def _write_csv(path: Path, rows, steps):

@@ -77,7 +77,7 @@ def test_png_plots_from_result_write(written):
 @pytest.fixture(scope="module")
 def positions(model):
     """A run that computed positions only (order 0): no velocities, no accelerations."""
-    return planarkin.solve(model, steps=60, order=0)
+    return planarkin.solve(model, steps=60, up_to="position")
 
 
 @pytest.mark.parametrize("fmt", ["svg", "pdf"])

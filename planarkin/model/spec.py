@@ -69,6 +69,8 @@ class AnalysisSpec:
     max_step: float | None = None      # largest internal step, seconds (None: no limit)
     interpolate: bool = False          # True: P/V/A on the grid from quintic Hermite of nodes
     bifurcation: str = "stop"          # 'stop' | 'continue' (on the smooth branch, with a warning)
+    max_rows: int = 10**7              # grid rows a run may write (see planarkin.options)
+    max_nodes: int = 500_000           # internal path steps a run may take
     line: int = 0
     lines: dict[str, int] = field(default_factory=dict)
 

@@ -15,6 +15,7 @@ from typing import Any
 from ..diagnostics import Collector, did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
 from ..expr import ExprError, TimeFunction, evaluate_constant
+from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
 from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
 from .yamlread import Node
 
@@ -23,12 +24,6 @@ TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "point
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
-NEWTON = ("reuse", "full", "fixed")
-BIFURCATION = ("stop", "continue")
-ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
-ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
-                 "interpolate", "bifurcation")
-MAX_STEPS = 10**9
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
@@ -491,56 +486,52 @@ class _Validator:
         return out
 
     def analysis(self, node: Node | None) -> AnalysisSpec:
+        """The analysis: block, every key checked by the rules of planarkin.options (the same
+        rules and words as the command line and the API)."""
         if node is None or not self.keys(node, ANALYSIS_KEYS, "analysis"):
-            return AnalysisSpec()
+            spec = AnalysisSpec()
+            self.check_analysis(spec, {})
+            return spec
         v = node.value
         vals: dict[str, Any] = {}
         lines = {k: v[k].line for k in v}
-        for key in ("start", "end", "tol", "path_tol", "max_step"):
-            if key in v:
-                x = self.number(v[key], f"analysis: {key}")
-                if x is not None:
-                    vals[key] = x
-        for key in ("steps", "iterations"):
-            if key in v:
-                x = self.number(v[key], f"analysis: {key}")
-                if x is not None:
-                    if x != int(x):
-                        self.err(v[key], f"analysis: {key} must be a whole number, not {x:g}")
-                    else:
-                        vals[key] = int(x)
-        if "newton" in v:
-            vals["newton"] = self.choice(v["newton"], "analysis: newton", NEWTON)
-        if "bifurcation" in v:
-            vals["bifurcation"] = self.choice(v["bifurcation"], "analysis: bifurcation", BIFURCATION)
-        if "interpolate" in v:
-            n = v["interpolate"]
-            if n.kind == "scalar" and isinstance(n.value, bool):
-                vals["interpolate"] = n.value
-            else:
-                self.err(n, f"analysis: interpolate must be true or false, not {_type_name(n)}")
-        vals = {k: x for k, x in vals.items() if x is not None}
+        for key, n in v.items():
+            if key not in OPTIONS:
+                continue
+            val = self.option(n, key, f"analysis: {key}")
+            if val is not None:
+                vals[key] = val
         spec = AnalysisSpec(**vals, line=node.line, lines=lines)
-        self.check_analysis(spec, lines, node.line)
+        self.check_analysis(spec, vals)
         return spec
 
-    def check_analysis(self, a: AnalysisSpec, lines: dict, line: int) -> None:
-        at = lambda k: lines.get(k, line)
-        if a.end <= a.start:
-            self.err(at("end"), f"analysis: end ({a.end:g}) must be greater than start ({a.start:g})")
-        if not 1 <= a.steps <= MAX_STEPS:
-            self.err(at("steps"), f"analysis: steps must be between 1 and {MAX_STEPS}, not {a.steps} "
-                                  f"(steps counts intervals: the tables have steps + 1 rows)")
-        if not 1e-15 <= a.tol <= 1e-1:
-            self.err(at("tol"), f"analysis: tol must be between 1e-15 and 0.1, not {a.tol:g}")
-        if not 1e-12 <= a.path_tol <= 1e-1:
-            self.err(at("path_tol"), f"analysis: path_tol must be between 1e-12 and 0.1, not "
-                                     f"{a.path_tol:g}")
-        if not 1 <= a.iterations <= 100:
-            self.err(at("iterations"), f"analysis: iterations must be between 1 and 100, not "
-                                       f"{a.iterations}")
-        if a.max_step is not None and a.max_step <= 0:
-            self.err(at("max_step"), f"analysis: max_step must be positive, not {a.max_step:g}")
+    def option(self, n: Node, key: str, what: str):
+        """One option's value from its node (numbers may be expressions), or None (reported)."""
+        opt = OPTIONS[key]
+        if opt.kind in ("float", "int"):
+            x = self.number(n, what)
+            if x is None:
+                return None
+        elif opt.kind == "bool":
+            if not (n.kind == "scalar" and isinstance(n.value, bool)):
+                self.err(n, f"{what} must be true or false, not {_type_name(n)}")
+                return None
+            x = n.value
+        else:
+            x = self.text(n, what)
+            if x is None:
+                return None
+        val, msg = opt.check(x)
+        if msg is not None:
+            self.err(n, f"{what} {msg}")
+            return None
+        return val
+
+    def check_analysis(self, a: AnalysisSpec, given: dict) -> None:
+        vals = {k: getattr(a, k) for k in ANALYSIS_KEYS}
+        vals["up_to"] = "acceleration"
+        for d in cross_check(self.file, a, vals, {k: "yaml" for k in given}):
+            self.C.items.append(d)
 
     def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
         if node is None or not self.keys(node, ("bodies", "points", "up_to"), "output"):
@@ -565,9 +556,9 @@ class _Validator:
                     chosen.append(s)
             vals[key] = tuple(chosen)
         if "up_to" in v:
-            c = self.choice(v["up_to"], "output: up_to", tuple(ORDERS))
+            c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
-                vals["order"] = ORDERS[c]
+                vals["order"] = ORDERS.index(c)
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):

@@ -64,12 +64,14 @@ class StepStats:
         self.cond_tmax = math.nan
         self.res_max = 0.0
         self.res_tmax = math.nan
+        self.t_last = math.nan         # time of the last row written, s
 
     def add(self, ch) -> None:
         n = len(ch.t)
         if not n:
             return
         self.rows += n
+        self.t_last = float(ch.t[-1])
         it = ch.iterations
         self.iter_sum += int(it.sum())
         self.iter_min = int(it.min()) if self.iter_min is None else min(self.iter_min,

@@ -1,0 +1,374 @@
+"""The output contract: the only code that touches a model's result directory.
+
+After `planarkin run`, a model's directory holds exactly the files of one run and a summary.json
+that describes them: complete results (status ok), results up to a failure (failed, with the
+time) or up to an interruption (interrupted); for invalid input, the previous directory is left
+untouched. How:
+
+- everything is written into a temporary sibling ``.NAME.tmp-PID`` and renamed into place at the
+  end (at an interruption too), atomically where the kernel can exchange two directories
+  (renameat2 RENAME_EXCHANGE, Linux), else by two renames;
+- ``.NAME.lock`` (flock, released by the kernel even when the process is killed) refuses a
+  concurrent run into the same directory; temporaries left by a killed run are removed by the next;
+- a directory that exists but is not a planarkin result (no summary.json of ours) is never
+  replaced;
+- tables are formatted by writer processes (`ProcessSink`) fed through pipes with SIGINT and
+  SIGTERM held back while a block is sent, so every table holds the same complete rows whenever
+  the run stops; the writers ignore those signals (the parent stops them in order) and exit on
+  end of file if the parent dies; they are always joined (`close`, `kill`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import ctypes.util
+import errno
+import json
+import os
+import re
+import shutil
+import signal
+import struct
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .summary import ColumnStats
+from .tables import CsvWriter
+
+_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+_HEADER = struct.Struct("<qq")     # rows, columns of a float64 block
+_JOIN_SECONDS = 30.0               # a writer that has not finished by then is killed
+_PIPE_BYTES = 8 << 20              # room for a few chunks in flight (Linux F_SETPIPE_SZ)
+_PORTABLE = re.compile(r"[^A-Za-z0-9._-]")
+
+
+class OutputError(Exception):
+    """The results cannot be written where asked (busy, not ours, not writable)."""
+
+
+class Interrupted(BaseException):
+    """SIGTERM arrived (SIGINT arrives as KeyboardInterrupt): stop, keep what is complete."""
+
+
+@contextlib.contextmanager
+def interruptible():
+    """While inside, SIGTERM raises Interrupted in the main thread (like SIGINT's
+    KeyboardInterrupt), so that a run stops in order; the previous handler is restored."""
+    def on_term(signum, frame):
+        raise Interrupted(signum)
+    try:
+        old = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:                      # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+@contextlib.contextmanager
+def held_signals():
+    """SIGINT and SIGTERM wait until the block is done (they are delivered right after), so
+    that a block of rows is never half sent and a shutdown is never cut short."""
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    except (AttributeError, ValueError, OSError):     # no signal masks here (or not main thread)
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+# -- directories ------------------------------------------------------------------------------
+
+def safe_name(stem: str) -> str:
+    """A portable directory name for a model: letters, digits, '.', '_' and '-'; no leading dot
+    (hidden, and our temporaries start with one); never '', '.' or '..'."""
+    name = _PORTABLE.sub("_", stem).lstrip(".")
+    return name[:100] or "model"
+
+
+def out_dirs(models, out: Path) -> list[Path]:
+    """One distinct directory under `out` for each model argument, in order: the file's stem
+    made portable, then -2, -3 ... for repeats, never colliding with another model's own name,
+    case-insensitively (the same file given twice is analysed twice, into two directories)."""
+    out = Path(out)
+    names = [safe_name(Path(str(m)).stem) for m in models]
+    natural = {n.lower() for n in names}
+    taken: set[str] = set()
+    dirs = []
+    for n in names:
+        cand, k = n, 1
+        while cand.lower() in taken or (cand != n and cand.lower() in natural):
+            k += 1
+            cand = f"{n}-{k}"
+        taken.add(cand.lower())
+        dirs.append(out / cand)
+    return dirs
+
+
+def _is_ours(path: Path) -> bool:
+    """True when path is absent, an empty directory, or a planarkin result directory."""
+    if not path.exists():
+        return True
+    if not path.is_dir() or path.is_symlink():
+        return False
+    entries = list(path.iterdir())
+    if not entries:
+        return True
+    try:
+        with open(path / "summary.json", encoding="utf-8") as f:
+            return "planarkin" in json.load(f)
+    except (OSError, ValueError):
+        return False
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two directories atomically (Linux renameat2 RENAME_EXCHANGE); False if unsupported."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    AT_FDCWD, RENAME_EXCHANGE = -100, 2
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    r = fn(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE)
+    if r == 0:
+        return True
+    e = ctypes.get_errno()
+    if e in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP if hasattr(errno, "ENOTSUP") else -1):
+        return False
+    raise OSError(e, os.strerror(e), str(b))
+
+
+class ResultDirectory:
+    """A model's result directory being written: files go to `tmp`; `commit()` puts them in
+    place of `final`, `abandon()` leaves `final` as it was. Raises OutputError when `final` is
+    being written by another run, is not a planarkin result, or cannot be written."""
+
+    def __init__(self, final: Path):
+        self.final = Path(final)
+        parent = self.final.parent
+        name = self.final.name
+        self.lockfd = None
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            self.lockfd = os.open(parent / f".{name}.lock", os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+        try:
+            import fcntl
+            fcntl.flock(self.lockfd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._unlock()
+            raise OutputError(f"{self.final}/ is being written by another planarkin run; wait "
+                              f"for it or choose another --out") from None
+        except ImportError:        # no flock on this platform: no protection against a race
+            pass
+        if not _is_ours(self.final):
+            self._unlock()
+            raise OutputError(f"{self.final} exists and is not a planarkin result directory "
+                              f"(no summary.json of ours): it is left alone; choose another "
+                              f"--out or remove it")
+        for stale in parent.glob(f".{name}.tmp-*"):      # left by a killed run (we hold the lock)
+            shutil.rmtree(stale, ignore_errors=True)
+        self.tmp = parent / f".{name}.tmp-{os.getpid()}"
+        try:
+            self.tmp.mkdir()
+        except OSError as e:
+            self._unlock()
+            raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+
+    def path(self, filename: str) -> Path:
+        return self.tmp / filename
+
+    def commit(self) -> None:
+        """Put the new files in place of the old directory (which is then removed)."""
+        try:
+            if self.final.exists():
+                if _exchange(self.tmp, self.final):
+                    shutil.rmtree(self.tmp, ignore_errors=True)
+                else:
+                    old = self.final.parent / f".{self.final.name}.old-{os.getpid()}"
+                    os.rename(self.final, old)
+                    os.rename(self.tmp, self.final)
+                    shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.rename(self.tmp, self.final)
+        finally:
+            self._unlock()
+
+    def abandon(self) -> None:
+        """Remove what was written; the previous directory stays as it was."""
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        self._unlock()
+
+    def _unlock(self) -> None:
+        if self.lockfd is not None:
+            os.close(self.lockfd)        # releases the flock
+            self.lockfd = None
+
+
+def check_writable(out: Path) -> str | None:
+    """None if result directories can be made under `out`, else why not (for a usage error)."""
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".planarkin-probe-{os.getpid()}"
+        probe.mkdir()
+        probe.rmdir()
+    except OSError as e:
+        return f"cannot write into {out}/: {e.strerror}"
+    return None
+
+
+# -- table writers ----------------------------------------------------------------------------
+
+class TableSink:
+    """One CSV table with its column statistics (and a room's accumulator), fed block by block,
+    in this process."""
+
+    def __init__(self, path: Path, header: list[str], accumulator=None):
+        self.csv = CsvWriter(path, header)
+        self.stats = ColumnStats(header)
+        self.extra = accumulator() if accumulator is not None else None
+        self.rows = 0
+        self.busy = 0.0
+
+    def add(self, X: np.ndarray) -> None:
+        t0 = time.perf_counter()
+        self.csv.write(X)
+        self.stats.add(X)
+        if self.extra is not None:
+            self.extra.add(X)
+        self.rows += len(X)
+        self.busy += time.perf_counter() - t0
+
+    def close(self):
+        """(column statistics, the accumulator's dict or None, seconds busy)"""
+        self.csv.close()
+        return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
+
+    def kill(self) -> None:
+        with contextlib.suppress(OSError):
+            self.csv.close()
+
+
+def _writer_main(path, header, accumulator, inbox, outbox) -> None:
+    """Body of a writer process: blocks of rows in (a header of rows and columns, then the
+    float64 data; an empty message ends the table), statistics out."""
+    for s in _SIGNALS:
+        signal.signal(s, signal.SIG_IGN)       # the parent stops us in order
+    try:
+        sink = TableSink(path, header, accumulator)
+        while True:
+            try:
+                msg = inbox.recv_bytes()
+            except EOFError:                   # the parent is gone: nothing to report to
+                os._exit(1)
+            if not msg:
+                break
+            rows, cols = _HEADER.unpack_from(msg)
+            sink.add(np.frombuffer(msg, dtype=np.float64, offset=_HEADER.size).reshape(rows, cols))
+        outbox.send(("ok", sink.close()))
+    except BaseException as e:  # noqa: BLE001 - reported by the parent
+        with contextlib.suppress(Exception):
+            outbox.send(("error", f"{type(e).__name__}: {e}"))
+    finally:
+        os._exit(0)   # no atexit handlers or buffered output inherited from the parent
+
+
+class WriteError(Exception):
+    """A table could not be written (disk full, file size limit, I/O error)."""
+
+
+class ProcessSink:
+    """A TableSink in a forked process: add() sends the block through a pipe (large enough to
+    hold a few chunks) and returns, so formatting runs in parallel with the solver."""
+
+    def __init__(self, ctx, path: Path, header: list[str], accumulator=None):
+        self.name = Path(path).name
+        r, self.inbox = ctx.Pipe(duplex=False)
+        self.outbox, w = ctx.Pipe(duplex=False)
+        _grow_pipe(self.inbox)
+        with held_signals():
+            self.proc = ctx.Process(target=_writer_main, daemon=True,
+                                    args=(path, header, accumulator, r, w))
+            self.proc.start()
+        r.close()
+        w.close()
+        self.rows = 0
+
+    def add(self, X: np.ndarray) -> None:
+        X = np.ascontiguousarray(X, dtype=np.float64)
+        try:
+            with held_signals():
+                self.inbox.send_bytes(_HEADER.pack(*X.shape) + X.tobytes())
+        except (BrokenPipeError, ConnectionError, OSError):
+            raise WriteError(f"writing {self.name} failed: {self._reason()}") from None
+        self.rows += len(X)
+
+    def _reason(self) -> str:
+        with contextlib.suppress(Exception):
+            if self.outbox.poll(_JOIN_SECONDS):
+                status, payload = self.outbox.recv()
+                if status == "error":
+                    return payload
+        return "the writer process ended"
+
+    def close(self):
+        """End the table; returns what TableSink.close returns. Raises WriteError."""
+        try:
+            with held_signals():
+                try:
+                    self.inbox.send_bytes(b"")
+                except (BrokenPipeError, ConnectionError, OSError):
+                    raise WriteError(f"writing {self.name} failed: {self._reason()}") from None
+                if not self.outbox.poll(_JOIN_SECONDS):
+                    raise WriteError(f"writing {self.name} failed: the writer did not finish "
+                                     f"within {_JOIN_SECONDS:g} s")
+                try:
+                    status, payload = self.outbox.recv()
+                except (EOFError, OSError):
+                    raise WriteError(f"writing {self.name} failed: the writer process "
+                                     f"ended") from None
+            if status != "ok":
+                raise WriteError(f"writing {self.name} failed: {payload}")
+            return payload
+        finally:
+            self.kill()
+
+    def kill(self) -> None:
+        """Release the process and its pipes, whatever state they are in."""
+        for c in (self.inbox, self.outbox):
+            with contextlib.suppress(OSError):
+                c.close()
+        with held_signals():
+            self.proc.join(timeout=2.0)
+            if self.proc.is_alive():
+                self.proc.kill()
+                self.proc.join()
+            with contextlib.suppress(Exception):
+                self.proc.close()
+
+
+def _grow_pipe(conn) -> None:
+    import fcntl
+    F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
+    with contextlib.suppress(OSError, ValueError):
+        fcntl.fcntl(conn.fileno(), F_SETPIPE_SZ, _PIPE_BYTES)
+
+
+def fork_context():
+    """multiprocessing's fork context, or None where fork does not exist."""
+    import multiprocessing as mp
+    try:
+        return mp.get_context("fork")
+    except ValueError:
+        return None
