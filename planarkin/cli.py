@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -140,12 +141,12 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
     from .output.directory import Interrupted, check_writable, interruptible, out_dirs
     if sys.platform.startswith("linux"):
         _tune_malloc()
-    problem = check_writable(Path(out))
-    if problem is not None:
-        raise click.BadParameter(problem, param_hint="'--out'")
     report = Report(quiet)
     with interruptible():
         try:
+            problem = check_writable(Path(out))
+            if problem is not None:
+                raise click.BadParameter(problem, param_hint="'--out'")
             for path, outdir in zip(models, out_dirs(models, Path(out))):
                 model = _load(path, report)
                 if model is not None:
@@ -155,6 +156,12 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, _signame(e), "nothing more was written")
     report.summary()
+    if report.signal is not None:
+        # every writer is joined and every directory in place: leave now, with the status the
+        # shell expects, before interpreter shutdown could meet another signal
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(report.exit_code)
     sys.exit(report.exit_code)
 
 

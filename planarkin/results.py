@@ -266,6 +266,7 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "units": {"length": spec.length_unit, "angle": spec.angle_unit, "time": "s"},
         "time": {"start": o.start, "end": o.end, "steps": o.steps, "rows_planned": grid_rows,
                  "rows_written": steps.rows,
+                 "last_t": steps.t_last if steps.rows else None,
                  "stopped_at": info.event.t if info.event is not None else None},
         "dof": cm.n - cm.m_joint if not info.assembly["redundant"] else None,
         "bodies": list(cm.body_names),

@@ -55,19 +55,21 @@ class Interrupted(BaseException):
 
 @contextlib.contextmanager
 def interruptible():
-    """While inside, SIGTERM raises Interrupted in the main thread (like SIGINT's
-    KeyboardInterrupt), so that a run stops in order; the previous handler is restored."""
+    """While inside, SIGINT raises KeyboardInterrupt and SIGTERM raises Interrupted in the main
+    thread, so that a run stops in order; the previous handlers are restored."""
     def on_term(signum, frame):
         raise Interrupted(signum)
     try:
-        old = signal.signal(signal.SIGTERM, on_term)
+        old = {signal.SIGTERM: signal.signal(signal.SIGTERM, on_term),
+               signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler)}
     except ValueError:                      # not the main thread: leave signals alone
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 @contextlib.contextmanager

@@ -1,0 +1,265 @@
+"""The output contract (planarkin/output/directory.py), asserted under faults.
+
+After `planarkin run`, a model's directory holds exactly the files of one run and a summary.json
+that describes them (status ok, failed or interrupted, rows written), or, for invalid input, the
+previous directory untouched. Faults: invalid re-runs, interruptions (SIGINT, SIGTERM) at
+moments spread over a run, a full disk (a file-size limit), unwritable and foreign directories,
+concurrent runs, colliding and hostile file names. Never a traceback, never a hang, never a
+writer process left behind.
+"""
+
+import json
+import os
+import resource
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from clitools import ROOT, command, run_cli
+
+from planarkin.output.directory import ResultDirectory, out_dirs, safe_name
+
+SLIDER = ROOT / "mechanisms" / "slider-crank.yaml"
+# the slider's guide 1 m above the crank pivot: rod and crank cannot reach it
+UNREACHABLE = SLIDER.read_text().replace("{type: translational, i: ground, j: slider, si: [0, 0]",
+                                         "{type: translational, i: ground, j: slider, si: [0, 1]")
+
+
+def _env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env.setdefault("MPLBACKEND", "Agg")
+    return env
+
+
+def assert_contract(d: Path, statuses=("ok",)):
+    """d holds one run's files, described by its summary.json; returns the summary."""
+    summary = json.loads((d / "summary.json").read_text())
+    assert summary["status"] in statuses, summary["status"]
+    rows = summary["time"]["rows_written"]
+    listed = set(summary["files"]) | set(summary["plots"]) | {"summary.json"}
+    assert {p.name for p in d.iterdir()} == listed
+    for name, info in summary["files"].items():
+        lines = (d / name).read_bytes().split(b"\n")
+        assert lines[-1] == b"", f"{name}: last line incomplete"
+        body = lines[1:-1]
+        assert len(body) == rows == info["rows"], (name, len(body), rows)
+        assert all(line.count(b",") == info["columns"] - 1 for line in body[-3:])
+    if rows:
+        t_last = float((d / "bodies.csv").read_bytes().split(b"\n")[-2].split(b",")[0])
+        assert t_last == summary["time"]["last_t"]
+    return summary
+
+
+def no_leftovers(out: Path):
+    """No temporaries beside the result directories, and no process still writing there."""
+    assert not [p for p in out.iterdir() if ".tmp-" in p.name or ".old-" in p.name]
+    deadline = time.time() + 5
+    while True:
+        alive = []
+        for proc in Path("/proc").iterdir():
+            if proc.name.isdigit() and proc.name != str(os.getpid()):
+                try:
+                    if str(out).encode() in (proc / "cmdline").read_bytes():
+                        alive.append(proc.name)
+                except OSError:
+                    pass
+        if not alive or time.time() > deadline:
+            break
+        time.sleep(0.1)
+    assert not alive, f"processes still writing into {out}: {alive}"
+
+
+def test_rerun_of_an_invalid_model_leaves_the_results(tmp_path):
+    m = tmp_path / "m.yaml"
+    m.write_text(SLIDER.read_text())
+    assert run_cli("run", m, "--out", tmp_path / "out", "--no-plots").returncode == 0
+    d = tmp_path / "out" / "m"
+    before = {p.name: p.read_bytes() for p in d.iterdir()}
+    m.write_text(SLIDER.read_text().replace("type: revolute, i: crank", "type: revolute, i: crnk"))
+    r = run_cli("run", m, "--out", tmp_path / "out", "--no-plots")
+    assert r.returncode == 2 and "unknown body 'crnk'" in r.stderr
+    assert {p.name: p.read_bytes() for p in d.iterdir()} == before
+    # rejected at assembly (after validation): untouched as well
+    m.write_text(UNREACHABLE)
+    r = run_cli("run", m, "--out", tmp_path / "out", "--no-plots")
+    assert r.returncode == 2 and "cannot assemble" in r.stderr
+    assert {p.name: p.read_bytes() for p in d.iterdir()} == before
+    no_leftovers(tmp_path / "out")
+
+
+def test_files_of_an_earlier_version_do_not_survive(tmp_path):
+    m = tmp_path / "m.yaml"
+    m.write_text(SLIDER.read_text())
+    assert run_cli("run", m, "--out", tmp_path, "--steps", "20").returncode == 0
+    assert (tmp_path / "m" / "points.csv").exists() and (tmp_path / "m" / "points.png").exists()
+    m.write_text(SLIDER.read_text().split("points:")[0] + "analysis: {steps: 10}\n")
+    assert run_cli("run", m, "--out", tmp_path, "--no-plots").returncode == 0
+    s = assert_contract(tmp_path / "m")
+    assert s["time"]["rows_written"] == 11 and not (tmp_path / "m" / "points.csv").exists()
+    assert not (tmp_path / "m" / "points.png").exists()
+
+
+def test_analysis_failure_keeps_the_rows_up_to_it(tmp_path):
+    m = tmp_path / "lock.yaml"        # a slider-crank driven by its slider through dead centre
+    m.write_text(SLIDER.read_text().replace('{type: angle, body: crank, f: "2*pi*t"}',
+                                            '{type: x, i: ground, j: slider, f: "0.35 + 0.1*t"}'))
+    r = run_cli("run", m, "--out", tmp_path, "--no-plots")
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    s = assert_contract(tmp_path / "lock", ("failed",))
+    assert 0 < s["time"]["rows_written"] < 361 and s["time"]["stopped_at"] is not None
+
+
+@pytest.mark.parametrize("names, expected", [
+    (["a/m.yaml", "b/m.yaml", "m-2.yaml"], ["m", "m-3", "m-2"]),
+    (["m.yaml", "m.yaml"], ["m", "m-2"]),
+    (["x/...yaml", "..", ".", ".hidden.yaml"], ["model", "model-2", "model-3", "hidden"]),
+    (["M.yaml", "m.yaml"], ["M", "m-2"]),
+    (["a b;c$.yaml", "ü.yaml"], ["a_b_c_", "_"]),
+])
+def test_output_directories_never_collide(tmp_path, names, expected):
+    dirs = out_dirs(names, tmp_path)
+    assert [d.name for d in dirs] == expected
+    assert all(d.parent == tmp_path for d in dirs)
+    assert len({d.name.lower() for d in dirs}) == len(dirs)
+
+
+def test_many_hostile_names_stay_inside_out():
+    stems = ["..", ".", "", "...", "a/../b", "-", "CON", "x" * 300, "a\nb", "m", "m", "M-2",
+             "m-2", "m-2", "é", "\x00", "../../etc"]
+    dirs = out_dirs([f"{s}.yaml" for s in stems], Path("OUT"))
+    assert all(d.parent == Path("OUT") for d in dirs)
+    assert len({d.name.lower() for d in dirs}) == len(dirs)
+    assert all(safe_name(s) not in ("", ".", "..") and not safe_name(s).startswith(".")
+               for s in stems)
+
+
+def test_same_file_twice_writes_two_complete_directories(tmp_path):
+    r = run_cli("run", SLIDER, SLIDER, "--out", tmp_path, "--no-plots", "--steps", "10")
+    assert r.returncode == 0, r.stderr
+    assert_contract(tmp_path / "slider-crank")
+    assert_contract(tmp_path / "slider-crank-2")
+
+
+def test_concurrent_run_into_the_same_directory_is_refused(tmp_path):
+    busy = ResultDirectory(tmp_path / "slider-crank")      # another run holds it
+    try:
+        r = run_cli("run", SLIDER, "--out", tmp_path, "--no-plots")
+        assert r.returncode == 2
+        assert "slider-crank/ is being written by another planarkin run" in r.stderr
+    finally:
+        busy.abandon()
+    assert not (tmp_path / "slider-crank").exists()
+    assert run_cli("run", SLIDER, "--out", tmp_path, "--no-plots").returncode == 0
+
+
+def test_a_directory_that_is_not_ours_is_left_alone(tmp_path):
+    d = tmp_path / "slider-crank"
+    d.mkdir()
+    (d / "thesis.tex").write_text("precious")
+    r = run_cli("run", SLIDER, "--out", tmp_path, "--no-plots")
+    assert r.returncode == 2 and "is not a planarkin result directory" in r.stderr
+    assert (d / "thesis.tex").read_text() == "precious" and len(list(d.iterdir())) == 1
+
+
+def test_unwritable_out_is_a_usage_error(tmp_path):
+    f = tmp_path / "file"
+    f.write_text("")
+    r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots", timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "Invalid value for '--out'" in r.stderr and "cannot write into" in r.stderr
+    if os.geteuid() != 0:          # root writes anywhere; a read-only directory needs a user
+        ro = tmp_path / "ro"
+        ro.mkdir(mode=0o500)
+        r = run_cli("run", SLIDER, "--out", ro, "--no-plots", timeout=60)
+        assert r.returncode == 2
+
+
+def test_full_disk_leaves_the_previous_results(tmp_path):
+    out = tmp_path / "out"
+    assert run_cli("run", SLIDER, "--out", out, "--no-plots", "--steps", "10").returncode == 0
+    before = (out / "slider-crank" / "bodies.csv").read_bytes()
+
+    def small_files():                # every file the run writes is cut at 100 kB
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
+    r = subprocess.run(command() + ["run", str(SLIDER), "--out", str(out), "--no-plots",
+                                    "--steps", "20000"], capture_output=True, text=True,
+                       timeout=120, env=_env(), preexec_fn=small_files)
+    assert r.returncode == 1, r.stderr
+    assert "Traceback" not in r.stderr and "File too large" in r.stderr
+    assert "is left as it was" in r.stderr
+    assert (out / "slider-crank" / "bodies.csv").read_bytes() == before
+    assert_contract(out / "slider-crank")
+    no_leftovers(out)
+
+
+ENTRY = [sys.executable, "-m", "planarkin"]     # the entry point of the `planarkin` command
+
+# moments spread over a run of ~2 s (imports, assembly, path, grid pass, writing, the end),
+# counted from when the program has started (its SIGTERM handler is installed: before that the
+# Python interpreter itself is starting), fixed so that the test asks the same thing every time
+MOMENTS = [(0.0, signal.SIGINT), (0.25, signal.SIGTERM), (0.5, signal.SIGINT),
+           (0.8, signal.SIGTERM), (1.2, signal.SIGINT), (1.8, signal.SIGTERM)]
+
+
+def _started(pid: int) -> bool:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("SigCgt:"):
+                return bool(int(line.split()[1], 16) & (1 << (signal.SIGTERM - 1)))
+    except OSError:
+        pass
+    return False
+
+
+@pytest.mark.parametrize("delay, sig", MOMENTS, ids=[f"{d}s-{s.name}" for d, s in MOMENTS])
+def test_interruption_keeps_a_consistent_directory(tmp_path, delay, sig):
+    out = tmp_path / "out"
+    assert run_cli("run", SLIDER, "--out", out, "--no-plots", "--steps", "10").returncode == 0
+    p = subprocess.Popen(ENTRY + ["run", str(SLIDER), "--out", str(out), "--no-plots",
+                                      "--steps", "400000"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    deadline = time.time() + 30
+    while not _started(p.pid) and p.poll() is None and time.time() < deadline:
+        time.sleep(0.005)
+    time.sleep(delay)
+    p.send_signal(sig)
+    try:
+        stdout, stderr = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        pytest.fail("planarkin hung after the signal")
+    assert "Traceback" not in stderr, stderr
+    code = {signal.SIGINT: 130, signal.SIGTERM: 143}[sig]
+    s = assert_contract(out / "slider-crank", ("ok", "interrupted"))
+    if p.returncode == 0:                # the run was over before the signal
+        assert s["status"] == "ok"
+    else:
+        assert p.returncode == code, (p.returncode, stdout, stderr)
+        assert "interrupted" in stdout
+        if s["status"] == "interrupted":
+            assert s["exit_code"] == code
+        else:                            # interrupted before the new directory existed
+            assert s["time"]["rows_written"] == 11
+    no_leftovers(out)
+
+
+def test_batch_of_rejected_models_releases_everything(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(UNREACHABLE)
+    files = [bad, SLIDER] * 12
+
+    def few_files():
+        resource.setrlimit(resource.RLIMIT_NOFILE, (48, 48))
+    r = subprocess.run(command() + ["run", *map(str, files), "--out", str(tmp_path / "o"),
+                                    "--no-plots", "--steps", "5", "-q"],
+                       capture_output=True, text=True, timeout=300, env=_env(),
+                       preexec_fn=few_files)
+    assert "Too many open files" not in r.stderr and "Traceback" not in r.stderr
+    assert r.returncode == 2
+    assert r.stdout.strip().splitlines()[-1] == "24 models analysed: 12 ok, 12 invalid"
+    no_leftovers(tmp_path / "o")
