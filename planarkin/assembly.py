@@ -279,6 +279,9 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
         # later elements first: of a redundant set, the one written last is the one named
         violated = [e for e in range(len(spec.elements))
                     if not np.abs(r[cm.row_element == e]).max() <= ASSEMBLED]
+        drivers = _contradicting_drivers(cm, S_all, q, r)
+        if drivers is not None:
+            return drivers
         for tries, e in enumerate(reversed(violated)):
             if tries >= 8:
                 break
@@ -312,6 +315,31 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
     return [_diag(cm, named[0], f"cannot assemble the mechanism at t = {t0:g} ({its} iterations "
                                 f"from the body estimates): {'; '.join(parts)}; check the "
                                 f"dimensions and the estimates q")]
+
+
+def _contradicting_drivers(cm: CompiledModel, S_all: System, q, r) -> list | None:
+    """More drivers than the joints leave degrees of freedom, and they contradict each other at
+    t = start: name every driver (not only the one written last, which need not be the wrong
+    one), or None when the drivers are not the problem."""
+    mk, nd = cm.m_joint, len(cm.driver_rows)
+    if not nd:
+        return None
+    J = S_all.jacobian(S_all.ext(q))[0]
+    if not np.isfinite(J).all():
+        return None
+    sv = np.linalg.svd(_row_normalised(J[:mk]), compute_uv=False) if mk else np.zeros(0)
+    dof = cm.n - int((sv > RANK_TOL * (sv[0] if sv.size else 1.0)).sum())
+    if nd <= dof:
+        return None
+    labels = [cm.element_of_row(d).label for d in cm.driver_rows]
+    worst = [f"{cm.row_label[d]} by {_fmt_res(cm, d, r[d])}" for d in cm.driver_rows
+             if abs(r[d]) > ASSEMBLED]
+    return [_diag(cm, int(cm.driver_rows[-1]),
+                  f"{_plural(nd, 'driver')} for {_plural(dof, 'degree')} of freedom, and they "
+                  f"contradict each other at t = {cm.spec.analysis.start:g}: "
+                  f"{', '.join(labels[:-1])} and {labels[-1]} cannot all hold (at the closest "
+                  f"pose: {'; '.join(worst) or 'violated'}); remove the driver{'s' if nd - dof > 1 else ''} "
+                  f"you do not mean ({_plural(nd - dof, 'too many')})")]
 
 
 def _fmt_res(cm: CompiledModel, row: int, value: float) -> str:

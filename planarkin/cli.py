@@ -44,7 +44,9 @@ def _load(path: str, report: Report):
     from .diagnostics import Diagnostic, InputError
     from . import load
     try:
-        return load(path)
+        model = load(path)
+        report.diagnostics(model.spec.warnings)
+        return model
     except InputError as e:
         report.invalid(path, e.diagnostics)
     except (RecursionError, MemoryError) as e:
@@ -201,7 +203,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     try:
         info, _ = stream(an, sink=writer, progress=progress)
         progress.close()
-        report.diagnostics(info.diagnostics)
+        report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
         summary = writer.finish(info, started=t0)

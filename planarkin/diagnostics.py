@@ -8,7 +8,6 @@ not a diagnostic: it is a status in the result (see `planarkin.results`).
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
@@ -81,15 +80,40 @@ class Collector:
 
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
-    """Return ``"; did you mean 'rod'?"`` for the closest choice, or ``""`` when none is close."""
+    """Return ``"; did you mean 'rod'?"`` for the closest choice within a typo's reach (one edit
+    below eight letters, two from eight on, case ignored; a swap of two neighbours counts as one
+    edit; in names of up to three letters a replaced letter does not count), or ``""``: a
+    suggestion further away than a slip of the keyboard misleads."""
     choices = [c for c in choices if isinstance(c, str)]
-    close = difflib.get_close_matches(str(name), choices, n=1, cutoff=0.6)
-    if not close:
-        # case-insensitive exact match is a likely slip too
-        low = {c.lower(): c for c in choices}
-        if str(name).lower() in low:
-            close = [low[str(name).lower()]]
-    return f"; did you mean '{close[0]}'?" if close else ""
+    name = str(name)
+    best, best_d = None, None
+    for c in choices:
+        d = _edits(name.lower(), c.lower())
+        if best_d is None or d < best_d:
+            best, best_d = c, d
+    if best is None or best_d > (1 if len(name) < 8 else 2):
+        return ""
+    if len(name) <= 3 and best_d == 1 and len(best) == len(name) and \
+            sorted(best.lower()) != sorted(name.lower()):
+        return ""          # one letter of two or three replaced: another name, not a slip
+    return f"; did you mean '{best}'?"
+
+
+def _edits(a: str, b: str) -> int:
+    """Optimal string alignment distance: insertions, deletions, substitutions and swaps of
+    neighbours (Damerau-Levenshtein without repeated edits of one substring)."""
+    if abs(len(a) - len(b)) > 2:
+        return 3
+    prev2, prev = None, list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        cur = [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            cost = a[i - 1] != b[j - 1]
+            cur[j] = min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + cost)
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                cur[j] = min(cur[j], prev2[j - 2] + 1)
+        prev2, prev = prev, cur
+    return prev[len(b)]
 
 
 def one_of(choices: Iterable[str]) -> str:

@@ -65,7 +65,7 @@ def run_info(an: Analysis) -> RunInfo:
         "redundant": [cm.row_label[r] for r in A.redundant_rows],
     }
     return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes), f.rejected,
-                   an.fallbacks, dict(an.timings), list(A.warnings))
+                   an.fallbacks, dict(an.timings), list(cm.spec.warnings) + list(A.warnings))
 
 
 class PlotBuffer:
@@ -146,7 +146,10 @@ class DirectoryWriter:
         out = [self.layout.body_table(ch)]
         if self.layout.points:
             out.append(self.layout.point_table(ch))
-        return out + [d.compute(ch) for d in self.derived]
+        out += [d.compute(ch) for d in self.derived]
+        for X in out:
+            X += 0.0          # -0.0 + 0.0 is +0.0: no "-0.0" cells in the tables
+        return out
 
     def add(self, ch: Chunk) -> None:
         t0 = time.perf_counter()
@@ -292,8 +295,8 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "condition": {"min": steps.cond_min if steps.rows else None,
                       "max": steps.cond_max if steps.rows else None, "t_max": steps.cond_tmax},
         "error_estimate": error_estimates(steps),
-        "warnings": [{"kind": "redundant", "line": d.line, "message": d.message}
-                     for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
+        "warnings": [{"kind": "model" if d in spec.warnings else "redundant", "line": d.line,
+                      "message": d.message} for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
         "columns": {"bodies.csv": body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},

@@ -430,7 +430,8 @@ class PathFollower:
                 N.truncate(k)
                 N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j],
                       self.seg)
-                ev.message = ev.message.split("; to follow")[0] + (
+                # the run goes on: what the stop message says about written results is void
+                ev.message = ev.message.split("; results are written up to")[0] + (
                     f"; continued on the smooth branch (bifurcation: continue): results between "
                     f"t = {N.t[k]:.6g} and {N.t[-1]:.6g} are interpolated across the crossing and "
                     f"less accurate")

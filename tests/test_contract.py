@@ -263,3 +263,19 @@ def test_batch_of_rejected_models_releases_everything(tmp_path):
     assert r.returncode == 2
     assert r.stdout.strip().splitlines()[-1] == "24 models analysed: 12 ok, 12 invalid"
     no_leftovers(tmp_path / "o")
+
+
+def test_two_real_runs_into_one_directory(tmp_path):
+    """Started together: one writes, the other is refused (or, if they do not overlap, both
+    succeed); never an interleaved table."""
+    args = ENTRY + ["run", str(SLIDER), "--out", str(tmp_path), "--no-plots", "--steps", "200000"]
+    ps = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env=_env()) for _ in range(2)]
+    outs = [p.communicate(timeout=120) for p in ps]
+    codes = sorted(p.returncode for p in ps)
+    assert codes in ([0, 0], [0, 2]), (codes, outs)
+    if codes == [0, 2]:
+        assert any("is being written by another planarkin run" in e for _, e in outs)
+    s = assert_contract(tmp_path / "slider-crank")
+    assert s["time"]["rows_written"] == 200001
+    no_leftovers(tmp_path)

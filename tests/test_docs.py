@@ -3,7 +3,7 @@
 import re
 from pathlib import Path
 
-from planarkin.docs import BEGIN, END, kinds_table
+from planarkin.docs import BEGIN, END, OPTIONS_BEGIN, OPTIONS_END, kinds_table, options_table
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -12,6 +12,12 @@ def test_readme_kinds_table_is_current():
     text = (ROOT / "README.md").read_text()
     a, b = text.index(BEGIN), text.index(END) + len(END)
     assert text[a:b] == kinds_table(), "run: python -m planarkin.docs and paste into README.md"
+
+
+def test_readme_options_table_is_current():
+    text = (ROOT / "README.md").read_text()
+    a, b = text.index(OPTIONS_BEGIN), text.index(OPTIONS_END) + len(OPTIONS_END)
+    assert text[a:b] == options_table(), "run: python -m planarkin.docs and paste into README.md"
 
 
 def test_readme_mentions_existing_examples():

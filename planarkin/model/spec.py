@@ -100,6 +100,7 @@ class ModelSpec:
     branch: dict[str, int] = field(default_factory=dict)   # assembly-mode hints: body -> +1/-1
     branch_lines: dict[str, int] = field(default_factory=dict)
     section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
+    warnings: tuple = ()               # Diagnostics of severity 'warning' found while validating
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

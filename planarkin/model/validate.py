@@ -21,7 +21,10 @@ from .yamlread import Node
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output")
-NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+# \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
+NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
+UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
+TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
@@ -170,19 +173,38 @@ class _Validator:
         analysis = self.analysis(root.value.get("analysis"))
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
+        self.angle_units(bodies, angle_unit, root)
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}))
+                         section_lines=dict(root.key_lines or {}),
+                         warnings=tuple(d for d in self.C.items if d.severity == "warning"))
+
+    def angle_units(self, bodies: list[BodySpec], angle_unit: str, root: Node) -> None:
+        """A likely degree/radian mix-up: body angles of more than a turn in a model in rad."""
+        if angle_unit != "rad":
+            return
+        big = [b for b in bodies if abs(b.q[2]) > TURN]
+        if big:
+            shown = ", ".join(f"{b.name} {b.q[2]:g}" for b in big[:4])
+            self.C.warning(big[0].line, f"body angles of more than a turn in radians ({shown}): "
+                                        f"if they are degrees, write units: {{angle: deg}} (the "
+                                        f"model's angle unit is rad)")
 
     def units(self, node: Node | None):
         length, angle = "m", "rad"
         if node is None or not self.keys(node, ("length", "angle"), "units"):
             return length, angle
         if "length" in node.value:
-            length = self.text(node.value["length"], "units: length") or length
+            n = node.value["length"]
+            text = self.text(n, "units: length")
+            if text is not None and not UNIT_RE.match(text):
+                self.err(n, f"units: length {text!r} is not a unit name: write letters only "
+                            f"(m, mm, cm, in, ft, um, ...); it labels every column")
+            elif text is not None:
+                length = text
         if "angle" in node.value:
             angle = self.choice(node.value["angle"], "units: angle", ("rad", "deg")) or angle
         return length, angle
@@ -201,9 +223,27 @@ class _Validator:
                 self.err(line, f"parameter name '{key}' is reserved (t, pi and the function "
                                f"names cannot be parameters)")
                 continue
+            later = self._defined_later(node, key, val)
+            if later:
+                name, at = later
+                self.err(val, f"parameter '{key}' uses '{name}', which is defined later (line "
+                              f"{at}): parameters are read top to bottom; move '{name}' above "
+                              f"'{key}'")
+                continue
             x = self.number(val, f"parameter '{key}'")
             if x is not None:
                 self.params[key] = x
+
+    def _defined_later(self, node: Node, key: str, val: Node):
+        """(name, line) of a parameter after `key` that val's expression uses, or None."""
+        if val.kind != "scalar" or not isinstance(val.value, str):
+            return None
+        keys = list(node.value)
+        used = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", val.value))
+        for k in keys[keys.index(key) + 1:]:
+            if k in used and k not in self.params:
+                return k, node.key_lines[k]
+        return None
 
     def bodies(self, node: Node | None) -> list[BodySpec]:
         out: list[BodySpec] = []
@@ -285,6 +325,8 @@ class _Validator:
         ename = None
         if "name" in v:
             ename = self.text(v["name"], f"{what}: name")
+            if ename is not None and not self.identifier(ename, v["name"].line, role):
+                ename = None
         # bodies: the label uses the names as written, so that every message can show them
         body_keys = ["i", "j"] + (["k"] if kind.nbody == 3 else [])
         allowed = ["type", "name"] + body_keys
