@@ -533,3 +533,93 @@ def _apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
                                          f"{'+' if want > 0 else '-'} requested")])
     A.q = q
     A.residual = float(np.abs(r).max())
+
+
+def describe_modes(cm: CompiledModel, A: Assembly) -> list[str]:
+    """For each of A.modes, what its sign means geometrically at t = start, in words: the side
+    of the loop's knee (a pin or distance end that moves to its mirror image on the other branch)
+    relative to the line through two points the loop hangs from (points that stay put). Found by
+    solving the loop's block on its other branch (the earlier blocks held); '' when the other
+    branch does not close there or no pin/distance point describes it."""
+    S = A.system
+    t0 = cm.spec.analysis.start
+    T = S.driver_values(np.array([t0]))[0]
+    Q = S.ext(A.q)
+    col_block = {}
+    for b, B in enumerate(S.blocks):
+        for c in B.cols.tolist():
+            col_block[c] = b
+    names = list(cm.body_names) + ["ground"]
+    # every pin and distance end: (label, body index, s (internal), elements' bodies, rows)
+    pts = []
+    for G in cm.groups:
+        if G.kind.name not in ("revolute", "distance") or "si" not in G.params:
+            continue
+        for k in range(len(G)):
+            bi, bj = (int(x) for x in G.bodies[k, :2])
+            rows = set(int(r) for r in np.ravel(G.rows[k]))
+            if G.kind.name == "revolute":
+                pts.append((f"the {names[bi]}-{names[bj]} pin", bi, G.params["si"][k], (bi, bj),
+                            rows))
+            else:
+                for b_, s_ in ((bi, G.params["si"][k]), (bj, G.params["sj"][k])):
+                    pts.append((f"the {names[b_]} end of the {names[bi]}-{names[bj]} distance",
+                                b_, s_, (bi, bj), rows))
+    rng = np.random.default_rng(7)
+    out = []
+    for md in A.modes:
+        B = S.blocks[md.block]
+        alt = _search_block(S, B, Q, T, -md.sign, rng, trials=60)
+        if alt is None:
+            out.append("")
+            continue
+        own = {int(c) // 3 for c in B.cols}
+
+        def settled(b):          # ground, or a body fixed by the blocks before this one
+            return b == cm.nb or all(col_block.get(3 * b + i, -1) < md.block for i in range(3))
+
+        def where(Qx, b, s):
+            x, y, ph = Qx[0, 3 * b], Qx[0, 3 * b + 1], Qx[0, 3 * b + 2]
+            c, sn = np.cos(ph), np.sin(ph)
+            return np.array([x + c * s[0] - sn * s[1], y + sn * s[0] + c * s[1]])
+
+        fixed, knees = [], []
+        for label, b, s, bodies, rows in pts:
+            if not any(x in own for x in bodies) or not (b in own or settled(b)):
+                continue
+            p0, p1 = where(Q, b, s), where(alt, b, s)
+            if np.hypot(*(p1 - p0)) <= 1e-9:
+                if all(np.hypot(*(p0 - f[1])) > 1e-9 for f in fixed):
+                    fixed.append((label, p0))
+            elif rows & set(B.rows.tolist()):
+                knees.append((label, p0, p1))
+        words = ""
+        if len(fixed) >= 2 and knees:
+            (la, a), (lb, b) = max(((f, g) for i, f in enumerate(fixed) for g in fixed[i + 1:]),
+                                   key=lambda fg: np.hypot(*(fg[0][1] - fg[1][1])))
+            d = b - a
+            best = None
+            for lk, k0, k1 in knees:
+                c0 = d[0] * (k0 - a)[1] - d[1] * (k0 - a)[0]
+                c1 = d[0] * (k1 - a)[1] - d[1] * (k1 - a)[0]
+                if np.sign(c0) == -np.sign(c1) != 0 and (best is None or abs(c0) > best[0]):
+                    best = (abs(c0), lk, int(np.sign(c0)))
+            if best is not None:
+                _, lk, side = best
+                here = "left of" if side > 0 else "right of"
+                there = "right of" if side > 0 else "left of"
+                mine, other = ("+", "-") if md.sign > 0 else ("-", "+")
+                words = (f"{mine}: {lk} {here} the line from {la} to {lb}; {other}: {there} it")
+        elif len(fixed) == 1 and knees:
+            # one point to hang from (a slider's rod): say on which side of it, along the axis
+            # on which the knee's two positions differ most
+            (la, a), (lk, k0, k1) = fixed[0], max(knees, key=lambda k: np.hypot(*(k[1] - k[2])))
+            ax = int(np.argmax(np.abs(k0 - k1)))
+            if np.sign(k0[ax] - a[ax]) == -np.sign(k1[ax] - a[ax]) != 0:
+                xy = "xy"[ax]
+                here = "larger" if k0[ax] > a[ax] else "smaller"
+                there = "smaller" if here == "larger" else "larger"
+                mine, other = ("+", "-") if md.sign > 0 else ("-", "+")
+                words = f"{mine}: {lk} at {here} {xy} than {la}; {other}: at {there} {xy}"
+        out.append(words)
+    return out

@@ -331,3 +331,42 @@ def test_branch_that_leaves_a_downstream_loop_open_is_refused(closure):
     assert re.search(r"six\.yaml:\d+: error: assembly: branch: the loop (link5\+)?link6 cannot be "
                      rf"closed at t = 0 on either branch once coupler: \{other} is reached", msg), msg
     assert msg.count("error:") == 1
+
+
+WORDS = re.compile(r"([+-]): (the [\w-]+ (?:pin|end of the [\w-]+ distance)) (left|right) of the "
+                   r"line from (the [\w-]+ (?:pin|end of the [\w-]+ distance)) to "
+                   r"(the [\w-]+ (?:pin|end of the [\w-]+ distance)); ([+-]): (left|right) of it")
+
+SIX_LABELS = {"the coupler-rocker pin": "B", "the crank-coupler pin": "A",
+              "the ground-rocker pin": "O4", "the coupler end of the coupler-ground distance": "B",
+              "the ground end of the coupler-ground distance": "O4",
+              "the link5-link6 pin": "F", "the coupler-link5 pin": "P", "the ground-link6 pin": "E",
+              "the link6 end of the coupler-link6 distance": "F",
+              "the coupler end of the coupler-link6 distance": "P"}
+
+
+@pytest.mark.parametrize("closure", ("revolute", "distance"))
+def test_check_says_what_each_sign_means(tmp_path, closure):
+    """`planarkin check` states each loop's sign as the side of a knee relative to a line; the
+    statement is verified against the assembled points (cross product), for the plain assembly
+    and with both loops asked for their other sign."""
+    p = tmp_path / "six.yaml"
+    p.write_text(six_bar_yaml(closure))
+    for round_ in range(2):
+        cp = run_cli("check", p)
+        assert cp.returncode == 0, cp.stderr
+        found = WORDS.findall(cp.stdout)
+        assert len(found) == 2, cp.stdout
+        res = planarkin.solve(planarkin.load("six.yaml", text=p.read_text()), end=0.01, steps=1)
+        signs = {}
+        for sign, knee, side, a, b, other, other_side in found:
+            assert {sign, other} == {"+", "-"} and {side, other_side} == {"left", "right"}
+            K, A, B = (SIX_LABELS[x] for x in (knee, a, b))
+            loop = next(k for k, v in SIX_LOOPS.items() if v[0] == K)
+            got = _sides(res, {loop: (K, A, B)}, SIX_GROUND)[loop]
+            assert got == (1 if side == "left" else -1), (cp.stdout, got)
+            signs[loop] = sign
+            assert _loop_sign(res, loop) == sign
+        if round_ == 0:       # ask for the other branch of both loops and check again
+            flip = {k: "-" if v == "+" else "+" for k, v in signs.items()}
+            p.write_text(six_bar_yaml(closure, flip))
