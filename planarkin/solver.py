@@ -14,12 +14,16 @@ Two passes, so that a coarse grid changes the cost and never the answer:
    this very process (bisection in effect); its time is extrapolated from sigma_min and it is
    classified from the singular vectors: lock-up of a driver (toggle, dead centre) when the
    joints alone keep full rank, bifurcation (change point) when they lose rank. A model with
-   consistent redundant constraints may first switch which rows it leaves out.
+   consistent redundant constraints may first switch which rows it leaves out. The drivers'
+   breakpoints (TimeFunction.breakpoints: kinks and steps of f' or f'') are landed on exactly
+   and the path restarts there from the right-hand limits: that node appears twice, so no
+   step and no interpolant spans a jump; a kink a driver does not declare is refused.
 2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
    quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
    velocity and acceleration systems are solved exactly. Every point is checked like a path step
    (convergence, Kantorovich radius, determinant signs); a point that fails is solved by
-   following the path from its left node.
+   following the path from its left node. Rows exactly at a breakpoint take the right-hand
+   limit (the end row the left-hand one); a non-finite driver value at a row refuses it.
 
 Results are streamed in chunks of grid points, so memory does not grow with the number of steps.
 """
@@ -603,12 +607,14 @@ class PathFollower:
             d = ts - N.t[k]
             if d <= 0 or N.cond[k] > 10 * COND_WARN:
                 continue
-            hs = np.array(sorted({min(f * d, self.opts.end - N.t[k]) for f in (1.5, 2, 3, 4)}))
+            # never across a driver's breakpoint: step over the crossing only within the piece
+            kink = next((kk.t for kk in self.kinks if kk.t > N.t[k]), self.opts.end)
+            hs = np.array(sorted({min(f * d, kink - N.t[k]) for f in (1.5, 2, 3, 4)}))
             hs = hs[hs > d]
             if not len(hs):
                 continue
             ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False,
-                                                         tol=np.inf)
+                                                         tol=np.inf, land=kink)
             # a larger step than path_tol allows, so smoothness is judged against the motion:
             # the other branch through the singular point leaves it with a different tangent,
             # a deviation of the order of the step itself
@@ -619,8 +625,13 @@ class PathFollower:
             if good.any():
                 j = int(np.nonzero(good)[0][0])
                 N.truncate(k)
-                N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j],
-                      self.seg)
+                tn = kink if hs[j] == kink - N.t[k] else N.t[k] + hs[j]
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                self._keep_drv(self._last_drivers, j)
+                if tn == kink and kink < self.opts.end:
+                    k_obj = next(kk for kk in self.kinks if kk.t == kink)
+                    if self._restart_at(k_obj) is not None:
+                        return False
                 ev.message = ev.message.split("; to follow")[0] + (
                     f"; continued on the smooth branch (bifurcation: continue): results between "
                     f"t = {N.t[k]:.6g} and {N.t[-1]:.6g} are interpolated across the crossing and "
@@ -715,9 +726,19 @@ class Analysis:
         t0 = time.perf_counter()
         f = self.follower
         if not f.start(self.A.q):
-            self.event = Event("failure", self.opts.start,
-                               "velocities or accelerations are undefined at t = start (singular "
-                               "Jacobian at the assembly pose)")
+            t0 = self.opts.start
+            _, NU, FDD = self.S_all.driver_values(np.array([t0]), side=+1)
+            bad = [r for r in self.cm.driver_rows
+                   if not (np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r]))]
+            if bad:
+                el = self.cm.element_of_row(int(bad[0]))
+                self.event = Event("driver", t0, f"{el.label}: the derivatives of f = "
+                                                 f"{el.f.text} are not finite just after t = "
+                                                 f"start = {t0:.10g}")
+            else:
+                self.event = Event("failure", t0,
+                                   "velocities or accelerations are undefined at t = start "
+                                   "(singular Jacobian at the assembly pose)")
             self.t_stop = self.opts.start
         else:
             self.event = f.run()
