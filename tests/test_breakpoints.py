@@ -276,3 +276,24 @@ def test_expression_kinks_right_or_refused(text):
     side = np.where(t == 1.0, -1, 1)
     d1 = np.where(side > 0, f.derivatives(t, 1)[1], f.derivatives(t, -1)[1])
     assert np.abs(res.body("crank")["omega"] - d1).max() <= 1e-12
+
+
+@pytest.mark.parametrize("order", (0, 1, 2))
+def test_interpolated_grid_and_orders_at_breakpoints(order):
+    """interpolate: true reads the rows from the nodes' Hermite interpolants: a row at the
+    breakpoint is the right-hand node itself, rows on either side interpolate within their
+    piece (to the interpolation accuracy, not across the jump)."""
+    res = planarkin.solve(model_with(KINK, steps=10), interpolate=True, order=order)
+    assert res.status == 0, res.message
+    t = res.t
+    side = np.where(t == 1.0, -1, 1)
+    th = np.where(side > 0, KINK.derivatives(t, 1)[0], KINK.derivatives(t, -1)[0])
+    d1 = np.where(side > 0, KINK.derivatives(t, 1)[1], KINK.derivatives(t, -1)[1])
+    x, vx, ax = closed_form(th, d1, 0 * t)
+    s = res.body("slider")
+    assert np.abs(s["x"] - x).max() <= 1e-6
+    if order >= 1:
+        assert np.abs(s["vx"] - vx).max() <= 1e-5 * np.abs(vx).max()
+        assert res.body("crank")["omega"][5] == pytest.approx(TWO_PI, abs=1e-12)   # t = 0.5: t+
+    if order >= 2:
+        assert np.abs(s["ax"] - ax).max() <= 1e-3 * np.abs(ax).max()
