@@ -128,7 +128,8 @@ class Nodes:
 class Event:
     """Why the path stopped (or what it passed, for warnings).
 
-    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure'."""
+    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure',
+    'breakpoint' (a warning: a driver's kink, followed piece by piece)."""
 
     kind: str
     t: float

@@ -345,6 +345,23 @@ SIX_LABELS = {"the coupler-rocker pin": "B", "the crank-coupler pin": "A",
               "the coupler end of the coupler-link6 distance": "P"}
 
 
+def _check(path):
+    """`planarkin check path`, in process (the subprocess form is tested in test_cli.py and
+    once below)."""
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    r = CliRunner().invoke(main, ["check", str(path)])
+    return type("Done", (), {"returncode": r.exit_code, "stdout": r.output, "stderr": r.output})
+
+
+def test_check_words_in_a_subprocess(tmp_path):
+    p = tmp_path / "six.yaml"
+    p.write_text(six_bar_yaml("revolute"))
+    cp = run_cli("check", p)
+    assert cp.returncode == 0, cp.stderr
+    assert len(WORDS.findall(cp.stdout)) == 2, cp.stdout
+
+
 @pytest.mark.parametrize("closure", ("revolute", "distance"))
 def test_check_says_what_each_sign_means(tmp_path, closure):
     """`planarkin check` states each loop's sign as the side of a knee relative to a line; the
@@ -353,7 +370,7 @@ def test_check_says_what_each_sign_means(tmp_path, closure):
     p = tmp_path / "six.yaml"
     p.write_text(six_bar_yaml(closure))
     for round_ in range(2):
-        cp = run_cli("check", p)
+        cp = _check(p)
         assert cp.returncode == 0, cp.stderr
         found = WORDS.findall(cp.stdout)
         assert len(found) == 2, cp.stdout
