@@ -365,6 +365,7 @@ def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
     A = Assembly(q=Q[0, : cm.n].copy(), residual=float(np.abs(r).max()), iterations=int(
         info.iterations[0]), active_rows=S.rows, redundant_rows=[], dof=cm.n - cm.m_joint,
         system=S)
+    _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
     return A
 

@@ -387,3 +387,36 @@ def test_check_says_what_each_sign_means(tmp_path, closure):
         if round_ == 0:       # ask for the other branch of both loops and check again
             flip = {k: "-" if v == "+" else "+" for k, v in signs.items()}
             p.write_text(six_bar_yaml(closure, flip))
+
+
+@pytest.mark.slow
+def test_branch_hint_in_a_large_model():
+    """Models past the dense limit (n > 3000) are assembled block by block; a hint is applied
+    there too (it was ignored). The IFToMM A02 chain of N = 500 parallelograms (n = 3003),
+    the middle loop asked for its other sign: its knee (the pin of k250 on c251) is on the
+    other side of the line from c500's tip to c501's pivot, checked by a cross product; every
+    loop after it is re-assembled (the residual of every equation stays at rounding)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    import models
+    from planarkin.assembly import assemble
+    N = 500
+    plain = planarkin.load("chain.yaml", text=models.chain_yaml(N))
+    A0 = assemble(plain)
+    key = f"k{N // 2}"
+    sign0 = next(m.sign for m in A0.modes if key in m.bodies)
+    want = "-" if sign0 > 0 else "+"
+    cm = planarkin.load("chain.yaml",
+                        text=models.chain_yaml(N) + f"assembly: {{branch: {{{key}: '{want}'}}}}\n")
+    A = assemble(cm)
+    assert next(m.sign for m in A.modes if key in m.bodies) == (1 if want == "+" else -1)
+    assert A.residual <= 1e-10
+
+    def side(q):
+        j = N // 2
+        th_j = q[3 * cm.body_names.index(f"c{j}") + 2]
+        th_k = q[3 * cm.body_names.index(f"c{j + 1}") + 2]
+        a = np.array([j + math.cos(th_j), math.sin(th_j)])          # c_j's tip (unit cranks)
+        o = np.array([j + 1.0, 0.0])                                 # c_{j+1}'s pivot
+        knee = o + np.array([math.cos(th_k), math.sin(th_k)])
+        return np.sign(cross(o - a, knee - a))
+    assert side(A.q) == -side(A0.q) != 0
