@@ -34,6 +34,7 @@ class Mode:
     bodies: tuple
     sign: int
     key: str                        # body named in assembly: branch:
+    block: int = -1                 # index of the loop's own diagonal block in System.blocks
 
 
 @dataclass
@@ -396,6 +397,7 @@ def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
     A = Assembly(q=Q[0, : cm.n].copy(), residual=float(np.abs(r).max()), iterations=int(
         info.iterations[0]), active_rows=S.rows, redundant_rows=[], dof=cm.n - cm.m_joint,
         system=S)
+    _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
     return A
 
@@ -406,64 +408,251 @@ def block_modes(cm: CompiledModel, S: System, q: np.ndarray) -> list[Mode]:
     Q = S.ext(q)
     F = S.frame(Q)
     out = []
-    for B in S.blocks:
+    for b, B in enumerate(S.blocks):
         if B.affine:              # one solution: nothing to choose
             continue
-        J = S.block_matrix(B, S.block_grads(B, F))[0]
-        sign = int(np.sign(np.linalg.det(J)))
-        bodies = tuple(sorted({int(c) // 3 for c in B.cols}))
-        names = tuple(cm.body_names[b] for b in bodies)
-        out.append(Mode(names, sign, names[0]))
+        out.append(_mode(cm, S, B, b, F))
     return out
 
 
+def _mode(cm: CompiledModel, S: System, B, b: int, F) -> Mode:
+    J = S.block_matrix(B, S.block_grads(B, F))[0]
+    sign = int(np.sign(np.linalg.det(J)))
+    bodies = tuple(sorted({int(c) // 3 for c in B.cols}))
+    names = tuple(cm.body_names[k] for k in bodies)
+    return Mode(names, sign, names[0], b)
+
+
+def _block_sign(S: System, B, Q: np.ndarray) -> int:
+    J = S.block_matrix(B, S.block_grads(B, S.frame(Q)))[0]
+    return int(np.sign(np.linalg.det(J)))
+
+
+def _newton_block(S: System, B, Q: np.ndarray, T: np.ndarray, maxit: int = 25) -> bool:
+    """Newton on one diagonal block's own unknowns, the earlier blocks' coordinates held
+    (block-triangular order: the later ones do not enter). Q (1, n + 3) is updated in place.
+    True when converged to rounding error."""
+    for _ in range(maxit):
+        F = S.frame(Q)
+        r = S.block_residual(B, F, T)[0]
+        J = S.block_matrix(B, S.block_grads(B, F))[0]
+        if not (np.isfinite(r).all() and np.isfinite(J).all()):
+            return False
+        try:
+            dx = np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            return False
+        Q[0, B.cols] -= dx
+        if np.abs(dx).max() <= 1e-13 * (1 + np.abs(Q[0, B.cols]).max()):
+            break
+    r = S.block_residual(B, S.frame(Q), T)[0]
+    return bool(np.isfinite(Q).all() and np.abs(r).max() <= 1e-12)
+
+
+def _search_block(S: System, B, Q: np.ndarray, T: np.ndarray, want: int, rng,
+                  trials: int = 120):
+    """A solution of block B alone with determinant sign want, from deterministic random starts
+    around Q (angles anywhere on the circle, positions within a few model lengths); Q itself is
+    not changed. Returns the new (1, n + 3) array or None."""
+    cols = B.cols
+    ang = cols % 3 == 2
+    for trial in range(trials):
+        Qt = Q.copy()
+        scale = 0.3 * (1 + trial // 30)
+        dq = rng.normal(size=len(cols)) * scale
+        dq[ang] = rng.uniform(-np.pi, np.pi, size=int(ang.sum()))
+        Qt[0, cols] += dq
+        if _newton_block(S, B, Qt, T) and _block_sign(S, B, Qt) == want:
+            return Qt
+    return None
+
+
 def _apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
-    """Re-assemble the blocks whose sign differs from `assembly: branch:` by searching from
-    perturbed starts (deterministic), in block order; later blocks follow by Newton."""
+    """Re-assemble to the loops' signs asked by `assembly: branch:` or raise InputError.
+
+    Each hint names a body; its loop is the first non-affine diagonal block holding one of the
+    body's coordinates (a body closed by a distance joint has its x and y in affine 1x1 blocks:
+    those are skipped, the sign is that of the loop's own block). From the first block whose sign
+    must change, the blocks are solved one by one in block-triangular order: a requested block
+    by a deterministic multi-start search for its sign, every later block by Newton from the
+    previous pose and, when that fails or lands on another sign (a downstream link that must
+    move a long way, like the lower leg of a Jansen linkage), by the same search for the sign it
+    had (or else the other). At the end every requested sign is checked again."""
     hints = cm.spec.branch
     if not hints:
         return
     S = A.system
-    t0 = cm.spec.analysis.start
-    index = {name: k for k, name in enumerate(cm.body_names)}
+    spec = cm.spec
+    t0 = spec.analysis.start
+    T = S.driver_values(np.array([t0]))[0]
     rng = np.random.default_rng(2024)
+    modes = block_modes(cm, S, A.q)
+    wanted: dict[int, tuple] = {}
     for name, want in hints.items():
-        modes = block_modes(cm, S, A.q)
         mode = next((md for md in modes if name in md.bodies), None)
-        line = cm.spec.branch_lines.get(name)
+        line = spec.branch_lines.get(name)
         if mode is None:
-            raise InputError([Diagnostic(cm.spec.file, line,
+            raise InputError([Diagnostic(spec.file, line,
                                          f"assembly: branch: body '{name}' is not part of a loop "
                                          f"with more than one assembly; nothing to choose "
                                          f"(loops: {', '.join('+'.join(md.bodies) for md in modes) or 'none'})")])
-        if mode.sign == want:
-            continue
-        bidx = next(b for b, B in enumerate(S.blocks)
-                    if set(index[x] for x in mode.bodies) == {int(c) // 3 for c in B.cols})
-        B = S.blocks[bidx]
-        found = None
-        for trial in range(200):
-            q = A.q.copy()
-            scale = 0.3 * (1 + trial // 20)
-            q[B.cols] += rng.normal(size=len(B.cols)) * scale
-            Q = S.ext(q)
-            Qd = np.zeros_like(Q)
-            info = S.solve_batch(np.array([t0]), Q, Qd, Qd.copy(), policy="full", tol=1e-13,
-                                 maxit=40, order=0)
-            if not info.converged[0]:
+        if mode.block in wanted and wanted[mode.block][0] != want:
+            other = wanted[mode.block][1]
+            raise InputError([Diagnostic(spec.file, line,
+                                         f"assembly: branch: {name} and {other} are in the same "
+                                         f"loop {'+'.join(mode.bodies)} but ask for different "
+                                         f"signs; give one of them")])
+        wanted.setdefault(mode.block, (want, name, line))
+    current = {md.block: md.sign for md in modes}
+    flips = [b for b, w in wanted.items() if current[b] != w[0]]
+    if not flips:
+        return
+    Q = S.ext(A.q)
+    for b in range(min(flips), len(S.blocks)):
+        B = S.blocks[b]
+        Qn = Q.copy()
+        ok = _newton_block(S, B, Qn, T)
+        if B.affine:
+            if ok:
+                Q = Qn
                 continue
-            F = S.frame(Q)
-            J = S.block_matrix(B, S.block_grads(B, F))[0]
-            if np.sign(np.linalg.det(J)) == want:
-                found = Q[0, : cm.n].copy()
-                # the same pose with each angle the turn nearest the user's estimate
-                phi = found[2::3]
-                found[2::3] = phi - 2 * np.pi * np.round((phi - cm.q0[2::3]) / (2 * np.pi))
-                break
+            raise InputError([_diag(cm, int(B.rows[0]),
+                                    f"assembly: branch: after changing the loop's branch, "
+                                    f"{cm.row_label[int(B.rows[0])]} cannot be satisfied")])
+        want = wanted[b][0] if b in wanted else current[b]
+        if ok and _block_sign(S, B, Qn) == want:
+            Q = Qn
+            continue
+        found = _search_block(S, B, Q, T, want, rng)
+        other = None
         if found is None:
-            raise InputError([Diagnostic(cm.spec.file, line,
+            other = Qn if ok else _search_block(S, B, Q, T, -want, rng)
+        if found is None and (b in wanted or other is None):
+            names = '+'.join(_mode(cm, S, B, b, S.frame(Q)).bodies)
+            before = [f"{w[1]}: {'+' if w[0] > 0 else '-'}" for bb, w in sorted(wanted.items())
+                      if bb < b]
+            line = wanted[b][2] if b in wanted else next(iter(wanted.values()))[2]
+            if other is None:
+                raise InputError([Diagnostic(spec.file, line,
+                                             f"assembly: branch: the loop {names} cannot be "
+                                             f"closed at t = {t0:g} on either branch once "
+                                             f"{', '.join(before) or 'the loops before it'} "
+                                             f"{'is' if len(before) == 1 else 'are'} reached: "
+                                             f"these branches do not fit together")])
+            raise InputError([Diagnostic(spec.file, line,
                                          f"assembly: branch: no assembly with sign "
                                          f"{'+' if want > 0 else '-'} found for the loop "
-                                         f"{'+'.join(mode.bodies)}")])
-        A.q = found
-        A.residual = float(np.abs(S.residual(S.ext(found), t0)).max())
+                                         f"{names} (only {'-' if want > 0 else '+'})")])
+        Q = found if found is not None else other    # downstream, not asked for: either sign
+    q = Q[0, : cm.n].copy()
+    # the same pose with each angle the turn nearest the user's estimate
+    phi = q[2::3]
+    q[2::3] = phi - 2 * np.pi * np.round((phi - cm.q0[2::3]) / (2 * np.pi))
+    S_all = System(cm)
+    r = S_all.residual(S_all.ext(q), t0)[0]
+    if not np.abs(r).max() <= ASSEMBLED:
+        row = int(np.argmax(np.abs(np.nan_to_num(r, nan=np.inf))))
+        raise InputError([Diagnostic(spec.file, next(iter(wanted.values()))[2],
+                                     f"assembly: branch: on the requested branches "
+                                     f"{cm.row_label[row]} is violated by "
+                                     f"{_fmt_res(cm, row, r[row])}")])
+    # the loop's own block, not one that merely shares a body, must have the sign asked for
+    got = {md.block: md.sign for md in block_modes(cm, S, q)}
+    for b, (want, name, line) in wanted.items():
+        if got.get(b) != want:
+            raise InputError([Diagnostic(spec.file, line,
+                                         f"assembly: branch: {name}: the assembly reached has "
+                                         f"sign {'+' if got.get(b, 0) > 0 else '-'}, not the "
+                                         f"{'+' if want > 0 else '-'} requested")])
+    A.q = q
+    A.residual = float(np.abs(r).max())
+
+
+def describe_modes(cm: CompiledModel, A: Assembly) -> list[str]:
+    """For each of A.modes, what its sign means geometrically at t = start, in words: the side
+    of the loop's knee (a pin or distance end that moves to its mirror image on the other branch)
+    relative to the line through two points the loop hangs from (points that stay put). Found by
+    solving the loop's block on its other branch (the earlier blocks held); '' when the other
+    branch does not close there or no pin/distance point describes it."""
+    S = A.system
+    t0 = cm.spec.analysis.start
+    T = S.driver_values(np.array([t0]))[0]
+    Q = S.ext(A.q)
+    col_block = {}
+    for b, B in enumerate(S.blocks):
+        for c in B.cols.tolist():
+            col_block[c] = b
+    names = list(cm.body_names) + ["ground"]
+    # every pin and distance end: (label, body index, s (internal), elements' bodies, rows)
+    pts = []
+    for G in cm.groups:
+        if G.kind.name not in ("revolute", "distance") or "si" not in G.params:
+            continue
+        for k in range(len(G)):
+            bi, bj = (int(x) for x in G.bodies[k, :2])
+            rows = set(int(r) for r in np.ravel(G.rows[k]))
+            if G.kind.name == "revolute":
+                pts.append((f"the {names[bi]}-{names[bj]} pin", bi, G.params["si"][k], (bi, bj),
+                            rows))
+            else:
+                for b_, s_ in ((bi, G.params["si"][k]), (bj, G.params["sj"][k])):
+                    pts.append((f"the {names[b_]} end of the {names[bi]}-{names[bj]} distance",
+                                b_, s_, (bi, bj), rows))
+    rng = np.random.default_rng(7)
+    out = []
+    for md in A.modes:
+        B = S.blocks[md.block]
+        alt = _search_block(S, B, Q, T, -md.sign, rng, trials=60)
+        if alt is None:
+            out.append("")
+            continue
+        own = {int(c) // 3 for c in B.cols}
+
+        def settled(b):          # ground, or a body fixed by the blocks before this one
+            return b == cm.nb or all(col_block.get(3 * b + i, -1) < md.block for i in range(3))
+
+        def where(Qx, b, s):
+            x, y, ph = Qx[0, 3 * b], Qx[0, 3 * b + 1], Qx[0, 3 * b + 2]
+            c, sn = np.cos(ph), np.sin(ph)
+            return np.array([x + c * s[0] - sn * s[1], y + sn * s[0] + c * s[1]])
+
+        fixed, knees = [], []
+        for label, b, s, bodies, rows in pts:
+            if not any(x in own for x in bodies) or not (b in own or settled(b)):
+                continue
+            p0, p1 = where(Q, b, s), where(alt, b, s)
+            if np.hypot(*(p1 - p0)) <= 1e-9:
+                if all(np.hypot(*(p0 - f[1])) > 1e-9 for f in fixed):
+                    fixed.append((label, p0))
+            elif rows & set(B.rows.tolist()):
+                knees.append((label, p0, p1))
+        words = ""
+        if len(fixed) >= 2 and knees:
+            (la, a), (lb, b) = max(((f, g) for i, f in enumerate(fixed) for g in fixed[i + 1:]),
+                                   key=lambda fg: np.hypot(*(fg[0][1] - fg[1][1])))
+            d = b - a
+            best = None
+            for lk, k0, k1 in knees:
+                c0 = d[0] * (k0 - a)[1] - d[1] * (k0 - a)[0]
+                c1 = d[0] * (k1 - a)[1] - d[1] * (k1 - a)[0]
+                if np.sign(c0) == -np.sign(c1) != 0 and (best is None or abs(c0) > best[0]):
+                    best = (abs(c0), lk, int(np.sign(c0)))
+            if best is not None:
+                _, lk, side = best
+                here = "left of" if side > 0 else "right of"
+                there = "right of" if side > 0 else "left of"
+                mine, other = ("+", "-") if md.sign > 0 else ("-", "+")
+                words = (f"{mine}: {lk} {here} the line from {la} to {lb}; {other}: {there} it")
+        elif len(fixed) == 1 and knees:
+            # one point to hang from (a slider's rod): say on which side of it, along the axis
+            # on which the knee's two positions differ most
+            (la, a), (lk, k0, k1) = fixed[0], max(knees, key=lambda k: np.hypot(*(k[1] - k[2])))
+            ax = int(np.argmax(np.abs(k0 - k1)))
+            if np.sign(k0[ax] - a[ax]) == -np.sign(k1[ax] - a[ax]) != 0:
+                xy = "xy"[ax]
+                here = "larger" if k0[ax] > a[ax] else "smaller"
+                there = "smaller" if here == "larger" else "larger"
+                mine, other = ("+", "-") if md.sign > 0 else ("-", "+")
+                words = f"{mine}: {lk} at {here} {xy} than {la}; {other}: at {there} {xy}"
+        out.append(words)
+    return out

@@ -267,8 +267,10 @@ def check(models, quiet):
             continue
         report.diagnostics(A.warnings)
         ndrv = len(model.driver_rows)
+        from .assembly import describe_modes
+        words = describe_modes(model, A) if A.modes else []
         modes = "; ".join(f"{'+'.join(md.bodies)}: {'+' if md.sign > 0 else '-'}"
-                          for md in A.modes)
+                          + (f" ({w})" if w else "") for md, w in zip(A.modes, words))
         detail = (f"{model.nb} bodies, {model.n} coordinates, {model.m_joint} joint equations, "
                   f"{ndrv} driver{'s' if ndrv != 1 else ''}; {A.dof} DOF"
                   f"{' (redundant: ' + ', '.join(model.row_label[r] for r in A.redundant_rows) + ')' if A.redundant_rows else ''}"

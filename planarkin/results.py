@@ -40,6 +40,7 @@ class RunInfo:
     fallbacks: int
     timings: dict = field(default_factory=dict)
     diagnostics: list = field(default_factory=list)   # assembly warnings (FILE:LINE: warning)
+    breakpoints: dict = field(default_factory=dict)   # drivers' breakpoints (Analysis.breakpoint_info)
     interrupted: str | None = None   # 'SIGINT' / 'SIGTERM': the rows up to then are complete
 
     @property
@@ -65,7 +66,8 @@ def run_info(an: Analysis) -> RunInfo:
         "redundant": [cm.row_label[r] for r in A.redundant_rows],
     }
     return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes), f.rejected,
-                   an.fallbacks, dict(an.timings), list(cm.spec.warnings) + list(A.warnings))
+                   an.fallbacks, dict(an.timings), list(cm.spec.warnings) + list(A.warnings),
+                   an.breakpoint_info())
 
 
 class PlotBuffer:
@@ -298,6 +300,7 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "warnings": [{"kind": "model" if d in spec.warnings else "redundant", "line": d.line,
                       "message": d.message} for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
+        "breakpoints": info.breakpoints,
         "columns": {"bodies.csv": body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
     }

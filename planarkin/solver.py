@@ -14,12 +14,16 @@ Two passes, so that a coarse grid changes the cost and never the answer:
    this very process (bisection in effect); its time is extrapolated from sigma_min and it is
    classified from the singular vectors: lock-up of a driver (toggle, dead centre) when the
    joints alone keep full rank, bifurcation (change point) when they lose rank. A model with
-   consistent redundant constraints may first switch which rows it leaves out.
+   consistent redundant constraints may first switch which rows it leaves out. The drivers'
+   breakpoints (TimeFunction.breakpoints: kinks and steps of f' or f'') are landed on exactly
+   and the path restarts there from the right-hand limits: that node appears twice, so no
+   step and no interpolant spans a jump; a kink a driver does not declare is refused.
 2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
    quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
    velocity and acceleration systems are solved exactly. Every point is checked like a path step
    (convergence, Kantorovich radius, determinant signs); a point that fails is solved by
-   following the path from its left node.
+   following the path from its left node. Rows exactly at a breakpoint take the right-hand
+   limit (the end row the left-hand one); a non-finite driver value at a row refuses it.
 
 Results are streamed in chunks of grid points, so memory does not grow with the number of steps.
 """
@@ -94,7 +98,8 @@ class Nodes:
 class Event:
     """Why the path stopped (or what it passed, for warnings).
 
-    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure'."""
+    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure',
+    'breakpoint' (a warning: a driver's kink, followed piece by piece)."""
 
     kind: str
     t: float
@@ -112,6 +117,44 @@ class Event:
         if self.bodies:
             d["bodies"] = self.bodies
         return d
+
+
+@dataclass
+class Kink:
+    """A time where one or more drivers' derivatives jump (their TimeFunction.breakpoints):
+    t (s) and jumps: list of (driver row, Breakpoint), jumps in the driver's user units."""
+
+    t: float
+    jumps: list = field(default_factory=list)
+
+
+# rows exactly at a breakpoint take this one-sided limit (documented in the README, stated in
+# summary.json): the right-hand one, which continues into the run; the end row the left-hand one
+ROWS_AT_BREAKPOINTS = ("right-hand limit (t+) of velocities and accelerations; a row at the end "
+                       "time: left-hand limit (t-)")
+# An undeclared kink inside an accepted step shows as a mismatch of the trapezoid rule for the
+# driver's f' = integral of f''. A smooth driver on an accepted step (h omega <= ~0.2) misses it
+# by h^2 omega^2 / 12 <= ~0.004 of the scale below; a kink by about half of it or more.
+KINK_TOL = 0.1
+
+
+def driver_breakpoints(cm: CompiledModel, start: float, end: float) -> list[Kink]:
+    """The breakpoints of every driver function in [start, end], sorted, those of different
+    drivers at the same time (within rounding) merged into one Kink."""
+    found = []
+    for r, f in zip(cm.driver_rows, cm.driver_funcs):
+        for bp in f.breakpoints(start, end):
+            if math.isfinite(bp.t) and start <= bp.t <= end:
+                found.append((bp.t, int(r), bp))
+    found.sort(key=lambda x: (x[0], x[1]))
+    out: list[Kink] = []
+    span = max(abs(start), abs(end), end - start, 1e-300)
+    for t, r, bp in found:
+        if out and t - out[-1].t <= 4 * np.finfo(float).eps * span:
+            out[-1].jumps.append((r, bp))
+        else:
+            out.append(Kink(t, [(r, bp)]))
+    return out
 
 
 def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
@@ -147,8 +190,11 @@ def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
 class PathFollower:
     """Adaptive continuation along the assembled branch; see the module docstring."""
 
-    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, systems=None, seg=0):
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, systems=None, seg=0,
+                 kinks=()):
         self.cm = cm
+        # drivers' breakpoints strictly inside the run: the path lands on each and restarts
+        self.kinks = [k for k in kinks if opts.start < k.t < opts.end]
         self.A = A
         # systems[seg] = (fine blocks for the grid, merged blocks for the path). Few large blocks
         # on the path: at a handful of candidate points per call, Python overhead per block
@@ -170,11 +216,16 @@ class PathFollower:
         self.warnings: list[Event] = []
         self.event: Event | None = None
         self.ok_signs_flip = False
+        # (number of nodes, f', f'') of the driver rows at the last node, internal units
+        self.drv_last: tuple | None = None
 
     # -- one batch of candidate steps -------------------------------------------------------
-    def _candidates(self, k: int, hs: np.ndarray, check_sign: bool = True, jerk=True, tol=None):
+    def _candidates(self, k: int, hs: np.ndarray, check_sign: bool = True, jerk=True, tol=None,
+                    land: float | None = None):
         """Try steps hs from node k. Returns (ok mask, err, Q, Qd, Qdd, info); tol: predictor
-        error allowed (default path_tol)."""
+        error allowed (default path_tol). land: a time (breakpoint or end) that the step
+        hs == land - t_k reaches exactly, not up to rounding. Drivers are evaluated as left-hand
+        limits: every candidate lies after node k and at most at the next breakpoint."""
         N = self.nodes
         t0, q0, qd0, qdd0, sg0 = N.t[k], N.q[k], N.qd[k], N.qdd[k], N.sign[k]
         j3 = np.zeros_like(q0)
@@ -186,8 +237,13 @@ class PathFollower:
         Qd = qd0 + h * qdd0 + 0.5 * h * h * j3
         Qdd = qdd0 + h * j3
         t = t0 + hs
+        if land is not None:
+            t[hs == land - t0] = land
         self.evaluations += len(hs)
-        info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12, order=2)
+        drivers = self.S.driver_values(t, side=-1)
+        self._last_drivers = drivers
+        info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12,
+                                  order=2, drivers=drivers)
         n = self.S.n
         ef = np.abs(Q[:, :n] - Qp[:, :n]).max(axis=1)
         j3c = (Qdd - qdd0) / h
@@ -208,9 +264,16 @@ class PathFollower:
         Q = S.ext(q)
         Qd = np.zeros_like(Q)
         Qdd = np.zeros_like(Q)
-        info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12)
+        drivers = S.driver_values(np.array([t0]), side=+1)
+        info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12,
+                             drivers=drivers)
         self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self._keep_drv(drivers, 0)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
+
+    def _keep_drv(self, drivers, j: int) -> None:
+        rows = self.cm.driver_rows
+        self.drv_last = (len(self.nodes), drivers[1][j, rows].copy(), drivers[2][j, rows].copy())
 
     def run(self) -> Event | None:
         """Follow the path to t = end (or to a singular configuration). Returns the stopping event
@@ -228,19 +291,30 @@ class PathFollower:
             if remaining <= 1e-14 * max(abs(end), 1.0):
                 N.t[-1] = end   # rounding of the accumulated steps
                 break
-            cap = min(remaining, self.h_max)
+            # the next breakpoint is landed on exactly: no step crosses it
+            kink = next((kk for kk in self.kinks if kk.t > t), None)
+            land = kink.t if kink is not None and kink.t - t < remaining else end
+            cap = min(land - t, self.h_max)
             # sorted distinct candidates (np.unique would import numpy.ma: 10 ms of start-up)
             hs = np.array(sorted({min(f * h, cap) for f in (0.25, 0.5, 1.0, 2.0)}))
-            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs)
+            ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, land=land)
             if ok.any():
                 j = int(np.nonzero(ok)[0][-1])
                 hj = hs[j]
-                tn = end if hj == remaining else t + hj
+                tn = land if hj == land - t else t + hj
+                undeclared = self._undeclared_kink(k, tn, j)
+                if undeclared is not None:
+                    return self._stop(undeclared)
                 N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                self._keep_drv(self._last_drivers, j)
+                if tn == land and land < end:
+                    ev = self._restart_at(kink)
+                    if ev is not None:
+                        return self._stop(ev)
                 self.rejected += int((~ok[: j + 1]).sum())
                 grow = 4.0 if err[j] == 0 else min(4.0, max(0.3, 0.8 * (self.opts.path_tol
                                                                           / err[j]) ** 0.25))
-                h = min(hj * grow, self.h_max) if hj < remaining else max(h, hj)
+                h = min(hj * grow, self.h_max) if hj < land - t else max(h, hj)
                 if len(N) > self.max_nodes:
                     return self._stop(Event("budget", N.t[-1],
                                             f"more than {self.max_nodes} internal steps before "
@@ -264,6 +338,100 @@ class PathFollower:
                 return self._stop(ev)
         self._near_singular_warnings()
         return None
+
+    def _restart_at(self, kink: Kink) -> Event | None:
+        """The path has landed on a driver breakpoint (the node holds the left-hand limits):
+        refuse a jump of a driver's position; otherwise add the node again with velocities and
+        accelerations re-solved from the drivers' right-hand limits (the node appears twice, so
+        no interpolation spans the jump) and warn with the size of every jump."""
+        cm, N = self.cm, self.nodes
+        parts = []
+        for r, bp in kink.jumps:
+            el = cm.element_of_row(r)
+            unit = self._driver_unit(r)
+            if bp.jump[0] != 0:
+                return Event("driver", kink.t,
+                             f"{el.label}: f = {el.f.text} jumps by {bp.jump[0]:.6g} {unit} at "
+                             f"t = {kink.t:.10g}: a position jump cannot be followed; results "
+                             f"are written up to t = {kink.t:.10g}")
+            parts.append(f"{el.label}: f = {el.f.text} has a breakpoint at t = {kink.t:.10g} s: "
+                         f"its velocity jumps by {bp.jump[1]:.6g} {unit}/s and its acceleration "
+                         f"by {bp.jump[2]:.6g} {unit}/s^2")
+        S = self.S
+        Q = N.q[-1][None, :].copy()
+        Qd = np.zeros_like(Q)
+        Qdd = np.zeros_like(Q)
+        drivers = S.driver_values(np.array([kink.t]), side=+1)
+        info = S.solve_batch(np.array([kink.t]), Q, Qd, Qdd, policy="full", tol=NODE_TOL,
+                             maxit=12, drivers=drivers)
+        if not (info.converged[0] and np.isfinite(Qd).all() and np.isfinite(Qdd).all()):
+            bad = [r for r, _ in kink.jumps]
+            return Event("driver", kink.t,
+                         f"{cm.element_of_row(bad[0]).label}: velocities or accelerations "
+                         f"after its breakpoint at t = {kink.t:.10g} cannot be solved "
+                         f"(right-hand limits of f not finite?)")
+        # the same pose on both sides (Newton above moved it by rounding at most)
+        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self._keep_drv(drivers, 0)
+        self.warnings.append(Event(
+            "breakpoint", kink.t, "; ".join(parts) + "; the path is followed piece by piece "
+            "and grid rows at this time take the right-hand limit"))
+        return None
+
+    def _driver_unit(self, r: int) -> str:
+        from .elements import KINDS
+        el = self.cm.element_of_row(r)
+        u = KINDS[el.kind].target_unit
+        return self.cm.spec.angle_unit if u == "angle" else self.cm.spec.length_unit
+
+    def _undeclared_kink(self, k: int, tn: float, j: int) -> Event | None:
+        """A driver whose derivative jumps inside the step from node k to tn although its
+        breakpoints do not say so: the trapezoid rule for f' = integral f'' fails there (see
+        KINK_TOL). Located by bisection on the driver alone and refused: the solver never steps
+        over a jump silently."""
+        if self.drv_last is None or self.drv_last[0] != k + 1 or not len(self.cm.driver_rows):
+            return None        # the last node's driver values are not at hand (a switch node)
+        _, d0, a0 = self.drv_last
+        d1, a1 = self._last_drivers[1][j, self.cm.driver_rows], \
+            self._last_drivers[2][j, self.cm.driver_rows]
+        t0 = self.nodes.t[k]
+        h = tn - t0
+        mis = np.abs(d1 - d0 - 0.5 * h * (a0 + a1))
+        scale = np.abs(d0) + np.abs(d1) + h * (np.abs(a0) + np.abs(a1)) + 1e-300
+        bad = np.nonzero(~(mis <= KINK_TOL * scale) & np.isfinite(mis))[0]
+        if not len(bad):
+            return None
+        i = int(bad[0])
+        r = int(self.cm.driver_rows[i])
+        f = self.cm.driver_funcs[i]
+
+        def miss(a, b):
+            (_, da, aa), (_, db, ab) = (f.derivatives(np.array([x])) for x in (a, b))
+            da, aa, db, ab = (float(np.ravel(v)[0]) for v in (da, aa, db, ab))
+            return abs(db - da - 0.5 * (b - a) * (aa + ab))
+
+        a, b = t0, tn
+        for _ in range(80):
+            m = 0.5 * (a + b)
+            if not a < m < b:
+                break
+            if miss(a, m) >= miss(m, b):
+                b = m
+            else:
+                a = m
+        # f' on either side, a little away from the kink itself (where the rule as written
+        # may give neither side's value, or none)
+        off = 1e-6 * h
+        (_, da, _), (_, db, _) = (f.derivatives(np.array([x])) for x in (max(t0, a - off),
+                                                                          min(tn, b + off)))
+        jump = float(np.ravel(db)[0] - np.ravel(da)[0])
+        el = self.cm.element_of_row(r)
+        unit = self._driver_unit(r)
+        return Event("driver", 0.5 * (a + b),
+                     f"{el.label}: the derivative of f = {el.f.text} jumps near t = "
+                     f"{0.5 * (a + b):.10g} s (f' changes by about {jump:.6g} {unit}/s across "
+                     f"it) but the function declares no breakpoint there, so the path cannot be "
+                     f"followed piece by piece; results are written up to t = {t0:.10g}")
 
     def _stop(self, ev: Event) -> Event:
         self.event = ev
@@ -412,12 +580,14 @@ class PathFollower:
             d = ts - N.t[k]
             if d <= 0 or N.cond[k] > 10 * COND_WARN:
                 continue
-            hs = np.array(sorted({min(f * d, self.opts.end - N.t[k]) for f in (1.5, 2, 3, 4)}))
+            # never across a driver's breakpoint: step over the crossing only within the piece
+            kink = next((kk.t for kk in self.kinks if kk.t > N.t[k]), self.opts.end)
+            hs = np.array(sorted({min(f * d, kink - N.t[k]) for f in (1.5, 2, 3, 4)}))
             hs = hs[hs > d]
             if not len(hs):
                 continue
             ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, check_sign=False, jerk=False,
-                                                         tol=np.inf)
+                                                         tol=np.inf, land=kink)
             # a larger step than path_tol allows, so smoothness is judged against the motion:
             # the other branch through the singular point leaves it with a different tangent,
             # a deviation of the order of the step itself
@@ -428,8 +598,13 @@ class PathFollower:
             if good.any():
                 j = int(np.nonzero(good)[0][0])
                 N.truncate(k)
-                N.add(N.t[k] + hs[j], Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j],
-                      self.seg)
+                tn = kink if hs[j] == kink - N.t[k] else N.t[k] + hs[j]
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                self._keep_drv(self._last_drivers, j)
+                if tn == kink and kink < self.opts.end:
+                    k_obj = next(kk for kk in self.kinks if kk.t == kink)
+                    if self._restart_at(k_obj) is not None:
+                        return False
                 # the run goes on: what the stop message says about written results is void
                 ev.message = ev.message.split("; results are written up to")[0] + (
                     f"; continued on the smooth branch (bifurcation: continue): results between "
@@ -514,7 +689,8 @@ class Analysis:
         self.A = A
         self.S_all = System(cm)
         self.opts = opts
-        self.follower = PathFollower(cm, A, opts)
+        self.kinks = driver_breakpoints(cm, opts.start, opts.end)
+        self.follower = PathFollower(cm, A, opts, kinks=self.kinks)
         self.event: Event | None = None
         self.t_stop = opts.end
         self.fallbacks = 0
@@ -524,9 +700,19 @@ class Analysis:
         t0 = time.perf_counter()
         f = self.follower
         if not f.start(self.A.q):
-            self.event = Event("failure", self.opts.start,
-                               "velocities or accelerations are undefined at t = start (singular "
-                               "Jacobian at the assembly pose)")
+            t0 = self.opts.start
+            _, NU, FDD = self.S_all.driver_values(np.array([t0]), side=+1)
+            bad = [r for r in self.cm.driver_rows
+                   if not (np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r]))]
+            if bad:
+                el = self.cm.element_of_row(int(bad[0]))
+                self.event = Event("driver", t0, f"{el.label}: the derivatives of f = "
+                                                 f"{el.f.text} are not finite just after t = "
+                                                 f"start = {t0:.10g}")
+            else:
+                self.event = Event("failure", t0,
+                                   "velocities or accelerations are undefined at t = start "
+                                   "(singular Jacobian at the assembly pose)")
             self.t_stop = self.opts.start
         else:
             self.event = f.run()
@@ -580,6 +766,39 @@ class Analysis:
             if ch is None or self.event is not ev:
                 return
 
+    def breakpoint_info(self) -> dict:
+        """summary.json's account of the drivers' breakpoints in [start, end]."""
+        cm = self.cm
+        return {"rows_at_breakpoints": ROWS_AT_BREAKPOINTS,
+                "times": [k.t for k in self.kinks],
+                "jumps": [{"t": k.t, "driver": cm.element_of_row(r).label,
+                           "position": bp.jump[0], "velocity": bp.jump[1],
+                           "acceleration": bp.jump[2],
+                           "unit": self.follower._driver_unit(r)}
+                          for k in self.kinks for r, bp in k.jumps]}
+
+    def _driver_values(self, t: np.ndarray):
+        """Driver targets and derivatives at grid times t, one-sided at breakpoints (right-hand
+        limit, at the end time left-hand: ROWS_AT_BREAKPOINTS). A non-finite value or
+        derivative refuses the row: returns (drivers, index of the first bad row or None)."""
+        S = self.S_all
+        drivers = S.driver_values(t)
+        T, NU, FDD = drivers
+        for k in self.kinks:
+            at = np.nonzero(t == k.t)[0]
+            if len(at):
+                side = -1 if k.t == self.opts.end else +1
+                T1, NU1, FDD1 = S.driver_values(t[at], side=side)
+                T[at], NU[at], FDD[at] = T1, NU1, FDD1
+        rows = self.cm.driver_rows
+        if not len(rows):
+            return drivers, None
+        used = [T[:, rows]] + ([NU[:, rows]] if self.opts.order >= 1 else []) \
+            + ([FDD[:, rows]] if self.opts.order >= 2 else [])
+        good = np.logical_and.reduce([np.isfinite(u).all(axis=1) for u in used])
+        bad = np.nonzero(~good)[0]
+        return drivers, (int(bad[0]) if len(bad) else None)
+
     def _dense(self, t: np.ndarray) -> Chunk | None:
         opts = self.opts
         Tn, Qn, Qdn, Qddn, Cn = self.Tn, self.Qn, self.Qdn, self.Qddn, self.Cn
@@ -607,7 +826,25 @@ class Analysis:
         iters = np.zeros(N, dtype=np.int64)
         cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
         segs = self.seg[idx]
-        drivers = self.S_all.driver_values(t)          # shared by the solve and the residual
+        drivers, bad = self._driver_values(t)          # shared by the solve and the residual
+        if bad is not None:
+            i = bad
+            rows = self.cm.driver_rows
+            which = next(r for r in rows if not all(np.isfinite(d[i, r]) for d in drivers[:1 + min(
+                opts.order, 2)]))
+            el = self.cm.element_of_row(int(which))
+            self.event = Event("driver", float(t[i]),
+                               f"{el.label}: f = {el.f.text} or its derivatives are not finite at "
+                               f"t = {t[i]:.10g} (a grid row): the velocities or accelerations "
+                               f"there do not exist; results are written up to the row before")
+            self.t_stop = float(t[i])
+            if i == 0:
+                return None
+            t, Q, Qd, Qdd, idx, cond, segs = t[:i], Q[:i], Qd[:i], Qdd[:i], idx[:i], cond[:i], \
+                segs[:i]
+            iters = iters[:i]
+            drivers = tuple(d[:i] for d in drivers)
+            N = i
         if opts.interpolate:
             return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
         # points between nodes on either side of a bifurcation passed with bifurcation: continue

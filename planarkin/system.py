@@ -88,8 +88,10 @@ class System:
         phi = Q[:, 2::3]
         return Frame(Q, np.cos(phi), np.sin(phi), Qd)
 
-    def driver_values(self, t: np.ndarray):
-        """Targets, nu and f'' for every row: three (N, m) arrays (internal units)."""
+    def driver_values(self, t: np.ndarray, side: int = 0):
+        """Targets, nu and f'' for every row: three (N, m) arrays (internal units). side: 0 the
+        drivers' derivative rules as written, -1 / +1 their limits from the left / right (they
+        differ only at a driver's breakpoint, see TimeFunction.breakpoints)."""
         cm = self.cm
         t = np.atleast_1d(np.asarray(t, dtype=float))
         N = t.shape[0]
@@ -99,7 +101,7 @@ class System:
         FDD = np.zeros((N, cm.m))
         with np.errstate(all="ignore"):
             for r, f, sc in zip(cm.driver_rows, cm.driver_funcs, cm.driver_scale):
-                v, d1, d2 = f.derivatives(t)
+                v, d1, d2 = f.derivatives(t, side) if side else f.derivatives(t)
                 T[:, r] = T[:, r] + sc * np.broadcast_to(v, (N,))
                 NU[:, r] = sc * np.broadcast_to(d1, (N,))
                 FDD[:, r] = sc * np.broadcast_to(d2, (N,))
