@@ -6,18 +6,27 @@ Accepted (anything else is an `ExprError`):
   follow Python, so ``1_000`` is 1000 and ``1__0`` an error. All arithmetic is in floats;
 * names: the caller's parameters, ``t`` (time, drivers only), the constants ``pi`` and ``e``
   (a parameter of the same name wins, so an offset called ``e`` works);
-* ``+ - * / **`` (``^`` is rejected with a hint), unary ``-`` and ``+``, parentheses;
+* ``+ - * / ** %`` (``^`` is rejected with a hint), unary ``-`` and ``+``, parentheses;
+* comparisons ``< <= > >= == !=`` (chained: ``a < t < b``), ``and or not``, ``a if c else b``:
+  conditions are 1 or 0;
 * calls, positional arguments only: sin cos tan asin acos atan atan2(y, x) sinh cosh tanh exp
-  log sqrt abs.
+  log sqrt abs sign floor, where(c, a, b), min/max(a, b, ...), clip(x, lo, hi), mod(x, p), and
+  the motion laws of planarkin.laws (cycloidal(u), ...).
 
 `ast.parse` serves only as the parser; its tree is walked against that whitelist and rebuilt as
-an immutable `Expr`. Limits: 1000 characters, 64 levels of nesting, 2000 nodes, and derivative
-trees at most 150 levels deep. Constants are folded (one that overflows, divides by zero or is
-not finite is an error) and trees simplified as they are built (x+0, x*1, x*0, x-x, x/x,
-c1*(c2*u), ...), so results may differ from the literal text in the last bit. `Expr.diff` is
-exact. Evaluation never raises for domain problems (nan/inf come back silently): scalars use
-`math` and redo the evaluation with numpy on a domain error; arrays go through numpy ufuncs in
-chunks of 2048 points (temporaries stay in cache), shared sub-expressions computed once.
+an immutable `Expr`. min, max, clip and mod are rewritten into where() and floor(). Limits: 1000
+characters, 64 levels of nesting, 2000 nodes, derivative trees at most 150 levels deep and
+2,000,000 characters printed, piecewise forms nested at most 6 deep (TimeFunction). Constants
+are folded (one that overflows, divides by zero or is not finite is an error) and trees
+simplified as they are built (x+0, x*1, x*0, x-x, x/x, c1*(c2*u), sqrt(u**2) = abs(u),
+abs(u)**2 = u**2, ...), so results may differ from the literal text in the last bit.
+`Expr.diff` is exact, piece by piece for the piecewise forms. Evaluation never raises for domain
+problems (nan/inf come back silently): scalars use `math` and redo the evaluation with numpy on
+a domain error; arrays go through numpy ufuncs in chunks of 2048 points (temporaries stay in
+cache), shared sub-expressions computed once. Expressions with switches (sign, floor,
+comparisons, where, laws, tables) always take the numpy path, where a switch exactly at t (or,
+for one-sided evaluation, within rounding of t) is resolved from the requested side; see
+`TimeFunction.derivatives` and `TimeFunction.breakpoints`.
 
 Measured (Python 3.11, numpy 2.4, a machine where np.sin alone takes 0.9 ms per 100,000 points):
 ``0.3 + 0.05*sin(2*pi*t)**2 + 0.1*exp(-t/2)*cos(3*t + 0.2) - sqrt(1 + t**2)`` (18 operations,
@@ -41,6 +50,9 @@ __all__ = ["ExprError", "Expr", "parse", "evaluate_constant", "TimeFunction", "B
            "find_breakpoints", "function_names"]
 
 MAX_CHARS, MAX_DEPTH, MAX_NODES, MAX_TREE_DEPTH, _CHUNK = 1000, 64, 2000, 150, 2048
+# printed size of one tree: min/max/clip repeat their arguments, so nesting them doubles the
+# text (and the work) per level; past this an expression is too complex
+MAX_TEXT = 2_000_000
 
 
 class ExprError(ValueError):
@@ -104,7 +116,11 @@ class Expr:
         fields = (op, tuple(args), value, names, depth, prec, None, None, None, sw)
         for k, v in zip(self.__slots__, fields):
             object.__setattr__(self, k, v)
-        object.__setattr__(self, "_str", _format(self))  # eager, so str() never recurses
+        text = _format(self)  # eager, so str() never recurses
+        if len(text) > MAX_TEXT:
+            raise _Fail("expression {} is too complex (its pieces or derivatives would print "
+                        f"as more than {MAX_TEXT} characters)")
+        object.__setattr__(self, "_str", text)
 
     def __setattr__(self, key, value):
         raise AttributeError("Expr is immutable")
@@ -214,6 +230,9 @@ def _memoised(f, key: str, vals: dict):
 
 _EPS = float(np.finfo(float).eps)
 _PREFILTER = 1e-7   # |d| below this (relative) is looked at closely for a switch at rounding level
+# a switch resolved from the derivatives of its argument may meet switches there in turn (a law
+# of a law): resolved to this depth, beyond it plain sign(), so that the cost stays bounded
+_MAX_RESOLVE_DEPTH = 2
 
 
 def _derivs(u: Expr) -> tuple:
@@ -249,7 +268,7 @@ def _side_sign(d, u: Expr, vals: dict, scale=None) -> np.ndarray:
     n = vals["@n"]
     d = _full(d, n)
     s = np.sign(d)
-    if "t" not in u._names:
+    if "t" not in u._names or vals["@depth"] >= _MAX_RESOLVE_DEPTH:
         return s
     exact = vals["@exact"]
     if exact:
@@ -268,7 +287,7 @@ def _side_sign(d, u: Expr, vals: dict, scale=None) -> np.ndarray:
                else vals[k]) for k in u._names}
     env["t"] = t
     side = vals["@side"]
-    D = _core(ders, env, side, exact, None)
+    D = _core(ders, env, side, exact, None, depth=vals["@depth"] + 1)
     dd = d[idx]
     snap = dd == 0 if exact else np.abs(dd) <= 8 * _EPS * np.maximum(1.0, np.abs(t)) * np.abs(D[0])
     if not snap.any():
@@ -371,7 +390,8 @@ def _evaluate(exprs: tuple, env: Mapping, side: int = 0) -> list:
     return [o.reshape(shape) for o in out]
 
 
-def _core(exprs: tuple, env: dict, side: int, exact: bool, hits, average: bool = False) -> list:
+def _core(exprs: tuple, env: dict, side: int, exact: bool, hits, average: bool = False,
+          depth: int = 0) -> list:
     """Chunked numpy evaluation; env values are floats or flat arrays of one length.
 
     average (side 0): evaluated as seen from the right with switches resolved only at exact
@@ -387,14 +407,14 @@ def _core(exprs: tuple, env: dict, side: int, exact: bool, hits, average: bool =
             m = min(_CHUNK, size - i)
             chunk = {n: (v[i:i + m] if isinstance(v, np.ndarray) else v) for n, v in env.items()}
             got = [] if average else hits
-            chunk.update({"@n": m, "@side": side, "@exact": exact, "@hits": got})
+            chunk.update({"@n": m, "@side": side, "@exact": exact, "@hits": got, "@depth": depth})
             for o, e in zip(out, exprs):
                 o[i:i + m] = e._fn(True)(chunk)
             if average and got:
                 idx = np.unique(np.concatenate(got))
                 sub = {n: (v[i:i + m][idx] if isinstance(v, np.ndarray) else v)
                        for n, v in env.items()}
-                left = _core(exprs, sub, -1, True, None)
+                left = _core(exprs, sub, -1, True, None, depth=depth)
                 for o, lv in zip(out, left):
                     o[i + idx] = 0.5 * (o[i + idx] + lv)
     return out
@@ -607,11 +627,13 @@ def _sugar(fn: str, args: tuple) -> Expr:
     """min, max, clip, mod and where, written with where() and floor()."""
     if fn == "where":
         return _where(*args)
-    if fn in ("min", "max"):
-        r = args[0]
-        for b in args[1:]:
-            r = _where(_cmp("<=" if fn == "min" else ">=", r, b), r, b)
-        return r
+    if fn in ("min", "max"):  # a balanced tree: nesting grows as log2 of the arguments
+        if len(args) > 2:
+            h = len(args) // 2
+            return _sugar(fn, (_sugar(fn, args[:h]) if h > 1 else args[0],
+                               _sugar(fn, args[h:]) if len(args) - h > 1 else args[h]))
+        a, b = args
+        return _where(_cmp("<=" if fn == "min" else ">=", a, b), a, b)
     if fn == "clip":
         x, lo, hi = args
         return _where(_cmp("<", x, lo), lo, _where(_cmp(">", x, hi), hi, x))
@@ -865,6 +887,10 @@ class TimeFunction:
 
     def _setup(self, expr: Expr, text: str, domain: tuple | None = None) -> None:
         self.expr, self.text, self.domain = expr, text, domain
+        if _switch_depth(expr, {}) > MAX_SWITCH_NESTING:
+            raise ExprError(f"expression {_quote(str(text).strip())} nests piecewise forms (where, "
+                            f"min, max, clip, mod, abs, sign, floor, laws) more than "
+                            f"{MAX_SWITCH_NESTING} deep")
         try:
             self.first = _diff(self.expr, "t", {})
             self.second = _diff(self.first, "t", {})
@@ -945,6 +971,19 @@ class TimeFunction:
                 out.append(f"f jumps by {j[0]:.6g} at t = {bp.t:.12g}: a driver position must be "
                            f"continuous")
         return out
+
+
+MAX_SWITCH_NESTING = 6   # switches inside switches' arguments: the cost of one-sided values grows
+_SWITCHY = _SWITCH | {"abs", "sqrt"}
+
+
+def _switch_depth(e: Expr, memo: dict) -> int:
+    """How many switches are nested in each other along the deepest path of e."""
+    r = memo.get(id(e))
+    if r is None:
+        inner = max((_switch_depth(a, memo) for a in e.args), default=0)
+        r = memo[id(e)] = inner + (e.op in _SWITCHY and e.op != "where")
+    return r
 
 
 def _short(text: str) -> str:
@@ -1030,6 +1069,24 @@ def _refine(g: Expr, dg: Expr, ta, tb, level):
     return x
 
 
+_MAX_SAMPLES = 200_000      # samples of one switching argument, refinement included
+
+
+def _sample(g: Expr, dg: Expr, a: np.ndarray, b: np.ndarray, sub: int):
+    """g and g' on every [a_i, b_i] cut into sub intervals, as flat arrays of the intervals'
+    (t0, t1, g0, g1, g'0, g'1); a_i from the right, everything else from the left (so that a
+    jump of g at a known break a_i or b_i is not taken for a crossing)."""
+    frac = np.linspace(0.0, 1.0, sub + 1)
+    S = a[:, None] + (b - a)[:, None] * frac[None, :]
+    S[:, -1] = b
+    G, G1 = np.empty_like(S), np.empty_like(S)
+    G[:, 0], G1[:, 0] = _evaluate((g, dg), {"t": S[:, 0]}, +1)
+    rest = _evaluate((g, dg), {"t": S[:, 1:].reshape(-1)}, -1)
+    G[:, 1:], G1[:, 1:] = (r.reshape(len(a), sub) for r in rest)
+    return (S[:, :-1].reshape(-1), S[:, 1:].reshape(-1), G[:, :-1].reshape(-1),
+            G[:, 1:].reshape(-1), G1[:, :-1].reshape(-1), G1[:, 1:].reshape(-1))
+
+
 def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
     """The breakpoints of f in [start, end] (see TimeFunction.breakpoints).
 
@@ -1061,17 +1118,34 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
         if len(B) > MAX_BREAKPOINTS + _BASE_INTERVALS + 1:
             raise ExprError(f"f = {_short(f.text)} switches more than {MAX_BREAKPOINTS} times "
                             f"between t = {start:g} and {end:g}")
-        a, b = B[:-1], B[1:]
-        frac = np.linspace(0.0, 1.0, _SUB + 1)
-        S = a[:, None] + (b - a)[:, None] * frac[None, :]
-        S[:, -1] = b
-        G, G1 = np.empty_like(S), np.empty_like(S)
-        G[:, 0], G1[:, 0] = _evaluate((g, dg), {"t": S[:, 0]}, +1)
-        rest = _evaluate((g, dg), {"t": S[:, 1:].reshape(-1)}, -1)
-        G[:, 1:], G1[:, 1:] = (r.reshape(len(a), _SUB) for r in rest)
-        t0, t1 = S[:, :-1].reshape(-1), S[:, 1:].reshape(-1)
-        g0, g1 = G[:, :-1].reshape(-1), G[:, 1:].reshape(-1)
-        d0, d1 = G1[:, :-1].reshape(-1), G1[:, 1:].reshape(-1)
+        t0, t1, g0, g1, d0, d1 = _sample(g, dg, B[:-1], B[1:], _SUB)
+        # where g' disagrees with the secant by a fair part of g's range (or of the level
+        # spacing 1 for floor), g may cross a level and back between two samples: those
+        # intervals are sampled again, finer, within a bounded number of samples
+        total = len(t0)
+        while True:
+            with np.errstate(all="ignore"):
+                fin = np.isfinite(g0) & np.isfinite(g1)
+                R = float(np.max(np.maximum(g0, g1)[fin]) - np.min(np.minimum(g0, g1)[fin])) \
+                    if fin.any() else 0.0
+                if levels == "int" if isinstance(levels, str) else False:
+                    R = min(R, 1.0)
+                dt = t1 - t0
+                sec = (g1 - g0) / np.where(dt > 0, dt, 1.0)
+                bad = fin & ((np.abs(d0 - sec) + np.abs(d1 - sec)) * dt > 0.1 * R) & (dt > 0)
+            if not bad.any():
+                break
+            total += 15 * int(bad.sum())
+            if total > _MAX_SAMPLES:
+                where = float(t0[np.flatnonzero(bad)[0]])
+                raise ExprError(f"f = {_short(f.text)} switches too fast to be followed near "
+                                f"t = {where:.6g} (more than {_MAX_SAMPLES} samples would be "
+                                f"needed to find its switches)")
+            r = _sample(g, dg, t0[bad], t1[bad], 16)
+            keep = ~bad
+            order = np.argsort(np.concatenate([t0[keep], r[0]]), kind="stable")
+            t0, t1, g0, g1, d0, d1 = (np.concatenate([x[keep], y])[order]
+                                      for x, y in zip((t0, t1, g0, g1, d0, d1), r))
         cands = []
         # level crossings
         if isinstance(levels, str) and levels == "int":
@@ -1079,14 +1153,17 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
                 lo = np.floor(np.minimum(g0, g1))
                 hi = np.floor(np.maximum(g0, g1))
             ok = np.isfinite(lo) & np.isfinite(hi)
-            cnt = np.where(ok, hi - lo, 0).astype(np.int64)
-            if cnt.sum() > MAX_BREAKPOINTS:
+            cntf = np.where(ok, hi - lo, 0.0)
+            if cntf.sum() > MAX_BREAKPOINTS:
                 raise ExprError(f"f = {_short(f.text)} switches more than {MAX_BREAKPOINTS} "
                                 f"times between t = {start:g} and {end:g}")
+            cnt = cntf.astype(np.int64)
             rep = np.repeat(np.arange(len(cnt)), cnt)
             k = lo[rep] + 1 + (np.arange(len(rep)) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-            brackets = [(rep, k)]
-            exact = ok & (g0 == np.round(g0))
+            strict = (g0[rep] != k) & (g1[rep] != k)  # an end exactly at k is a candidate itself
+            brackets = [(rep[strict], k[strict])]
+            cands.append(t1[ok & (g1 == np.round(g1)) & (g0 != g1)])
+            exact = ok & (g0 == np.round(g0)) & ((g1 != g0) | (np.roll(g0, 1) != g0))
             cands.append(t0[exact])
         else:
             brackets = []
@@ -1095,8 +1172,10 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
                 h0, h1 = g0 - L, g1 - L
                 sel = np.flatnonzero(np.sign(h0) * np.sign(h1) < 0)
                 brackets.append((sel, np.full(len(sel), L)))
-                cands.append(t0[h0 == 0])
-                cands.append(t1[h1 == 0])
+                # an exact zero is a candidate unless g stays at the level (a plateau, or
+                # underflow): only where it arrives or leaves
+                cands.append(t0[(h0 == 0) & (h1 != 0)])
+                cands.append(t1[(h1 == 0) & (h0 != 0)])
         for sel, L in brackets:
             if len(sel):
                 # a bracket split by a jump of g (at a known break) is no root: only the pieces
@@ -1114,7 +1193,8 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
                 near = np.where(np.abs(gx - lvl[j - 1]) < np.abs(gx - lvl[np.minimum(j, len(lvl) - 1)]),
                                 lvl[j - 1], lvl[np.minimum(j, len(lvl) - 1)])
             with np.errstate(invalid="ignore"):
-                scale = np.nanmax(np.abs(G)) if np.isfinite(G).any() else 1.0
+                fin = np.isfinite(g0)
+                scale = float(np.max(np.abs(g0[fin]))) if fin.any() else 1.0
             cands.append(x[np.abs(gx - near) <= 1e-9 * max(1.0, scale)])
         new = np.concatenate(cands) if cands else np.empty(0)
         new = new[(new >= start) & (new <= end)]

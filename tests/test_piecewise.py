@@ -187,3 +187,19 @@ def test_pickle_and_third_derivative():
     g = tf("sin(3*t)")
     np.testing.assert_allclose(g.third(np.array([0.1, 0.2])), -27 * np.cos(3 * np.array([0.1, 0.2])),
                                rtol=1e-15)
+
+
+def test_hostile_piecewise_expressions_are_refused_quickly():
+    t0 = time.perf_counter()
+    assert tf("abs(sin(1e6*t))").problems(0.0, 1.0) == [
+        "f = abs(sin(1e6*t)) switches too fast to be followed near t = 0 (more than 200000 "
+        "samples would be needed to find its switches)"]
+    with pytest.raises(ExprError, match="nests piecewise forms .* more than 6 deep"):
+        tf("cycloidal(" * 7 + "t" + ")" * 7)
+    with pytest.raises(ExprError, match="too complex|more than 6 deep"):
+        tf("min(" * 40 + "t" + ", 1)" * 40)   # each level repeats its argument
+    f = tf("min(" + ", ".join(f"t*{k}" for k in range(1, 60)) + ")")  # balanced: 6 deep
+    assert f(2.0) == 2.0 and f(-1.0) == -59.0
+    assert time.perf_counter() - t0 < 5.0
+    assert tf("mod(t, -0.3)").problems(0.0, 1.0) == [
+        f"f jumps by -0.3 at t = {x}: a driver position must be continuous" for x in (0.3, 0.6, 0.9)]

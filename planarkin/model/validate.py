@@ -522,6 +522,11 @@ class _Validator:
                     out.append(Segment("dwell", 0.0, T))
                 continue
             h = self.number(sv[kind], f"{sw}: {kind}")
+            if h is not None and h < 0 and kind != "move":
+                self.err(sv[kind], f"{sw}: {kind} is a size, not {h:g}; for the other direction "
+                                   f"use {'return' if kind == 'rise' else 'rise'}, or move with a "
+                                   f"signed amount")
+                h = None
             T = None
             if "in" not in sv:
                 self.err(seg, f"{sw}: missing in (the duration of the {kind}, s)")
