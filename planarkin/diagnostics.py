@@ -82,10 +82,15 @@ class Collector:
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
     """Return ``"; did you mean 'rod'?"`` for the closest choice within a typo's reach (one edit
     below eight letters, two from eight on, case ignored; a swap of two neighbours counts as one
-    edit; in names of up to three letters a replaced letter does not count), or ``""``: a
+    edit; in names of up to three letters a replaced letter does not count; a name of four letters or
+    more cut short of exactly one choice), or ``""``: a
     suggestion further away than a slip of the keyboard misleads."""
     choices = [c for c in choices if isinstance(c, str)]
     name = str(name)
+    if len(name) >= 4:             # a name cut short ('cycloid' for 'cycloidal')
+        longer = [c for c in choices if c.lower().startswith(name.lower()) and c != name]
+        if len(longer) == 1:
+            return f"; did you mean '{longer[0]}'?"
     best, best_d = None, None
     for c in choices:
         d = _edits(name.lower(), c.lower())

@@ -423,6 +423,14 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
     from .assembly import assemble
     from .budget import preflight
     from .diagnostics import Diagnostic, InputError
+    a = cm.spec.analysis
+    if (opts.start, opts.end) != (a.start, a.end):
+        # the validator checked the drivers over the model's range; this run has another one
+        problems = [Diagnostic(cm.spec.file, el.param_lines.get("f", el.line), f"{el.label}: {msg}")
+                    for el in cm.spec.drivers if el.f is not None and hasattr(el.f, "problems")
+                    for msg in el.f.problems(opts.start, opts.end)]
+        if problems:
+            raise InputError(problems)
     reason = preflight(cm, opts)
     if reason is not None:
         row = next((r for r in cm.driver_rows if reason.startswith(cm.row_label[r])), None)

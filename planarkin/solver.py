@@ -384,6 +384,22 @@ class PathFollower:
         u = KINDS[el.kind].target_unit
         return self.cm.spec.angle_unit if u == "angle" else self.cm.spec.length_unit
 
+    def _rate_floor(self) -> np.ndarray:
+        """Per driver (internal units): 1e-6 of its largest |f'| + span |f''| over the run,
+        sampled once; the trapezoid check's scale never falls below it."""
+        if getattr(self, "_floor", None) is None:
+            cm, o = self.cm, self.opts
+            tt = np.linspace(o.start, o.end, 257)
+            fl = []
+            with np.errstate(all="ignore"):
+                for f, sc in zip(cm.driver_funcs, cm.driver_scale):
+                    _, d, a = (np.broadcast_to(np.asarray(v, dtype=float), tt.shape)
+                               for v in f.derivatives(tt))
+                    m = np.nanmax(np.abs(d)) + (o.end - o.start) * np.nanmax(np.abs(a))
+                    fl.append(abs(sc) * (m if np.isfinite(m) else 0.0))
+            self._floor = 1e-6 * np.array(fl) + 1e-300
+        return self._floor
+
     def _undeclared_kink(self, k: int, tn: float, j: int) -> Event | None:
         """A driver whose derivative jumps inside the step from node k to tn although its
         breakpoints do not say so: the trapezoid rule for f' = integral f'' fails there (see
@@ -397,7 +413,9 @@ class PathFollower:
         t0 = self.nodes.t[k]
         h = tn - t0
         mis = np.abs(d1 - d0 - 0.5 * h * (a0 + a1))
-        scale = np.abs(d0) + np.abs(d1) + h * (np.abs(a0) + np.abs(a1)) + 1e-300
+        # relative to the rates here, and to the driver's rates over the run: where a motion
+        # law meets a dwell, f' and f'' are both near 0 and rounding alone would fail the rule
+        scale = np.abs(d0) + np.abs(d1) + h * (np.abs(a0) + np.abs(a1)) + self._rate_floor()
         bad = np.nonzero(~(mis <= KINK_TOL * scale) & np.isfinite(mis))[0]
         if not len(bad):
             return None
@@ -425,6 +443,11 @@ class PathFollower:
         (_, da, _), (_, db, _) = (f.derivatives(np.array([x])) for x in (max(t0, a - off),
                                                                           min(tn, b + off)))
         jump = float(np.ravel(db)[0] - np.ravel(da)[0])
+        # a real jump stays as the bracket shrinks; the trapezoid rule's error on a smooth but
+        # fast-changing f'' (a motion law's jerk) goes away: then this was no kink
+        fl = self._rate_floor()[i] / abs(self.cm.driver_scale[i])
+        if not abs(jump) > 1e-6 * (abs(float(np.ravel(da)[0])) + abs(float(np.ravel(db)[0]))) + fl:
+            return None
         el = self.cm.element_of_row(r)
         unit = self._driver_unit(r)
         return Event("driver", 0.5 * (a + b),

@@ -303,9 +303,20 @@ def test_expr_is_immutable_and_picklable():
     ("sin(x=1)", {}, "function 'sin' takes positional arguments only, in expression 'sin(x=1)'"),
     ("sin*2", {}, "function 'sin' must be called, e.g. sin(x), in expression 'sin*2'"),
     ("sine(1)", {}, "unknown function 'sine' in expression 'sine(1)'; did you mean 'sin'?"),
-    ("max(1, 2)", {}, "unknown function 'max' in expression 'max(1, 2)'"),
+    ("maxi(1, 2)", {}, "unknown function 'maxi' in expression 'maxi(1, 2)'; did you mean 'max'?"),
+    ("pow(2, 3)", {}, "unknown function 'pow' in expression 'pow(2, 3)'; use a**b for powers"),
+    ("where(1, 2)", {}, "function 'where' takes 3 arguments (condition, a, b), got 2, in "
+                        "expression 'where(1, 2)'"),
+    ("min(1)", {}, "function 'min' takes 2 or more arguments, got 1, in expression 'min(1)'"),
+    ("mod(1, 0)", {}, "mod by zero in expression 'mod(1, 0)'"),
+    ("80mm", {}, "cannot parse expression '80mm': the number 80 is followed by 'mm'; numbers "
+                 "carry no units: write 80 and give the unit once for the model (units: "
+                 "{length: mm} or {angle: deg})"),
+    ("2pi", {}, "cannot parse expression '2pi': the number 2 is followed by 'pi'; products "
+                "need *: write 2*pi"),
     ("0**-1", {}, "division by zero in expression '0**-1'"),
-    ("7 // 2", {}, "operator '//' is not allowed in expression '7 // 2'; use + - * / **"),
+    ("7 // 2", {}, "operator '//' is not allowed in expression '7 // 2'; use + - * / ** % (and "
+                  "comparisons)"),
     ("  ", {}, "empty expression"),
     (True, {}, "expected a number or an expression, got a boolean (True)"),
     (None, {}, "expected a number or an expression, got NoneType"),
@@ -344,17 +355,16 @@ def test_error_messages(call, message):
     ("lambda: 1", "lambda is not allowed"), ("[1, 2]", "lists are not allowed"),
     ("().__class__", "attribute access ('.') is not allowed"),
     ("sin.__globals__", "attribute access ('.') is not allowed"),
-    ("(1, 2)[0]", "subscripts ('[...]') are not allowed"), ("1 < 2", "comparisons are not allowed"),
-    ("1 and 2", "'and'/'or' are not allowed"), ("not 1", "operator 'not' is not allowed"),
+    ("(1, 2)[0]", "subscripts ('[...]') are not allowed"), ("1 is 2", "only < <= > >= == != compare"),
     ("~1", "operator '~' is not allowed"), ("f'{1}'", "f-strings are not allowed"),
-    ("__import__('os')", "unknown function '__import__'"), ("(lambda: 0)()", "only the functions"),
-    ("import os", "cannot parse expression"), ("1 if 2 else 3", "'if ... else' is not allowed"),
+    ("__import__('os')", "unknown function '__import__'"), ("(lambda: 0)()", "only functions named directly"),
+    ("import os", "cannot parse expression"), 
     ("(x := 1)", "':=' is not allowed"), ("sin(*[1])", "'*' is not allowed"),
     ("[x for x in ()]", "comprehensions are not allowed"), ("{1: 2}", "dicts are not allowed"),
-    ("7 % 2", "operator '%' is not allowed"), ("2 @ 3", "operator '@' is not allowed"),
+    ("2 @ 3", "operator '@' is not allowed"),
     ("1 << 2", "operator '<<' is not allowed"), ("1 | 2", "operator '|' is not allowed"),
     ("2^", "use ** for powers, not ^"), ("(1", "'(' was never closed"), ("a.b", "attribute access"),
-    ("sign(1)", "unknown function 'sign'"), ("sin", "function 'sin' must be called"),
+    ("sin", "function 'sin' must be called"),
 ])
 def test_rejected_syntax(text, fragment):
     with pytest.raises(ExprError) as info:

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..diagnostics import Collector, did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
-from ..expr import ExprError, TimeFunction, evaluate_constant
+from ..expr import ExprError, TimeFunction, evaluate_constant, function_names
 from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
 from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
 from .yamlread import Node
@@ -26,7 +26,8 @@ NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
 TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
-            "tanh", "exp", "log", "sqrt", "abs"}
+            "tanh", "exp", "log", "sqrt", "abs"} | set(function_names())
+MAX_SEGMENTS = 1000      # segments of one motion: profile
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
@@ -171,6 +172,7 @@ class _Validator:
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
         analysis = self.analysis(root.value.get("analysis"))
+        self.check_drivers(drivers, analysis)
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
@@ -368,7 +370,7 @@ class _Validator:
         if role == "joint" and kind.target:
             allowed.append(kind.target)
         if role == "driver":
-            allowed.append("f")
+            allowed += ["f", "motion", "table"]
             if "sj" in pnames:
                 allowed.append("s")
         self.keys(node, allowed, what)
@@ -423,11 +425,7 @@ class _Validator:
                 self.err(v[kind.target], f"{what}: the distance c must be positive, not {target:g} "
                                          f"(for a zero distance use a revolute joint)")
         if role == "driver":
-            if "f" not in v:
-                self.err(node, f"{what}: missing f (a function of time t, e.g. f: \"2*pi*t\")")
-            else:
-                f = self.function(v["f"], what)
-                lines["f"] = v["f"].line
+            f = self.driver_function(node, v, what, lines)
         if "vi" in params and "vj" in params and kind.name == "translational":
             pass
         if None in bodies:
@@ -481,6 +479,191 @@ class _Validator:
         except OverflowError:
             self.err(node, f"{what}: f: the number {node.text[:40]} is too large")
         return None
+
+    # -- driver functions: f, motion or table -------------------------------------------------
+    def driver_function(self, node: Node, v: dict, what: str, lines: dict):
+        forms = [k for k in ("f", "motion", "table") if k in v]
+        if not forms:
+            self.err(node, f"{what}: missing f (a function of time t, e.g. f: \"2*pi*t\"; or "
+                           f"motion: or table:)")
+            return None
+        if len(forms) > 1:
+            self.err(v[forms[1]], f"{what}: give one of f, motion and table, not "
+                                  f"{' and '.join(forms)}")
+            return None
+        key = forms[0]
+        lines["f"] = v[key].line
+        if key == "motion":
+            return self.motion(v[key], what)
+        if key == "table":
+            return self.table(v[key], what)
+        return self.function(v[key], what)
+
+    def motion(self, node: Node, what: str):
+        from ..laws import ALIASES, LAWS, law
+        from ..motion import Segment, profile
+        what = f"{what}: motion"
+        if not self.keys(node, ("segments", "initial", "t0", "repeat"), what):
+            return None
+        v = node.value
+        initial = self.number(v["initial"], f"{what}: initial") if "initial" in v else 0.0
+        t0 = self.number(v["t0"], f"{what}: t0") if "t0" in v else 0.0
+        repeat = False
+        if "repeat" in v:
+            n = v["repeat"]
+            if n.kind == "scalar" and isinstance(n.value, bool):
+                repeat = n.value
+            else:
+                self.err(n, f"{what}: repeat must be true or false, not {_type_name(n)}")
+        segs = v.get("segments")
+        if segs is None:
+            self.err(node, f"{what}: missing segments (a list such as [{{rise: 90, in: 0.3, law: "
+                           f"cycloidal}}, {{dwell: 0.2}}])")
+            return None
+        if segs.kind != "seq" or not segs.value:
+            self.err(segs, f"{what}: segments must be a non-empty list of {{rise|return|move: "
+                           f"h, in: T, law: NAME}} or {{dwell: T}}, not "
+                           f"{'an empty list' if segs.kind == 'seq' else _type_name(segs)}")
+            return None
+        if len(segs.value) > MAX_SEGMENTS:
+            self.err(segs, f"{what}: at most {MAX_SEGMENTS} segments")
+            return None
+        laws = sorted(set(LAWS) | set(ALIASES))
+        out, ok = [], initial is not None and t0 is not None
+        for k, seg in enumerate(segs.value, start=1):
+            sw = f"{what}: segment {k}"
+            if not self.keys(seg, ("rise", "return", "move", "dwell", "in", "law"), sw):
+                ok = False
+                continue
+            sv = seg.value
+            kinds = [x for x in ("rise", "return", "move", "dwell") if x in sv]
+            if len(kinds) != 1:
+                self.err(seg, f"{sw}: give exactly one of rise, return, move and dwell"
+                              + (f", not {' and '.join(kinds)}" if kinds else ""))
+                ok = False
+                continue
+            kind = kinds[0]
+            if kind == "dwell":
+                for extra in ("in", "law"):
+                    if extra in sv:
+                        self.err(sv[extra], f"{sw}: a dwell takes its duration as dwell: T, "
+                                            f"without {extra}")
+                        ok = False
+                T = self.number(sv["dwell"], f"{sw}: dwell")
+                if T is not None and not T > 0:
+                    self.err(sv["dwell"], f"{sw}: dwell must be a positive duration (s), not {T:g}")
+                    T = None
+                if T is None:
+                    ok = False
+                else:
+                    out.append(Segment("dwell", 0.0, T))
+                continue
+            h = self.number(sv[kind], f"{sw}: {kind}")
+            if h is not None and h < 0 and kind != "move":
+                self.err(sv[kind], f"{sw}: {kind} is a size, not {h:g}; for the other direction "
+                                   f"use {'return' if kind == 'rise' else 'rise'}, or move with a "
+                                   f"signed amount")
+                h = None
+            T = None
+            if "in" not in sv:
+                self.err(seg, f"{sw}: missing in (the duration of the {kind}, s)")
+            else:
+                T = self.number(sv["in"], f"{sw}: in")
+                if T is not None and not T > 0:
+                    self.err(sv["in"], f"{sw}: in must be a positive duration (s), not {T:g}")
+                    T = None
+            name = None
+            if "law" not in sv:
+                self.err(seg, f"{sw}: missing law ({', '.join(sorted(LAWS))})")
+            else:
+                name = self.text(sv["law"], f"{sw}: law")
+                if name is not None and law(name) is None:
+                    self.err(sv["law"], f"{sw}: unknown law '{name}'"
+                                        f"{did_you_mean(name, laws) or ' (laws: ' + ', '.join(sorted(LAWS)) + ')'}")
+                    name = None
+            if h is None or T is None or name is None:
+                ok = False
+                continue
+            out.append(Segment(kind, -h if kind == "return" else h, T, name))
+        if not ok:
+            return None
+        try:
+            return profile(out, initial, t0, repeat)
+        except ExprError as e:
+            self.err(node, f"{what}: {e}")
+            return None
+
+    def table(self, node: Node, what: str):
+        from ..diagnostics import Diagnostic
+        from ..inputtable import TableError, read_table, table_function
+        what = f"{what}: table"
+        if node.kind == "map":
+            if not self.keys(node, ("file", "time", "value", "periodic"), what):
+                return None
+            v = node.value
+            if "file" not in v:
+                self.err(node, f"{what}: missing file (the CSV file, relative to the model file)")
+                return None
+            fname = self.text(v["file"], f"{what}: file")
+        else:
+            v = {}
+            fname = self.text(node, what)
+        if fname is None:
+            return None
+        cols = {}
+        for key in ("time", "value"):
+            if key in v:
+                n = v[key]
+                if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
+                    self.err(n, f"{what}: {key} must be a column name or number, not "
+                                f"{_type_name(n)}")
+                    return None
+                cols[key] = n.value if isinstance(n.value, int) else str(n.text)
+        periodic = False
+        if "periodic" in v:
+            n = v["periodic"]
+            if n.kind == "scalar" and isinstance(n.value, bool):
+                periodic = n.value
+            else:
+                self.err(n, f"{what}: periodic must be true or false, not {_type_name(n)}")
+                return None
+        path = Path(self.file).parent / fname
+        shown = str(path)
+        try:
+            t, y, tlines = read_table(path, cols.get("time"), cols.get("value"))
+        except TableError as exc:
+            for line, msg in exc.args[0]:
+                if line is None:
+                    self.err(node, f"{what}: {shown}: {msg}")
+                else:
+                    self.C.items.append(Diagnostic(shown, line, f"{msg} (the table of {what[:-7]})"))
+            return None
+        if periodic:
+            scale = max(1.0, float(abs(y).max()))
+            if abs(y[-1] - y[0]) > 1e-9 * scale:
+                self.C.items.append(Diagnostic(
+                    shown, tlines[-1], f"a periodic table must end with the value it starts with: "
+                                       f"{y[-1]:g} here, {y[0]:g} at line {tlines[0]} (the table "
+                                       f"of {what[:-7]})"))
+                return None
+            y = y.copy()
+            y[-1] = y[0]
+        try:
+            return table_function(t, y, periodic, fname)
+        except (ValueError, ExprError) as exc:
+            self.err(node, f"{what}: cannot interpolate {fname}: {exc}")
+            return None
+
+    def check_drivers(self, drivers: list[ElementSpec], a: AnalysisSpec) -> None:
+        """Problems of the driver functions over the analysis range (known only now): position
+        jumps, derivatives that are not finite, times outside a table."""
+        if not (math.isfinite(a.start) and math.isfinite(a.end) and a.end > a.start):
+            return
+        for d in drivers:
+            if d.f is None:
+                continue
+            for msg in d.f.problems(a.start, a.end):
+                self.err(d.param_lines.get("f", d.line), f"{d.label}: {msg}")
 
     def unique_names(self, elements: list[ElementSpec]) -> None:
         seen: dict[str, ElementSpec] = {}

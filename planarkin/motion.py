@@ -1,0 +1,62 @@
+"""Chained motion profiles (a driver's ``motion:``): rise, dwell, return, move, as data.
+
+A profile is a list of segments, each over its own time interval, one after the other from t0:
+``{rise: h, in: T, law: cycloidal}`` (up by h in T), ``{return: h, in: T, law: ...}`` (down by
+h), ``{move: h, in: T, law: ...}`` (by a signed h) and ``{dwell: T}`` (hold). With laws that
+hold 0 before and 1 after their interval (planarkin.laws), the profile is one expression:
+
+    f(t) = initial + sum_k h_k * law_k((tau - a_k)/T_k),   tau = t - t0
+
+(a_k the start of segment k within the cycle). Before t0 f = initial; after the last segment it
+holds the final value. With repeat, tau = mod(t - t0, P) over the cycle P = sum T_k and, when the
+cycle does not return to its start (an indexing motion), net*floor((t - t0)/P) is added, so the
+position stays continuous across every cycle. Position is continuous at every joint by
+construction; a velocity or acceleration jump between laws (e.g. constant_velocity, or harmonic
+into a dwell) is a breakpoint of the TimeFunction (see TimeFunction.breakpoints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .expr import Expr, TimeFunction, _bin, _call, _Num, _pw, _sugar
+from .laws import law
+
+__all__ = ["Segment", "profile"]
+
+
+@dataclass(frozen=True)
+class Segment:
+    """kind: 'rise', 'return', 'move' or 'dwell'; amount: the displacement in the driver's user
+    units (signed: a return's is -h); duration: s (> 0); law: a law name (None for a dwell)."""
+
+    kind: str
+    amount: float
+    duration: float
+    law: str | None = None
+
+    def describe(self) -> str:
+        if self.kind == "dwell":
+            return f"dwell {self.duration:g}"
+        h = -self.amount if self.kind == "return" else self.amount
+        return f"{self.kind} {h:g} in {self.duration:g} {self.law}"
+
+
+def profile(segments, initial: float = 0.0, t0: float = 0.0, repeat: bool = False) -> TimeFunction:
+    """The TimeFunction of a chain of `Segment` (validated: durations > 0, laws known)."""
+    t = Expr("name", (), "t")
+    tau = _bin("-", t, _Num(t0))
+    period = sum(s.duration for s in segments)
+    local = _sugar("mod", (tau, _Num(period))) if repeat else tau
+    f = _Num(initial)
+    start = 0.0
+    for s in segments:
+        if s.kind != "dwell" and s.amount != 0:
+            u = _bin("/", _bin("-", local, _Num(start)), _Num(s.duration))
+            f = _bin("+", f, _bin("*", _Num(s.amount), _pw(law(s.law), u)))
+        start += s.duration
+    net = sum(s.amount for s in segments)
+    if repeat and net != 0:  # an indexing motion: each cycle starts where the last one ended
+        f = _bin("+", f, _bin("*", _Num(net), _call("floor", (_bin("/", tau, _Num(period)),))))
+    text = "motion: " + ", ".join(s.describe() for s in segments) + (", repeat" if repeat else "")
+    return TimeFunction.from_expr(f, text)
