@@ -19,7 +19,8 @@ def kinds_table() -> str:
              "| type | joint | driver | keys (besides i, j) | equations |",
              "|---|---|---|---|---|"]
     for name, k in KINDS.items():
-        keys = [p.name for p in k.params]
+        keys = [p.name if p.required else f"{p.name} (default {_default(p.default)})"
+                for p in k.params]
         if k.nbody == 3:
             keys.insert(0, "k (carrier, default ground)")
         if k.target and k.joint:
@@ -36,6 +37,10 @@ def kinds_table() -> str:
                      f"{', '.join(keys) or '-'} | {cell} |")
     lines += ["", END]
     return "\n".join(lines)
+
+
+def _default(v) -> str:
+    return str(v).lower() if isinstance(v, bool) else f"{v:g}"
 
 
 if __name__ == "__main__":

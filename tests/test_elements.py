@@ -18,15 +18,36 @@ def random_instances(kind, rng):
         if len(set(b.tolist())) == kind.nbody and not (b == NB).all():
             bodies.append(b)
     params = {}
-    for p in kind.params:
-        if p.unit == "point":
+    for p in kind.params + kind.derived:
+        if p.unit == "flag":
+            params[p.name] = rng.integers(0, 2, size=K).astype(float)
+        elif p.name == "side":
+            params[p.name] = rng.choice([-1.0, 1.0], size=K)
+        elif p.unit == "law":
+            params[p.name] = random_laws(p, rng)
+        elif p.unit == "point":
             params[p.name] = rng.normal(size=(K, 2))
         elif p.unit == "vector":
             v = rng.normal(size=(K, 2))
             params[p.name] = v / np.linalg.norm(v, axis=1, keepdims=True)
         else:
             params[p.name] = rng.uniform(0.5, 2.0, size=K) * rng.choice([-1, 1], size=K)
+    if "phase" in params:
+        # moving-centre gears: ri + rj = 0 is no gear pair (the validator refuses it); keep the
+        # random pairs away from it, as a real internal pair is (ring at least 1.5x the pinion)
+        small = np.abs(params["ri"] + params["rj"]) < 0.5 * np.abs(params["rj"])
+        params["ri"][small] = -2.5 * params["rj"][small]
     return group(kind, np.array(bodies), params)
+
+
+def random_laws(p, rng):
+    """K smooth motion laws of the cam kinds, random coefficients (internal units)."""
+    from planarkin.elements.cam import Law
+    out = np.empty(K, dtype=object)
+    for k in range(K):
+        a, b, c = rng.uniform(0.2, 1.0, size=3)
+        out[k] = Law(f"{a:.6f}*sin(theta) + {b:.6f}*cos(2*theta) + {c:.6f}*theta**2", {})
+    return out
 
 
 def ext(x):

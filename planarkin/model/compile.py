@@ -128,13 +128,16 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         # internal units
         arrays = {}
         for p in kind.params:
-            v = np.asarray(params[p.name], dtype=float)
+            v = params[p.name] if p.unit in ("law", "choice") else \
+                np.asarray(params[p.name], dtype=float)
             if p.unit in ("point", "length"):
                 v = v / L
             elif p.unit == "vector":
                 v = v / np.hypot(v[0], v[1])
             elif p.unit == "angle":
                 v = v * af
+            elif p.unit == "law":
+                v = params[p.name].scaled(L, af)
             arrays[p.name] = v
         tscale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
         rows = list(range(row, row + kind.neq))
@@ -148,6 +151,11 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         if el.kind == "gear":
             pi_, pj, pk = (poses[b][2] for b in el.bodies)
             consts[0] = arrays["ri"] * (pi_ - pk) + arrays["rj"] * (pj - pk)
+        prepared = kind.prepare(arrays, [(poses[b][0] / L, poses[b][1] / L, poses[b][2])
+                                         for b in el.bodies])
+        if prepared is not None:
+            derived, consts = prepared
+            arrays.update(derived)
         if el.role == "driver":
             driver_rows.append(row)
             driver_funcs.append(el.f)
@@ -164,7 +172,8 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
     for kname, items in per_kind.items():
         kind = KINDS[kname]
         bodies = np.array([it[0] for it in items], dtype=np.intp)
-        params = {p.name: np.array([it[1][p.name] for it in items]) for p in kind.params}
+        params = {p.name: np.array([it[1][p.name] for it in items])
+                  for p in kind.params + kind.derived}
         rows = np.array([it[2] for it in items], dtype=np.intp)
         groups.append(make_group(kind, bodies, params, rows))
 

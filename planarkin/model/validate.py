@@ -28,6 +28,7 @@ BIFURCATION = ("stop", "continue")
 ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
                  "interpolate", "bifurcation")
+MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker")
 MAX_STEPS = 10**9
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
@@ -368,6 +369,8 @@ class _Validator:
                 params[p.name] = (0.0, 0.0)       # a driver's points default to body origins
             elif role == "driver" and p.unit == "vector":
                 self.err(node, f"{what}: missing {p.name} ({p.doc})")
+            elif not p.required:
+                params[p.name] = p.default
             elif p.required:
                 hint = f", or at: {kind.at_form}" if has_at else ""
                 self.err(node, f"{what}: missing {p.name} ({p.doc}{hint})")
@@ -393,13 +396,36 @@ class _Validator:
                 lines["f"] = v["f"].line
         if "vi" in params and "vj" in params and kind.name == "translational":
             pass
+        self.machine_element(kind, params, v, what)
         if None in bodies:
             return None
         return ElementSpec(role=role, index=idx, kind=kname, bodies=tuple(bodies), params=params,
                            line=node.line, name=ename, target=target, f=f, at=at, axis=axis,
                            param_lines=lines)
 
+    def machine_element(self, kind, params: dict, v: dict, what: str) -> None:
+        """Radii of the machine-element kinds (rack, rolling discs, gears, belts, cams)."""
+        for key in ("r", "roller", "base") if kind.name in MACHINE_KINDS else ():
+            x = params.get(key)
+            if x is not None and (x < 0 or (x == 0 and key != "roller")):
+                self.err(v[key], f"{what}: {key} must be positive, not {x:g}")
+        if kind.name == "belt":
+            for key in ("ri", "rj"):
+                if params.get(key) is not None and params[key] < 0:
+                    self.err(v[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
+                                     f"pulley's pitch radius; for a crossed belt write crossed: "
+                                     f"true)")
+        if kind.name in ("gear-mesh", "roll-disc") and params.get("ri") is not None \
+                and params.get("rj") is not None and params["ri"] + params["rj"] == 0:
+            self.err(v["rj"], f"{what}: ri + rj must not be zero (the centre distance |ri + rj| "
+                              f"of the pair)")
+
     def param(self, node: Node, p, what: str):
+        if p.unit == "flag":
+            if node.kind == "scalar" and isinstance(node.value, bool):
+                return float(node.value)
+            self.err(node, f"{what}: {p.name} must be true or false, not {_type_name(node)}")
+            return None
         if p.unit == "point":
             return self.vector(node, f"{what}: {p.name}")
         if p.unit == "vector":

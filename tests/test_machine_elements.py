@@ -1,0 +1,280 @@
+"""Closed-form reference mechanisms for the machine-element kinds: rack-and-pinion, rolling
+discs, gears on moving centres (a planetary train, Willis' formula), belts and cams.
+
+Every grid row is compared with a closed form derived by hand (derivations in the docstrings),
+positions, velocities and accelerations, relative to the largest magnitude of the quantity over
+the run (a quantity that is zero in the closed form is measured against the mechanism's scale).
+Tolerance: 1e-12 relative (issue 8, "Done when").
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import planarkin
+
+ROOT = Path(__file__).resolve().parent.parent
+TOL = 1e-12
+TWO_PI = 2 * math.pi
+
+
+def run(text: str, name: str = "model.yaml"):
+    res = planarkin.solve(planarkin.load(name, text=text))
+    assert res.status == 0, res.message
+    return res
+
+
+def rel(got, want, scale=None) -> float:
+    """Largest |got - want| over the run, relative to the largest |want| (or scale)."""
+    got, want = np.asarray(got, float), np.asarray(want, float)
+    s = scale if scale is not None else np.max(np.abs(want))
+    return float(np.max(np.abs(got - want)) / s)
+
+
+def check(measured: dict, exact: dict, scale: dict | None = None) -> float:
+    """Assert every column matches; returns the worst relative error (for the report)."""
+    worst = 0.0
+    for key, want in exact.items():
+        e = rel(measured[key], want, (scale or {}).get(key))
+        assert e < TOL, f"{key}: relative error {e:.3g}"
+        worst = max(worst, e)
+    return worst
+
+
+# -- rack-and-pinion steering (mechanisms/rack-pinion-steering.yaml) ---------------------------
+
+def test_rack_pinion_steering_rack_moves_minus_r_phi():
+    """The rack lies above the pinion (sigma = -1 seen from the rack's pitch line): a pinion
+    turning counter-clockwise by phi moves its top, and so the rack, by x = -R phi; the rack's
+    velocity and acceleration are -R omega and -R alpha, with omega, alpha of the driver
+    f = lock sin(2 pi t) taken analytically, not from the solver."""
+    res = planarkin.solve(ROOT / "mechanisms" / "rack-pinion-steering.yaml")
+    assert res.status == 0
+    R, lock = 0.02, 0.5
+    t = res.t
+    w = TWO_PI
+    phi = lock * np.sin(w * t)
+    om = lock * w * np.cos(w * t)
+    al = -lock * w * w * np.sin(w * t)
+    rack, pinion = res.body("rack"), res.body("pinion")
+    check(pinion, {"phi": phi, "omega": om, "alpha": al})
+    check(rack, {"x": -R * phi, "vx": -R * om, "ax": -R * al})
+    check(rack, {"y": np.full_like(t, R), "vy": 0 * t, "ay": 0 * t, "phi": 0 * t},
+          {"y": R, "vy": R * lock * w, "ay": R * lock * w * w, "phi": 1.0})
+
+
+RACK_BELOW = """
+units: {length: m, angle: rad}
+bodies:
+  pinion: {q: [0, 0, 0]}
+  rack: {q: [0, -0.05, 0]}
+joints:
+  - {type: revolute, i: ground, j: pinion, at: [0, 0]}
+  - {type: translational, i: ground, j: rack, at: [0, -0.05], axis: [1, 0]}
+  - {type: rack-pinion, i: rack, j: pinion, si: [0, 0], vi: [1, 0], sj: [0, 0], r: 0.05}
+drivers:
+  - {type: angle, body: pinion, f: "t + 0.2*t**2"}
+analysis: {end: 2, steps: 20}
+"""
+
+
+def test_rack_below_the_pinion_moves_plus_r_phi():
+    """The bottom of a pinion turning counter-clockwise moves in +x: x_rack = +R phi."""
+    res = run(RACK_BELOW)
+    t = res.t
+    check(res.body("rack"), {"x": 0.05 * (t + 0.2 * t * t), "vx": 0.05 * (1 + 0.4 * t),
+                             "ax": 0.05 * 0.4 + 0 * t})
+
+
+def test_pinion_rolling_on_a_fixed_rack_turns_clockwise():
+    """Sign check of reference §3.3: a fixed rack along +x, the pinion above it, driven in +x
+    by dx: it turns by -dx / r (clockwise). Uses roll-line (the pinion is held on the rack by
+    nothing else: 2 equations)."""
+    res = run("""
+units: {length: m, angle: rad}
+bodies: {pinion: {q: [0, 0.04, 0]}}
+joints:
+  - {type: roll-line, i: ground, j: pinion, si: [0, 0], vi: [1, 0], sj: [0, 0], r: 0.04}
+drivers:
+  - {type: x, i: ground, j: pinion, f: "0.1*t"}
+analysis: {end: 1, steps: 4}
+""")
+    p = res.body("pinion")
+    assert p["phi"][-1] == pytest.approx(-0.1 / 0.04, rel=1e-13)
+    assert p["omega"][-1] < 0
+
+
+# -- rolling -------------------------------------------------------------------------------------
+
+WHEEL = """
+units: {length: m, angle: rad}
+parameters: {R: 0.3}
+bodies: {wheel: {q: [0, R, 0]}}
+joints:
+  - {type: roll-line, i: ground, j: wheel, si: [0, 0], vi: [1, 0], sj: [0, 0], r: R}
+drivers:
+  - {type: x, i: ground, j: wheel, f: "0.5*t + 0.05*sin(2*pi*t)"}
+points:
+  rim: {body: wheel, s: [0, -R]}
+analysis: {end: 2, steps: 80}
+"""
+
+
+def test_wheel_rolling_on_the_ground_is_a_cycloid():
+    """Centre x(t) = 0.5 t + 0.05 sin(2 pi t) at height R; rolling: phi = -x / R; the rim
+    point that touched the road at t = 0 traces the cycloid (x + R sin phi, R - R cos phi) =
+    (x - R sin(x/R), R - R cos(x/R)). Derivatives by the chain rule with u = x/R:
+    P' = x' (1 - cos u, sin u), P'' = x'' (1 - cos u, sin u) + x'^2/R (sin u, cos u)."""
+    res = run(WHEEL)
+    R, t = 0.3, res.t
+    x = 0.5 * t + 0.05 * np.sin(TWO_PI * t)
+    xd = 0.5 + 0.05 * TWO_PI * np.cos(TWO_PI * t)
+    xdd = -0.05 * TWO_PI**2 * np.sin(TWO_PI * t)
+    u = x / R
+    w = res.body("wheel")
+    check(w, {"x": x, "phi": -u, "omega": -xd / R, "alpha": -xdd / R})
+    check(w, {"y": R + 0 * t, "vy": 0 * t, "ay": 0 * t}, {"y": R, "vy": R, "ay": R})
+    P = res.point("rim")
+    check(P, {"x": x - R * np.sin(u), "y": R - R * np.cos(u),
+              "vx": xd * (1 - np.cos(u)), "vy": xd * np.sin(u),
+              "ax": xdd * (1 - np.cos(u)) + xd**2 / R * np.sin(u),
+              "ay": xdd * np.sin(u) + xd**2 / R * np.cos(u)})
+
+
+DISC_ON_DISC = """
+units: {{length: m, angle: rad}}
+bodies: {{disc: {{q: [{x0}, 0, 0]}}}}
+joints:
+  - {{type: roll-disc, i: ground, j: disc, si: [0, 0], sj: [0, 0], ri: {ri}, rj: {r}}}
+drivers:
+  - {{type: angle, body: disc, f: "{w}*t"}}
+points:
+  P: {{body: disc, s: [{s}, 0]}}
+analysis: {{end: 1, steps: 90}}
+"""
+
+
+@pytest.mark.parametrize("inside", [False, True], ids=["epicycloid", "hypocycloid"])
+def test_disc_rolling_around_a_fixed_disc(inside):
+    """A disc of radius r turning at phi = w t rolls on a fixed disc of radius F at the origin,
+    outside (epicycloid) or inside it (F as an internal radius -F: hypocycloid). Rolling:
+    S theta = r phi with S = ri + r (ri = F or -F); the centre is at S (cos theta, sin theta)
+    (outside: distance F + r; inside: S < 0 and theta starts at pi, the centre at F - r).
+    The rim point that touched the fixed disc at t = 0, at s' = (-sign(S) r, 0), traces
+    P = S e(theta) - sign(S) r e(phi): outside the epicycloid (F + r) e(theta) - r e(((F + r)/r)
+    theta); derivatives by hand: theta' = r w / S."""
+    F, r, w = 0.1, 0.03, 5.0
+    ri = -F if inside else F
+    S = ri + r
+    sg = math.copysign(1.0, S)
+    res = run(DISC_ON_DISC.format(x0=abs(S), ri=ri, r=r, w=w, s=-sg * r))
+    t = res.t
+    phi = w * t
+    th0 = math.pi if inside else 0.0
+    th = th0 + r * phi / S
+    thd = r * w / S
+    # the centre is S e(theta) = |S| e(theta - th0) in both cases
+    cx, cy = abs(S) * np.cos(th - th0), abs(S) * np.sin(th - th0)
+    d = res.body("disc")
+    check(d, {"x": cx, "y": cy, "vx": -cy * thd, "vy": cx * thd,
+              "ax": -cx * thd**2, "ay": -cy * thd**2})
+    P = res.point("P")
+    px = cx - sg * r * np.cos(phi)
+    py = cy - sg * r * np.sin(phi)
+    check(P, {"x": px, "y": py,
+              "vx": -cy * thd + sg * r * w * np.sin(phi), "vy": cx * thd - sg * r * w * np.cos(phi),
+              "ax": -cx * thd**2 + sg * r * w * w * np.cos(phi),
+              "ay": -cy * thd**2 + sg * r * w * w * np.sin(phi)})
+    # the contact point is at rest at t = 0 (rolling without slipping)
+    assert np.hypot(P["vx"][0], P["vy"][0]) < 1e-14 * r * w
+
+
+# -- a planetary train on moving centres: Willis' formula --------------------------------------
+
+PLANETARY = """
+# sun on a fixed shaft (driven), planet on the carrier, fixed ring; gear-mesh on moving centres
+units: {length: m, angle: rad}
+parameters: {Rs: 0.04, Rp: 0.02, Rr: 0.08}
+bodies:
+  sun: {q: [0, 0, 0]}
+  carrier: {q: [0, 0, 0]}
+  planet: {q: [Rs + Rp, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: sun, at: [0, 0]}
+  - {type: revolute, i: ground, j: carrier, at: [0, 0]}
+  - {type: revolute, i: carrier, j: planet, at: [Rs + Rp, 0]}
+  - {type: gear-mesh, i: sun, j: planet, si: [0, 0], sj: [0, 0], ri: Rs, rj: Rp}
+  - {type: gear-mesh, i: ground, j: planet, si: [0, 0], sj: [0, 0], ri: -Rr, rj: Rp}
+drivers:
+  - {type: angle, body: sun, f: "2*pi*t + 0.3*sin(2*pi*t)"}
+points:
+  tooth: {body: planet, s: [Rp, 0]}
+analysis: {end: 1, steps: 60}
+"""
+
+
+def test_planetary_train_on_moving_centres_obeys_willis():
+    """Willis: (w_s - w_c) / (w_r - w_c) = -Rr / Rs and (w_p - w_c) / (w_s - w_c) = -Rs / Rp.
+    With the ring fixed (w_r = 0): w_c = w_s Rs / (Rs + Rr), w_p = w_c - (w_s - w_c) Rs / Rp;
+    all angles start at 0 and the relations are linear, so they hold for phi, omega and alpha
+    alike. The planet centre is (Rs + Rp) e(phi_c)."""
+    res = run(PLANETARY)
+    Rs, Rp, Rr = 0.04, 0.02, 0.08
+    t = res.t
+    ps = TWO_PI * t + 0.3 * np.sin(TWO_PI * t)
+    ws = TWO_PI + 0.3 * TWO_PI * np.cos(TWO_PI * t)
+    as_ = -0.3 * TWO_PI**2 * np.sin(TWO_PI * t)
+    k_c = Rs / (Rs + Rr)
+    k_p = k_c - (1 - k_c) * Rs / Rp
+    check(res.body("carrier"), {"phi": k_c * ps, "omega": k_c * ws, "alpha": k_c * as_})
+    check(res.body("planet"), {"phi": k_p * ps, "omega": k_p * ws, "alpha": k_p * as_})
+    a, pc, wc, ac = Rs + Rp, k_c * ps, k_c * ws, k_c * as_
+    check(res.body("planet"), {
+        "x": a * np.cos(pc), "y": a * np.sin(pc),
+        "vx": -a * np.sin(pc) * wc, "vy": a * np.cos(pc) * wc,
+        "ax": -a * np.cos(pc) * wc**2 - a * np.sin(pc) * ac,
+        "ay": -a * np.sin(pc) * wc**2 + a * np.cos(pc) * ac})
+
+
+def test_planetary_on_moving_centres_equals_the_carrier_gear_form():
+    """The same train with the existing `gear` kind on carrier k gives the same motion."""
+    carrier_form = PLANETARY.replace(
+        "{type: gear-mesh, i: sun, j: planet, si: [0, 0], sj: [0, 0], ri: Rs, rj: Rp}",
+        "{type: gear, i: sun, j: planet, k: carrier, ri: Rs, rj: Rp}").replace(
+        "{type: gear-mesh, i: ground, j: planet, si: [0, 0], sj: [0, 0], ri: -Rr, rj: Rp}",
+        "{type: gear, i: ground, j: planet, k: carrier, ri: -Rr, rj: Rp}")
+    assert "type: gear-mesh" not in carrier_form
+    a, b = run(PLANETARY), run(carrier_form)
+    for arr in ("q", "qd", "qdd"):
+        x, y = getattr(a, arr), getattr(b, arr)
+        assert np.max(np.abs(x - y)) <= TOL * np.max(np.abs(y))
+
+
+# -- belts -----------------------------------------------------------------------------------
+
+BELT = """
+units: {{length: m, angle: rad}}
+bodies: {{small: {{q: [0, 0, 0]}}, big: {{q: [0.5, 0, 0]}}}}
+joints:
+  - {{type: revolute, i: ground, j: small, at: [0, 0]}}
+  - {{type: revolute, i: ground, j: big, at: [0.5, 0]}}
+  - {{type: belt, i: small, j: big, ri: 0.05, rj: 0.125{extra}}}
+drivers:
+  - {{type: angle, body: small, f: "3*t + sin(t)"}}
+analysis: {{end: 2, steps: 20}}
+"""
+
+
+@pytest.mark.parametrize("crossed", [False, True])
+def test_belt_ratio_and_direction(crossed):
+    """No slip on both pulleys: ri phi_i = +-rj phi_j; open belt: same sense, crossed:
+    opposite."""
+    res = run(BELT.format(extra=", crossed: true" if crossed else ""))
+    t = res.t
+    k = (-1 if crossed else 1) * 0.05 / 0.125
+    check(res.body("big"), {"phi": k * (3 * t + np.sin(t)), "omega": k * (3 + np.cos(t)),
+                            "alpha": -k * np.sin(t)})
