@@ -40,7 +40,13 @@ def kinds_table() -> str:
 
 
 def _default(v) -> str:
-    return str(v).lower() if isinstance(v, bool) else f"{v:g}"
+    if v is None:
+        return "see the kind"
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, tuple):
+        return "[" + ", ".join(f"{x:g}" for x in v) + "]"
+    return f"{v:g}"
 
 
 if __name__ == "__main__":

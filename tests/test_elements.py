@@ -19,11 +19,13 @@ def random_instances(kind, rng):
             bodies.append(b)
     params = {}
     for p in kind.params + kind.derived:
-        if p.unit == "flag":
+        if p.unit in ("range",) or (p.unit == "angle" and p.default is None):
+            params[p.name] = np.full(K, np.nan)     # optional keys unused by g, grad, gamma
+        elif p.unit == "flag":
             params[p.name] = rng.integers(0, 2, size=K).astype(float)
         elif p.name == "side":
             params[p.name] = rng.choice([-1.0, 1.0], size=K)
-        elif p.unit == "law":
+        elif p.unit in ("law", "angle-law"):
             params[p.name] = random_laws(p, rng)
         elif p.unit == "point":
             params[p.name] = rng.normal(size=(K, 2))

@@ -278,3 +278,173 @@ def test_belt_ratio_and_direction(crossed):
     k = (-1 if crossed else 1) * 0.05 / 0.125
     check(res.body("big"), {"phi": k * (3 * t + np.sin(t)), "omega": k * (3 + np.cos(t)),
                             "alpha": -k * np.sin(t)})
+
+
+# -- cams ------------------------------------------------------------------------------------
+
+def cam_frame(res, cam, point):
+    """A point of the run seen in the cam's frame (cam centre at the origin): A(-phi) P."""
+    phi = np.radians(res.body(cam)["phi"]) if res.model.spec.angle_unit == "deg" else \
+        res.body(cam)["phi"]
+    P = res.point(point)
+    c, s = np.cos(phi), np.sin(phi)
+    return c * P["x"] + s * P["y"], -s * P["x"] + c * P["y"]
+
+
+def test_cam_cycloidal_rise_roller_follower():
+    """mechanisms/cam-roller.yaml: cycloidal rise h over beta, cam turning at 360 deg/s, so
+    u = theta / beta = 3 t. Follower: y = rb + rr + h (u - sin(2 pi u) / (2 pi)),
+    y' = 3 h (1 - cos 2 pi u), y'' = 9 h 2 pi sin 2 pi u. Pitch curve (radial follower): the
+    polar curve r(theta) = rb + rr + s, whose radius of curvature is (r^2 + r'^2)^(3/2) /
+    (r^2 + 2 r'^2 - r r'') (derivatives in radians: s' = h / B (1 - cos 2 pi u), s'' = 2 pi h /
+    B^2 sin 2 pi u, B = beta in rad); pressure angle atan(s' / r); the working surface lies rr
+    inside the pitch curve with radius of curvature rho - rr."""
+    res = planarkin.solve(ROOT / "mechanisms" / "cam-roller.yaml")
+    assert res.status == 0
+    h, beta, rb, rr = 0.02, 120.0, 0.04, 0.01
+    t = res.t
+    u = 3 * t
+    y = rb + rr + h * (u - np.sin(TWO_PI * u) / TWO_PI)
+    f = res.body("follower")
+    worst = check(f, {"y": y, "vy": 3 * h * (1 - np.cos(TWO_PI * u)),
+                      "ay": 9 * h * TWO_PI * np.sin(TWO_PI * u)})
+    check(f, {"x": 0 * t, "vx": 0 * t, "ax": 0 * t}, {"x": rb, "vx": rb, "ax": rb})
+    cam = res.table("cam-lift.csv")
+    B = math.radians(beta)
+    r = rb + rr + h * (u - np.sin(TWO_PI * u) / TWO_PI)
+    r1 = h / B * (1 - np.cos(TWO_PI * u))
+    r2 = TWO_PI * h / B**2 * np.sin(TWO_PI * u)
+    rho = (r * r + r1 * r1) ** 1.5 / (r * r + 2 * r1 * r1 - r * r2)
+    check(cam, {"theta": 360 * t, "s": r - rb - rr, "rho_pitch": rho, "rho_surface": rho - rr,
+                "pressure_angle": np.degrees(np.arctan(r1 / r))})
+    # the pitch curve is where the roller centre is, seen from the turning cam
+    res_pts = planarkin.solve(planarkin.load(
+        "cam.yaml", text=(ROOT / "mechanisms" / "cam-roller.yaml").read_text()
+        + "points: {roller: {body: follower, s: [0, 0]}}\n"))
+    px, py = cam_frame(res_pts, "cam", "roller")
+    check(cam, {"pitch.x": px, "pitch.y": py}, {"pitch.x": r.max(), "pitch.y": r.max()})
+    gap = np.hypot(cam["pitch.x"] - cam["surface.x"], cam["pitch.y"] - cam["surface.y"])
+    assert np.max(np.abs(gap - rr)) < 1e-15
+    assert worst < TOL
+
+
+OFFSET_CAM = """
+units: {{length: mm, angle: rad}}
+parameters: {{e: {e}, rb: 30, rr: 8}}
+bodies:
+  cam: {{q: [0, 0, 0.4]}}
+  stem: {{q: [e, 35, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: cam, at: [0, 0]}}
+  - {{type: translational, i: ground, j: stem, at: [e, 0], axis: [0, 1]}}
+  - {{name: c, type: cam, i: cam, j: stem, sk: [0, 0], vk: [0, 1], sj: [0, 0], base: rb,
+     {follower}, offset: {off}, s: "6*(1 - cos(theta))", pressure_limit: 0.6}}
+drivers:
+  - {{type: angle, body: cam, f: "0.4 + 2*pi*t + 0.3*sin(2*pi*t)"}}
+points: {{tip: {{body: stem, s: [0, 0]}}}}
+analysis: {{end: 1, steps: 72}}
+"""
+
+
+@pytest.mark.parametrize("e", [0.0, 7.0, -7.0])
+def test_offset_roller_follower_profile(e):
+    """A harmonic full-turn law s = 6 (1 - cos theta) on a cam turning non-uniformly, follower
+    axis offset by e along R vk = -x (vk = +y): the follower's travel is the law exactly
+    (y = sqrt((rb + rr)^2 - e^2) + s(theta(t)), by the chain rule), its pitch point in the cam
+    frame is the roller centre seen from the cam, and the pressure angle is the angle between
+    the follower's travel and the pitch curve's normal, the normal taken here from central
+    differences of the computed pitch curve (a check independent of the profile's formulas)."""
+    res = run(OFFSET_CAM.format(e=-e, off=e, follower="roller: rr"))
+    t = res.t
+    w = TWO_PI
+    th = 0.4 + w * t + 0.3 * np.sin(w * t)
+    thd = w + 0.3 * w * np.cos(w * t)
+    thdd = -0.3 * w * w * np.sin(w * t)
+    s0 = math.sqrt(38.0**2 - e * e)
+    check(res.body("stem"), {"y": s0 + 6 * (1 - np.cos(th)), "vy": 6 * np.sin(th) * thd,
+                             "ay": 6 * np.cos(th) * thd**2 + 6 * np.sin(th) * thdd})
+    cam = res.table("cam-c.csv")
+    px, py = cam_frame(res, "cam", "tip")
+    check(cam, {"pitch.x": px, "pitch.y": py}, {"pitch.x": 44.0, "pitch.y": 44.0})
+    # pressure angle against a finite-difference normal of the pitch curve at nearby angles
+    from planarkin.elements.cam import profile
+    G = next(G for G in res.model.groups if G.kind.name == "cam")
+    from planarkin.elements.cam import instance
+    par = instance(G, 0)
+    thr = np.linspace(0.1, 6.2, 40)
+    d = 1e-6
+    a, b = profile("cam", par, thr - d), profile("cam", par, thr + d)
+    tx, ty = b["pitch_x"] - a["pitch_x"], b["pitch_y"] - a["pitch_y"]
+    # follower travel +y of the frame, seen in the cam frame: A(-theta) (0, 1)
+    mx, my = np.sin(thr), np.cos(thr)
+    # the normal is perpendicular to the tangent: angle(normal, m) = 90 deg - angle(tangent, m)
+    cosang = np.abs(tx * mx + ty * my) / np.hypot(tx, ty)
+    want = np.pi / 2 - np.arccos(cosang)
+    got = profile("cam", par, thr)["pressure"]
+    assert np.max(np.abs(got - want)) < 1e-8
+    # and the hand formula of this convention: tan alpha = |s' - e_frame...|: with the axis at
+    # x = -e (offset e along R vk = -x), tan alpha = |s' + e| / (s0 + s)
+    s1 = 6 * np.sin(thr)
+    np.testing.assert_allclose(got, np.arctan(np.abs(s1 + e) / (s0 + 6 * (1 - np.cos(thr)))),
+                               rtol=1e-12, atol=1e-15)
+
+
+def test_flat_faced_follower_profile_is_the_face_envelope():
+    """Flat face perpendicular to the travel: the follower moves by the law (face at rb + s),
+    the contact point lies on the face (in the cam frame u_c^T c = rb + s, u_c = A(-theta) u),
+    the face is tangent to the surface there (central differences of the surface points are
+    perpendicular to u_c), and the surface's radius of curvature is rb + s + s''."""
+    res = run(OFFSET_CAM.format(e=0, off=0, follower="flat: true").replace(
+        "[e, 35, 0]", "[0, 30, 0]"))
+    from planarkin.elements.cam import instance, profile
+    G = next(G for G in res.model.groups if G.kind.name == "cam")
+    par = instance(G, 0)
+    th = np.linspace(0.0, TWO_PI, 50)
+    P = profile("cam", par, th)
+    s, s2 = 6 * (1 - np.cos(th)), 6 * np.cos(th)
+    ucx, ucy = np.sin(th), np.cos(th)
+    L = res.model.L
+    np.testing.assert_allclose((ucx * P["surface_x"] + ucy * P["surface_y"]) * L, 30 + s,
+                               rtol=1e-14)
+    np.testing.assert_allclose(P["rho_surface"] * L, 30 + s + s2, rtol=1e-13, atol=1e-12)
+    d = 1e-6
+    a, b = profile("cam", par, th - d), profile("cam", par, th + d)
+    tx, ty = b["surface_x"] - a["surface_x"], b["surface_y"] - a["surface_y"]
+    assert np.max(np.abs(tx * ucx + ty * ucy) / np.hypot(tx, ty)) < 1e-8
+    assert np.max(np.abs(P["pressure"])) == 0.0
+    t = res.t
+    thr = 0.4 + TWO_PI * t + 0.3 * np.sin(TWO_PI * t)
+    check(res.body("stem"), {"y": 30 + 6 * (1 - np.cos(thr))})
+
+
+ROCKER = """
+units: {length: m, angle: rad}
+bodies:
+  cam: {q: [0, 0, 0]}
+  arm: {q: [0.1, 0, 2.0]}
+joints:
+  - {type: revolute, i: ground, j: cam, at: [0, 0]}
+  - {type: revolute, i: ground, j: arm, at: [0.1, 0]}
+  - {name: swing, type: cam-rocker, i: cam, j: arm, sk: [0, 0], pk: [0.1, 0], sj: [0.08, 0],
+     psi: "0.2*(1 - cos(theta))", roller: 0.01}
+drivers:
+  - {type: angle, body: cam, f: "2*pi*t"}
+points: {roller: {body: arm, s: [0.08, 0]}}
+analysis: {end: 1, steps: 60}
+"""
+
+
+def test_oscillating_roller_follower():
+    """Rocker pivoted at (0.1, 0) with the roller 0.08 along its arm, drawn at 2 rad; the law
+    psi = 0.2 (1 - cos theta), theta = 2 pi t: phi = 2 + psi, omega = 0.2 sin(theta) 2 pi,
+    alpha = 0.2 cos(theta) (2 pi)^2; the pitch curve is the roller centre seen from the cam."""
+    res = run(ROCKER)
+    t = res.t
+    th = TWO_PI * t
+    check(res.body("arm"), {"phi": 2 + 0.2 * (1 - np.cos(th)), "omega": 0.2 * np.sin(th) * TWO_PI,
+                            "alpha": 0.2 * np.cos(th) * TWO_PI**2})
+    cam = res.table("cam-swing.csv")
+    px, py = cam_frame(res, "cam", "roller")
+    check(cam, {"pitch.x": px, "pitch.y": py, "psi": 0.2 * (1 - np.cos(th))},
+          {"pitch.x": 0.18, "pitch.y": 0.18, "psi": 0.4})
+    assert np.all(cam["pressure_angle"] < math.radians(45))

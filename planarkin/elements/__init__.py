@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from .base import Frame, Group, Kind, Param
 from .belt import Belt
+from .cam import Cam, CamRocker
 from .gear import Gear
 from .mesh import GearMesh, RollDisc
 from .rack import RackPinion, RollLine
@@ -17,6 +18,7 @@ from .translational import PinSlot, Slide, Translational
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Revolute(), Translational(), Angle(), Distance(), XDistance(), YDistance(),
     PinSlot(), Gear(), Slide(), RackPinion(), RollLine(), GearMesh(), RollDisc(), Belt(),
+    Cam(), CamRocker(),
 )}
 
 JOINT_KINDS = {name: k for name, k in KINDS.items() if k.joint}

@@ -144,6 +144,11 @@ class Kind:
         neq constant targets) or None when the kind needs nothing (targets from c or 0)."""
         return None
 
+    def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
+        """Problems of one instance that only its compiled parameters show (a cam profile that
+        undercuts): messages in user units, reported as errors at the element's line."""
+        return []
+
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
 

@@ -421,6 +421,27 @@ class _Validator:
                               f"of the pair)")
 
     def param(self, node: Node, p, what: str):
+        if p.unit in ("law", "angle-law"):
+            from ..elements.cam import Law
+            if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
+                self.err(node, f"{what}: {p.name} must be an expression of the cam angle theta, "
+                               f"not {_type_name(node)}")
+                return None
+            try:
+                return Law(node.value if isinstance(node.value, str) else float(node.value),
+                           self.params)
+            except ExprError as e:
+                self.err(node, f"{what}: {p.name}: {e}")
+            except OverflowError:
+                self.err(node, f"{what}: {p.name}: the number {node.text[:40]} is too large")
+            return None
+        if p.unit == "range":
+            r = self.vector(node, f"{what}: {p.name}")
+            if r is not None and not r[0] < r[1]:
+                self.err(node, f"{what}: {p.name} must be [from, to] with from < to, not "
+                               f"[{r[0]:g}, {r[1]:g}]")
+                return None
+            return r
         if p.unit == "flag":
             if node.kind == "scalar" and isinstance(node.value, bool):
                 return float(node.value)
