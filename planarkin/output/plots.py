@@ -435,8 +435,8 @@ class _Scene:
                 elif kind in ("gear", "belt"):
                     bk = int(G.bodies[k, 2])
                     gears += [(bi, par["ri"][k] * L, bk), (bj, par["rj"][k] * L, bk)]
-                elif kind in MACHINE_OUTLINES:
-                    self.outlines += MACHINE_OUTLINES[kind](G, k, L, revolutes)
+                if kind in MACHINE_OUTLINES:
+                    self.outlines += MACHINE_OUTLINES[kind](G, k, L, revolutes, ground)
         for b, s in zip(cm.point_body, cm.point_s):
             if int(b) != ground:
                 attach[int(b)].append(np.asarray(s) * L)
@@ -486,7 +486,7 @@ class _Scene:
         """Slide axes on ground (self.axes, global) and slots on moving bodies (dashed), along
         the range the sliding point covers."""
         ground = self.nb
-        self.axes = []                                  # global (2, 2) lines on ground
+        self.axes = [poly for b, poly in self.outlines if b == ground]   # + belt runs
         for bi, si, vi, bj, sj in slides:
             u = vi / np.hypot(*vi)
             xy = self.at_all(bj, sj)
@@ -880,7 +880,7 @@ def _circle(centre, r, n=61):
     return np.asarray(centre, float) + abs(r) * np.c_[np.cos(a), np.sin(a)]
 
 
-def _discs(G, k, L, revolutes):
+def _discs(G, k, L, revolutes, ground):
     """gear-mesh, roll-disc: both pitch circles with a radius mark that shows the rotation."""
     out = []
     for col, pr in ((0, ("si", "ri")), (1, ("sj", "rj"))):
@@ -890,14 +890,14 @@ def _discs(G, k, L, revolutes):
     return out
 
 
-def _pinion(G, k, L, revolutes):
+def _pinion(G, k, L, revolutes, ground):
     """rack-pinion, roll-line: the pinion's (disc's) pitch circle."""
     c, r = G.params["sj"][k] * L, G.params["r"][k] * L
     b = int(G.bodies[k, 1])
     return [(b, _circle(c, r)), (b, np.array([c, c + (r, 0.0)]))]
 
 
-def _cam(G, k, L, revolutes):
+def _cam(G, k, L, revolutes, ground):
     """cam, cam-rocker: the working surface over the law's range on the cam, the roller."""
     from ..elements.cam import instance, profile
     par = instance(G, k)
@@ -918,5 +918,31 @@ def _cam(G, k, L, revolutes):
     return out
 
 
-MACHINE_OUTLINES = {"gear-mesh": _discs, "roll-disc": _discs, "rack-pinion": _pinion,
+def _belt(G, k, L, revolutes, ground):
+    """belt on the frame: the two straight runs between the pulleys' ground pivots (global)."""
+    if int(G.bodies[k, 2]) != ground:
+        return []                                   # on a moving carrier: runs not drawn
+    c = []
+    for col in (0, 1):
+        b = int(G.bodies[k, col])
+        c.append(next((si if i == ground else sj for i, si, j, sj in revolutes
+                       if {i, j} == {b, ground}), None))
+    if c[0] is None or c[1] is None:
+        return []
+    r1, r2 = G.params["ri"][k] * L, G.params["rj"][k] * L
+    crossed = G.params["crossed"][k] > 0.5
+    d = np.hypot(*(c[1] - c[0]))
+    sb = ((r1 + r2) if crossed else (r1 - r2)) / d
+    if not d > 0 or abs(sb) >= 1:
+        return []
+    e = (c[1] - c[0]) / d
+    n = np.array([-e[1], e[0]])
+    out = []
+    for side in (1.0, -1.0):
+        m = side * n * np.sqrt(1 - sb * sb) + e * sb
+        out.append((ground, np.array([c[0] + r1 * m, c[1] + (-r2 if crossed else r2) * m])))
+    return out
+
+
+MACHINE_OUTLINES = {"belt": _belt, "gear-mesh": _discs, "roll-disc": _discs, "rack-pinion": _pinion,
                     "roll-line": _pinion, "cam": _cam, "cam-rocker": _cam}
