@@ -45,10 +45,13 @@ def random_instances(kind, rng):
 def random_laws(p, rng):
     """K smooth motion laws of the cam kinds, random coefficients (internal units)."""
     from planarkin.elements.cam import Law
+    laws = []
+    for _ in range(3):          # three distinct laws shared by the K instances
+        a, b, c = rng.uniform(0.2, 1.0, size=3)
+        laws.append(Law(f"{a:.6f}*sin(theta) + {b:.6f}*cos(2*theta) + {c:.6f}*theta**2", {}))
     out = np.empty(K, dtype=object)
     for k in range(K):
-        a, b, c = rng.uniform(0.2, 1.0, size=3)
-        out[k] = Law(f"{a:.6f}*sin(theta) + {b:.6f}*cos(2*theta) + {c:.6f}*theta**2", {})
+        out[k] = laws[rng.integers(0, 3)]
     return out
 
 

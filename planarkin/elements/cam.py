@@ -57,24 +57,29 @@ class Law:
         law.a, law.b = 1.0 / angle_factor, out_per_user
         return law
 
-    def __call__(self, theta):
+    def __call__(self, theta, orders=(0, 1, 2)):
+        """(value, d/dtheta, d2/dtheta2) at theta; only the given orders are computed (the
+        others are None)."""
         theta = np.asarray(theta, dtype=float)
         env = dict(self.values)
         env[VAR] = self.a * theta
-        f0, f1, f2 = (np.broadcast_to(np.asarray(e.evaluate(env), float), theta.shape)
-                      for e in self.exprs)
-        a, b = self.a, self.b
-        return b * f0, (b * a) * f1, (b * a * a) * f2
+        out = [None, None, None]
+        for o in orders:
+            f = np.broadcast_to(np.asarray(self.exprs[o].evaluate(env), float), theta.shape)
+            out[o] = (self.b * self.a ** o) * f
+        return tuple(out)
 
     def __repr__(self) -> str:
         return f"Law({self.text!r})"
 
 
-def _laws(G, name, theta):
-    """(s, s', s'') (N, K) of every instance's law at its own theta (N, K)."""
-    out = np.empty((3,) + theta.shape)
-    for k, law in enumerate(G.params[name]):
-        out[:, :, k] = law(theta[:, k])
+def _laws(G, name, theta, order):
+    """d^order s / dtheta^order (N, K) of every instance's law at its own theta (N, K)."""
+    out = np.empty(theta.shape)
+    laws = G.params[name]
+    for law in {id(x): x for x in laws}.values():        # one evaluation per distinct law
+        cols = [k for k, x in enumerate(laws) if x is law]
+        out[:, cols] = law(theta[:, cols], (order,))[order]
     return out
 
 
@@ -129,13 +134,13 @@ class Cam(Kind):
     def g(self, G, F):
         ux, uy, *_, hx, hy = self._h(G, F)
         th, _ = _cam_angle(G, F)
-        return (ux * hx + uy * hy - _laws(G, "s", th)[0])[..., None]
+        return (ux * hx + uy * hy - _laws(G, "s", th, 0))[..., None]
 
     def grad(self, G, F):
         ux, uy, skx, sky, sjx, sjy, hx, hy = self._h(G, F)
         nx, ny = -uy, ux
         th, _ = _cam_angle(G, F)
-        s1 = _laws(G, "s", th)[1]
+        s1 = _laws(G, "s", th, 1)
         out = np.zeros((F.q.shape[0], len(G), 1, 9))
         out[..., 0, 2] = -s1
         out[..., 0, 3] = ux
@@ -154,7 +159,7 @@ class Cam(Kind):
         kx = wj * wj * sjx - wk * wk * skx
         ky = wj * wj * sjy - wk * wk * sky
         th, thd = _cam_angle(G, F)
-        s2 = _laws(G, "s", th)[2]
+        s2 = _laws(G, "s", th, 2)
         out = (wk * wk * (ux * hx + uy * hy) - 2.0 * wk * (nx * hdx + ny * hdy)
                + ux * kx + uy * ky + s2 * thd * thd)
         return out[..., None]
@@ -191,11 +196,11 @@ class CamRocker(Kind):
     def g(self, G, F):
         bj, bk = G.bodies[:, 1], G.bodies[:, 2]
         th, _ = _cam_angle(G, F)
-        return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bk + 2] - _laws(G, "psi", th)[0])[..., None]
+        return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bk + 2] - _laws(G, "psi", th, 0))[..., None]
 
     def grad(self, G, F):
         th, _ = _cam_angle(G, F)
-        p1 = _laws(G, "psi", th)[1]
+        p1 = _laws(G, "psi", th, 1)
         out = np.zeros((F.q.shape[0], len(G), 1, 9))
         out[..., 0, 2] = -p1
         out[..., 0, 5] = 1.0
@@ -204,7 +209,7 @@ class CamRocker(Kind):
 
     def gamma(self, G, F):
         th, thd = _cam_angle(G, F)
-        return (_laws(G, "psi", th)[2] * thd * thd)[..., None]
+        return (_laws(G, "psi", th, 2) * thd * thd)[..., None]
 
     def diagnose(self, arrays, L, af, lu, au):
         return check(self.name, arrays, L, af, lu, au)
