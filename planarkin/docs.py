@@ -19,10 +19,11 @@ def kinds_table() -> str:
              "| type | joint | driver | keys (besides i, j) | equations |",
              "|---|---|---|---|---|"]
     for name, k in KINDS.items():
-        keys = [p.name if p.required else f"{p.name} (default {_default(p.default)})"
-                for p in k.params]
+        keys = [p.name if p.required else f"{p.name} (optional)" if p.default is None else
+                f"{p.name} (default {_default(p.default)})" for p in k.params]
         if k.nbody == 3:
-            keys.insert(0, "k (carrier, default ground)")
+            keys.insert(0, "k (frame, default ground)" if name.startswith("cam") else
+                        "k (carrier, default ground)")
         if k.target and k.joint:
             keys.append(k.target + (" (default 0)" if name == "pin-slot" else ""))
         if k.at_form:
@@ -40,8 +41,6 @@ def kinds_table() -> str:
 
 
 def _default(v) -> str:
-    if v is None:
-        return "see the kind"
     if isinstance(v, bool):
         return str(v).lower()
     if isinstance(v, tuple):
