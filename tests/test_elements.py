@@ -25,6 +25,8 @@ def random_instances(kind, rng):
             params[p.name] = rng.integers(0, 2, size=K).astype(float)
         elif p.name == "side":
             params[p.name] = rng.choice([-1.0, 1.0], size=K)
+        elif p.unit == "curve":
+            params[p.name] = random_curves(rng)
         elif p.unit in ("law", "angle-law"):
             params[p.name] = random_laws(p, rng)
         elif p.unit == "point":
@@ -52,6 +54,21 @@ def random_laws(p, rng):
     out = np.empty(K, dtype=object)
     for k in range(K):
         out[k] = laws[rng.integers(0, 3)]
+    return out
+
+
+def random_curves(rng):
+    """K curves of the curve-slot kind: a closed wavy oval around the random states and an open
+    arc long enough that every random pin projects inside it."""
+    from planarkin.elements.curve import Curve
+    a = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    r = 6.0 + 0.4 * np.sin(3 * a)
+    oval = Curve(np.c_[r * np.cos(a), 0.8 * r * np.sin(a)], closed=True)
+    x = np.linspace(-12, 12, 30)
+    arc = Curve(np.c_[x, 0.05 * x * x - 1.0], closed=False)
+    out = np.empty(K, dtype=object)
+    for k in range(K):
+        out[k] = (oval, arc)[rng.integers(0, 2)]
     return out
 
 

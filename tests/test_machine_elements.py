@@ -448,3 +448,111 @@ def test_oscillating_roller_follower():
     check(cam, {"pitch.x": px, "pitch.y": py, "psi": 0.2 * (1 - np.cos(th))},
           {"pitch.x": 0.18, "pitch.y": 0.18, "psi": 0.4})
     assert np.all(cam["pressure_angle"] < math.radians(45))
+
+
+# -- a pin following a curve given as a table of points ------------------------------------------
+
+def _table(points) -> str:
+    return "[" + ", ".join(f"[{float(x)!r}, {float(y)!r}]" for x, y in points) + "]"
+
+
+CIRCLE_SLOT = """
+units: {{length: m, angle: rad}}
+parameters: {{Cx: 0.3, Cy: 0.2, R: 0.5}}
+bodies: {{block: {{q: [0.3, 0.7, 0]}}}}
+joints:
+  - {{type: angle, i: ground, j: block, c: 0}}
+  - {joint}
+drivers:
+  - {{type: x, i: ground, j: block, f: "Cx + 0.4*sin(2*pi*t)"}}
+analysis: {{end: 1, steps: 50}}
+"""
+
+
+def _circle_points(cx, cy, r, m):
+    a = np.linspace(0.0, TWO_PI, m, endpoint=False)
+    return np.c_[cx + r * np.cos(a), cy + r * np.sin(a)]
+
+
+def test_pin_in_a_circular_slot_equals_a_link_to_the_centre():
+    """A block (no rotation) whose origin runs in a circular slot of the ground (centre C,
+    radius R, a closed table of 720 points), driven by x = Cx + 0.4 sin(2 pi t): the closed form
+    is that of a link of length R pinned at C (y = Cy + w, w = sqrt(R^2 - u^2), u = x - Cx;
+    y' = -u u'/w; y'' = -(u'^2 + u u'')/w - u^2 u'^2/w^3). The distance-joint model meets it to
+    1e-12; the slot meets it to the interpolant's own error, measured here on the spline: its
+    largest radius error (positions) and curvature error (accelerations)."""
+    from planarkin.elements.curve import Curve
+    pts = _circle_points(0.3, 0.2, 0.5, 720)
+    slot = run(CIRCLE_SLOT.format(joint="{type: curve-slot, i: ground, j: block, sj: [0, 0], "
+                                        f"closed: true, curve: {_table(pts)}}}"))
+    link = run(CIRCLE_SLOT.format(joint="{type: distance, i: ground, j: block, si: [Cx, Cy], "
+                                        "sj: [0, 0], c: R}"))
+    t = res_t = slot.t
+    w2 = TWO_PI
+    u = 0.4 * np.sin(w2 * t)
+    ud = 0.4 * w2 * np.cos(w2 * t)
+    udd = -0.4 * w2 * w2 * np.sin(w2 * t)
+    w = np.sqrt(0.25 - u * u)
+    exact = {"y": 0.2 + w, "vy": -u * ud / w,
+             "ay": -(ud * ud + u * udd) / w - u * u * ud * ud / w**3}
+    check(link.body("block"), exact)
+    # the interpolant's own errors against the circle, densely sampled
+    cv = Curve(pts, closed=True)
+    a = np.linspace(0.0, cv.a1, 20001)
+    c, c1, c2 = cv.eval(a)
+    radius_err = np.max(np.abs(np.hypot(c[:, 0] - 0.3, c[:, 1] - 0.2) - 0.5)) / 0.5
+    sp = np.hypot(c1[:, 0], c1[:, 1])
+    kappa_err = np.max(np.abs((c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]) / sp**3 * 0.5 - 1.0))
+    assert radius_err < 1e-14 and kappa_err < 1e-8
+    b = slot.body("block")
+    assert rel(b["y"], exact["y"]) < 10 * radius_err + 1e-15
+    assert rel(b["vy"], exact["vy"]) < 1e-10
+    assert rel(b["ay"], exact["ay"]) < 10 * kappa_err
+    assert len(res_t) == 51
+
+
+def test_pin_in_a_straight_table_slot_equals_pin_slot():
+    """An open slot given as 9 points along a line at 30 degrees through (0.1, 0) on a turning
+    crank: the spline of a straight table is that line exactly, so the motion equals the
+    pin-slot joint's to 1e-12 (positions, velocities, accelerations of every body)."""
+    d = np.array([math.cos(math.pi / 6), math.sin(math.pi / 6)])
+    pts = [tuple(np.array([0.1, 0.0]) + s * d) for s in np.linspace(-0.2, 0.6, 9)]
+    base = """
+units: {{length: m, angle: rad}}
+bodies:
+  crank: {{q: [0, 0, 0]}}
+  slider: {{q: [0.35, 0.1443375672974065, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: crank, at: [0, 0]}}
+  - {{type: translational, i: ground, j: slider, si: [0, 0.1443375672974065], sj: [0, 0],
+     vi: [1, 0], vj: [1, 0]}}
+  - {joint}
+drivers:
+  - {{type: angle, body: crank, f: "0.2*sin(2*pi*t)"}}
+analysis: {{end: 1, steps: 40}}
+"""
+    table = run(base.format(joint="{type: curve-slot, i: crank, j: slider, sj: [0, 0], curve: "
+                                  + _table(pts) + "}"))
+    line = run(base.format(joint=f"{{type: pin-slot, i: crank, j: slider, si: [0.1, 0], "
+                                 f"vi: [{float(d[0])!r}, {float(d[1])!r}], sj: [0, 0]}}"))
+    for arr in ("q", "qd", "qdd"):
+        x, y = getattr(table, arr), getattr(line, arr)
+        assert np.max(np.abs(x - y)) <= TOL * np.max(np.abs(y)), arr
+
+
+def test_pin_leaving_an_open_slot_stops_the_run():
+    """An open slot ends: driving the pin past the end of the table is an analysis failure (exit
+    status 1, results up to there kept), not an extrapolated curve."""
+    pts = [(x, 0.0) for x in np.linspace(0.0, 0.5, 11)]
+    res = planarkin.solve(planarkin.load("slot.yaml", text=f"""
+units: {{length: m, angle: rad}}
+bodies: {{pin: {{q: [0.1, 0, 0]}}}}
+joints:
+  - {{type: angle, i: ground, j: pin, c: 0}}
+  - {{type: curve-slot, i: ground, j: pin, sj: [0, 0], curve: {_table(pts)}}}
+drivers:
+  - {{type: x, i: ground, j: pin, f: "0.1 + t"}}
+analysis: {{end: 1, steps: 10}}
+"""))
+    assert res.status == 1
+    assert 0.3 < res.t[-1] < 0.5 + 1e-12

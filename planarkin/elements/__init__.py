@@ -8,6 +8,7 @@ from __future__ import annotations
 from .base import Frame, Group, Kind, Param
 from .belt import Belt
 from .cam import Cam, CamRocker
+from .curve import CurveSlot
 from .gear import Gear
 from .mesh import GearMesh, RollDisc
 from .rack import RackPinion, RollLine
@@ -18,7 +19,7 @@ from .translational import PinSlot, Slide, Translational
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Revolute(), Translational(), Angle(), Distance(), XDistance(), YDistance(),
     PinSlot(), Gear(), Slide(), RackPinion(), RollLine(), GearMesh(), RollDisc(), Belt(),
-    Cam(), CamRocker(),
+    Cam(), CamRocker(), CurveSlot(),
 )}
 
 JOINT_KINDS = {name: k for name, k in KINDS.items() if k.joint}

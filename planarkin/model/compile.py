@@ -132,6 +132,9 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         for p in kind.params:
             if p.unit in ("law", "angle-law"):
                 v = params[p.name]
+            elif p.unit == "curve":
+                from ..elements.curve import Curve
+                v = Curve(np.asarray(params[p.name], dtype=float) / L, bool(params.get("closed")))
             elif params[p.name] is None:            # an optional key without a default value
                 v = np.full(2 if p.unit == "range" else (), np.nan)
             else:

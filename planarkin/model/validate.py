@@ -28,7 +28,8 @@ BIFURCATION = ("stop", "continue")
 ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
                  "interpolate", "bifurcation")
-MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker")
+MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker",
+                 "curve-slot")
 MAX_STEPS = 10**9
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
@@ -435,6 +436,8 @@ class _Validator:
             except OverflowError:
                 self.err(node, f"{what}: {p.name}: the number {node.text[:40]} is too large")
             return None
+        if p.unit == "curve":
+            return self.curve_points(node, f"{what}: {p.name}")
         if p.unit == "range":
             r = self.vector(node, f"{what}: {p.name}")
             if r is not None and not r[0] < r[1]:
@@ -456,6 +459,27 @@ class _Validator:
             self.err(node, f"{what}: {p.name} must not be zero (a pitch radius)")
             return None
         return x
+
+    def curve_points(self, node: Node, what: str):
+        """A table of at least 6 distinct successive points [[x, y], ...] (a closed curve may
+        repeat its first point at the end: it is dropped)."""
+        if node.kind != "seq":
+            self.err(node, f"{what} must be a list of points [[x, y], ...], not {_type_name(node)}")
+            return None
+        pts = [self.vector(item, what) for item in node.value]
+        if any(p is None for p in pts):
+            return None
+        if len(pts) > 6 and pts[0] == pts[-1]:
+            pts = pts[:-1]
+        if len(pts) < 6:
+            self.err(node, f"{what} needs at least 6 points (a quintic spline), got {len(pts)}")
+            return None
+        for k in range(1, len(pts)):
+            if pts[k] == pts[k - 1]:
+                self.err(node.value[k], f"{what}: point {k + 1} repeats point {k}; the points "
+                                        f"of a curve must be distinct in succession")
+                return None
+        return tuple(pts)
 
     def direction(self, node: Node, what: str):
         vec = self.vector(node, what)
