@@ -290,8 +290,7 @@ def profile(kind: str, par: dict, theta) -> dict:
 
 def instance(G, k: int) -> dict:
     """One instance's parameters of a Group of a cam kind (internal units)."""
-    return {name: (v[k] if v.dtype == object or v.ndim == 1 else v[k]) for name, v in
-            G.params.items()}
+    return {name: v[k] for name, v in G.params.items()}
 
 
 def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[str]:
@@ -299,6 +298,11 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
     angle past the limit, a full-turn law that does not close. Sampled every 0.125 degrees of
     the law's range and at its ends (a check, not a result: the profile itself is exact)."""
     msgs = []
+    if kind == "cam" and not par["flat"] > 0.5 and not abs(par["offset"]) < par["base"] + \
+            par["roller"]:
+        return [f"the follower axis' offset {abs(par['offset']) * L:.4g} {lu} must be smaller "
+                f"than base + roller = {(par['base'] + par['roller']) * L:.4g} {lu} (the follower "
+                f"would miss the cam)"]
     lo, hi = par["range"]
     full = not np.isfinite(lo)
     if full:
