@@ -31,7 +31,7 @@ from .base import Kind, Param, body_velocity, omega, rotate
 class Curve:
     """Quintic spline through points (M, 2) (internal units, body frame); closed: periodic."""
 
-    SAMPLES = 8                         # coarse samples per table interval for the projection
+    SAMPLES = 512                       # coarse samples along the curve for the projection
 
     def __init__(self, points, closed: bool):
         from scipy.interpolate import make_interp_spline
@@ -49,7 +49,8 @@ class Curve:
         fact = np.array([1.0, 1.0, 2.0, 6.0, 24.0, 120.0])
         self.breaks = x
         self.coef = np.stack([spline(x[:-1], v) / fact[v] for v in range(6)])   # (6, pieces, 2)
-        self.grid = np.linspace(0.0, self.a1, self.SAMPLES * (len(P) - 1) + 1)
+        # at least two per table interval: Newton starts within half an interval of the answer
+        self.grid = np.linspace(0.0, self.a1, max(self.SAMPLES, 2 * (len(P) - 1)) + 1)
         self.samples = self.eval(self.grid)[0]
 
     def scaled(self, factor: float) -> "Curve":
