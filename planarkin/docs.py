@@ -20,9 +20,11 @@ def kinds_table() -> str:
              "| type | joint | driver | keys (besides i, j) | equations |",
              "|---|---|---|---|---|"]
     for name, k in KINDS.items():
-        keys = [p.name for p in k.params]
+        keys = [p.name if p.required else f"{p.name} (optional)" if p.default is None else
+                f"{p.name} (default {_default(p.default)})" for p in k.params]
         if k.nbody == 3:
-            keys.insert(0, "k (carrier, default ground)")
+            keys.insert(0, "k (frame, default ground)" if name.startswith("cam") else
+                        "k (carrier, default ground)")
         if k.target and k.joint:
             keys.append(k.target + (" (default 0)" if name == "pin-slot" else ""))
         if k.at_form:
@@ -64,6 +66,14 @@ def options_table() -> str:
         lines.append(f"| {key} | {flag} | {d} | {o.doc}; {o.rule()} |")
     lines += ["", OPTIONS_END]
     return "\n".join(lines)
+
+
+def _default(v) -> str:
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, tuple):
+        return "[" + ", ".join(f"{x:g}" for x in v) + "]"
+    return f"{v:g}"
 
 
 if __name__ == "__main__":

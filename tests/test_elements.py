@@ -18,15 +18,58 @@ def random_instances(kind, rng):
         if len(set(b.tolist())) == kind.nbody and not (b == NB).all():
             bodies.append(b)
     params = {}
-    for p in kind.params:
-        if p.unit == "point":
+    for p in kind.params + kind.derived:
+        if p.unit in ("range",) or (p.unit == "angle" and p.default is None):
+            params[p.name] = np.full(K, np.nan)     # optional keys unused by g, grad, gamma
+        elif p.unit == "flag":
+            params[p.name] = rng.integers(0, 2, size=K).astype(float)
+        elif p.name == "side":
+            params[p.name] = rng.choice([-1.0, 1.0], size=K)
+        elif p.unit == "curve":
+            params[p.name] = random_curves(rng)
+        elif p.unit in ("law", "angle-law"):
+            params[p.name] = random_laws(p, rng)
+        elif p.unit == "point":
             params[p.name] = rng.normal(size=(K, 2))
         elif p.unit == "vector":
             v = rng.normal(size=(K, 2))
             params[p.name] = v / np.linalg.norm(v, axis=1, keepdims=True)
         else:
             params[p.name] = rng.uniform(0.5, 2.0, size=K) * rng.choice([-1, 1], size=K)
+    if "phase" in params:
+        # moving-centre gears: ri + rj = 0 is no gear pair (the validator refuses it); keep the
+        # random pairs away from it, as a real internal pair is (ring at least 1.5x the pinion)
+        small = np.abs(params["ri"] + params["rj"]) < 0.5 * np.abs(params["rj"])
+        params["ri"][small] = -2.5 * params["rj"][small]
     return group(kind, np.array(bodies), params)
+
+
+def random_laws(p, rng):
+    """K smooth motion laws of the cam kinds, random coefficients (internal units)."""
+    from planarkin.elements.cam import Law
+    laws = []
+    for _ in range(3):          # three distinct laws shared by the K instances
+        a, b, c = rng.uniform(0.2, 1.0, size=3)
+        laws.append(Law(f"{a:.6f}*sin(theta) + {b:.6f}*cos(2*theta) + {c:.6f}*theta**2", {}))
+    out = np.empty(K, dtype=object)
+    for k in range(K):
+        out[k] = laws[rng.integers(0, 3)]
+    return out
+
+
+def random_curves(rng):
+    """K curves of the curve-slot kind: a closed wavy oval around the random states and an open
+    arc long enough that every random pin projects inside it."""
+    from planarkin.elements.curve import Curve
+    a = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    r = 6.0 + 0.4 * np.sin(3 * a)
+    oval = Curve(np.c_[r * np.cos(a), 0.8 * r * np.sin(a)], closed=True)
+    x = np.linspace(-12, 12, 30)
+    arc = Curve(np.c_[x, 0.05 * x * x - 1.0], closed=False)
+    out = np.empty(K, dtype=object)
+    for k in range(K):
+        out[k] = (oval, arc)[rng.integers(0, 2)]
+    return out
 
 
 def ext(x):

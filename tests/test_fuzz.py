@@ -1046,7 +1046,7 @@ def test_case_counts():
                 "bytes", "syntax", "dup", "multidoc", "tag", "empty", "misc", "path", "heavy",
                 "valid", "extreme"):
         assert cls in classes, cls
-    assert 300 <= len(ALL) <= 900, len(ALL)
+    assert 300 <= len(ALL) <= 1100, len(ALL)     # grows with the examples in mechanisms/
 
 
 def test_no_code_ran():

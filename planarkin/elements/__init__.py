@@ -6,14 +6,20 @@ module of this package, listing it here, and giving it the finite-difference tes
 from __future__ import annotations
 
 from .base import Frame, Group, Kind, Param
+from .belt import Belt
+from .cam import Cam, CamRocker
+from .curve import CurveSlot
 from .gear import Gear
+from .mesh import GearMesh, RollDisc
+from .rack import RackPinion, RollLine
 from .revolute import Revolute
 from .scalar import Angle, Distance, XDistance, YDistance
 from .translational import PinSlot, Slide, Translational
 
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Revolute(), Translational(), Angle(), Distance(), XDistance(), YDistance(),
-    PinSlot(), Gear(), Slide(),
+    PinSlot(), Gear(), Slide(), RackPinion(), RollLine(), GearMesh(), RollDisc(), Belt(),
+    Cam(), CamRocker(), CurveSlot(),
 )}
 
 JOINT_KINDS = {name: k for name, k in KINDS.items() if k.joint}

@@ -109,6 +109,10 @@ class Kind:
     equations: str = ""
     driver_equations: str = ""
 
+    # Parameters the compiler derives from the body estimates (not YAML keys), e.g. the side of
+    # a rack's pitch line on which the pinion sits: Param entries, filled by `prepare`.
+    derived: tuple = ()
+
     # The validator converts 'at' (global placement) into body-frame parameters through this.
     # at_form: None (no global placement) or a description of the 'at' value for messages.
     at_form: str | None = None
@@ -130,6 +134,20 @@ class Kind:
         Returns a dict of parameters to add.
         """
         raise NotImplementedError
+
+    def prepare(self, arrays, poses):
+        """Derived parameters and constant targets from the estimated poses, for kinds whose
+        constant (a rolling phase, a side sign) depends on how the model is drawn.
+
+        arrays: parameter name -> value (internal units); poses: (x, y, phi) of the kind's bodies
+        (internal units; ground (0, 0, 0)). Returns (dict of the `derived` parameters, list of
+        neq constant targets) or None when the kind needs nothing (targets from c or 0)."""
+        return None
+
+    def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
+        """Problems of one instance that only its compiled parameters show (a cam profile that
+        undercuts): messages in user units, reported as errors at the element's line."""
+        return []
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
@@ -201,5 +219,11 @@ def group(kind: Kind, bodies, params, rows=None) -> Group:
     cols = (3 * bodies[:, :, None] + np.arange(3)).reshape(len(bodies), -1)
     if rows is None:
         rows = np.arange(len(bodies) * kind.neq).reshape(len(bodies), kind.neq)
-    return Group(kind, bodies, cols, {k: np.asarray(v, dtype=float) for k, v in params.items()},
+    return Group(kind, bodies, cols, {k: _param_array(v) for k, v in params.items()},
                  np.asarray(rows, dtype=np.intp))
+
+
+def _param_array(v) -> np.ndarray:
+    """Numbers become a float array; objects (a cam's motion law) stay an object array."""
+    a = np.asarray(v)
+    return a if a.dtype == object else a.astype(float)

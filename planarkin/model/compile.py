@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..diagnostics import Collector
 from ..elements import KINDS
 from ..elements.base import group as make_group
 from .spec import ElementSpec, ModelSpec
@@ -106,6 +107,7 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
     q0 = np.array([v for b in spec.bodies for v in (b.q[0] / L, b.q[1] / L, b.q[2] * af)])
 
     per_kind: dict[str, list] = {}
+    problems = Collector(spec.file)
     targets: list[float] = []
     row_element: list[int] = []
     row_label: list[str] = []
@@ -128,13 +130,25 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         # internal units
         arrays = {}
         for p in kind.params:
-            v = np.asarray(params[p.name], dtype=float)
+            if p.unit in ("law", "angle-law"):
+                v = params[p.name]
+            elif p.unit == "curve":
+                from ..elements.curve import Curve
+                v = Curve(np.asarray(params[p.name], dtype=float) / L, bool(params.get("closed")))
+            elif params[p.name] is None:            # an optional key without a default value
+                v = np.full(2 if p.unit == "range" else (), np.nan)
+            else:
+                v = np.asarray(params[p.name], dtype=float)
             if p.unit in ("point", "length"):
                 v = v / L
             elif p.unit == "vector":
                 v = v / np.hypot(v[0], v[1])
-            elif p.unit == "angle":
+            elif p.unit in ("angle", "range"):
                 v = v * af
+            elif p.unit == "law":
+                v = v.scaled(1.0 / L, af)
+            elif p.unit == "angle-law":
+                v = v.scaled(af, af)
             arrays[p.name] = v
         tscale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
         rows = list(range(row, row + kind.neq))
@@ -148,6 +162,13 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         if el.kind == "gear":
             pi_, pj, pk = (poses[b][2] for b in el.bodies)
             consts[0] = arrays["ri"] * (pi_ - pk) + arrays["rj"] * (pj - pk)
+        prepared = kind.prepare(arrays, [(poses[b][0] / L, poses[b][1] / L, poses[b][2])
+                                         for b in el.bodies])
+        if prepared is not None:
+            derived, consts = prepared
+            arrays.update(derived)
+        for msg in kind.diagnose(arrays, L, af, spec.length_unit, spec.angle_unit):
+            problems.error(el.line, f"{el.label}: {msg}")
         if el.role == "driver":
             driver_rows.append(row)
             driver_funcs.append(el.f)
@@ -160,11 +181,13 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         per_kind.setdefault(el.kind, []).append(([index[b] for b in el.bodies], arrays, rows))
         row += kind.neq
 
+    problems.raise_if_any()
     groups = []
     for kname, items in per_kind.items():
         kind = KINDS[kname]
         bodies = np.array([it[0] for it in items], dtype=np.intp)
-        params = {p.name: np.array([it[1][p.name] for it in items]) for p in kind.params}
+        params = {p.name: np.array([it[1][p.name] for it in items])
+                  for p in kind.params + kind.derived}
         rows = np.array([it[2] for it in items], dtype=np.intp)
         groups.append(make_group(kind, bodies, params, rows))
 

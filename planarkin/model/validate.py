@@ -28,6 +28,8 @@ TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"} | set(function_names())
 MAX_SEGMENTS = 1000      # segments of one motion: profile
+MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker",
+                 "curve-slot")
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
@@ -407,6 +409,8 @@ class _Validator:
                 params[p.name] = (0.0, 0.0)       # a driver's points default to body origins
             elif role == "driver" and p.unit == "vector":
                 self.err(node, f"{what}: missing {p.name} ({p.doc})")
+            elif not p.required:
+                params[p.name] = p.default
             elif p.required:
                 hint = f", or at: {kind.at_form}" if has_at else ""
                 self.err(node, f"{what}: missing {p.name} ({p.doc}{hint})")
@@ -428,13 +432,59 @@ class _Validator:
             f = self.driver_function(node, v, what, lines)
         if "vi" in params and "vj" in params and kind.name == "translational":
             pass
+        self.machine_element(kind, params, v, what)
         if None in bodies:
             return None
         return ElementSpec(role=role, index=idx, kind=kname, bodies=tuple(bodies), params=params,
                            line=node.line, name=ename, target=target, f=f, at=at, axis=axis,
                            param_lines=lines)
 
+    def machine_element(self, kind, params: dict, v: dict, what: str) -> None:
+        """Radii of the machine-element kinds (rack, rolling discs, gears, belts, cams)."""
+        for key in ("r", "roller", "base") if kind.name in MACHINE_KINDS else ():
+            x = params.get(key)
+            if x is not None and (x < 0 or (x == 0 and key != "roller")):
+                self.err(v[key], f"{what}: {key} must be positive, not {x:g}")
+        if kind.name == "belt":
+            for key in ("ri", "rj"):
+                if params.get(key) is not None and params[key] < 0:
+                    self.err(v[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
+                                     f"pulley's pitch radius; for a crossed belt write crossed: "
+                                     f"true)")
+        if kind.name in ("gear-mesh", "roll-disc") and params.get("ri") is not None \
+                and params.get("rj") is not None and params["ri"] + params["rj"] == 0:
+            self.err(v["rj"], f"{what}: ri + rj must not be zero (the centre distance |ri + rj| "
+                              f"of the pair)")
+
     def param(self, node: Node, p, what: str):
+        if p.unit in ("law", "angle-law"):
+            from ..elements.cam import Law
+            if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
+                self.err(node, f"{what}: {p.name} must be an expression of the cam angle theta, "
+                               f"not {_type_name(node)}")
+                return None
+            try:
+                return Law(node.value if isinstance(node.value, str) else float(node.value),
+                           self.params)
+            except ExprError as e:
+                self.err(node, f"{what}: {p.name}: {e}")
+            except OverflowError:
+                self.err(node, f"{what}: {p.name}: the number {node.text[:40]} is too large")
+            return None
+        if p.unit == "curve":
+            return self.curve_points(node, f"{what}: {p.name}")
+        if p.unit == "range":
+            r = self.vector(node, f"{what}: {p.name}")
+            if r is not None and not r[0] < r[1]:
+                self.err(node, f"{what}: {p.name} must be [from, to] with from < to, not "
+                               f"[{r[0]:g}, {r[1]:g}]")
+                return None
+            return r
+        if p.unit == "flag":
+            if node.kind == "scalar" and isinstance(node.value, bool):
+                return float(node.value)
+            self.err(node, f"{what}: {p.name} must be true or false, not {_type_name(node)}")
+            return None
         if p.unit == "point":
             return self.vector(node, f"{what}: {p.name}")
         if p.unit == "vector":
@@ -444,6 +494,27 @@ class _Validator:
             self.err(node, f"{what}: {p.name} must not be zero (a pitch radius)")
             return None
         return x
+
+    def curve_points(self, node: Node, what: str):
+        """A table of at least 6 distinct successive points [[x, y], ...] (a closed curve may
+        repeat its first point at the end: it is dropped)."""
+        if node.kind != "seq":
+            self.err(node, f"{what} must be a list of points [[x, y], ...], not {_type_name(node)}")
+            return None
+        pts = [self.vector(item, what) for item in node.value]
+        if any(p is None for p in pts):
+            return None
+        if len(pts) > 6 and pts[0] == pts[-1]:
+            pts = pts[:-1]
+        if len(pts) < 6:
+            self.err(node, f"{what} needs at least 6 points (a quintic spline), got {len(pts)}")
+            return None
+        for k in range(1, len(pts)):
+            if pts[k] == pts[k - 1]:
+                self.err(node.value[k], f"{what}: point {k + 1} repeats point {k}; the points "
+                                        f"of a curve must be distinct in succession")
+                return None
+        return tuple(pts)
 
     def direction(self, node: Node, what: str):
         vec = self.vector(node, what)

@@ -403,7 +403,8 @@ class _Scene:
         slides = []                                     # (bi, si, vi, bj, sj)
         slide_dir = {}                                  # body -> body-frame slide direction
         revolutes, gears = [], []
-        for G in cm.groups:
+        self.outlines = []                              # (body, body-frame dashed polyline)
+        for G in sorted(cm.groups, key=lambda G: G.kind.name in MACHINE_OUTLINES):
             kind = G.kind.name
             par = G.params
             for k in range(len(G)):
@@ -431,9 +432,11 @@ class _Scene:
                             slide_dir.setdefault(bi, vi)
                     if kind == "pin-slot" and bj != ground:
                         self.pins.append((bj, sj))
-                elif kind == "gear":
+                elif kind in ("gear", "belt"):
                     bk = int(G.bodies[k, 2])
                     gears += [(bi, par["ri"][k] * L, bk), (bj, par["rj"][k] * L, bk)]
+                if kind in MACHINE_OUTLINES:
+                    self.outlines += MACHINE_OUTLINES[kind](G, k, L, revolutes, ground)
         for b, s in zip(cm.point_body, cm.point_s):
             if int(b) != ground:
                 attach[int(b)].append(np.asarray(s) * L)
@@ -475,11 +478,15 @@ class _Scene:
             self.dashed[b].append(centre + abs(r) * np.c_[np.cos(a), np.sin(a)])
             self.dashed[b].append(np.array([centre, centre + (abs(r), 0.0)]))
 
+        for b, poly in self.outlines:
+            if b != nb:
+                self.dashed[b].append(poly)
+
     def _slides(self, slides):
         """Slide axes on ground (self.axes, global) and slots on moving bodies (dashed), along
         the range the sliding point covers."""
         ground = self.nb
-        self.axes = []                                  # global (2, 2) lines on ground
+        self.axes = [poly for b, poly in self.outlines if b == ground]   # + belt runs
         for bi, si, vi, bj, sj in slides:
             u = vi / np.hypot(*vi)
             xy = self.at_all(bj, sj)
@@ -864,3 +871,78 @@ def _hull(P: np.ndarray) -> np.ndarray:
 def _area(V: np.ndarray) -> float:
     x, y = V[:, 0], V[:, 1]
     return 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+# -- outlines of the machine-element kinds (pitch circles, cam profiles), body frame, user units --
+
+def _circle(centre, r, n=61):
+    a = np.linspace(0.0, 2 * np.pi, n)
+    return np.asarray(centre, float) + abs(r) * np.c_[np.cos(a), np.sin(a)]
+
+
+def _discs(G, k, L, revolutes, ground):
+    """gear-mesh, roll-disc: both pitch circles with a radius mark that shows the rotation."""
+    out = []
+    for col, pr in ((0, ("si", "ri")), (1, ("sj", "rj"))):
+        c, r = G.params[pr[0]][k] * L, G.params[pr[1]][k] * L
+        b = int(G.bodies[k, col])
+        out += [(b, _circle(c, r)), (b, np.array([c, c + (abs(r), 0.0)]))]
+    return out
+
+
+def _pinion(G, k, L, revolutes, ground):
+    """rack-pinion, roll-line: the pinion's (disc's) pitch circle."""
+    c, r = G.params["sj"][k] * L, G.params["r"][k] * L
+    b = int(G.bodies[k, 1])
+    return [(b, _circle(c, r)), (b, np.array([c, c + (r, 0.0)]))]
+
+
+def _cam(G, k, L, revolutes, ground):
+    """cam, cam-rocker: the working surface over the law's range on the cam, the roller."""
+    from ..elements.cam import instance, profile
+    par = instance(G, k)
+    bi, bj, bk = (int(b) for b in G.bodies[k])
+    lo, hi = par["range"]
+    if not np.isfinite(lo):
+        lo, hi = 0.0, 2 * np.pi
+    P = profile(G.kind.name, par, np.linspace(lo, hi, 181))
+    centre = np.zeros(2)
+    for i, si, j, sj in revolutes:
+        if {i, j} == {bi, bk}:
+            centre = si if i == bi else sj
+            break
+    out = [(bi, centre + np.c_[P["surface_x"], P["surface_y"]] * L)]
+    roller = float(par["roller"]) * L
+    if roller > 0:
+        out.append((bj, _circle(G.params["sj"][k] * L, roller, 31)))
+    return out
+
+
+def _belt(G, k, L, revolutes, ground):
+    """belt on the frame: the two straight runs between the pulleys' ground pivots (global)."""
+    if int(G.bodies[k, 2]) != ground:
+        return []                                   # on a moving carrier: runs not drawn
+    c = []
+    for col in (0, 1):
+        b = int(G.bodies[k, col])
+        c.append(next((si if i == ground else sj for i, si, j, sj in revolutes
+                       if {i, j} == {b, ground}), None))
+    if c[0] is None or c[1] is None:
+        return []
+    r1, r2 = G.params["ri"][k] * L, G.params["rj"][k] * L
+    crossed = G.params["crossed"][k] > 0.5
+    d = np.hypot(*(c[1] - c[0]))
+    sb = ((r1 + r2) if crossed else (r1 - r2)) / d
+    if not d > 0 or abs(sb) >= 1:
+        return []
+    e = (c[1] - c[0]) / d
+    n = np.array([-e[1], e[0]])
+    out = []
+    for side in (1.0, -1.0):
+        m = side * n * np.sqrt(1 - sb * sb) + e * sb
+        out.append((ground, np.array([c[0] + r1 * m, c[1] + (-r2 if crossed else r2) * m])))
+    return out
+
+
+MACHINE_OUTLINES = {"belt": _belt, "gear-mesh": _discs, "roll-disc": _discs, "rack-pinion": _pinion,
+                    "roll-line": _pinion, "cam": _cam, "cam-rocker": _cam}

@@ -1,0 +1,400 @@
+"""Cam and follower, the follower's motion given as a law over cam angle (issue 8, item 4).
+
+Machine designers specify a cam by the follower's motion over cam angle, s(theta) (a rise of h
+over beta with a named law, dwells, a return), and derive the profile from it. planarkin does the
+same: the constraint couples the cam's rotation theta = phi_i - phi_k (cam i turning on frame k)
+to the follower's coordinate, exactly, and the profile follows from s, s', s'' by kinematic
+inversion (`profile`), exactly too.
+
+`cam`, translating follower j guided on frame k along the unit direction u = A_k vk:
+    u^T (r_j + A_j sj - r_k - A_k sk) - s(theta) = s0
+with sk the cam's centre on k, sj the follower's reference point (roller centre, knife tip, or
+the flat face's point on its axis) and s0 = sqrt((base + roller)^2 - offset^2) (knife edge,
+roller) or base (flat face): s = 0 puts the follower on the base circle. The follower's own
+translational joint to k keeps it on its axis at `offset` (along R u) from the cam centre.
+
+`cam-rocker`, oscillating follower j pivoted on k at pk (its pivot on j: pj): the arm angle
+    phi_j - phi_k - psi(theta) = psi0
+psi0 from the drawn rocker angle (the law's zero is psi0 + psi(theta0) = the estimate).
+
+The law is an expression of `theta` in the file's angle unit (s in its length unit, psi in its
+angle unit); its derivatives are the exact symbolic ones of `planarkin.expr`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..expr import parse
+from .base import Kind, Param, omega, relative_velocity, rotate
+
+VAR = "theta"
+DEFAULT_LIMIT = {"cam": math.radians(30.0), "cam-rocker": math.radians(45.0)}
+SAMPLES_PER_TURN = 2880          # profile checks: every 0.125 degrees of cam angle
+
+
+class Law:
+    """s(theta) (or psi(theta)) with exact first and second derivatives.
+
+    text: an expression of theta and the model's parameters (values: name -> float, user units).
+    Called with theta in radians (N,) it returns (value, d/dtheta, d2/dtheta2) in internal units
+    once `scaled` (a = user angle per radian, b = internal per user output unit); unscaled
+    (a = b = 1) it is the plain expression, as the element tests use it."""
+
+    def __init__(self, text, values, a: float = 1.0, b: float = 1.0):
+        self.text = text if isinstance(text, str) else repr(text)
+        self.values = {k: float(v) for k, v in values.items() if k != VAR}
+        e = parse(text, list(self.values) + [VAR])
+        d1 = e.diff(VAR)
+        self.exprs = (e, d1, d1.diff(VAR))
+        self.a, self.b = a, b
+
+    def scaled(self, out_per_user: float, angle_factor: float) -> "Law":
+        law = Law.__new__(Law)
+        law.text, law.values, law.exprs = self.text, self.values, self.exprs
+        law.a, law.b = 1.0 / angle_factor, out_per_user
+        return law
+
+    def __call__(self, theta, orders=(0, 1, 2)):
+        """(value, d/dtheta, d2/dtheta2) at theta; only the given orders are computed (the
+        others are None)."""
+        theta = np.asarray(theta, dtype=float)
+        env = dict(self.values)
+        env[VAR] = self.a * theta
+        out = [None, None, None]
+        for o in orders:
+            f = np.broadcast_to(np.asarray(self.exprs[o].evaluate(env), float), theta.shape)
+            out[o] = (self.b * self.a ** o) * f
+        return tuple(out)
+
+    def __repr__(self) -> str:
+        return f"Law({self.text!r})"
+
+
+def _laws(G, name, theta, order):
+    """d^order s / dtheta^order (N, K) of every instance's law at its own theta (N, K)."""
+    out = np.empty(theta.shape)
+    laws = G.params[name]
+    for law in {id(x): x for x in laws}.values():        # one evaluation per distinct law
+        cols = [k for k, x in enumerate(laws) if x is law]
+        out[:, cols] = law(theta[:, cols], (order,))[order]
+    return out
+
+
+def _cam_angle(G, F):
+    bi, bk = G.bodies[:, 0], G.bodies[:, 2]
+    th = F.q[:, 3 * bi + 2] - F.q[:, 3 * bk + 2]
+    thd = None if F.qd is None else omega(F, bi) - omega(F, bk)
+    return th, thd
+
+
+_COMMON = (
+    Param("roller", "length", "roller radius (0: a knife edge)", required=False, default=0.0),
+    Param("pressure_limit", "angle", "largest pressure angle allowed (default 30 deg "
+          "translating, 45 deg oscillating)", required=False, default=None),
+    Param("range", "range", "[from, to]: the cam angles the law describes (default a full "
+          "turn, then the law must be periodic)", required=False, default=None),
+)
+_REST = (Param("rest", "real", "s0 (cam) or psi0 (cam-rocker), from the geometry"),)
+
+
+class Cam(Kind):
+    name = "cam"
+    nbody = 3
+    params = (
+        Param("sk", "point", "the cam's centre of rotation on frame k, in its frame"),
+        Param("vk", "vector", "the follower's direction of travel on frame k (away from the cam)"),
+        Param("sj", "point", "the follower's point on j: roller centre, knife tip or the flat "
+              "face's point on its axis"),
+        Param("s", "law", "follower displacement above the base circle: an expression of the cam "
+              "angle theta = phi_i - phi_k"),
+        Param("base", "length", "base circle radius (the working surface's smallest radius)"),
+        Param("offset", "length", "offset of the follower axis from the cam centre along R vk",
+              required=False, default=0.0),
+        Param("flat", "flag", "true: a flat-faced follower (face perpendicular to vk)",
+              required=False, default=False),
+    ) + _COMMON
+    derived = _REST
+    summary = ("cam i turning on frame k (default ground) drives a translating follower j (knife "
+               "edge, roller or flat face) by the law s(theta); writes cam-<name>.csv (1 equation)")
+    equations = "u_k^T (P_j - C_k) - s(phi_i - phi_k) - s0 = 0 (s0: follower on the base circle)"
+
+    def _h(self, G, F):
+        bj, bk = G.bodies[:, 1], G.bodies[:, 2]
+        sk, sj, v = G.params["sk"], G.params["sj"], G.params["vk"]
+        skx, sky = rotate(F, bk, sk[:, 0], sk[:, 1])
+        sjx, sjy = rotate(F, bj, sj[:, 0], sj[:, 1])
+        ux, uy = rotate(F, bk, v[:, 0], v[:, 1])
+        hx = F.q[:, 3 * bj] + sjx - F.q[:, 3 * bk] - skx
+        hy = F.q[:, 3 * bj + 1] + sjy - F.q[:, 3 * bk + 1] - sky
+        return ux, uy, skx, sky, sjx, sjy, hx, hy
+
+    def g(self, G, F):
+        ux, uy, *_, hx, hy = self._h(G, F)
+        th, _ = _cam_angle(G, F)
+        return (ux * hx + uy * hy - _laws(G, "s", th, 0))[..., None]
+
+    def grad(self, G, F):
+        ux, uy, skx, sky, sjx, sjy, hx, hy = self._h(G, F)
+        nx, ny = -uy, ux
+        th, _ = _cam_angle(G, F)
+        s1 = _laws(G, "s", th, 1)
+        out = np.zeros((F.q.shape[0], len(G), 1, 9))
+        out[..., 0, 2] = -s1
+        out[..., 0, 3] = ux
+        out[..., 0, 4] = uy
+        out[..., 0, 5] = -(nx * sjx + ny * sjy)
+        out[..., 0, 6] = -ux
+        out[..., 0, 7] = -uy
+        out[..., 0, 8] = nx * (hx + skx) + ny * (hy + sky) + s1
+        return out
+
+    def gamma(self, G, F):
+        ux, uy, skx, sky, sjx, sjy, hx, hy = self._h(G, F)
+        nx, ny = -uy, ux
+        bj, bk = G.bodies[:, 1], G.bodies[:, 2]
+        wk, wj, hdx, hdy = relative_velocity(F, bk, bj, skx, sky, sjx, sjy)
+        kx = wj * wj * sjx - wk * wk * skx
+        ky = wj * wj * sjy - wk * wk * sky
+        th, thd = _cam_angle(G, F)
+        s2 = _laws(G, "s", th, 2)
+        out = (wk * wk * (ux * hx + uy * hy) - 2.0 * wk * (nx * hdx + ny * hdy)
+               + ux * kx + uy * ky + s2 * thd * thd)
+        return out[..., None]
+
+    def diagnose(self, arrays, L, af, lu, au):
+        return check(self.name, arrays, L, af, lu, au)
+
+    def prepare(self, arrays, poses):
+        if arrays["flat"] > 0.5:
+            s0 = float(arrays["base"])
+        else:
+            rp, e = float(arrays["base"] + arrays["roller"]), float(arrays["offset"])
+            s0 = math.sqrt(max(rp * rp - e * e, 0.0))
+        return {"rest": np.float64(s0)}, [s0]
+
+
+class CamRocker(Kind):
+    name = "cam-rocker"
+    nbody = 3
+    params = (
+        Param("sk", "point", "the cam's centre of rotation on frame k, in its frame"),
+        Param("pk", "point", "the rocker's pivot on frame k, in its frame"),
+        Param("pj", "point", "the rocker's pivot on j, in its frame", required=False,
+              default=(0.0, 0.0)),
+        Param("sj", "point", "the follower's roller centre (or knife tip) on j, in its frame"),
+        Param("psi", "angle-law", "rocker angle from its drawn rest: an expression of the cam "
+              "angle theta = phi_i - phi_k"),
+    ) + _COMMON
+    derived = _REST
+    summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge or "
+               "roller) by the law psi(theta); writes cam-<name>.csv (1 equation)")
+    equations = "phi_j - phi_k - psi(phi_i - phi_k) - psi0 = 0 (psi0 as drawn)"
+
+    def g(self, G, F):
+        bj, bk = G.bodies[:, 1], G.bodies[:, 2]
+        th, _ = _cam_angle(G, F)
+        return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bk + 2] - _laws(G, "psi", th, 0))[..., None]
+
+    def grad(self, G, F):
+        th, _ = _cam_angle(G, F)
+        p1 = _laws(G, "psi", th, 1)
+        out = np.zeros((F.q.shape[0], len(G), 1, 9))
+        out[..., 0, 2] = -p1
+        out[..., 0, 5] = 1.0
+        out[..., 0, 8] = -1.0 + p1
+        return out
+
+    def gamma(self, G, F):
+        th, thd = _cam_angle(G, F)
+        return (_laws(G, "psi", th, 2) * thd * thd)[..., None]
+
+    def diagnose(self, arrays, L, af, lu, au):
+        return check(self.name, arrays, L, af, lu, au)
+
+    def prepare(self, arrays, poses):
+        th0 = poses[0][2] - poses[2][2]
+        psi0 = (poses[1][2] - poses[2][2]) - float(arrays["psi"](np.array([th0]))[0][0])
+        return {"rest": np.float64(psi0)}, [psi0]
+
+
+# -- the profile, by kinematic inversion ---------------------------------------------------------
+
+def _rot(c, s, x, y):
+    return c * x - s * y, s * x + c * y
+
+
+def profile(kind: str, par: dict, theta) -> dict:
+    """The cam's profile where the cam angle is theta (N,) rad, exactly from the law's s, s', s''.
+
+    par: one instance's parameters (internal units, as in a Group, plus 'rest'). In frame k,
+    relative to the cam centre, the follower point is w(theta) with w', w'' (translating:
+    w = e n + (s0 + s) u; rocker: w = D + A(psi0 + psi) a', D the pivot, a' the arm); in the
+    cam's frame it is p = A(-theta) w, so p' = A(-theta)(w' - R w), p'' = A(-theta)(w'' - 2 R w'
+    - w). Returns (N,) arrays: value (s or psi), pitch x, y (the roller centre / tip / face point
+    on the axis, cam frame), surface x, y (the working surface: the pitch curve offset inwards by
+    the roller radius along its normal; for a flat face the envelope of the face), rho_pitch
+    (signed radius of curvature of the pitch curve, > 0 where convex), rho_surface, pressure
+    (the angle between the contact normal and the follower point's direction of motion, rad)."""
+    theta = np.asarray(theta, dtype=float)
+    if kind == "cam":
+        s, s1, s2 = par["s"](theta)
+        ux, uy = par["vk"]
+        nx, ny = -uy, ux
+        e = float(par["offset"])
+        d = par["rest"] + s
+        wx, wy = e * nx + d * ux, e * ny + d * uy
+        w1x, w1y = s1 * ux, s1 * uy
+        w2x, w2y = s2 * ux, s2 * uy
+        mx, my = ux + 0 * s, uy + 0 * s                   # the follower's direction of motion
+        value = s
+    else:
+        p0, p1, p2 = par["psi"](theta)
+        ang = par["rest"] + p0
+        a = np.asarray(par["sj"]) - np.asarray(par["pj"])
+        ax_, ay_ = _rot(np.cos(ang), np.sin(ang), a[0], a[1])
+        D = np.asarray(par["pk"]) - np.asarray(par["sk"])
+        wx, wy = D[0] + ax_, D[1] + ay_
+        w1x, w1y = -p1 * ay_, p1 * ax_                    # psi' R A a'
+        w2x, w2y = -p2 * ay_ - p1 * p1 * ax_, p2 * ax_ - p1 * p1 * ay_
+        mx, my = -ay_, ax_
+        value = p0
+    # frame-k components of the cam-frame derivatives (a rotation keeps lengths and crossings)
+    vx, vy = w1x + wy, w1y - wx                           # w' - R w
+    qx, qy = w2x + 2.0 * w1y - wx, w2y - 2.0 * w1x - wy   # w'' - 2 R w' - w
+    speed = np.hypot(vx, vy)
+    cross = vx * qy - vy * qx
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = -speed**3 / cross
+        Nx, Ny = -vy / speed, vx / speed                  # outward normal R v / |v|
+    c, sn = np.cos(-theta), np.sin(-theta)
+    px, py = _rot(c, sn, wx, wy)
+    roller = float(par.get("roller", 0.0))
+    if kind == "cam" and par["flat"] > 0.5:
+        # envelope of the face u^T x = base + s turning by -theta: contact at d u - s' n
+        fx, fy = d * ux - s1 * nx, d * uy - s1 * ny
+        sx, sy = _rot(c, sn, fx, fy)
+        rho_s = d + s2
+        pressure = np.zeros_like(theta)
+    else:
+        nxc, nyc = _rot(c, sn, Nx, Ny)
+        sx, sy = px - roller * nxc, py - roller * nyc
+        rho_s = rho - roller
+        dot = np.abs(mx * Nx + my * Ny)
+        pressure = np.arctan2(np.abs(mx * Ny - my * Nx), dot)
+    return {"value": value, "pitch_x": px, "pitch_y": py, "surface_x": sx, "surface_y": sy,
+            "rho_pitch": rho, "rho_surface": rho_s, "pressure": pressure}
+
+
+def instance(G, k: int) -> dict:
+    """One instance's parameters of a Group of a cam kind (internal units)."""
+    return {name: v[k] for name, v in G.params.items()}
+
+
+def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[str]:
+    """What makes the cam unusable, as messages (user units): an undercut profile, a pressure
+    angle past the limit, a full-turn law that does not close. Sampled every 0.125 degrees of
+    the law's range and at its ends (a check, not a result: the profile itself is exact)."""
+    msgs = []
+    if kind == "cam" and not par["flat"] > 0.5 and not abs(par["offset"]) < par["base"] + \
+            par["roller"]:
+        return [f"the follower axis' offset {abs(par['offset']) * L:.4g} {lu} must be smaller "
+                f"than base + roller = {(par['base'] + par['roller']) * L:.4g} {lu} (the follower "
+                f"would miss the cam)"]
+    lo, hi = par["range"]
+    full = not np.isfinite(lo)
+    if full:
+        lo, hi = 0.0, 2.0 * math.pi
+    n = max(int(math.ceil((hi - lo) / (2.0 * math.pi) * SAMPLES_PER_TURN)), 16) + 1
+    th = np.linspace(lo, hi, n)
+    law = par["s" if kind == "cam" else "psi"]
+    ends = [law(np.array([x])) for x in (lo, hi)]
+    unit = lambda x: f"{x * L:.4g} {lu}"
+    deg = lambda x: f"{x / af:.4g} {au}"
+    if full:
+        names = ("value", "first derivative", "second derivative")
+        for o in range(3):
+            jump = float(ends[1][o][0] - ends[0][o][0])
+            scale = max(float(np.max(np.abs(law(th)[o]))), 1e-300)
+            if abs(jump) > 1e-9 * scale:
+                msgs.append(f"the law {law.text!r} does not close over a full turn: its {names[o]} "
+                            f"differs by {abs(jump) / scale:.3g} (relative) between theta = 0 "
+                            f"and 360 deg; give range: [from, to] for the part of the turn it "
+                            f"describes")
+                break
+    P = profile(kind, par, th)
+    flat = kind == "cam" and par["flat"] > 0.5
+    roller = float(par.get("roller", 0.0))
+    if flat:
+        bad = ~(P["rho_surface"] > 0)
+        if bad.any():
+            k = int(np.argmin(np.where(np.isfinite(P["rho_surface"]), P["rho_surface"], -np.inf)))
+            need = float(par["base"] - np.min(P["rho_surface"]))
+            msgs.append(f"the profile undercuts at theta = {deg(th[k])}: base + s + s'' = "
+                        f"{unit(P['rho_surface'][k])} is not positive (the flat face "
+                        f"cannot touch the cam there); use a base circle larger than "
+                        f"{unit(need)}")
+    else:
+        rho = P["rho_pitch"]
+        convex = ~(rho < 0)
+        bad = convex & ~(rho > roller)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[np.argmin(np.where(np.isfinite(rho[bad]), rho[bad], 0))])
+            msgs.append(f"the profile undercuts at theta = {deg(th[k])}: the pitch curve's radius "
+                        f"of curvature {unit(rho[k])} is not larger than the roller "
+                        f"radius {unit(roller)}; use a larger base circle or a smaller "
+                        f"roller")
+        lim = par["pressure_limit"]
+        lim = DEFAULT_LIMIT[kind] if not np.isfinite(lim) else float(lim)
+        k = int(np.argmax(P["pressure"]))
+        if P["pressure"][k] > lim:
+            msgs.append(f"the pressure angle reaches {deg(P['pressure'][k])} at theta = "
+                        f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; use a larger base "
+                        f"circle, spread the rise over a larger cam angle or raise pressure_limit")
+    return msgs
+
+
+# -- cam-<name>.csv: the room of planarkin.derived ------------------------------------------------
+
+def derived_tables(cm, opts) -> list:
+    """One table cam-<name>.csv per cam (name: the element's name, else joint<index>): per grid
+    row the cam angle, the law's value and the profile point in contact then (cam frame), its
+    radii of curvature and the pressure angle. A run over one turn at constant speed is the
+    manufacturing table of the whole profile."""
+    from ..derived import DerivedTable
+
+    out = []
+    L, af = cm.L, cm.angle_factor
+    lu, au = cm.spec.length_unit, cm.spec.angle_unit
+    for G in cm.groups:
+        if G.kind.name not in ("cam", "cam-rocker"):
+            continue
+        for k in range(len(G)):
+            el = cm.element_of_row(int(G.rows[k, 0]))
+            name = el.name or f"{el.role}{el.index}"
+            value = f"s [{lu}]" if G.kind.name == "cam" else f"psi [{au}]"
+            header = ["t [s]", f"theta [{au}]", value, f"pitch.x [{lu}]", f"pitch.y [{lu}]",
+                      f"surface.x [{lu}]", f"surface.y [{lu}]", f"rho_pitch [{lu}]",
+                      f"rho_surface [{lu}]", f"pressure_angle [{au}]"]
+            out.append(DerivedTable(f"cam-{name}.csv", header,
+                                    _table(cm, G.kind.name, instance(G, k), G.bodies[k])))
+    return out
+
+
+def _table(cm, kind, par, bodies):
+    L, af, nb = cm.L, cm.angle_factor, cm.nb
+    bi, bk = int(bodies[0]), int(bodies[2])
+    value_scale = L if kind == "cam" else 1.0 / af
+
+    def compute(ch):
+        th = ch.q[:, 3 * bi + 2] - (ch.q[:, 3 * bk + 2] if bk != nb else 0.0)
+        P = profile(kind, par, th * af)
+        cols = [ch.t, th, P["value"] * value_scale]
+        cols += [P[c] * L for c in ("pitch_x", "pitch_y", "surface_x", "surface_y", "rho_pitch",
+                                    "rho_surface")]
+        cols.append(P["pressure"] / af)
+        return np.column_stack(cols)
+
+    return compute

@@ -1,0 +1,172 @@
+"""A pin following a curve of another body: a curved slot or a track (issue 8, item 4).
+
+The curve is a table of points in the frame of body i, interpolated by a quintic spline in the
+chord-length parameter (periodic for a closed curve; not-a-knot ends for an open one): C4, so
+positions, velocities, accelerations (and jerks) of the pin are continuous, and every derivative
+used is an exact derivative of the interpolant. Quintic rather than cubic because the
+acceleration of a pin on a curve depends on the curve's curvature, which a cubic spline of a
+circle through 2160 points gets right only to 7e-7 and the quintic to 2e-10.
+
+Formulation without an extra coordinate (reference §4 adds the curve parameter alpha as a
+generalised coordinate; the model has exactly 3 per body): the pin p' = A_i^T (r_j + A_j s'_j -
+r_i), seen in body i, must have zero signed distance to the curve,
+
+    g = d(p') = n(alpha*)^T (p' - c(alpha*)),   alpha* the closest point's parameter,
+
+with n = R t the left normal of the unit tangent t. The signed distance has the exact gradient
+n(alpha*) and Hessian -kappa / (1 - kappa d) t t^T (kappa the signed curvature at alpha*), so
+Phi_q and gamma are exact expressions of the interpolant at alpha*; alpha* itself is found by
+Newton's method on (c - p')^T c' = 0 to machine precision (d is stationary in alpha there, so
+its error is second order in that of alpha*). An open curve ends: a pin whose closest point is
+an end of the table is off the curve, and g is NaN (the run stops there with a failure).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Kind, Param, body_velocity, omega, rotate
+
+
+class Curve:
+    """Quintic spline through points (M, 2) (internal units, body frame); closed: periodic."""
+
+    SAMPLES = 512                       # coarse samples along the curve for the projection
+
+    def __init__(self, points, closed: bool):
+        from scipy.interpolate import make_interp_spline
+
+        P = np.asarray(points, dtype=float)
+        self.points, self.closed = P, bool(closed)
+        if closed:
+            P = np.vstack([P, P[:1]])
+        a = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(P, axis=0).T))])
+        self.a0, self.a1 = 0.0, float(a[-1])
+        spline = make_interp_spline(a, P, k=5, bc_type="periodic" if closed else None)
+        # the same spline as polynomial pieces: Taylor coefficients c^(v)(x_m) / v! at each
+        # piece's start, so that c, c', c'' come from one vectorised Horner pass
+        x = np.unique(np.clip(spline.t, 0.0, self.a1))
+        fact = np.array([1.0, 1.0, 2.0, 6.0, 24.0, 120.0])
+        self.breaks = x
+        self.coef = np.stack([spline(x[:-1], v) / fact[v] for v in range(6)])   # (6, pieces, 2)
+        # at least two per table interval: Newton starts within half an interval of the answer
+        self.grid = np.linspace(0.0, self.a1, max(self.SAMPLES, 2 * (len(P) - 1)) + 1)
+        self.samples = self.eval(self.grid)[0]
+
+    def scaled(self, factor: float) -> "Curve":
+        return Curve(self.points * factor, self.closed)
+
+    def eval(self, a):
+        """c, c', c'' at parameters a (n,): three (n, 2) arrays."""
+        a = np.asarray(a, dtype=float)
+        if self.closed:
+            a = np.mod(a, self.a1)
+        m = np.clip(np.searchsorted(self.breaks, a, side="right") - 1, 0, len(self.breaks) - 2)
+        h = (a - self.breaks[m])[:, None]
+        C = self.coef[:, m, :]
+        c0 = ((((C[5] * h + C[4]) * h + C[3]) * h + C[2]) * h + C[1]) * h + C[0]
+        c1 = (((5 * C[5] * h + 4 * C[4]) * h + 3 * C[3]) * h + 2 * C[2]) * h + C[1]
+        c2 = ((20 * C[5] * h + 12 * C[4]) * h + 6 * C[3]) * h + 2 * C[2]
+        return c0, c1, c2
+
+    def project(self, p):
+        """Closest points of p (n, 2): (alpha (n,), c, c', c'' (n, 2), off (n,) bool: beyond an
+        end of an open curve)."""
+        p = np.asarray(p, dtype=float)
+        d2 = ((p[:, None, :] - self.samples[None, :, :]) ** 2).sum(axis=2)
+        a = self.grid[np.argmin(d2, axis=1)]
+        step = self.a1 / (len(self.grid) - 1)
+        last = False
+        for _ in range(30):
+            c, c1, c2 = self.eval(a)
+            e = c - p
+            f = (e * c1).sum(axis=1)
+            fp = (c1 * c1).sum(axis=1) + (e * c2).sum(axis=1)
+            fp = np.where(fp > 0, fp, (c1 * c1).sum(axis=1))     # keep going downhill
+            da = np.clip(-f / fp, -step, step)
+            a = a + da
+            if not self.closed:
+                a = np.clip(a, self.a0, self.a1)
+            if last:
+                break
+            # quadratic convergence: one more step after 1e-12 reaches the rounding floor
+            last = bool(np.all(np.abs(da) <= 1e-12 * self.a1))
+        c, c1, c2 = self.eval(a)
+        off = np.zeros(len(a), bool) if self.closed else (a <= self.a0) | (a >= self.a1)
+        return a, c, c1, c2, off
+
+    def __repr__(self) -> str:
+        return f"Curve({len(self.points)} points, {'closed' if self.closed else 'open'})"
+
+
+def _geometry(G, F):
+    """Per state and instance: the pin in body i (p'), its closest point, unit tangent and normal
+    (global), curvature, signed distance; plus s_j and Delta = r_j + s_j - r_i (global)."""
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    sj = G.params["sj"]
+    sjx, sjy = rotate(F, bj, sj[:, 0], sj[:, 1])
+    Dx = F.q[:, 3 * bj] + sjx - F.q[:, 3 * bi]
+    Dy = F.q[:, 3 * bj + 1] + sjy - F.q[:, 3 * bi + 1]
+    ci, si = F.c[:, bi], F.s[:, bi]
+    px, py = ci * Dx + si * Dy, -si * Dx + ci * Dy          # A_i^T Delta
+    N, K = px.shape
+    tx, ty, kap, d = (np.empty((N, K)) for _ in range(4))
+    curves = G.params["curve"]
+    for cv in {id(x): x for x in curves}.values():
+        cols = [k for k, x in enumerate(curves) if x is cv]
+        P = np.stack([px[:, cols], py[:, cols]], axis=-1).reshape(-1, 2)
+        _, c, c1, c2, off = cv.project(P)
+        sp = np.hypot(c1[:, 0], c1[:, 1])
+        ux, uy = c1[:, 0] / sp, c1[:, 1] / sp
+        dist = -uy * (P[:, 0] - c[:, 0]) + ux * (P[:, 1] - c[:, 1])
+        dist[off] = np.nan
+        k_ = (c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]) / sp**3
+        shape = (N, len(cols))
+        tx[:, cols], ty[:, cols] = ux.reshape(shape), uy.reshape(shape)
+        kap[:, cols], d[:, cols] = k_.reshape(shape), dist.reshape(shape)
+    gx, gy = rotate(F, bi, tx, ty)                          # global tangent
+    return d, gx, gy, -gy, gx, kap, sjx, sjy, Dx, Dy
+
+
+class CurveSlot(Kind):
+    name = "curve-slot"
+    params = (
+        Param("sj", "point", "the pin on body j in its frame"),
+        Param("curve", "curve", "the curve in the frame of body i: a list of points [[x, y], ...] "
+              "(at least 6; a closed curve does not repeat its first point)"),
+        Param("closed", "flag", "true: a closed curve (a periodic spline)", required=False,
+              default=False),
+    )
+    summary = ("pin sj of j follows a curve of body i given as a table of points (a curved slot, "
+               "a track), interpolated by a quintic spline (1 equation)")
+    equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"
+
+    def g(self, G, F):
+        return _geometry(G, F)[0][..., None]
+
+    def grad(self, G, F):
+        d, tx, ty, nx, ny, kap, sjx, sjy, Dx, Dy = _geometry(G, F)
+        out = np.empty((F.q.shape[0], len(G), 1, 6))
+        # n^T R v = -n_x v_y + n_y v_x
+        out[..., 0, 0] = -nx
+        out[..., 0, 1] = -ny
+        out[..., 0, 2] = -(ny * Dx - nx * Dy)
+        out[..., 0, 3] = nx
+        out[..., 0, 4] = ny
+        out[..., 0, 5] = ny * sjx - nx * sjy
+        return out
+
+    def gamma(self, G, F):
+        d, tx, ty, nx, ny, kap, sjx, sjy, Dx, Dy = _geometry(G, F)
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        wi, wj = omega(F, bi), omega(F, bj)
+        vxi, vyi = body_velocity(F, bi)
+        vxj, vyj = body_velocity(F, bj)
+        ddx = vxj - wj * sjy - vxi                          # Delta-dot
+        ddy = vyj + wj * sjx - vyi
+        # gamma = n^T (2 w_i R Delta' + w_i^2 Delta + w_j^2 s_j) + kappa/(1 - kappa d) (t^T
+        # (Delta' - w_i R Delta))^2 (derivation in the module docstring's terms)
+        lin = (nx * (2 * wi * -ddy + wi * wi * Dx + wj * wj * sjx)
+               + ny * (2 * wi * ddx + wi * wi * Dy + wj * wj * sjy))
+        rel = tx * (ddx + wi * Dy) + ty * (ddy - wi * Dx)
+        return (lin + kap / (1.0 - kap * d) * rel * rel)[..., None]

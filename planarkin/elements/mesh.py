@@ -1,0 +1,142 @@
+"""Gear pair with moving centres and a disc rolling on a disc (reference §3.2).
+
+Gear (disc) i has its centre at si and signed pitch radius ri, gear j at sj with rj (negative
+for the ring of an internal pair); d = r_j + A_j s'_j - r_i - A_i s'_i is the line of centres
+and S = ri + rj. Rolling without slip of the pitch circles is S theta - ri phi_i - rj phi_j = c
+with theta the direction of d. The smooth (perpendicular) form of §3.2 writes it without atan2:
+theta* = (ri phi_i + rj phi_j + c) / S, e = (cos theta*, sin theta*), and the line of centres
+must point along e. c is fixed by the estimated poses (the gears mesh as drawn), stored as the
+derived parameter `phase`; with S < 0 (an internal pair drawn with the ring as i) d points along
+-e, so that the two-equation form d = S e holds.
+
+`gear-mesh`: e_perp^T d = 0 (1 equation), the centre distance comes from other joints (planet on
+a carrier). `roll-disc`: d - S e = 0 (2 equations), also the centre distance |S|: a disc rolling
+on a disc, outside (both radii positive) or inside (the outer one negative).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .base import Kind, Param, relative_point, relative_velocity, omega
+
+_PARAMS = (
+    Param("si", "point", "centre of gear (disc) i on body i in its frame"),
+    Param("sj", "point", "centre of gear (disc) j on body j in its frame"),
+    Param("ri", "length", "signed pitch radius of i (negative for an internal ring gear)"),
+    Param("rj", "length", "signed pitch radius of j (negative for an internal ring gear)"),
+)
+_PHASE = (Param("phase", "real", "c of S theta - ri phi_i - rj phi_j = c, from the estimates"),)
+
+
+def _theta(G, F):
+    """theta* (N, K), its rate (N, K) (when F.qd is given) and S (K,)."""
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    ri, rj = G.params["ri"], G.params["rj"]
+    S = ri + rj
+    th = (ri * F.q[:, 3 * bi + 2] + rj * F.q[:, 3 * bj + 2] + G.params["phase"]) / S
+    thd = None if F.qd is None else (ri * omega(F, bi) + rj * omega(F, bj)) / S
+    return th, thd, S
+
+
+def _phase(arrays, poses):
+    (xi, yi, pi_), (xj, yj, pj) = poses[0], poses[1]
+    a, b = arrays["si"], arrays["sj"]
+    dx = xj + math.cos(pj) * b[0] - math.sin(pj) * b[1] - xi - (math.cos(pi_) * a[0]
+                                                               - math.sin(pi_) * a[1])
+    dy = yj + math.sin(pj) * b[0] + math.cos(pj) * b[1] - yi - (math.sin(pi_) * a[0]
+                                                               + math.cos(pi_) * a[1])
+    S = float(arrays["ri"] + arrays["rj"])
+    theta0 = math.atan2(dy, dx) if S > 0 else math.atan2(-dy, -dx)
+    return np.float64(S * theta0 - arrays["ri"] * pi_ - arrays["rj"] * pj)
+
+
+class GearMesh(Kind):
+    name = "gear-mesh"
+    params = _PARAMS
+    derived = _PHASE
+    summary = ("gear pair with moving centres (planet gears): the pitch circles of i and j roll "
+               "without slip; the centre distance comes from other joints (1 equation)")
+    equations = ("e_perp(theta*)^T (P_j - P_i) = 0, theta* = (ri phi_i + rj phi_j + c0) / "
+                 "(ri + rj), c0 as drawn")
+
+    def g(self, G, F):
+        th, _, _ = _theta(G, F)
+        hx, hy = relative_point(G, F)[4:]
+        return (-np.sin(th) * hx + np.cos(th) * hy)[..., None]
+
+    def grad(self, G, F):
+        th, _, S = _theta(G, F)
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        ex, ey = np.cos(th), np.sin(th)
+        px, py = -ey, ex                       # e_perp = R e
+        ed = ex * hx + ey * hy
+        out = np.zeros((F.q.shape[0], len(G), 1, 6))
+        # e_perp^T R s = -px s_y + py s_x
+        out[..., 0, 0] = -px
+        out[..., 0, 1] = -py
+        out[..., 0, 2] = (px * siy - py * six) - ed * G.params["ri"] / S
+        out[..., 0, 3] = px
+        out[..., 0, 4] = py
+        out[..., 0, 5] = (py * sjx - px * sjy) - ed * G.params["rj"] / S
+        return out
+
+    def gamma(self, G, F):
+        th, thd, S = _theta(G, F)
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
+        ex, ey = np.cos(th), np.sin(th)
+        px, py = -ey, ex
+        kx = wj * wj * sjx - wi * wi * six
+        ky = wj * wj * sjy - wi * wi * siy
+        out = thd * thd * (px * hx + py * hy) + 2.0 * thd * (ex * hdx + ey * hdy) + px * kx + py * ky
+        return out[..., None]
+
+    def prepare(self, arrays, poses):
+        return {"phase": _phase(arrays, poses)}, [0.0]
+
+
+class RollDisc(Kind):
+    name = "roll-disc"
+    neq = 2
+    params = _PARAMS
+    derived = _PHASE
+    summary = ("disc j rolls without slipping on disc i, outside (ri, rj > 0) or inside (the "
+               "outer radius negative); also keeps the centre distance |ri + rj| (2 equations)")
+    equations = "P_j - P_i - (ri + rj) e(theta*) = 0, theta* as for gear-mesh"
+
+    def g(self, G, F):
+        th, _, S = _theta(G, F)
+        hx, hy = relative_point(G, F)[4:]
+        return np.stack([hx - S * np.cos(th), hy - S * np.sin(th)], axis=-1)
+
+    def grad(self, G, F):
+        th, _, S = _theta(G, F)
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        ex, ey = np.cos(th), np.sin(th)
+        ri, rj = G.params["ri"], G.params["rj"]
+        out = np.zeros((F.q.shape[0], len(G), 2, 6))
+        # d/dphi of -S e(theta*) = -S R e dtheta*/dphi = -r R e; R e = (-ey, ex)
+        out[..., 0, 0] = -1.0
+        out[..., 0, 2] = siy + ri * ey
+        out[..., 0, 3] = 1.0
+        out[..., 0, 5] = -sjy + rj * ey
+        out[..., 1, 1] = -1.0
+        out[..., 1, 2] = -six - ri * ex
+        out[..., 1, 4] = 1.0
+        out[..., 1, 5] = sjx - rj * ex
+        return out
+
+    def gamma(self, G, F):
+        th, thd, S = _theta(G, F)
+        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
+        wi2 = omega(F, G.bodies[:, 0]) ** 2
+        wj2 = omega(F, G.bodies[:, 1]) ** 2
+        c = S * thd * thd
+        return np.stack([wj2 * sjx - wi2 * six - c * np.cos(th),
+                         wj2 * sjy - wi2 * siy - c * np.sin(th)], axis=-1)
+
+    def prepare(self, arrays, poses):
+        return {"phase": _phase(arrays, poses)}, [0.0, 0.0]

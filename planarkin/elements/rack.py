@@ -1,0 +1,129 @@
+"""Rack-and-pinion and a disc rolling on a line (reference §3.3).
+
+Rack (or line) body i: a point si of the pitch line and its direction vi (unit u_i, normal
+n_i = R u_i); pinion (or disc) body j: its centre sj and pitch radius r; h = r_j + A_j s'_j -
+r_i - A_i s'_i runs from the pitch-line point to the centre. sigma = +1 when the centre lies on
+the +n_i side of the line, -1 otherwise; it is read from the body estimates when the model is
+compiled (a centre drawn exactly on the line counts as the + side).
+
+Rolling without slip: u_i^T h + sigma r (phi_j - phi_i) = c, c fixed by the estimates (the
+parts mesh as drawn). Sign check of §3.3: a fixed rack along +x with the pinion above it: a
+pinion rolling by +dx turns by -dx / r (clockwise).
+
+`rack-pinion` is that one equation: the centre distance comes from other joints (the common
+case: pinion on a revolute, rack on a translational joint). `roll-line` adds n_i^T h = sigma r,
+the disc touching the line: a wheel on a road, or a pinion held on its rack by nothing else.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Kind, Param, relative_velocity
+from .translational import _line, _normal_gamma, _normal_row
+
+
+def _along(G, F):
+    """u_i^T h + sigma r (phi_j - phi_i): (N, K)."""
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    sr = G.params["side"] * G.params["r"]
+    return ux * hx + uy * hy + sr * (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])
+
+
+def _along_row(G, F, out, row):
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    sr = G.params["side"] * G.params["r"]
+    out[..., row, 0] = -ux
+    out[..., row, 1] = -uy
+    out[..., row, 2] = nx * (hx + six) + ny * (hy + siy) - sr
+    out[..., row, 3] = ux
+    out[..., row, 4] = uy
+    out[..., row, 5] = -(nx * sjx + ny * sjy) + sr
+
+
+def _along_gamma(G, F):
+    # the sigma r (phi_j - phi_i) term is linear: gamma is that of the slide u_i^T h (§5.6)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
+    kx = wj * wj * sjx - wi * wi * six
+    ky = wj * wj * sjy - wi * wi * siy
+    return (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
+            + ux * kx + uy * ky)
+
+
+def _estimate(arrays, poses):
+    """(sigma, u^T h0, n^T h0) at the estimated poses (internal units)."""
+    (xi, yi, pi_), (xj, yj, pj) = poses[0], poses[1]
+    ci, si_ = np.cos(pi_), np.sin(pi_)
+    cj, sj_ = np.cos(pj), np.sin(pj)
+    a, b, v = arrays["si"], arrays["sj"], arrays["vi"]
+    hx = xj + cj * b[0] - sj_ * b[1] - xi - (ci * a[0] - si_ * a[1])
+    hy = yj + sj_ * b[0] + cj * b[1] - yi - (si_ * a[0] + ci * a[1])
+    ux, uy = ci * v[0] - si_ * v[1], si_ * v[0] + ci * v[1]
+    un, nn = ux * hx + uy * hy, -uy * hx + ux * hy
+    return (1.0 if nn >= 0 else -1.0), un, nn
+
+
+_PARAMS = (
+    Param("si", "point", "a point of the pitch line (rolling line) on body i in its frame"),
+    Param("vi", "vector", "direction of the pitch line on body i in its frame"),
+    Param("sj", "point", "centre of the pinion (disc) on body j in its frame"),
+    Param("r", "length", "pitch radius of the pinion (radius of the disc), > 0"),
+)
+_SIDE = (Param("side", "real", "+1: centre on the +n_i side of the pitch line, -1: the other"),)
+
+
+class RackPinion(Kind):
+    name = "rack-pinion"
+    params = _PARAMS
+    derived = _SIDE
+    summary = ("rack-and-pinion, rolling only: rack i, pinion j of pitch radius r; the centre "
+               "distance comes from other joints (1 equation)")
+    equations = ("u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) - c0 = 0 (sigma: the pinion's side "
+                 "of the pitch line, c0: as drawn)")
+
+    def g(self, G, F):
+        return _along(G, F)[..., None]
+
+    def grad(self, G, F):
+        out = np.empty((F.q.shape[0], len(G), 1, 6))
+        _along_row(G, F, out, 0)
+        return out
+
+    def gamma(self, G, F):
+        return _along_gamma(G, F)[..., None]
+
+    def prepare(self, arrays, poses):
+        side, un, _ = _estimate(arrays, poses)
+        c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
+        return {"side": np.float64(side)}, [c]
+
+
+class RollLine(Kind):
+    name = "roll-line"
+    neq = 2
+    params = _PARAMS
+    derived = _SIDE
+    summary = ("disc j of radius r rolls without slipping on a line of body i (a wheel on a "
+               "road; a rack and pinion that also keeps the centre distance) (2 equations)")
+    equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "
+                 "- c0 = 0")
+
+    def g(self, G, F):
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        return np.stack([nx * hx + ny * hy, _along(G, F)], axis=-1)
+
+    def grad(self, G, F):
+        out = np.empty((F.q.shape[0], len(G), 2, 6))
+        _normal_row(G, F, out, 0)
+        _along_row(G, F, out, 1)
+        return out
+
+    def gamma(self, G, F):
+        return np.stack([_normal_gamma(G, F), _along_gamma(G, F)], axis=-1)
+
+    def prepare(self, arrays, poses):
+        side, un, _ = _estimate(arrays, poses)
+        c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
+        return {"side": np.float64(side)}, [side * arrays["r"], c]
