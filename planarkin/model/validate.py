@@ -17,9 +17,10 @@ from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
 from ..expr import ExprError, TimeFunction, evaluate_constant
 from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
 from .yamlread import Node
+from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
-            "assembly", "output")
+            "assembly", "output", "gravity", "loads")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
@@ -175,12 +176,13 @@ class _Validator:
         analysis = self.analysis(root.value.get("analysis"))
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
+        forces = validate_forces(self, root)
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}))
+                         section_lines=dict(root.key_lines or {}), forces=forces)
 
     def units(self, node: Node | None):
         length, angle = "m", "rad"
@@ -237,7 +239,7 @@ class _Validator:
             if val.kind == "seq":
                 self.err(val, f"{what}: write {{q: [x, y, phi]}} (the estimated pose at t = start)")
                 continue
-            if not self.keys(val, ("q",), what):
+            if not self.keys(val, ("q",) + FORCE_BODY_KEYS, what):
                 continue
             if "q" not in val.value:
                 self.err(val, f"{what}: missing q: [x, y, phi] (its estimated pose at t = start)")
