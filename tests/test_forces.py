@@ -210,3 +210,255 @@ def test_four_bar_against_newton_euler_by_hand():
     ref = four_bar_reference(res.t, **FB)
     for key, r in ref.items():
         assert rel_err(got[key], r) <= 1e-9, (key, rel_err(got[key], r))
+
+
+# -- power balance --------------------------------------------------------------------------------
+LOADED = """
+name: loaded
+units: {length: mm, angle: deg}
+gravity: [3000, -9810]
+bodies:
+  crank:  {q: [0, 0, 20], mass: 1.3, inertia: 2100, cm: [35, 12]}
+  rod:    {q: [200, 0, -5], mass: 2.1, inertia: 18000, cm: [130, -8]}
+  slider: {q: [400, 0, 0], mass: 0.7, inertia: 50, cm: [5, 3]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: crank, j: rod, si: [100, 0], sj: [0, 0]}
+  - {type: revolute, i: rod, j: slider, si: [320, 0], sj: [0, 0]}
+  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
+drivers:
+  - {type: angle, body: crank, f: "30 + 360*t + 40*sin(2*pi*t)"}
+loads:
+  - {type: force, body: rod, s: [200, 30], f: ["100*t", "-2000 + 500*cos(2*pi*t)"]}
+  - {type: torque, body: crank, f: "-3e5*sin(2*pi*t)"}
+  - {type: spring, i: ground, j: rod, si: [0, 200], sj: [160, 0], k: 80, length: 150}
+  - {type: damper, i: crank, j: slider, si: [100, 0], sj: [0, 0], c: 5}
+  - {type: spring, i: crank, j: rod, si: [50, 10], sj: [60, 20], k: 300, length: 20}
+analysis: {start: 0, end: 1, steps: 96}
+"""
+
+BOOM = """
+name: loaded-boom
+units: {length: m, angle: deg}
+gravity: [0, -9.81]
+bodies:
+  boom: {q: [0, 0, 20], mass: 120, inertia: 160, cm: [2.0, 0.1]}
+joints:
+  - {type: revolute, i: ground, j: boom, si: [0, 0], sj: [0, 0]}
+drivers:
+  - {type: distance, name: cylinder, i: ground, j: boom, si: [0.8, -0.6], sj: [1.5, 0], f: "1.2 + 0.15*t + 0.05*sin(3*t)"}
+loads:
+  - {type: force, name: payload, body: boom, s: [4.0, 0], f: ["0", "-2000"]}
+analysis: {start: 0, end: 4, steps: 80}
+"""
+
+
+def power_balance(res):
+    """(sum of driver powers, dT/dt - P_applied) from the result's exact q, q', q'' and the
+    model's mass and load data, each (N,)."""
+    cm = res.model
+    spec = cm.spec
+    fs = spec.forces
+    af = cm.angle_factor
+    t = res.t
+    names = list(cm.body_names)
+
+    def body(b):
+        if b == "ground":
+            z = np.zeros_like(t)
+            return (z,) * 9
+        k = names.index(b)
+        q, qd, qdd = res.q[:, 3 * k:3 * k + 3], res.qd[:, 3 * k:3 * k + 3], res.qdd[:, 3 * k:3 * k + 3]
+        return (q[:, 0], q[:, 1], q[:, 2] * af, qd[:, 0], qd[:, 1], qd[:, 2] * af,
+                qdd[:, 0], qdd[:, 1], qdd[:, 2] * af)
+
+    def point(b, s):
+        x, y, ph, vx, vy, w, ax, ay, al = body(b)
+        sx, sy = rot(ph, s)
+        return x + sx, y + sy, vx - w * sy, vy + w * sx, ax - al * sy - w * w * sx, \
+            ay + al * sx - w * w * sy
+
+    g = np.zeros(2) if fs.gravity is None else np.array(fs.gravity)
+    dT = np.zeros_like(t)
+    P = np.zeros_like(t)
+    for m in fs.masses:
+        _, _, vx, vy, ax, ay = point(m.body, m.cm)
+        w, al = body(m.body)[5], body(m.body)[8]
+        dT += m.mass * (vx * ax + vy * ay) + m.inertia * w * al
+        P += m.mass * (g[0] * vx + g[1] * vy)
+    for ld in fs.loads:
+        if ld.kind == "force":
+            _, _, vx, vy, _, _ = point(ld.bodies[0], ld.s)
+            P += ld.f[0](t) * vx + ld.f[1](t) * vy
+        elif ld.kind == "torque":
+            P += ld.f[0](t) * body(ld.bodies[0])[5]
+        else:
+            px, py, pvx, pvy, _, _ = point(ld.bodies[0], ld.si)
+            qx, qy, qvx, qvy, _, _ = point(ld.bodies[1], ld.sj)
+            ell = np.hypot(qx - px, qy - py)
+            ldot = ((qx - px) * (qvx - pvx) + (qy - py) * (qvy - pvy)) / ell
+            tension = ld.k * (ell - ld.length) + ld.c * ldot
+            P += -tension * ldot
+    return res.table("forces.csv")["total.power"], dT - P
+
+
+@pytest.mark.parametrize("text", [LOADED, BOOM, SLIDER_CRANK, FOUR_BAR],
+                         ids=["loaded-mm-deg", "boom", "slider-crank", "four-bar"])
+def test_power_balance_at_every_grid_point(text):
+    res = planarkin.solve(load(text))
+    assert res.success, res.message
+    drivers, balance = power_balance(res)
+    scale = np.abs(balance).max()
+    assert scale > 0
+    assert np.abs(drivers - balance).max() <= 1e-12 * scale, np.abs(drivers - balance).max() / scale
+
+
+def test_driver_power_is_effort_times_rate():
+    res = planarkin.solve(load(BOOM))
+    f = res.table("forces.csv")
+    rate = 0.15 + 0.15 * np.cos(3 * res.t)
+    assert rel_err(f["cylinder.power"], f["cylinder.force"] * rate) <= 1e-13
+
+
+# -- statics --------------------------------------------------------------------------------------
+
+def test_boom_held_still_under_gravity_matches_hand_statics():
+    text = BOOM.replace('f: "1.2 + 0.15*t + 0.05*sin(3*t)"', 'f: "1.5"').replace(
+        "name: loaded-boom", "name: held-boom")
+    res = planarkin.solve(load(text))
+    assert res.success
+    f = res.table("forces.csv")
+    m, W = 120.0, -2000.0
+    a0 = math.atan2(0.6, 0.8)
+    phi = math.acos((3.25 - 1.5 ** 2) / 3) - a0
+    assert np.allclose(res.body("boom")["phi"], math.degrees(phi), rtol=0, atol=1e-9)
+    P = 1.5 * np.array([math.cos(phi), math.sin(phi)])
+    C = np.array([0.8, -0.6])
+    e = (P - C) / np.linalg.norm(P - C)
+    rc = np.array(rot(phi, (2.0, 0.1)))
+    tip = 4.0 * np.array([math.cos(phi), math.sin(phi)])
+    F = -(cross(*rc, 0, m * G) + cross(*tip, 0, W)) / cross(*P, *e)
+    pin = -(F * e + np.array([0, m * G]) + np.array([0, W]))
+    assert F > 0                                        # the cylinder pushes
+    assert rel_err(f["cylinder.force"], np.full_like(res.t, F)) <= 1e-12
+    assert rel_err(f["joint_1_revolute_ground-boom.fx"], np.full_like(res.t, pin[0])) <= 1e-12
+    assert rel_err(f["joint_1_revolute_ground-boom.fy"], np.full_like(res.t, pin[1])) <= 1e-12
+    assert np.abs(f["cylinder.power"]).max() == 0.0     # nothing moves
+    assert rel_err(f["shaking.fy"], np.full_like(res.t, m * G + W)) <= 1e-12
+    assert np.abs(f["shaking.fx"]).max() <= 1e-12 * abs(m * G + W)
+    assert rel_err(f["shaking.torque"], np.full_like(res.t, cross(*C, *(-F * e)))) <= 1e-12
+
+
+# -- sign conventions, every joint kind -----------------------------------------------------------
+KIND_MODELS = {
+    "slider-crank": SLIDER_CRANK,
+    "pin-slot": """
+name: pin-slot-forces
+gravity: [0, -9.81]
+bodies:
+  crank:  {q: [0, 0.2, 0], mass: 0.5, inertia: 0.001, cm: [0.03, 0.01]}
+  rocker: {q: [0, 0, 1.1], mass: 2, inertia: 0.05, cm: [0.2, 0.02]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0.2], sj: [0, 0]}
+  - {type: pin-slot, i: rocker, j: crank, si: [0, 0], vi: [1, 0], sj: [0.1, 0]}
+  - {type: revolute, i: ground, j: rocker, si: [0, 0], sj: [0, 0]}
+drivers:
+  - {type: angle, body: crank, f: "2*pi*t"}
+loads:
+  - {type: force, body: rocker, s: [0.45, 0], f: ["-30", "0"]}
+analysis: {start: 0, end: 1, steps: 24}
+""",
+    "distance-x-y-angle": """
+name: components
+gravity: [0, -9.81]
+bodies:
+  a: {q: [0.3, 0.1, 0.2], mass: 1.5, inertia: 0.02, cm: [0.05, -0.02]}
+  b: {q: [0.8, 0.4, -0.3], mass: 0.9, inertia: 0.01, cm: [0.1, 0.03]}
+joints:
+  - {type: x, i: ground, j: a, si: [0.3, 0], sj: [0.02, 0.01], c: 0.01}
+  - {type: angle, i: ground, j: a, c: 0.2}
+  - {type: distance, i: a, j: b, si: [0.1, 0.05], sj: [-0.1, 0.0], c: 0.45}
+  - {type: y, i: a, j: b, si: [0, 0], sj: [0.05, 0], c: 0.3}
+drivers:
+  - {type: y, body: a, f: "0.1 + 0.05*sin(2*pi*t)"}
+  - {type: angle, i: a, j: b, f: "-0.5 + 0.3*t"}
+loads:
+  - {type: force, body: b, s: [0.2, 0.1], f: ["5", "-3*t"]}
+analysis: {start: 0, end: 1, steps: 24}
+""",
+    "gear": """
+name: gears
+gravity: [0, -9.81]
+bodies:
+  pinion: {q: [0, 0, 0], mass: 0.4, inertia: 0.002}
+  wheel:  {q: [0.15, 0, 0], mass: 1.2, inertia: 0.03, cm: [0.01, 0]}
+joints:
+  - {type: revolute, i: ground, j: pinion, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: ground, j: wheel, si: [0.15, 0], sj: [0, 0]}
+  - {type: gear, i: pinion, j: wheel, ri: 0.05, rj: 0.1}
+drivers:
+  - {type: angle, body: pinion, f: "3*t + 2*t*t"}
+loads:
+  - {type: torque, body: wheel, f: "-2 + sin(t)"}
+analysis: {start: 0, end: 1, steps: 24}
+""",
+}
+
+
+def point_of(res, body, s):
+    if body == "ground":
+        return np.full_like(res.t, s[0]), np.full_like(res.t, s[1])
+    b = res.body(body)
+    sx, sy = rot(b["phi"] * res.model.angle_factor, s)
+    return b["x"] + sx, b["y"] + sy
+
+
+def test_every_joint_kind_has_its_reaction_columns():
+    assert set(JOINT_OUTPUT) == set(JOINT_KINDS)
+    used = set()
+    for text in KIND_MODELS.values():
+        used |= {el.kind for el in load(text).spec.joints}
+    assert used == set(JOINT_KINDS), set(JOINT_KINDS) - used
+
+
+@pytest.mark.parametrize("name", list(KIND_MODELS))
+def test_reaction_on_i_is_minus_reaction_on_j(name):
+    cm = load(KIND_MODELS[name])
+    res = planarkin.solve(cm)
+    assert res.success, res.message
+    F = Kinetostatics(cm).solve(res.t, res.q, res.qd, res.qdd)
+    for e, el in enumerate(cm.spec.elements):
+        Rj = np.array(F.reaction(e, 1))
+        Ri = np.array(F.reaction(e, 0))
+        scale = np.abs(Rj).max() + np.abs(Ri).max()
+        assert scale > 0, el.label
+        if el.kind == "gear":
+            # pure moments on i, j and the carrier k (ground): they balance, no force
+            Rk = np.array(F.reaction(e, 2))
+            assert np.abs(Ri[:2]).max() == 0 and np.abs(Rj[:2]).max() == 0
+            assert np.abs(Ri[2] + Rj[2] + Rk[2]).max() <= 1e-13 * scale
+            assert rel_err(Ri[2] / Rj[2], np.full_like(res.t, 0.05 / 0.1)) <= 1e-13
+            continue
+        assert np.abs(Ri[:2] + Rj[:2]).max() <= 1e-13 * scale, el.label
+        if el.kind in ("x", "y"):
+            # these fix a direction of the ground frame: the forces on i (at P_i) and on j (at
+            # P_j) are parallel to it and form a couple, so about P_j the moment on i is
+            # (P_i - P_j) x F_i and not minus that on j
+            Pj = np.array(F.point(e))
+            Pi = np.array(point_of(res, el.bodies[0], el.params["si"]))
+            assert np.abs(Ri[2] - cross(*(Pi - Pj), Ri[0], Ri[1])).max() <= 1e-13 * scale
+        else:
+            assert np.abs(Ri[2] + Rj[2]).max() <= 1e-13 * scale, el.label
+        if el.role == "joint" and "torque" not in JOINT_OUTPUT[el.kind]:
+            # kinds without a torque column transmit no moment about their point
+            assert np.abs(Rj[2]).max() <= 1e-12 * scale, el.label
+        if el.role == "joint" and JOINT_OUTPUT[el.kind] == ("torque",):
+            assert np.abs(Rj[:2]).max() == 0, el.label
+    # driver efforts: the generalised force on body j along the driven coordinate
+    for d, el in enumerate(cm.spec.drivers):
+        e = len(cm.spec.joints) + d
+        fx, fy, tq = F.reaction(e, 1)
+        if el.kind == "angle":
+            assert rel_err(tq, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
+        elif el.kind == "y":
+            assert rel_err(fy, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
