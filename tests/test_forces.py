@@ -462,3 +462,77 @@ def test_reaction_on_i_is_minus_reaction_on_j(name):
             assert rel_err(tq, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
         elif el.kind == "y":
             assert rel_err(fy, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
+
+
+# -- input, API and cost --------------------------------------------------------------------------
+
+def test_bad_force_input_is_an_input_error_through_the_api():
+    bad = SLIDER_CRANK.replace(f"mass: {SC['m3']}", "mass: -2")
+    with pytest.raises(planarkin.InputError) as exc:
+        load(bad, "bad.yaml")
+    assert str(exc.value) == ("bad.yaml:8: error: body 'slider': mass must not be negative, not "
+                              "-2 (a mass)")
+
+
+def test_force_at_a_global_point_equals_the_same_force_in_the_body_frame():
+    # the rod's estimate (0.2, 0, -0.1 rad) is where 'at' is read: s = A^T (at - r)
+    s = [float(v) for v in rot(0.1, (0.3 - 0.2, 0.05))]
+    a = SLIDER_CRANK.replace("  - {type: force, name: press",
+                             '  - {type: force, body: rod, at: [0.3, 0.05], f: ["7", "-3*t"]}\n'
+                             "  - {type: force, name: press")
+    b = SLIDER_CRANK.replace("  - {type: force, name: press",
+                             f'  - {{type: force, body: rod, s: [{s[0]!r}, {s[1]!r}], '
+                             f'f: ["7", "-3*t"]}}\n  - {{type: force, name: press')
+    fa = planarkin.solve(load(a)).table("forces.csv")
+    fb = planarkin.solve(load(b)).table("forces.csv")
+    assert rel_err(fa["motor.torque"], fb["motor.torque"]) <= 1e-13
+    ref = planarkin.solve(load(SLIDER_CRANK)).table("forces.csv")
+    assert rel_err(fa["motor.torque"], ref["motor.torque"]) > 1e-3      # the load matters
+
+
+def test_forces_api_names_and_did_you_mean(slider_crank):
+    res = slider_crank
+    cols = res.table("forces.csv")
+    assert set(res.forces("motor")) == {"torque", "power"}
+    assert set(res.forces("guide")) == {"fx", "fy", "torque"}
+    assert set(res.forces("A")) == {"fx", "fy"}
+    assert set(res.forces("shaking")) == {"fx", "fy", "torque"}
+    assert res.forces("A")["fx"] is not None
+    assert np.array_equal(res.forces("A")["fx"], cols["A.fx"])
+    with pytest.raises(KeyError, match="did you mean 'motor'"):
+        res.forces("motr")
+
+
+def test_model_without_masses_writes_no_forces_and_pays_nothing(tmp_path):
+    text = SLIDER_CRANK
+    for key in (f", mass: {SC['m1']}, inertia: {SC['J1']}, cm: [{SC['c1'][0]}, {SC['c1'][1]}]",
+                f", mass: {SC['m2']}, inertia: {SC['J2']}", f", mass: {SC['m3']}"):
+        text = text.replace(key, "")
+    text = text.split("loads:")[0] + "analysis: {start: 0, end: 1, steps: 72}\n"
+    cm = load(text)
+    assert cm.spec.forces is not None and cm.spec.forces.gravity is not None   # gravity alone
+    res = planarkin.solve(cm)
+    res.write(tmp_path, plots=None)
+    assert not (tmp_path / "forces.csv").exists()
+    assert '"forces":' not in (tmp_path / "summary.json").read_text()
+    with pytest.raises(KeyError, match="no forces"):
+        res.forces("motor")
+
+
+def test_forces_summary_section(tmp_path, slider_crank):
+    import json
+    slider_crank.write(tmp_path, plots=None)
+    s = json.loads((tmp_path / "summary.json").read_text())
+    f = s["forces"]
+    cols = slider_crank.table("forces.csv")
+    k = int(np.argmax(np.abs(cols["motor.torque"])))
+    assert f["peak"]["motor.torque"] == {"value": cols["motor.torque"][k],
+                                         "abs": abs(cols["motor.torque"][k]),
+                                         "t": slider_crank.t[k]}
+    assert f["rms"]["motor.torque"] == pytest.approx(
+        np.sqrt(np.mean(cols["motor.torque"] ** 2)), rel=1e-12)
+    assert set(f["rms"]) == {"motor.torque"}
+    assert f["units"]["force"] == "N" and f["left_out"] == []
+    header = (tmp_path / "forces.csv").read_text().splitlines()[0]
+    assert header.startswith("t [s],motor.torque [N*m],O.fx [N],O.fy [N],A.fx [N]")
+    assert header.endswith("shaking.fx [N],shaking.fy [N],shaking.torque [N*m]")
