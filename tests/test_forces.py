@@ -536,3 +536,44 @@ def test_forces_summary_section(tmp_path, slider_crank):
     header = (tmp_path / "forces.csv").read_text().splitlines()[0]
     assert header.startswith("t [s],motor.torque [N*m],O.fx [N],O.fy [N],A.fx [N]")
     assert header.endswith("shaking.fx [N],shaking.fy [N],shaking.torque [N*m]")
+
+
+def test_redundant_constraints_have_no_columns_and_are_named(tmp_path):
+    """A parallelogram with a third parallel crank: every joint's reaction is non-unique (the
+    three cranks may share the load in any proportion), so none gets a column; the driver torque
+    and the shaking force are unique and still right (power balance)."""
+    from test_extremes import parallelogram_yaml
+    text = parallelogram_yaml().replace(
+        "coupler: {q: [0, 1, 0]}", "coupler: {q: [0, 1, 0], mass: 2, inertia: 0.1, cm: [0.5, 0.1]}"
+    ).replace("name: parallelogram", "name: parallelogram\ngravity: [0, -9.81]")
+    res = planarkin.solve(load(text), steps=30, end=1.2)
+    assert res.success, res.message
+    cols = res.table("forces.csv")
+    assert [k for k in cols if ".f" in k or k.endswith("torque")] == [
+        "driver_1_angle_ground-crank1.torque", "shaking.fx", "shaking.fy", "shaking.torque"]
+    drivers, balance = power_balance(res)
+    assert np.abs(drivers - balance).max() <= 1e-12 * np.abs(balance).max()
+    # the coupler only translates on unit circles: its weight and inertia are carried as if hung
+    # at the crank tip; shaking force = weight + inertia of the coupler (the cranks are massless)
+    th = np.pi / 2 + res.t
+    a = -np.array([np.cos(th), np.sin(th)])              # centripetal acceleration, w = 1
+    assert rel_err(cols["shaking.fx"], -2 * a[0]) <= 1e-12
+    assert rel_err(cols["shaking.fy"], 2 * G - 2 * a[1]) <= 1e-12
+    s = res.write(tmp_path, plots=None)
+    assert len(s["forces"]["left_out"]) == 6
+    assert any("redundant constraints have no unique reaction" in n for n in s["forces"]["notes"])
+
+
+def test_near_singular_warning_says_reactions_grow_without_bound():
+    from test_extremes import R_CRANK, slider_crank_yaml
+    text = slider_crank_yaml(R_CRANK, R_CRANK * (1 + 1e-6))
+    plain = planarkin.solve(load(text), steps=36)
+    massive = planarkin.solve(load(text.replace("name: slider-crank", "name: toggle\ngravity: [0, -9.81]").replace(
+        "slider: {q:", "slider: {mass: 1, q:")), steps=36)
+    assert [w.kind for w in massive.warnings] == ["near-singular"] * 2
+    for w in massive.warnings:
+        assert w.message.endswith("; joint reactions and driver efforts grow without bound near "
+                                  "such a configuration (forces.csv)")
+    assert all("grow without bound" not in w.message for w in plain.warnings)
+    torque = np.abs(massive.forces("driver_1_angle_ground-crank")["torque"])
+    assert torque.max() > 1e2 * np.median(torque)
