@@ -577,3 +577,11 @@ def test_near_singular_warning_says_reactions_grow_without_bound():
     assert all("grow without bound" not in w.message for w in plain.warnings)
     torque = np.abs(massive.forces("driver_1_angle_ground-crank")["torque"])
     assert torque.max() > 1e2 * np.median(torque)
+
+
+def test_forces_plot_is_written_with_the_other_plots(tmp_path, slider_crank):
+    from PIL import Image
+    s = slider_crank.write(tmp_path, plots="png")
+    assert s["plots"][-1] == "forces.png"
+    with Image.open(tmp_path / "forces.png") as im:
+        assert im.width >= 1000 and im.height >= 500

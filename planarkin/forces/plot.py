@@ -11,11 +11,14 @@ import numpy as np
 
 def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     """Write forces.<fmt> from the plot rows X of forces.csv; returns [path] (nothing without
-    rows)."""
+    rows). Reactions are drawn as magnitudes |(fx, fy)| of the force on body j; joints that only
+    transmit a moment (angle, gear) are left out of the plot (their columns are in the table)."""
     from matplotlib.figure import Figure
 
-    from ..output.plots import _finish_time_axes, _palette, _pretty, _save, _title
-    from .output import columns
+    from ..output.plots import _finish_time_axes, _palette, _pretty as _pretty2, _save, _title
+
+    def _pretty(unit):
+        return _pretty2(unit).replace("*", "\u00b7")
     from .model import unit_names
 
     if not len(X):
@@ -38,14 +41,15 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     ncol = 2 if one else 1
     fig = Figure(figsize=(6.4 * ncol if one else 7.5, 6.6), layout="constrained")
     axes = fig.subplots(2, ncol, sharex="col", squeeze=False)
-    xs = [(t, "t [s]")]
+    xs = [(t, "time t [s]")]
     if one:
         el = cm.spec.drivers[0]
         from ..elements import KINDS
         kind = KINDS[el.kind]
         unit = cm.spec.angle_unit if kind.target_unit == "angle" else cm.spec.length_unit
         f = np.broadcast_to(cm.driver_funcs[0](t), t.shape)
-        xs.append((f, f"{_driver_name(el)}: driven coordinate f(t) [{_pretty(unit)}]"))
+        what = "angle" if kind.target_unit == "angle" else "length"
+        xs.append((f, f"{_driver_name(el)}: driven {what} f(t) [{_pretty(unit)}]"))
     colors = _palette(max(len(efforts), len(mags), 1))
     for c, (x, xlabel) in enumerate(xs):
         ax = axes[0][c]
