@@ -19,7 +19,7 @@ import numpy as np
 from ..derived import DerivedTable
 from ..elements import KINDS
 from .model import unit_names
-from .solve import JOINT_OUTPUT, SOLVE_ENTRIES, Kinetostatics
+from .solve import JOINT_OUTPUT, Kinetostatics
 
 UNIQUE_TOL = 1e-9       # a left null vector of Phi_q with an entry above this makes a row's
                         # multiplier non-unique (normalised rows, unit null vectors)
@@ -102,7 +102,7 @@ def forces_table(cm, opts) -> DerivedTable | None:
     K = Kinetostatics(cm, rows)
     cols = columns(cm, left_out)
     header = ["t [s]"] + [h for h, _, _ in cols]
-    per = max(16, SOLVE_ENTRIES // max(1, cm.m * (cm.n + 3)))
+    per = K.points_per_solve
 
     def compute(ch) -> np.ndarray:
         N = len(ch.t)

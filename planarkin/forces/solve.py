@@ -38,6 +38,11 @@ JOINT_OUTPUT = {
 }
 # largest number of (point x coordinate^2) entries of a dense (N, n, n) stack solved at once
 SOLVE_ENTRIES = 1 << 21
+# up to this many coordinates one dense solve per point; beyond, the block-triangular form of
+# the Jacobian (planarkin.structure) is solved backwards, block by block: the transpose of a
+# block lower-triangular matrix is block upper-triangular
+DENSE_MAX = 60
+BLOCK_MERGE = 12        # solve blocks of up to this many unknowns (as the path follower's)
 
 
 class Kinetostatics:
@@ -47,7 +52,7 @@ class Kinetostatics:
     `solve(t, q, qd, qdd)` with user-unit arrays (N,), (N, 3 nb) x3; it returns a `Forces`.
     """
 
-    def __init__(self, cm, rows=None):
+    def __init__(self, cm, rows=None, dense: bool | None = None):
         self.cm = cm
         self.fm: ForceModel = force_model(cm)
         self.system = System(cm)
@@ -56,6 +61,20 @@ class Kinetostatics:
             raise ValueError(f"{len(self.rows)} active rows for {cm.n} coordinates")
         L = cm.L
         self.S = np.tile([L, L, 1.0], cm.nb + 1)          # physical per internal, ground too
+        self.dense = cm.n <= DENSE_MAX if dense is None else dense
+        self.blocked = None
+        if not self.dense:
+            S = System(cm, self.rows)
+            S.build_blocks()
+            self.blocked = S.merged(BLOCK_MERGE)
+
+    @property
+    def points_per_solve(self) -> int:
+        """Grid points solved at once (bounds the memory of the dense stacks)."""
+        cm = self.cm
+        if self.dense:
+            return max(16, SOLVE_ENTRIES // max(1, cm.m * (cm.n + 3)))
+        return max(16, SOLVE_ENTRIES // max(1, 4 * (cm.n + 3)))
 
     # -- applied and inertia forces ---------------------------------------------------------------
     def generalised_forces(self, t, p, pd, pdd):
@@ -137,21 +156,50 @@ class Kinetostatics:
         Qz = np.hstack([p / self.S[:n], np.zeros((N, 3))])
         F = self.system.frame(Qz)
         grads = [G.grad(F) for G in cm.groups]
+        rhs = self.S[:n] * (QA - Qin)
+        lam = self._dense(grads, rhs) if self.dense else self._blocks(F, rhs)
+        _, NU, _ = self.system.driver_values(t)
+        return Forces(self, t, p, lam, NU, grads, QA, Qin)
+
+
+    def _dense(self, grads, rhs) -> np.ndarray:
+        """lambda (N, m) from Phi_z^T lambda = rhs with the dense Jacobian of the active rows."""
+        cm = self.cm
+        N, n = rhs.shape
         J = np.zeros((N, cm.m, n + 3))
         for G, g in zip(cm.groups, grads):
             r = np.broadcast_to(G.rows[:, :, None], g.shape[1:])
             cc = np.broadcast_to(G.cols[:, None, :], g.shape[1:])
             J[:, r, cc] = g
-        A = J[:, self.rows, :n]
-        rhs = self.S[:n] * (QA - Qin)
+        At = np.swapaxes(J[:, self.rows, :n], 1, 2)
         lam = np.zeros((N, cm.m))
-        step = max(1, SOLVE_ENTRIES // max(1, n * n))
-        At = np.swapaxes(A, 1, 2)
-        for a in range(0, N, step):
-            sl = slice(a, a + step)
-            lam[sl, self.rows] = np.linalg.solve(At[sl], rhs[sl, :, None])[..., 0]
-        _, NU, _ = self.system.driver_values(t)
-        return Forces(self, t, p, lam, NU, grads, QA, Qin)
+        lam[:, self.rows] = np.linalg.solve(At, rhs[:, :, None])[..., 0]
+        return lam
+
+    def _blocks(self, F, rhs) -> np.ndarray:
+        """The same by back substitution over the block-triangular form: the last block's
+        columns only meet the last block's rows, so its multipliers come first; each solved
+        block's rows are then taken out of the right-hand side of every column they touch."""
+        S = self.blocked
+        N, n = rhs.shape
+        r = np.zeros((N, n + 3))
+        r[:, :n] = rhs
+        lam = np.zeros((N, self.cm.m))
+        for B in reversed(S.blocks):
+            grads = S.block_grads(B, F)
+            M = S.block_matrix(B, grads)                       # rows B.rows, columns B.cols
+            if len(B.cols) == 1:
+                lb = r[:, B.cols] / M[:, 0, :]
+            else:
+                lb = np.linalg.solve(np.swapaxes(M, 1, 2), r[:, B.cols, None])[..., 0]
+            lam[:, B.rows] = lb
+            for p, g in zip(B.parts, grads):
+                _, K, neq, nc = g.shape
+                gr = g.reshape(N, K * neq, nc)[:, p.res_src]      # (N, rows of p, nc)
+                cols = p.group.cols[p.res_src // neq]            # (rows of p, nc)
+                vals = gr * lb[:, p.res_dst, None]
+                np.add.at(r, (slice(None), cols.ravel()), -vals.reshape(N, -1))
+        return lam
 
 
 class Forces:
