@@ -302,8 +302,16 @@ def power_balance(res):
     return res.table("forces.csv")["total.power"], dT - P
 
 
-@pytest.mark.parametrize("text", [LOADED, BOOM, SLIDER_CRANK, FOUR_BAR],
-                         ids=["loaded-mm-deg", "boom", "slider-crank", "four-bar"])
+# the slider-crank run backwards: a linear actuator drives the slider (slide driver), x varying
+# between 0.36 and 0.40 (clear of the dead centres at 0.22 and 0.42)
+SLIDE_DRIVEN = SLIDER_CRANK.replace(
+    '  - {type: angle, name: motor, body: crank, f: "0.4 + 2*pi*t + 0.3*sin(2*pi*t)"}',
+    '  - {type: slide, name: actuator, i: ground, j: slider, si: [0, 0], vi: [1, 0], '
+    'f: "0.38 + 0.02*sin(2*pi*t)"}').replace("crank:  {q: [0, 0, 0.4]", "crank:  {q: [0, 0, 0.9]")
+
+
+@pytest.mark.parametrize("text", [LOADED, BOOM, SLIDER_CRANK, FOUR_BAR, SLIDE_DRIVEN],
+                         ids=["loaded-mm-deg", "boom", "slider-crank", "four-bar", "slide-driven"])
 def test_power_balance_at_every_grid_point(text):
     res = planarkin.solve(load(text))
     assert res.success, res.message
@@ -579,10 +587,14 @@ def test_near_singular_warning_says_reactions_grow_without_bound():
     assert torque.max() > 1e2 * np.median(torque)
 
 
-def test_forces_plot_is_written_with_the_other_plots(tmp_path, slider_crank):
+def test_forces_plot(tmp_path, slider_crank):
+    """(DirectoryWriter lists it in summary.json: tests/test_plots.py, the slider-crank example.)"""
     from PIL import Image
-    s = slider_crank.write(tmp_path, plots="png")
-    assert s["plots"][-1] == "forces.png"
+    from planarkin.derived import derived_tables
+    res = slider_crank
+    (d,) = derived_tables(res.model, res.info.options)
+    files = d.plot(res.model, d.compute(res._chunk), res.info, tmp_path, "png")
+    assert [f.name for f in files] == ["forces.png"]
     with Image.open(tmp_path / "forces.png") as im:
         assert im.width >= 1000 and im.height >= 500
 
