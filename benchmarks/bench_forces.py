@@ -10,12 +10,16 @@
    with the forces room registered (planarkin.derived.ROOMS as shipped) against the same with
    ROOMS = () (the code before the room), interleaved, median ratio;
 3. cost for a model WITH masses: the same run of the slider-crank with masses and a load against
-   the massless one (what forces.csv costs).
+   the massless one (what forces.csv costs);
+4. a large model: the IFToMM A02 chain of benchmarks/models.py (N loops, masses on the couplers,
+   gravity): time of the forces table (Kinetostatics, all columns) against the kinematic solve,
+   with the block-triangular transposed solve (default above 60 coordinates) and the dense one.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import sys
 import tempfile
 import time
@@ -25,6 +29,7 @@ import numpy as np
 from common import ROOT
 
 sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import planarkin  # noqa: E402
 import planarkin.derived as derived  # noqa: E402
@@ -78,6 +83,7 @@ def cost(steps: int, repeats: int) -> None:
                                                  steps, out))
         derived.ROOMS = shipped
     ma, mb, mc = (min(x) for x in (a, b, c))
+    pair = statistics.median(y / x for x, y in zip(a, b))
     from planarkin.solver import Options
     cm = planarkin.load("bench.yaml", text=plain)
     opts = Options.from_model(cm)
@@ -86,19 +92,46 @@ def cost(steps: int, repeats: int) -> None:
         assert derived.derived_tables(cm, opts) == []
     print(f"model without masses: derived_tables (what the room adds to a run, called once per "
           f"written result) takes {(time.perf_counter() - t0) * 1e3:.1f} us")
-    print(f"model without masses, {steps} steps, best of {repeats}: room registered / "
-          f"no room = {mb / ma:.3f} ({mb * 1e3:.1f} ms / {ma * 1e3:.1f} ms)")
+    print(f"model without masses, {steps} steps, {repeats} interleaved runs each: room registered "
+          f"/ no room = {mb / ma:.3f} best against best ({mb * 1e3:.1f} ms / {ma * 1e3:.1f} ms), "
+          f"{pair:.3f} median of the pairs")
     print(f"model with masses and a load: with forces.csv / without masses = {mc / mb:.3f} "
           f"({mc * 1e3:.1f} ms / {mb * 1e3:.1f} ms)")
+
+
+def large(N: int, steps: int) -> None:
+    import models
+    from planarkin.derived import derived_tables
+    from planarkin.forces import solve as fsolve
+    text = "\n".join(ln.replace("0]}", "0], mass: 1, inertia: 0.1}") if ln.startswith("  k")
+                     else ln for ln in models.chain_yaml(N).splitlines())
+    text = text.replace("analysis:", "gravity: [0, -9.81]\nanalysis:")
+    cm = planarkin.load("chain.yaml", text=text)
+    t0 = time.perf_counter()
+    res = planarkin.solve(cm, steps=steps)
+    t1 = time.perf_counter()
+    times = {}
+    for dense in (False, True):
+        fsolve.DENSE_MAX = 10**9 if dense else 60
+        (d,) = derived_tables(cm, res.info.options)
+        t2 = time.perf_counter()
+        d.compute(res._chunk)
+        times[dense] = time.perf_counter() - t2
+    fsolve.DENSE_MAX = 60
+    print(f"chain N = {N} ({cm.n} coordinates), {steps} steps: kinematic solve {t1 - t0:.2f} s; "
+          f"forces table {times[False]:.2f} s block-triangular ({times[False] / (t1 - t0):.2f} of "
+          f"the solve), {times[True]:.2f} s dense ({times[True] / times[False]:.0f}x slower)")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--steps", type=int, default=3600)
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--chain", type=int, default=20)
     a = ap.parse_args()
     accuracy(a.steps)
     cost(a.steps, a.repeats)
+    large(a.chain, 1000)
 
 
 if __name__ == "__main__":
