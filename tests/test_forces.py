@@ -421,17 +421,25 @@ def point_of(res, body, s):
     return b["x"] + sx, b["y"] + sy
 
 
-def test_every_joint_kind_has_its_reaction_columns():
+KIND_MODELS["x-driver"] = KIND_MODELS["distance-x-y-angle"].replace(
+    "  - {type: x, i: ground, j: a, si: [0.3, 0], sj: [0.02, 0.01], c: 0.01}",
+    "  - {type: y, i: ground, j: a, si: [0, 0.1], sj: [0.02, 0.01], c: 0.0}").replace(
+    '  - {type: y, body: a, f: "0.1 + 0.05*sin(2*pi*t)"}',
+    '  - {type: x, body: a, f: "0.3 + 0.05*sin(2*pi*t)"}')
+
+
+def test_every_kind_is_covered():
+    from planarkin.elements import KINDS
     assert set(JOINT_OUTPUT) == set(JOINT_KINDS)
     used = set()
-    for text in KIND_MODELS.values():
-        used |= {el.kind for el in load(text).spec.joints}
-    assert used == set(JOINT_KINDS), set(JOINT_KINDS) - used
+    for text in list(KIND_MODELS.values()) + [SLIDE_DRIVEN, BOOM]:
+        used |= {el.kind for el in load(text).spec.elements}
+    assert used == set(KINDS), set(KINDS) - used
 
 
-@pytest.mark.parametrize("name", list(KIND_MODELS))
+@pytest.mark.parametrize("name", list(KIND_MODELS) + ["slide-driven", "boom"])
 def test_reaction_on_i_is_minus_reaction_on_j(name):
-    cm = load(KIND_MODELS[name])
+    cm = load({"slide-driven": SLIDE_DRIVEN, "boom": BOOM}.get(name) or KIND_MODELS[name])
     res = planarkin.solve(cm)
     assert res.success, res.message
     F = Kinetostatics(cm).solve(res.t, res.q, res.qd, res.qdd)
@@ -468,8 +476,22 @@ def test_reaction_on_i_is_minus_reaction_on_j(name):
         fx, fy, tq = F.reaction(e, 1)
         if el.kind == "angle":
             assert rel_err(tq, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
+        elif el.kind in ("distance", "slide"):
+            # along the line P_i -> P_j (distance) or the slide axis of i, here ground's x axis
+            if el.kind == "slide":
+                e_ = np.array([1.0, 0.0])[:, None]
+            else:
+                Pi = np.array(point_of(res, el.bodies[0], el.params["si"]))
+                Pj = np.array(F.point(e))
+                e_ = (Pj - Pi) / np.hypot(*(Pj - Pi))
+            assert rel_err(fx * e_[0] + fy * e_[1], F.effort(d)) <= 1e-13
+            assert np.abs(fx * e_[1] - fy * e_[0]).max() <= 1e-12 * np.abs(F.effort(d)).max()
         elif el.kind == "y":
             assert rel_err(fy, F.effort(d)) <= 1e-13 and not np.abs(fx).max()
+        elif el.kind == "x":
+            assert rel_err(fx, F.effort(d)) <= 1e-13 and not np.abs(fy).max()
+        else:
+            raise AssertionError(el.kind)
 
 
 # -- input, API and cost --------------------------------------------------------------------------

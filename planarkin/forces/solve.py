@@ -227,10 +227,16 @@ class Forces:
             for k in range(len(G)):
                 self._where[int(cm.row_element[G.rows[k, 0]])] = (gi, k)
         self._grads = grads
+        self._cache: dict = {}
 
     def _general(self, e: int):
         """(N, nbody, 3) generalised force of element e on its bodies: fx, fy, moment about each
         body frame's origin (physical units)."""
+        if e not in self._cache:
+            self._cache[e] = self._compute_general(e)
+        return self._cache[e]
+
+    def _compute_general(self, e: int):
         cm = self.K.cm
         gi, k = self._where[e]
         G = cm.groups[gi]
