@@ -9,6 +9,9 @@ from pathlib import Path
 import numpy as np
 
 
+DASHES = ("-", (0, (5, 2)), (0, (1.5, 1.5)), (0, (6, 2, 1.5, 2)))
+
+
 def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     """Write forces.<fmt> from the plot rows X of forces.csv; returns [path] (nothing without
     rows). Reactions are drawn as magnitudes |(fx, fy)| of the force on body j; joints that only
@@ -64,7 +67,9 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
             ax.legend(fontsize=9, loc="best", frameon=False)
         ax = axes[1][c]
         for n, (name, v) in enumerate(mags):
-            ax.plot(x, v, color=colors[n % len(colors)], lw=1.2, label=name)
+            # dashes cycle so that coinciding curves (a massless link's two pins) stay visible
+            ax.plot(x, v, color=colors[n % len(colors)], lw=1.3, ls=DASHES[n % len(DASHES)],
+                    label=name)
         ax.set_ylabel(f"joint reaction |F| [{_pretty(u['force'])}]")
         ax.set_ylim(bottom=0)
         ax.grid(True, color="0.88", lw=0.6)
