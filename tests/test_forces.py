@@ -649,3 +649,25 @@ def test_block_triangular_solve_equals_the_dense_one():
     assert np.abs(FB_.lam - dense.lam).max() <= 1e-12 * np.abs(dense.lam).max()
     _, balance = power_balance(res)
     assert np.abs(FB_.power(0) - balance).max() <= 1e-12 * np.abs(balance).max()
+
+
+def test_cli_run_writes_forces_through_the_background_writer(tmp_path):
+    """`planarkin run` formats tables in forked writer processes: forces.csv, its statistics and
+    the room's summary section come through them (the boom example: its cylinder force)."""
+    import csv
+    import json
+    from clitools import run_cli
+    r = run_cli("run", "mechanisms/boom.yaml", "--out", tmp_path, "--no-plots", "--steps", "40")
+    assert r.returncode == 0, r.stderr
+    d = tmp_path / "boom"
+    with open(d / "forces.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["t [s]", "cylinder.force [N]", "pivot.fx [N]", "pivot.fy [N]",
+                       "cylinder.power [W]", "total.power [W]", "shaking.fx [N]",
+                       "shaking.fy [N]", "shaking.torque [N*m]"]
+    assert len(rows) == 42
+    s = json.loads((d / "summary.json").read_text())
+    force = np.array([float(row[1]) for row in rows[1:]])
+    assert (force > 0).all()                              # the cylinder pushes the load up
+    assert s["forces"]["peak"]["cylinder.force"]["abs"] == force.max()
+    assert s["columns"]["forces.csv"]["cylinder.force [N]"]["max"] == force.max()
