@@ -672,3 +672,27 @@ def test_cli_run_writes_forces_through_the_background_writer(tmp_path):
     assert (force > 0).all()                              # the cylinder pushes the load up
     assert s["forces"]["peak"]["cylinder.force"]["abs"] == force.max()
     assert s["columns"]["forces.csv"]["cylinder.force [N]"]["max"] == force.max()
+
+
+def test_units_follow_the_length_unit():
+    """The loaded boom drawn in mm (masses in kg): forces come out in kg*mm/s^2 = 1e-3 N, torques
+    in kg*mm^2/s^2 = 1e-6 N*m, power in kg*mm^2/s^3 = 1e-6 W, each header saying so."""
+    mm = (BOOM.replace("units: {length: m, angle: deg}", "units: {length: mm, angle: deg}")
+          .replace("gravity: [0, -9.81]", "gravity: [0, -9810]")
+          .replace("inertia: 160, cm: [2.0, 0.1]", "inertia: 160e6, cm: [2000, 100]")
+          .replace("si: [0.8, -0.6], sj: [1.5, 0], f: \"1.2 + 0.15*t + 0.05*sin(3*t)\"",
+                   "si: [800, -600], sj: [1500, 0], f: \"1200 + 150*t + 50*sin(3*t)\"")
+          .replace('s: [4.0, 0], f: ["0", "-2000"]', 's: [4000, 0], f: ["0", "-2000e3"]'))
+    assert mm.count("mm") == 1 and "4000" in mm and "2000e3" in mm
+    a = planarkin.solve(load(BOOM)).table("forces.csv")
+    b = planarkin.solve(load(mm)).table("forces.csv")
+    for key, factor in (("cylinder.force", 1e3), ("joint_1_revolute_ground-boom.fx", 1e3),
+                        ("cylinder.power", 1e6), ("shaking.torque", 1e6)):
+        assert rel_err(b[key], factor * a[key]) <= 1e-12, key
+    from planarkin.derived import derived_tables
+    from planarkin.solver import Options
+    cm = load(mm)
+    (d,) = derived_tables(cm, Options.from_model(cm))
+    assert d.header[1] == "cylinder.force [kg*mm/s^2]"
+    assert d.header[-1] == "shaking.torque [kg*mm^2/s^2]"
+    assert "cylinder.power [kg*mm^2/s^3]" in d.header
