@@ -386,6 +386,24 @@ class Result:
         raise KeyError(f"this result has no table '{filename}'"
                        f"{did_you_mean(filename, names) or ' (derived tables: ' + (', '.join(names) or 'none') + ')'}")
 
+    def forces(self, name: str) -> dict:
+        """Forces of one driver, joint or of ``total`` / ``shaking`` (models with masses or
+        loads): its forces.csv columns without the name and unit, e.g. ``{"fx": ..., "fy": ...}``
+        for a revolute joint, ``{"torque": ..., "power": ...}`` for an angle driver (units as in
+        forces.csv: N, N*m, W when lengths are m)."""
+        from .diagnostics import did_you_mean
+        if not any(d.filename == "forces.csv" for d in derived_tables(self.model,
+                                                                         self.info.options)):
+            raise KeyError("this result has no forces: the model gives no mass, inertia or load "
+                           "(or the run stopped at velocities)")
+        cols = self.table("forces.csv")
+        out = {k.rsplit(".", 1)[1]: v for k, v in cols.items() if k.rsplit(".", 1)[0] == name}
+        if not out:
+            names = list(dict.fromkeys(k.rsplit(".", 1)[0] for k in cols if k != "t"))
+            raise KeyError(f"no forces named '{name}'"
+                           f"{did_you_mean(name, names) or ' (names: ' + ', '.join(names) + ')'}")
+        return out
+
     def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out, under the
         same output contract as `planarkin run` (raises planarkin.InputError when out is

@@ -652,7 +652,14 @@ class PathFollower:
                 "near-singular", float(t[i]),
                 f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
                 f"{c[i]:.3g}): the assembly branches come close here; results were followed "
-                f"with smaller internal steps", cond=float(c[i])))
+                f"with smaller internal steps" + _forces_note(self.cm), cond=float(c[i])))
+
+
+def _forces_note(cm) -> str:
+    """The warning's sentence for models whose forces are computed (planarkin.forces)."""
+    from .forces.model import has_forces
+    return ("; joint reactions and driver efforts grow without bound near such a configuration "
+            "(forces.csv)") if has_forces(cm) else ""
 
 
 def _distinct(a: np.ndarray) -> np.ndarray:

@@ -20,3 +20,27 @@ def run_cli(*args, cwd=ROOT, timeout=120):
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return subprocess.run(command() + [str(a) for a in args], cwd=cwd, capture_output=True,
                           text=True, timeout=timeout, env=env)
+
+
+# A plain slider-crank for the tests that edit a model's text (the examples may change)
+PLAIN_SLIDER_CRANK = """\
+name: slider-crank
+units: {length: m, angle: rad}
+parameters:
+  a: 0.1
+  b: 3*a
+bodies:
+  crank:  {q: [0.05, 0.0, 0.3]}
+  rod:    {q: [0.2, 0.02, -0.1]}
+  slider: {q: [0.4, 0.0, 0.0]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: crank, j: rod, si: [a, 0], sj: [0, 0]}
+  - {type: revolute, i: rod, j: slider, si: [b, 0], sj: [0, 0]}
+  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
+drivers:
+  - {type: angle, body: crank, f: "2*pi*t"}
+points:
+  B: {body: rod, s: [b, 0]}
+analysis: {start: 0, end: 1, steps: 360}
+"""

@@ -9,9 +9,9 @@ import pytest
 import planarkin
 from planarkin import InputError
 
-from clitools import ROOT, run_cli
+from clitools import PLAIN_SLIDER_CRANK, run_cli
 
-SLIDER = (ROOT / "mechanisms" / "slider-crank.yaml").read_text()
+SLIDER = PLAIN_SLIDER_CRANK
 
 
 def _model(tmp_path, f: str, name="m"):

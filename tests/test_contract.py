@@ -14,16 +14,18 @@ import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import pytest
 
-from clitools import ROOT, command, run_cli
+from clitools import PLAIN_SLIDER_CRANK, ROOT, command, run_cli
 
 from planarkin.output.directory import ResultDirectory, out_dirs, safe_name
 
-SLIDER = ROOT / "mechanisms" / "slider-crank.yaml"
+SLIDER = Path(tempfile.mkdtemp(prefix="planarkin-contract-")) / "slider-crank.yaml"
+SLIDER.write_text(PLAIN_SLIDER_CRANK)
 # the slider's guide 1 m above the crank pivot: rod and crank cannot reach it
 UNREACHABLE = SLIDER.read_text().replace("{type: translational, i: ground, j: slider, si: [0, 0]",
                                          "{type: translational, i: ground, j: slider, si: [0, 1]")

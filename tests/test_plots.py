@@ -66,7 +66,7 @@ def test_png_plots_from_result_write(written):
     from PIL import Image
     out, summary = written
     names = ["bodies.png", "points.png", "trajectories.png", "mechanism.png"]
-    assert summary["plots"] == names
+    assert summary["plots"] == names + ["forces.png"]      # the example has masses
     for name in names:
         check_file(out / name, "png")
         with Image.open(out / name) as im:

@@ -101,7 +101,59 @@ class ModelSpec:
     branch_lines: dict[str, int] = field(default_factory=dict)
     section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
     warnings: tuple = ()               # Diagnostics of severity 'warning' found while validating
+    forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:
         return self.joints + self.drivers
+
+
+@dataclass(frozen=True)
+class MassSpec:
+    """Mass properties of one body (user units): mass (mass unit), inertia about the centre of
+    mass (mass * length^2), cm: centre of mass in the body frame (length)."""
+
+    body: str
+    mass: float
+    inertia: float
+    cm: tuple[float, float]
+    line: int
+
+
+@dataclass(frozen=True)
+class LoadSpec:
+    """One entry of loads: (user units; f are planarkin.expr.TimeFunction of t).
+
+    kind 'force': body, s (body frame) or at (global at the assembly pose), f = (fx, fy) global.
+    kind 'torque': body, f = (tau,). kind 'spring': i, j, si, sj, k, length.
+    kind 'damper': i, j, si, sj, c.
+    """
+
+    kind: str
+    index: int                         # 1-based position within loads:
+    line: int
+    name: str | None = None
+    bodies: tuple[str, ...] = ()       # (body,) for force/torque, (i, j) for spring/damper
+    s: tuple | None = None             # force: point in the body frame
+    at: tuple | None = None            # force: global point at the assembly pose
+    f: tuple = ()
+    si: tuple = (0.0, 0.0)
+    sj: tuple = (0.0, 0.0)
+    k: float = 0.0
+    length: float = 0.0
+    c: float = 0.0
+
+    @property
+    def label(self) -> str:
+        who = f"'{self.name}'" if self.name else str(self.index)
+        return f"load {who} ({self.kind} {'-'.join(self.bodies)})"
+
+
+@dataclass(frozen=True)
+class ForcesSpec:
+    """What the forces room needs: per body mass data, gravity (length/s^2) and the loads."""
+
+    masses: tuple[MassSpec, ...] = ()
+    gravity: tuple[float, float] | None = None
+    loads: tuple[LoadSpec, ...] = ()
+    gravity_line: int = 0

@@ -18,9 +18,10 @@ from ..expr import ExprError, TimeFunction, evaluate_constant, function_names
 from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
 from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
 from .yamlread import Node
+from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
-            "assembly", "output")
+            "assembly", "output", "gravity", "loads")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
@@ -178,12 +179,13 @@ class _Validator:
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
+        forces = validate_forces(self, root)
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}),
+                         section_lines=dict(root.key_lines or {}), forces=forces,
                          warnings=tuple(d for d in self.C.items if d.severity == "warning"))
 
     def angle_units(self, bodies: list[BodySpec], angle_unit: str, root: Node) -> None:
@@ -276,7 +278,7 @@ class _Validator:
             if val.kind == "seq":
                 self.err(val, f"{what}: write {{q: [x, y, phi]}} (the estimated pose at t = start)")
                 continue
-            if not self.keys(val, ("q",), what):
+            if not self.keys(val, ("q",) + FORCE_BODY_KEYS, what):
                 continue
             if "q" not in val.value:
                 self.err(val, f"{what}: missing q: [x, y, phi] (its estimated pose at t = start)")

@@ -1,0 +1,19 @@
+"""Forces: driving efforts, joint reactions and power of a kinematically driven mechanism.
+
+The room of `planarkin.derived` that writes ``forces.csv`` (and ``forces.png`` and the ``forces``
+section of summary.json) when the model gives any mass, load, spring or damper. Modules:
+`keys` (validating the YAML keys), `model` (the mass and load data as arrays), `solve` (the
+Lagrange multipliers and the reactions), `output` (table, summary, plot).
+"""
+
+from __future__ import annotations
+
+
+def derived_tables(cm, opts):
+    """[the forces.csv DerivedTable] when the model has masses or loads, else [] (no cost)."""
+    from .model import has_forces
+    # forces need accelerations: a run up to velocities (output: up_to) computes none
+    if not has_forces(cm) or opts.order < 2:
+        return []
+    from .output import forces_table
+    return [forces_table(cm, opts)]

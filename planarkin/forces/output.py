@@ -1,0 +1,180 @@
+"""forces.csv, the ``forces`` section of summary.json and forces.png.
+
+Columns (units follow the model's length unit, mass in kg, see `model.unit_names`): ``t [s]``;
+per driver its effort (``<name>.torque`` for angle drivers, ``<name>.force`` otherwise: what the
+actuator exerts on its body j along the driven coordinate); per joint its reaction on body j
+(``<name>.fx``, ``<name>.fy`` global, ``<name>.torque`` about the joint's point where the kind
+transmits a moment, see `solve.JOINT_OUTPUT`); per driver ``<name>.power``; ``total.power``; and
+``shaking.fx``, ``shaking.fy``, ``shaking.torque``: what all joints and drivers together exert on
+the ground, the moment about the origin. An element without a name is called by its message
+label made CSV-safe (``joint_3_revolute_crank-rod``).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ..derived import DerivedTable
+from ..elements import KINDS
+from .model import unit_names
+from .solve import JOINT_OUTPUT, Kinetostatics
+
+UNIQUE_TOL = 1e-9       # a left null vector of Phi_q with an entry above this makes a row's
+                        # multiplier non-unique (normalised rows, unit null vectors)
+SINGULAR_NOTE = ("near a singular configuration (see the near-singular warnings) joint "
+                 "reactions and driver efforts grow without bound: values there are large and "
+                 "sensitive to the geometry")
+
+
+def column_name(el) -> str:
+    """The element's name, or its message label made CSV-safe."""
+    if el.name:
+        return el.name
+    return re.sub(r"[^A-Za-z0-9_\-]+", "_", el.label).strip("_")
+
+
+def _redundancy(cm):
+    """(active rows, indices of elements whose reaction is not unique, their labels)."""
+    if cm.m <= cm.n:
+        return np.arange(cm.m), set(), []
+    from ..assembly import assemble
+    from ..system import System
+    A = assemble(cm)
+    Sys = System(cm)
+    J = Sys.jacobian(Sys.ext(A.q))[0]
+    Jn = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
+    U, sv, _ = np.linalg.svd(Jn)
+    rank = int((sv > 1e-9 * sv[0]).sum())
+    null = U[:, rank:]                               # left null space: non-unique multipliers
+    rows = np.nonzero(np.abs(null).max(axis=1) > UNIQUE_TOL)[0] if null.size else []
+    elements = {int(cm.row_element[r]) for r in rows}
+    labels = [cm.spec.elements[e].label for e in sorted(elements)]
+    return np.asarray(A.active_rows), elements, labels
+
+
+def columns(cm, left_out=frozenset()):
+    """[(header, getter(Forces) -> (N,) array, role)] in table order (t excluded); role is
+    'effort', 'reaction', 'power' or 'shaking'."""
+    u = unit_names(cm.spec.length_unit)
+    spec = cm.spec
+    nj = len(spec.joints)
+    used: set = {"total", "shaking"}
+    names = {}
+    for e, el in enumerate(spec.elements):
+        base = column_name(el)
+        name, k = base, 2
+        while name in used:
+            name, k = f"{base}_{k}", k + 1
+        used.add(name)
+        names[e] = name
+    out = []
+    for d, el in enumerate(spec.drivers):
+        e = nj + d
+        if e in left_out:
+            continue
+        q = "torque" if KINDS[el.kind].target_unit == "angle" else "force"
+        out.append((f"{names[e]}.{q} [{u[q]}]", lambda F, d=d: F.effort(d), "effort"))
+    comp = {"fx": 0, "fy": 1, "torque": 2}
+    for e, el in enumerate(spec.joints):
+        if e in left_out:
+            continue
+        for c in JOINT_OUTPUT[el.kind]:
+            unit = u["torque" if c == "torque" else "force"]
+            out.append((f"{names[e]}.{c} [{unit}]",
+                        lambda F, e=e, k=comp[c]: F.reaction(e, 1)[k], "reaction"))
+    for d, el in enumerate(spec.drivers):
+        if nj + d in left_out:
+            continue
+        out.append((f"{names[nj + d]}.power [{u['power']}]", lambda F, d=d: F.power(d), "power"))
+    drivers = [d for d in range(len(spec.drivers)) if nj + d not in left_out]
+    out.append((f"total.power [{u['power']}]",
+                lambda F: sum((F.power(d) for d in drivers), np.zeros(len(F.t))), "power"))
+    for k, c in enumerate(("fx", "fy", "torque")):
+        unit = u["torque" if c == "torque" else "force"]
+        out.append((f"shaking.{c} [{unit}]", lambda F, k=k: F.ground()[k], "shaking"))
+    return out
+
+
+def forces_table(cm, opts) -> DerivedTable | None:
+    rows, left_out, labels = _redundancy(cm)
+    K = Kinetostatics(cm, rows)
+    cols = columns(cm, left_out)
+    header = ["t [s]"] + [h for h, _, _ in cols]
+    per = K.points_per_solve
+
+    def compute(ch) -> np.ndarray:
+        N = len(ch.t)
+        X = np.empty((N, len(header)))
+        X[:, 0] = ch.t
+        for a in range(0, N, per):
+            sl = slice(a, a + per)
+            F = K.solve(ch.t[sl], ch.q[sl], ch.qd[sl], ch.qdd[sl])
+            ground = None
+            for k, (_, get, role) in enumerate(cols, start=1):
+                if role == "shaking":
+                    ground = F.ground() if ground is None else ground
+                    X[sl, k] = ground[k - len(cols) + 2]
+                else:
+                    X[sl, k] = get(F)
+        return X
+
+    notes = [SINGULAR_NOTE]
+    if labels:
+        notes.append("redundant constraints have no unique reaction; left out of forces.csv: "
+                     + "; ".join(labels))
+    efforts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "effort"]
+    units = unit_names(cm.spec.length_unit)
+    units["length"] = cm.spec.length_unit
+
+    def accumulator():
+        return Accumulator(header, efforts, notes, labels, units)
+
+    from .plot import forces_plot
+    return DerivedTable("forces.csv", header, compute, section="forces", accumulator=accumulator,
+                        plot=forces_plot)
+
+
+class Accumulator:
+    """Peak (largest |value|, signed, and when) of every force column; RMS of driver efforts."""
+
+    def __init__(self, header, efforts, notes, left_out, units):
+        self.header = header
+        self.efforts = efforts
+        self.notes = notes
+        self.left_out = left_out
+        self.units = units
+        k = len(header) - 1
+        self.peak = np.full(k, -1.0)
+        self.value = np.zeros(k)
+        self.when = np.zeros(k)
+        self.sq = np.zeros(k)
+        self.rows = 0
+
+    def add(self, X: np.ndarray) -> None:
+        if not len(X):
+            return
+        V = X[:, 1:]
+        A = np.abs(V)
+        i = np.argmax(np.where(np.isnan(A), -1.0, A), axis=0)
+        cols = np.arange(V.shape[1])
+        better = A[i, cols] > self.peak
+        self.peak[better] = A[i, cols][better]
+        self.value[better] = V[i, cols][better]
+        self.when[better] = X[i, 0][better]
+        self.sq += (V * V).sum(axis=0)
+        self.rows += len(X)
+
+    def as_dict(self) -> dict:
+        name = lambda k: self.header[k].split(" [", 1)[0]
+        return {
+            "units": self.units,
+            "peak": {name(k + 1): {"value": float(self.value[k]), "abs": float(self.peak[k]),
+                                   "t": float(self.when[k])} for k in range(len(self.peak))
+                     if self.rows},
+            "rms": {name(k): float(np.sqrt(self.sq[k - 1] / self.rows)) if self.rows else None
+                    for k in self.efforts},
+            "left_out": self.left_out,
+            "notes": self.notes,
+        }

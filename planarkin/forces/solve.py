@@ -1,0 +1,309 @@
+"""Kinetostatics: the Lagrange multipliers of a kinematically driven mechanism and what follows
+from them (reference forces-and-motion-laws.md §1).
+
+With physical coordinates p = S z (S = diag(L, L, 1) per body: the model's length unit and
+radians; z the solver's internal coordinates), the equations of motion M p'' + Phi_p^T lambda =
+Q^A with Phi_p = Phi_z S^-1 give
+
+    Phi_z^T lambda = S (Q^A - Q^in),
+
+solved per grid point with the transposed Jacobian of the active (non-redundant) rows. Q^in is
+the inertia force written at each body frame's origin, the centre of mass c being elsewhere:
+Q^in_r = m a_c, Q^in_phi = J_c alpha + s_c x m a_c (s_c = A s'_c, a_c = r'' + alpha R s_c -
+omega^2 s_c); it holds the quadratic-velocity term of the reference's coupled mass matrix.
+
+The reaction of an element (its rows k) on body b is the generalised force -S_b^-1 Phi^k_{z_b}^T
+lambda^k: a global force (fx, fy) and a moment about the body frame's origin, moved here to the
+element's point P (the point sj of body j, for kinds that have it): M_P = M_o - (P - r_b) x F.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..elements import KINDS
+from ..system import System
+from .model import ForceModel, force_model
+
+# what a joint of each kind transmits (the columns of forces.csv); every joint kind is listed
+JOINT_OUTPUT = {
+    "revolute": ("fx", "fy"),            # no moment about the pin
+    "translational": ("fx", "fy", "torque"),
+    "pin-slot": ("fx", "fy"),            # normal to the slot, no moment about the pin
+    "distance": ("fx", "fy"),            # along the line between the points
+    "x": ("fx", "fy"),
+    "y": ("fx", "fy"),
+    "angle": ("torque",),                # a pure moment
+    "gear": ("torque",),                 # pure moments on i, j and the carrier k
+    # machine elements: the force on j and its moment about j's point (sj) where the kind has
+    # one, else about j's frame origin (rolling contacts act at the contact, cams at the roller)
+    "rack-pinion": ("fx", "fy", "torque"),
+    "roll-line": ("fx", "fy", "torque"),
+    "gear-mesh": ("fx", "fy", "torque"),
+    "roll-disc": ("fx", "fy", "torque"),
+    "belt": ("torque",),                 # pure moments on the pulleys and the carrier, like gear
+    "cam": ("fx", "fy", "torque"),
+    "cam-rocker": ("fx", "fy", "torque"),
+    "curve-slot": ("fx", "fy", "torque"),
+}
+# largest number of (point x coordinate^2) entries of a dense (N, n, n) stack solved at once
+SOLVE_ENTRIES = 1 << 21
+# up to this many coordinates one dense solve per point; beyond, the block-triangular form of
+# the Jacobian (planarkin.structure) is solved backwards, block by block: the transpose of a
+# block lower-triangular matrix is block upper-triangular
+DENSE_MAX = 60
+BLOCK_MERGE = 12        # solve blocks of up to this many unknowns (as the path follower's)
+
+
+class Kinetostatics:
+    """The forces of a compiled model at given states.
+
+    rows: the active rows (n of them; the redundant ones left out), default all. Call
+    `solve(t, q, qd, qdd)` with user-unit arrays (N,), (N, 3 nb) x3; it returns a `Forces`.
+    """
+
+    def __init__(self, cm, rows=None, dense: bool | None = None):
+        self.cm = cm
+        self.fm: ForceModel = force_model(cm)
+        self.system = System(cm)
+        self.rows = np.arange(cm.m) if rows is None else np.asarray(rows, dtype=np.intp)
+        if len(self.rows) != cm.n:
+            raise ValueError(f"{len(self.rows)} active rows for {cm.n} coordinates")
+        L = cm.L
+        self.S = np.tile([L, L, 1.0], cm.nb + 1)          # physical per internal, ground too
+        self.dense = cm.n <= DENSE_MAX if dense is None else dense
+        self.blocked = None
+        if not self.dense:
+            S = System(cm, self.rows)
+            S.build_blocks()
+            self.blocked = S.merged(BLOCK_MERGE)
+
+    @property
+    def points_per_solve(self) -> int:
+        """Grid points solved at once (bounds the memory of the dense stacks)."""
+        cm = self.cm
+        if self.dense:
+            return max(16, SOLVE_ENTRIES // max(1, cm.m * (cm.n + 3)))
+        return max(16, SOLVE_ENTRIES // max(1, 4 * (cm.n + 3)))
+
+    # -- applied and inertia forces ---------------------------------------------------------------
+    def generalised_forces(self, t, p, pd, pdd):
+        """(Q^A, Q^in): two (N, 3 nb) arrays, physical units (force, force, torque), from the
+        physical coordinates p, velocities pd and accelerations pdd (N, 3 nb; radians)."""
+        fm = self.fm
+        N = p.shape[0]
+        nb = fm.nb
+        phi, w, al = p[:, 2::3], pd[:, 2::3], pdd[:, 2::3]
+        c, s = np.cos(phi), np.sin(phi)
+        scx = c * fm.cm[:, 0] - s * fm.cm[:, 1]
+        scy = s * fm.cm[:, 0] + c * fm.cm[:, 1]
+        m = fm.mass
+        acx = pdd[:, 0::3] - al * scy - w * w * scx
+        acy = pdd[:, 1::3] + al * scx - w * w * scy
+        Qin = np.empty((N, 3 * nb))
+        Qin[:, 0::3] = m * acx
+        Qin[:, 1::3] = m * acy
+        Qin[:, 2::3] = fm.inertia * al + m * (scx * acy - scy * acx)
+        QA = np.zeros((N, 3 * nb + 3))                     # ground columns collect, then dropped
+        gx, gy = fm.gravity
+        QA[:, 0:3 * nb:3] = m * gx
+        QA[:, 1:3 * nb:3] = m * gy
+        QA[:, 2:3 * nb:3] = m * (scx * gy - scy * gx)
+        # extended pose: ground (index nb) at the origin, at rest
+        z = np.zeros((N, 1))
+        ce, se = np.hstack([c, z + 1]), np.hstack([s, z])
+        X, Y = np.hstack([p[:, 0::3], z]), np.hstack([p[:, 1::3], z])
+        VX, VY, W = np.hstack([pd[:, 0::3], z]), np.hstack([pd[:, 1::3], z]), np.hstack([w, z])
+        for b, sp, (ffx, ffy) in zip(fm.force_body, fm.force_s, fm.force_f):
+            Fx = np.broadcast_to(ffx(t), (N,))
+            Fy = np.broadcast_to(ffy(t), (N,))
+            sx = ce[:, b] * sp[0] - se[:, b] * sp[1]
+            sy = se[:, b] * sp[0] + ce[:, b] * sp[1]
+            QA[:, 3 * b] += Fx
+            QA[:, 3 * b + 1] += Fy
+            QA[:, 3 * b + 2] += sx * Fy - sy * Fx
+        for b, f in zip(fm.torque_body, fm.torque_f):
+            QA[:, 3 * b + 2] += np.broadcast_to(f(t), (N,))
+        if len(fm.spring_i):
+            self._springs(QA, ce, se, X, Y, VX, VY, W)
+        return QA[:, :3 * nb], Qin
+
+    def _springs(self, QA, ce, se, X, Y, VX, VY, W):
+        fm = self.fm
+        bi, bj = fm.spring_i, fm.spring_j
+        pts = []
+        for b, sp in ((bi, fm.spring_si), (bj, fm.spring_sj)):
+            sx = ce[:, b] * sp[:, 0] - se[:, b] * sp[:, 1]
+            sy = se[:, b] * sp[:, 0] + ce[:, b] * sp[:, 1]
+            pts.append((sx, sy, X[:, b] + sx, Y[:, b] + sy,
+                        VX[:, b] - W[:, b] * sy, VY[:, b] + W[:, b] * sx))
+        (six, siy, px, py, vpx, vpy), (sjx, sjy, qx, qy, vqx, vqy) = pts
+        dx, dy = qx - px, qy - py
+        ell = np.hypot(dx, dy)
+        with np.errstate(all="ignore"):
+            ux, uy = dx / ell, dy / ell
+        ldot = ux * (vqx - vpx) + uy * (vqy - vpy)
+        T = fm.spring_k * (ell - fm.spring_l0) + fm.spring_c * ldot   # tension (N, S)
+        Fx, Fy = T * ux, T * uy                                        # on i at P; minus on j
+        for sign, b, sx, sy in ((1.0, bi, six, siy), (-1.0, bj, sjx, sjy)):
+            for k in range(len(b)):
+                col = 3 * int(b[k])
+                QA[:, col] += sign * Fx[:, k]
+                QA[:, col + 1] += sign * Fy[:, k]
+                QA[:, col + 2] += sign * (sx[:, k] * Fy[:, k] - sy[:, k] * Fx[:, k])
+
+    # -- the multipliers -------------------------------------------------------------------------
+    def solve(self, t, q, qd, qdd) -> "Forces":
+        """Forces at the states (user units: lengths, the model's angle unit)."""
+        cm = self.cm
+        n = cm.n
+        af = cm.angle_factor
+        unit = np.tile([1.0, 1.0, af], cm.nb)
+        p, pd, pdd = q * unit, qd * unit, qdd * unit
+        t = np.asarray(t, dtype=float)
+        N = len(t)
+        QA, Qin = self.generalised_forces(t, p, pd, pdd)
+        Qz = np.hstack([p / self.S[:n], np.zeros((N, 3))])
+        F = self.system.frame(Qz)
+        grads = [G.grad(F) for G in cm.groups]
+        rhs = self.S[:n] * (QA - Qin)
+        lam = self._dense(grads, rhs) if self.dense else self._blocks(F, rhs)
+        _, NU, _ = self.system.driver_values(t)
+        return Forces(self, t, p, lam, NU, grads, QA, Qin)
+
+
+    def _dense(self, grads, rhs) -> np.ndarray:
+        """lambda (N, m) from Phi_z^T lambda = rhs with the dense Jacobian of the active rows."""
+        cm = self.cm
+        N, n = rhs.shape
+        J = np.zeros((N, cm.m, n + 3))
+        for G, g in zip(cm.groups, grads):
+            r = np.broadcast_to(G.rows[:, :, None], g.shape[1:])
+            cc = np.broadcast_to(G.cols[:, None, :], g.shape[1:])
+            J[:, r, cc] = g
+        At = np.swapaxes(J[:, self.rows, :n], 1, 2)
+        lam = np.zeros((N, cm.m))
+        lam[:, self.rows] = np.linalg.solve(At, rhs[:, :, None])[..., 0]
+        return lam
+
+    def _blocks(self, F, rhs) -> np.ndarray:
+        """The same by back substitution over the block-triangular form: the last block's
+        columns only meet the last block's rows, so its multipliers come first; each solved
+        block's rows are then taken out of the right-hand side of every column they touch."""
+        S = self.blocked
+        N, n = rhs.shape
+        r = np.zeros((N, n + 3))
+        r[:, :n] = rhs
+        lam = np.zeros((N, self.cm.m))
+        for B in reversed(S.blocks):
+            grads = S.block_grads(B, F)
+            M = S.block_matrix(B, grads)                       # rows B.rows, columns B.cols
+            if len(B.cols) == 1:
+                lb = r[:, B.cols] / M[:, 0, :]
+            else:
+                lb = np.linalg.solve(np.swapaxes(M, 1, 2), r[:, B.cols, None])[..., 0]
+            lam[:, B.rows] = lb
+            for p, g in zip(B.parts, grads):
+                _, K, neq, nc = g.shape
+                gr = g.reshape(N, K * neq, nc)[:, p.res_src]      # (N, rows of p, nc)
+                cols = p.group.cols[p.res_src // neq]            # (rows of p, nc)
+                vals = gr * lb[:, p.res_dst, None]
+                np.add.at(r, (slice(None), cols.ravel()), -vals.reshape(N, -1))
+        return lam
+
+
+class Forces:
+    """Forces at N states. lam: (N, m) multipliers (internal row units; zero on left-out rows).
+
+    reaction(e, slot): (fx, fy, torque about the element's point) of element e (index into
+    spec.elements) on its body in position slot (0: i, 1: j, 2: k), three (N,) arrays.
+    effort(d): the effort of driver d (index into drivers): -lambda in the row's physical unit:
+    torque on j for angle drivers, force on j along the driven coordinate otherwise.
+    power(d): effort times the driver's rate f'(t) (W when lengths are m).
+    ground(): (fx, fy, torque about the origin) that all joints and drivers exert on the ground.
+    """
+
+    def __init__(self, K: Kinetostatics, t, p, lam, NU, grads, QA, Qin):
+        self.K = K
+        self.t = t
+        self.p = p
+        self.lam = lam
+        self.NU = NU
+        self.QA = QA
+        self.Qin = Qin
+        cm = K.cm
+        self._where = {}
+        for gi, G in enumerate(cm.groups):
+            for k in range(len(G)):
+                self._where[int(cm.row_element[G.rows[k, 0]])] = (gi, k)
+        self._grads = grads
+        self._cache: dict = {}
+
+    def _general(self, e: int):
+        """(N, nbody, 3) generalised force of element e on its bodies: fx, fy, moment about each
+        body frame's origin (physical units)."""
+        if e not in self._cache:
+            self._cache[e] = self._compute_general(e)
+        return self._cache[e]
+
+    def _compute_general(self, e: int):
+        cm = self.K.cm
+        gi, k = self._where[e]
+        G = cm.groups[gi]
+        g = self._grads[gi][:, k]                             # (N, neq, 3 nbody)
+        lam = self.lam[:, G.rows[k]]                          # (N, neq)
+        gen = -np.einsum("ne,nec->nc", lam, g) / self.K.S[G.cols[k]]
+        return gen.reshape(len(self.t), G.kind.nbody, 3), G, k
+
+    def _pose(self, b: int):
+        nb = self.K.cm.nb
+        if b == nb:
+            z = np.zeros(len(self.t))
+            return z, z, z
+        return self.p[:, 3 * b], self.p[:, 3 * b + 1], self.p[:, 3 * b + 2]
+
+    def point(self, e: int):
+        """Global (x, y) of element e's reaction point: its point sj on body j (None for kinds
+        without one: their reactions are pure moments)."""
+        cm = self.K.cm
+        gi, k = self._where[e]
+        G = cm.groups[gi]
+        if "sj" not in G.params:
+            return None
+        sj = G.params["sj"][k] * cm.L
+        x, y, phi = self._pose(int(G.bodies[k, 1]))
+        c, s = np.cos(phi), np.sin(phi)
+        return x + c * sj[0] - s * sj[1], y + s * sj[0] + c * sj[1]
+
+    def reaction(self, e: int, slot: int = 1):
+        gen, G, k = self._general(e)
+        fx, fy, mo = gen[:, slot, 0], gen[:, slot, 1], gen[:, slot, 2]
+        P = self.point(e)
+        if P is not None:
+            x, y, _ = self._pose(int(G.bodies[k, slot]))
+            mo = mo - ((P[0] - x) * fy - (P[1] - y) * fx)
+        return fx, fy, mo
+
+    def effort(self, d: int) -> np.ndarray:
+        cm = self.K.cm
+        r = int(cm.driver_rows[d])
+        kind = KINDS[cm.element_of_row(r).kind]
+        Lr = cm.L if kind.target_unit == "length" else 1.0
+        return -self.lam[:, r] / Lr
+
+    def power(self, d: int) -> np.ndarray:
+        r = int(self.K.cm.driver_rows[d])
+        return -self.lam[:, r] * self.NU[:, r]
+
+    def ground(self):
+        """Sum over every element touching the ground of its generalised force on the ground
+        (the ground frame is the global frame: the moment is about the origin)."""
+        cm = self.K.cm
+        nb = cm.nb
+        out = np.zeros((len(self.t), 3))
+        for e in self._where:
+            gen, G, k = self._general(e)
+            for slot, b in enumerate(G.bodies[k]):
+                if b == nb:
+                    out += gen[:, slot]
+        return out[:, 0], out[:, 1], out[:, 2]
