@@ -63,8 +63,7 @@ def run_info(an: Analysis) -> RunInfo:
         "redundant": [cm.row_label[r] for r in A.redundant_rows],
     }
     return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes), f.rejected,
-                   an.fallbacks, dict(an.timings), list(A.warnings),
-                   breakpoints=an.breakpoint_info())
+                   an.fallbacks, dict(an.timings), list(A.warnings), an.breakpoint_info())
 
 
 class PlotBuffer:

@@ -343,7 +343,7 @@ class PathFollower:
                 self.rejected += int((~ok[: j + 1]).sum())
                 grow = 4.0 if err[j] == 0 else min(4.0, max(0.3, 0.8 * (self.opts.path_tol
                                                                           / err[j]) ** 0.25))
-                h = min(hj * grow, self.h_max) if hj < remaining else max(h, hj)
+                h = min(hj * grow, self.h_max) if hj < land - t else max(h, hj)
                 if len(N) > MAX_NODES:
                     return self._stop(Event("failure", N.t[-1],
                                             f"more than {MAX_NODES} internal steps before t = "
