@@ -632,12 +632,16 @@ def _apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
     A.residual = float(np.abs(r).max())
 
 
-def describe_modes(cm: CompiledModel, A: Assembly) -> list[str]:
+DESCRIBED_MODES = 12     # `check` puts words to the first loops only (each costs a search)
+
+
+def describe_modes(cm: CompiledModel, A: Assembly, limit: int = DESCRIBED_MODES) -> list[str]:
     """For each of A.modes, what its sign means geometrically at t = start, in words: the side
     of the loop's knee (a pin or distance end that moves to its mirror image on the other branch)
     relative to the line through two points the loop hangs from (points that stay put). Found by
     solving the loop's block on its other branch (the earlier blocks held); '' when the other
-    branch does not close there or no pin/distance point describes it."""
+    branch does not close there or no pin/distance point describes it, and for the loops after
+    the first `limit`."""
     S = A.system
     t0 = cm.spec.analysis.start
     T = S.driver_values(np.array([t0]))[0]
@@ -665,6 +669,9 @@ def describe_modes(cm: CompiledModel, A: Assembly) -> list[str]:
     rng = np.random.default_rng(7)
     out = []
     for md in A.modes:
+        if len(out) >= limit:
+            out.append("")
+            continue
         B = S.blocks[md.block]
         alt = _search_block(S, B, Q, T, -md.sign, rng, trials=60)
         if alt is None:

@@ -521,6 +521,15 @@ class PathFollower:
             el = cm.element_of_row(bad[0])
             return Event("driver", t, f"{el.label}: f = {el.f.text} or its derivatives are not "
                                       f"finite just after t = {t:.10g}")
+        # a joint not defined beyond t (a pin driven past the end of an open curve-slot)?
+        dt = max(1e-6 * self.span, 100 * self.h_min)
+        ahead = S.residual(S.ext(N.q[k][: S.n] + dt * N.qd[k][: S.n]), t + dt)[0]
+        lost = [r for r in S.rows if not np.isfinite(ahead[r]) and r < cm.m_joint]
+        if lost and np.isfinite(N.q[k]).all():
+            el = cm.element_of_row(lost[0])
+            return Event("failure", t, f"{el.label} is not defined just after t = {t:.10g}"
+                                       + (": the pin leaves the open curve at its end"
+                                          if el.kind == "curve-slot" else ""))
         Q = S.ext(N.q[k][: S.n])
         if S.n > DENSE_LIMIT:
             # too large for a dense SVD: classify within the worst-conditioned solve block

@@ -420,3 +420,12 @@ def test_branch_hint_in_a_large_model():
         knee = o + np.array([math.cos(th_k), math.sin(th_k)])
         return np.sign(cross(o - a, knee - a))
     assert side(A.q) == -side(A0.q) != 0
+
+
+def test_two_bodies_of_one_loop_asking_different_signs_refused():
+    text = six_bar_yaml("revolute", {"coupler": "+", "rocker": "-"})
+    with pytest.raises(planarkin.InputError) as exc:
+        planarkin.solve(planarkin.load("six.yaml", text=text), end=0.01, steps=1)
+    assert re.fullmatch(r"six\.yaml:\d+: error: assembly: branch: rocker and coupler are in the "
+                        r"same loop coupler\+rocker but ask for different signs; give one of them",
+                        str(exc.value).strip()), str(exc.value)

@@ -556,3 +556,6 @@ analysis: {{end: 1, steps: 10}}
 """))
     assert res.status == 1
     assert 0.3 < res.t[-1] < 0.5 + 1e-12
+    # the table ends at x = 0.5, reached at t = 0.4
+    assert res.message == ("joint 2 (curve-slot ground-pin) is not defined just after t = 0.4: "
+                           "the pin leaves the open curve at its end")
