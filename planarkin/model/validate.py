@@ -19,7 +19,7 @@ from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, Po
 from .yamlread import Node
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
-            "assembly", "output")
+            "assembly", "output", "links", "ground", "sliders", "slots")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
@@ -54,6 +54,7 @@ class _Validator:
         self.body_names: list[str] = []
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
+        self.sketch = None           # planarkin.model.sketch.Sketch (pins and links)
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
@@ -156,8 +157,9 @@ class _Validator:
                            f"found {_type_name(root)}")
             self.C.raise_if_any()
         self.keys(root, TOP_KEYS, "model")
+        sketched = "links" in root.value
         for req in ("bodies", "joints"):
-            if req not in root.value:
+            if req not in root.value and not sketched:
                 self.err(None if not root.value else 1,
                          f"model: missing '{req}'" + (" (the moving bodies: name: {q: [x, y, phi]})"
                                                       if req == "bodies" else
@@ -167,11 +169,18 @@ class _Validator:
             name = self.text(root.value["name"], "name") or name
         length_unit, angle_unit = self.units(root.value.get("units"))
         self.parameters(root.value.get("parameters"))
+        from .sketch import Sketch
+        sk = self.sketch = Sketch(self, root.value)
         bodies = self.bodies(root.value.get("bodies"))
+        sk.register_links()
+        bodies += sk.bodies(angle_unit)
         joints = self.elements(root.value.get("joints"), "joint")
+        joints += sk.joints(len(joints) + 1)
         drivers = self.elements(root.value.get("drivers"), "driver")
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
+        names = {p.name for p in points}
+        points += [p for p in sk.points() if p.name not in names]
         analysis = self.analysis(root.value.get("analysis"))
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
@@ -228,7 +237,7 @@ class _Validator:
             elif self.identifier(key, line, "body"):
                 self.body_names.append(key)
                 self.body_set.add(key)
-        if not node.value:
+        if not node.value and "links" not in self.root.value:
             self.err(node, "bodies is empty: a mechanism needs at least one moving body")
         for key, val in node.value.items():
             if key not in self.body_set:
@@ -295,13 +304,36 @@ class _Validator:
         allowed = ["type", "name"] + body_keys
         if role == "driver":
             allowed.append("body")
+            allowed.append("link")
+            if "link" in v:
+                if "body" in v:
+                    self.err(v["link"], f"{what}: give either link or body, not both")
+                v = dict(v)
+                v["body"] = v.pop("link")
+            if kind.name == "distance":
+                allowed.append("between")
+        between = None
+        if role == "driver" and "between" in v and kind.name == "distance":
+            if "i" in v or "j" in v or "body" in v:
+                self.err(v["between"], f"{what} ({kname}): give either between: [C, D] or the "
+                                       f"bodies i and j, not both")
+                return None
+            between = self.sketch.between(v["between"], f"{what} ({kname})")
+            if between is None:
+                return None
+            v = dict(v)
+            for key in ("si", "sj"):
+                if key in v:
+                    self.err(v[key], f"{what} ({kname}): {key} is fixed by between; drop it")
         use_body = role == "driver" and "body" in v
-        raw = ["ground", _raw(v["body"])] if use_body else \
+        raw = ["ground", _raw(v["body"])] if use_body else list(between[0]) if between else \
             [_raw(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
         shown = f" {'-'.join(raw)}" if any(r != "?" for r in raw) else ""
         what = (f"{role} '{ename}'" if ename else what) + f" ({kname}{shown})"
         bodies: list[str | None] = []
-        if use_body:
+        if between is not None:
+            bodies = list(between[0])
+        elif use_body:
             if "i" in v or "j" in v:
                 self.err(v["body"], f"{what}: give either body or i and j, not both")
             bodies = ["ground", self.body_ref(v["body"], what, allow_ground=False)]
@@ -356,7 +388,11 @@ class _Validator:
                 self.err(v["s"], f"{what}: give either s or sj, not both")
             v = dict(v)
             v["sj"] = v.pop("s")
+        if between is not None:
+            params["si"], params["sj"] = between[1], between[2]
         for p in kind.params:
+            if between is not None and p.name in ("si", "sj"):
+                continue
             if p.name in v:
                 lines[p.name] = v[p.name].line
                 val = self.param(v[p.name], p, what)
@@ -469,7 +505,13 @@ class _Validator:
             if not self.identifier(key, line, "point"):
                 continue
             what = f"point '{key}'"
-            if not self.keys(val, ("body", "s", "at"), what):
+            if not self.keys(val, ("body", "s", "at", "ground"), what):
+                continue
+            if "body" not in val.value and "at" in val.value and "s" not in val.value:
+                continue        # a sketch pin: planarkin.model.sketch reads it
+            if "ground" in val.value and "body" in val.value:
+                self.err(val.value["ground"], f"{what}: ground: true marks a sketch pin (at: "
+                                              f"[x, y] without body); drop body or ground")
                 continue
             if "body" not in val.value:
                 self.err(val, f"{what}: missing body (the body that carries the point)")
