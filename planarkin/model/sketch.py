@@ -52,6 +52,7 @@ class Sketch:
         self.carriers: dict[str, list[str]] = {}     # pin -> ['ground'?, link, ...] in order
         self.poses: dict[str, tuple[float, float, float]] = {}   # link -> x, y, phi (radians)
         self.line_refs: set[str] = set()              # pins used only to define a slide line
+        self.mentioned: set[str] = set()              # pins listed by any link, broken or not
         self.top = top
         ground_list = self._ground_list(top.get("ground"))
         node = top.get("points")
@@ -122,6 +123,10 @@ class Sketch:
                 v.err(val, f"{what} must be a list of the points it carries, e.g. [A, B], not "
                            f"{_type(val)}")
                 continue
+            # a broken link still names a body and carries its known points, so that its errors
+            # do not cascade into "unknown body" or "no link carries it"
+            v.body_names.append(key)
+            v.body_set.add(key)
             names, ok = [], True
             for item in val.value:
                 s = v.text(item, what)
@@ -140,6 +145,7 @@ class Sketch:
                     ok = False
                 else:
                     names.append(s)
+            self.mentioned.update(names)
             if not ok:
                 continue
             pa = self.pins[names[0]].at
@@ -155,8 +161,6 @@ class Sketch:
             self.links[key] = tuple(names)
             self.link_lines[key] = val.line
             self.poses[key] = (pa[0], pa[1], phi)
-            v.body_names.append(key)
-            v.body_set.add(key)
         for name, pin in self.pins.items():
             c = (["ground"] if pin.ground else []) + [k for k, pts in self.links.items()
                                                       if name in pts]
@@ -195,7 +199,7 @@ class Sketch:
                     out.append(el)
                     idx += 1
         for name, pin in self.pins.items():
-            if not self.carriers.get(name) and name not in self.line_refs:
+            if not self.carriers.get(name) and name not in self.line_refs | self.mentioned:
                 self.v.err(pin.line, f"point '{name}': no link carries it; list it in a link "
                                      f"under links:, mark it ground: true, or give body: NAME")
         return out
