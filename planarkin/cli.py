@@ -202,7 +202,9 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
 @main.command()
 @click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def check(models, quiet):
+@click.option("--derived", is_flag=True,
+              help="Also print each model's body/joint form (YAML), as derived from a sketch.")
+def check(models, quiet, derived):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
     from .assembly import assemble
@@ -224,6 +226,9 @@ def check(models, quiet):
                                                          f"report)")])
             continue
         report.diagnostics(A.warnings)
+        if derived:
+            from .model.sketch import derived_yaml
+            click.echo(derived_yaml(model.spec), nl=False)
         ndrv = len(model.driver_rows)
         modes = "; ".join(f"{'+'.join(md.bodies)}: {'+' if md.sign > 0 else '-'}"
                           for md in A.modes)

@@ -215,3 +215,19 @@ drivers:
         "m.yaml:7: error: link 'rod': unknown point 'Q' (name it under points: with at: [x, y])",
         "m.yaml:8: error: link 'bar': unknown point 'O2'; did you mean 'O'?",
     ]
+
+
+def test_check_derived_prints_a_pasteable_body_joint_model(tmp_path):
+    from clitools import run_cli
+    r = run_cli("check", "--derived", "mechanisms/jansen-leg.yaml")
+    assert r.returncode == 0, r.stderr
+    text = r.stdout.split("\nok ")[0]
+    assert "links:" not in text and "  - {type: revolute, name: A, i: crank, j: upper," in text
+    derived = planarkin.load("derived.yaml", text=text)
+    assert derived.spec.bodies and all(p.body for p in derived.spec.points)
+    a = planarkin.solve(ROOT / "mechanisms" / "jansen-leg.yaml", steps=24)
+    b = planarkin.solve(derived, steps=24)
+    for p in a.model.point_names:
+        for k in ("x", "y", "vx", "vy"):
+            scale = max(np.max(np.abs(a.point(p)[k])), 1.0)
+            assert np.max(np.abs(a.point(p)[k] - b.point(p)[k])) < 1e-14 * scale, (p, k)

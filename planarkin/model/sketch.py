@@ -98,6 +98,13 @@ class Sketch:
 
     # -- links ---------------------------------------------------------------------------------
     def register_links(self) -> None:
+        self._read_links()
+        for name, pin in self.pins.items():
+            c = (["ground"] if pin.ground else []) + [k for k, pts in self.links.items()
+                                                      if name in pts]
+            self.carriers[name] = c
+
+    def _read_links(self) -> None:
         v = self.v
         node = self.top.get("links")
         if node is None:
@@ -161,10 +168,6 @@ class Sketch:
             self.links[key] = tuple(names)
             self.link_lines[key] = val.line
             self.poses[key] = (pa[0], pa[1], phi)
-        for name, pin in self.pins.items():
-            c = (["ground"] if pin.ground else []) + [k for k, pts in self.links.items()
-                                                      if name in pts]
-            self.carriers[name] = c
 
     def bodies(self, angle_unit: str) -> list[BodySpec]:
         k = 180.0 / math.pi if angle_unit == "deg" else 1.0
@@ -330,3 +333,70 @@ def _is_body_point(points_node, name: str) -> bool:
         return False
     val = points_node.value[name]
     return val.kind == "map" and "body" in val.value
+
+
+def derived_yaml(spec) -> str:
+    """The body/joint form of a validated model as YAML a user can paste: bodies with their
+    poses as given (for links: the exact sketched pose at t = start), joints and drivers with body-frame vectors (global placements `at`
+    resolved), points in body frames. Numbers are written with repr (round-trip exact)."""
+    from ..elements import KINDS
+    from ..elements.revolute import to_body
+    af = math.pi / 180.0 if spec.angle_unit == "deg" else 1.0
+    poses = {b.name: (b.q[0], b.q[1], b.q[2] * af) for b in spec.bodies}
+    poses["ground"] = (0.0, 0.0, 0.0)
+    num = lambda x: repr(float(x) + 0.0)        # + 0.0: no "-0.0"
+    vec = lambda v: f"[{num(v[0])}, {num(v[1])}]"
+    out = [f"# {spec.name}: the body/joint form derived by planarkin from {spec.file}",
+           f"name: {spec.name}", f"units: {{length: {spec.length_unit}, angle: {spec.angle_unit}}}",
+           ]
+    if spec.parameters:
+        out.append("parameters:")
+        out += [f"  {k}: {num(x)}" for k, x in spec.parameters.items()]
+    out.append("bodies:")
+    out += [f"  {b.name}: {{q: [{num(b.q[0])}, {num(b.q[1])}, {num(b.q[2])}]}}"
+            for b in spec.bodies]
+    for section, els in (("joints", spec.joints), ("drivers", spec.drivers)):
+        if not els:
+            continue
+        out.append(f"{section}:")
+        for el in els:
+            kind = KINDS[el.kind]
+            params = dict(el.params)
+            if el.at is not None:
+                given = dict(params)
+                if el.axis is not None:
+                    given["axis"] = el.axis
+                if el.target is not None:
+                    given["c"] = el.target
+                placed = kind.place(el.at, [poses[b] for b in el.bodies], given)
+                c = placed.pop("c", None)
+                params.update(placed)
+                if el.target is None and c is not None:
+                    params[kind.target] = c
+            items = [f"type: {el.kind}"] + ([f"name: {el.name}"] if el.name else [])
+            names = ("i", "j", "k")
+            items += [f"{names[n]}: {b}" for n, b in enumerate(el.bodies)]
+            for p in kind.params:
+                v = params.get(p.name)
+                if v is None:
+                    continue
+                items.append(f"{p.name}: {vec(v) if p.unit in ('point', 'vector') else num(v)}")
+            if el.role == "joint" and kind.target and el.target is not None and \
+                    el.kind != "pin-slot" or (el.kind == "pin-slot" and el.target):
+                items.append(f"{kind.target}: {num(el.target)}")
+            elif el.role == "joint" and kind.target and kind.target in params:
+                items.append(f"{kind.target}: {num(params[kind.target])}")
+            if el.role == "driver":
+                items.append(f"f: \"{el.f.text}\"")
+            out.append("  - {" + ", ".join(items) + "}")
+    if spec.points:
+        out.append("points:")
+        for p in spec.points:
+            if p.body == "ground":      # a sketch pin on ground: the only form for a fixed point
+                out.append(f"  {p.name}: {{at: {vec(p.at)}, ground: true}}")
+                continue
+            s = p.s if p.s is not None else to_body(p.at, poses[p.body])
+            out.append(f"  {p.name}: {{body: {p.body}, s: {vec(s)}}}")
+    a = spec.analysis
+    out.append(f"analysis: {{start: {num(a.start)}, end: {num(a.end)}, steps: {a.steps}}}")
+    return "\n".join(out) + "\n"
