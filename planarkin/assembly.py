@@ -257,6 +257,8 @@ def _assemble(cm: CompiledModel) -> Assembly:
                  redundant_rows=redundant, dof=dof, system=S, warnings=warnings)
     _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
+    from .model.sketch import moved_points
+    A.warnings += moved_points(cm, S.ext(A.q[None, :])[0])
     return A
 
 

@@ -231,3 +231,18 @@ def test_check_derived_prints_a_pasteable_body_joint_model(tmp_path):
         for k in ("x", "y", "vx", "vy"):
             scale = max(np.max(np.abs(a.point(p)[k])), 1.0)
             assert np.max(np.abs(a.point(p)[k] - b.point(p)[k])) < 1e-14 * scale, (p, k)
+
+
+def test_rough_sketch_is_assembled_with_a_warning_per_moved_pin():
+    # the driver asks for the crank at 10 deg, the sketch draws it at 0 deg: B moves on its
+    # circle by the chord 2 a sin(5 deg)
+    m = _load(FOUR_BAR.replace('f: "360*t"', 'f: "10 + 360*t"'))
+    from planarkin.assembly import assemble
+    w = [d.format() for d in assemble(m).warnings]
+    assert len(w) == 3 and [x.split(":")[1] for x in w] == ["5", "6", "7"]
+    chord = 2 * 0.04 * math.sin(math.radians(5))
+    assert w[0] == (f"m.yaml:5: warning: point 'B': the sketched position [0.04, 0] is not "
+                    f"consistent with the joints and drivers at t = start; assembled "
+                    f"{chord:.3g} m away, at [{0.04 * math.cos(math.radians(10)):.10g}, "
+                    f"{0.04 * math.sin(math.radians(10)):.10g}]")
+    assert not assemble(_load(FOUR_BAR)).warnings

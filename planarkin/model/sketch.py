@@ -335,6 +335,29 @@ def _is_body_point(points_node, name: str) -> bool:
     return val.kind == "map" and "body" in val.value
 
 
+def moved_points(cm, Q) -> list:
+    """Warnings for the points placed by global coordinates (sketch pins, ``at:`` points) that
+    the assembly moved: the sketch did not satisfy every joint and driver at t = start (e.g. a
+    driver's f(start) differs from the sketched crank angle). Q: (n + 3,) assembled coordinates
+    with the ground's, internal units. One warning per moved point, at its line."""
+    from ..diagnostics import Diagnostic
+    from ..solver import point_kinematics
+    spec = cm.spec
+    p, _, _ = point_kinematics(cm, Q[None, :])
+    out = []
+    for k, pt in enumerate(spec.points):
+        if pt.at is None:
+            continue
+        d = math.hypot(p[0, k, 0] * cm.L - pt.at[0], p[0, k, 1] * cm.L - pt.at[1])
+        if d > 1e-9 * cm.L:
+            out.append(Diagnostic(spec.file, pt.line, f"point '{pt.name}': the sketched position "
+                                  f"[{pt.at[0]:.10g}, {pt.at[1]:.10g}] is not consistent with the "
+                                  f"joints and drivers at t = start; assembled {d:.3g} "
+                                  f"{spec.length_unit} away, at [{p[0, k, 0] * cm.L:.10g}, "
+                                  f"{p[0, k, 1] * cm.L:.10g}]", "warning"))
+    return out
+
+
 def derived_yaml(spec) -> str:
     """The body/joint form of a validated model as YAML a user can paste: bodies with their
     poses as given (for links: the exact sketched pose at t = start), joints and drivers with body-frame vectors (global placements `at`
