@@ -80,6 +80,7 @@ class OutputSpec:
     bodies: tuple[str, ...] | None = None    # None: all bodies
     points: tuple[str, ...] | None = None    # None: all points
     order: int = 2                           # 0 positions, 1 + velocities, 2 + accelerations
+    centres: bool = False                    # centres.csv: instant centres of every body pair
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,7 @@ class ModelSpec:
     branch: dict[str, int] = field(default_factory=dict)   # assembly-mode hints: body -> +1/-1
     branch_lines: dict[str, int] = field(default_factory=dict)
     section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
+    measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

@@ -19,7 +19,7 @@ from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, Po
 from .yamlread import Node
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
-            "assembly", "output", "links", "ground", "sliders", "slots")
+            "assembly", "output", "links", "ground", "sliders", "slots", "measures")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"}
@@ -181,6 +181,9 @@ class _Validator:
         points = self.points(root.value.get("points"))
         names = {p.name for p in points}
         points += [p for p in sk.points() if p.name not in names]
+        from ..measures import read_measures
+        measures = read_measures(self, root.value.get("measures"), [p.name for p in points],
+                                 {el.name: el for el in joints if el.name})
         analysis = self.analysis(root.value.get("analysis"))
         output = self.output(root.value.get("output"), points)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
@@ -189,7 +192,7 @@ class _Validator:
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}))
+                         section_lines=dict(root.key_lines or {}), measures=measures)
 
     def units(self, node: Node | None):
         length, angle = "m", "rad"
@@ -585,7 +588,7 @@ class _Validator:
             self.err(at("max_step"), f"analysis: max_step must be positive, not {a.max_step:g}")
 
     def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
-        if node is None or not self.keys(node, ("bodies", "points", "up_to"), "output"):
+        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres"), "output"):
             return OutputSpec()
         v = node.value
         vals: dict[str, Any] = {}
@@ -606,6 +609,12 @@ class _Validator:
                 else:
                     chosen.append(s)
             vals[key] = tuple(chosen)
+        if "centres" in v:
+            n = v["centres"]
+            if n.kind == "scalar" and isinstance(n.value, bool):
+                vals["centres"] = n.value
+            else:
+                self.err(n, f"output: centres must be true or false, not {_type_name(n)}")
         if "up_to" in v:
             c = self.choice(v["up_to"], "output: up_to", tuple(ORDERS))
             if c is not None:
