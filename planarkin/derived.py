@@ -18,7 +18,7 @@ from typing import Any, Callable
 import numpy as np
 
 # modules with derived_tables(cm, opts); imported only when a model is run
-ROOMS: tuple[str, ...] = ("planarkin.measures",)
+ROOMS: tuple[str, ...] = ("planarkin.measures", "planarkin.centres")
 
 
 @dataclass
