@@ -143,8 +143,11 @@ def _analysis_options(f):
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
+@click.option("--report", "report_what", type=click.Choice(("cycle",)),
+              help="Also print the cycle figures of the measures (limit positions, stroke, time "
+                   "ratio).")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, quiet, **analysis):
+def run(models, out, no_plots, fmt, animate, quiet, report_what=None, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if sys.platform.startswith("linux"):
         _tune_malloc()
@@ -155,12 +158,13 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
         if model is None:
             continue
         _run_one(path, model, dirs[path], report, dict(analysis),
-                 None if no_plots else fmt, animate)
+                 None if no_plots else fmt, animate, cycle=report_what == "cycle")
     report.summary()
     sys.exit(report.exit_code)
 
 
-def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate):
+def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
+             cycle=False):
     from .diagnostics import InputError
     from .results import DirectoryWriter, analyse
     t0 = time.perf_counter()
@@ -197,6 +201,10 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.ok(path, detail)
     else:
         report.failed(path, info.message, detail)
+    if cycle:
+        from .measures.cycle import format_cycle
+        for line in format_cycle(summary.get("cycle")):
+            click.echo(line)
 
 
 @main.command()
@@ -240,6 +248,10 @@ def check(models, quiet, derived):
                   + (f"; assembly branches {modes} (set assembly: {{branch: {{BODY: +|-}}}} to "
                      f"choose)" if modes else ""))
         report.ok(path, detail)
+        if not quiet:
+            from .measures.grashof import four_bar_loops
+            for loop in four_bar_loops(model):
+                click.echo(f"         {loop.describe(model.spec.length_unit)}")
     report.summary("checked")
     sys.exit(report.exit_code)
 

@@ -232,3 +232,36 @@ analysis:""")
         "m.yaml:30: error: measure 'm5': unknown joint 'B' (joints: none defined)",
         "m.yaml:31: error: measure 'm6': unknown key 'distanc'; did you mean 'distance'?",
     ]
+
+
+@pytest.mark.parametrize("lengths,kind,crank", [
+    ((0.10, 0.04, 0.12, 0.10), "crank-rocker", "crank"),    # shortest next to ground
+    ((0.04, 0.10, 0.12, 0.10), "double-crank", None),       # shortest is the ground
+    ((0.10, 0.12, 0.04, 0.10), "double-rocker", None),      # shortest is the coupler
+    ((0.10, 0.04, 0.14, 0.08), "change point", None),       # 0.04 + 0.14 = 0.10 + 0.08
+    ((0.10, 0.07, 0.12, 0.03 + 0.2), "triple-rocker", None),
+])
+def test_grashof_classification(lengths, kind, crank):
+    from planarkin.measures.grashof import _classify
+    loop = _classify(("ground", "crank", "coupler", "rocker"), lengths)
+    assert loop.kind == kind and loop.crank == crank
+
+
+def test_check_prints_grashof_and_run_reports_cycle(tmp_path):
+    from clitools import run_cli
+    r = run_cli("check", "mechanisms/four-bar.yaml")
+    assert ("four-bar loop ground-crank-coupler-rocker: crank-rocker (crank turns fully); "
+            "s + l = 0.16 < p + q = 0.2 m (ground 0.1, crank 0.04, coupler 0.12, rocker 0.1)"
+            in r.stdout)
+    model = tmp_path / "fb.yaml"
+    model.write_text((ROOT_FB := R.FOURBAR_DEG_YAML).replace(
+        "points:\n", "points:" + FOURBAR_MEASURES.split("measures:")[0], 1).replace(
+        "analysis:", "measures:\n  reach: {distance: [O2, B]}\nanalysis:"))
+    r = run_cli("run", str(model), "--out", str(tmp_path / "out"), "--no-plots",
+                "--report", "cycle")
+    assert r.returncode == 0, r.stderr
+    a, b = R.FOURBAR["a"], R.FOURBAR["b"]
+    line = next(x for x in r.stdout.split("\n") if x.strip().startswith("reach:"))
+    assert line.strip().startswith(f"reach: min {b - a:.6g} m at t = ")
+    assert f"max {b + a:.6g} m at t = " in line and "time ratio" in line
+    del ROOT_FB

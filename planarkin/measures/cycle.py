@@ -82,6 +82,9 @@ class CycleFigures:
             rec = {"unit": self.units[k], "min": lo, "max": hi,
                    "stroke": hi.get("refined", hi)["value"] - lo.get("refined", lo)["value"]}
             T = self.period
+            if self.kinds.get(name) in ("ratio", "advantage"):
+                rec["note"] = "grid extremes only; a ratio is infinite at a dead point"
+                T = None
             if T is not None and self.span[1] - self.span[0] >= T * (1 - 1e-12):
                 t_lo = lo.get("refined", lo)["t"]
                 t_hi = hi.get("refined", hi)["t"]
@@ -97,3 +100,32 @@ class CycleFigures:
         return {"driver": self.driver_label, "period": self.period, "measures": figures,
                 "note": "limit positions from the grid, refined by one Taylor step from the exact "
                         "rate and acceleration; time ratio for a constant-speed angle driver"}
+
+
+def format_cycle(section: dict | None) -> list[str]:
+    """The cycle figures of summary.json as report lines (`planarkin run --report cycle`)."""
+    if not section:
+        return ["         cycle: no measures (add a measures: block)"]
+    out = []
+    drv = section.get("driver")
+    for name, rec in section["measures"].items():
+        if rec is None:
+            out.append(f"         {name}: no finite values")
+            continue
+        u = rec["unit"]
+
+        def lim(x):
+            r = x.get("refined", x)
+            at = f" at t = {r['t']:.6g} s"
+            if "driver" in r:
+                at += f" (driver {r['driver']:.6g})"
+            return f"{r['value']:.6g} {u}{at}"
+        line = (f"         {name}: min {lim(rec['min'])}, max {lim(rec['max'])}, stroke "
+                f"{rec['stroke']:.6g} {u}")
+        if "time_ratio" in rec:
+            line += (f", advance {rec['advance_time']:.6g} s / return {rec['return_time']:.6g} s,"
+                     f" time ratio {rec['time_ratio']:.6g}")
+        out.append(line)
+    if drv:
+        out.append(f"         (driver: {drv})")
+    return out
