@@ -116,6 +116,8 @@ class Sketch:
         for key, val in node.value.items():
             line = node.key_lines[key]
             what = f"link '{key}'"
+            if val.kind == "seq":       # whatever else is wrong, these pins are not orphans
+                self.mentioned.update(str(n.value) for n in val.value if n.kind == "scalar")
             if key == "ground":
                 v.err(line, "link 'ground' is implicit: mark its points with ground: true (or "
                             "list them in ground: [...])")
