@@ -246,3 +246,29 @@ def test_rough_sketch_is_assembled_with_a_warning_per_moved_pin():
                     f"{chord:.3g} m away, at [{0.04 * math.cos(math.radians(10)):.10g}, "
                     f"{0.04 * math.sin(math.radians(10)):.10g}]")
     assert not assemble(_load(FOUR_BAR)).warnings
+
+
+def test_slot_sketch_quick_return():
+    # Whitworth-type quick return: crank pin A runs in a slot of the rocker pivoted at C
+    text = """\
+points:
+  O: {at: [0, 0.2], ground: true}
+  C: {at: [0, 0], ground: true}
+  A: {at: [0.1, 0.2]}
+  E: {at: [0.3, 0.6]}
+links:
+  crank: [O, A]
+  rocker: [C, E]
+slots:
+  s1: {link: rocker, pin: A, along: [C, E]}
+drivers:
+  - {type: angle, link: crank, f: "2*pi*t"}
+analysis: {steps: 40}
+"""
+    r = planarkin.solve(_load(text))
+    th = 2 * np.pi * r.t
+    want = np.unwrap(np.arctan2(0.2 + 0.1 * np.sin(th), 0.1 * np.cos(th)))
+    assert np.max(np.abs(r.body("rocker")["phi"] - want)) < 1e-14
+    assert _errors(text.replace("E: {at: [0.3, 0.6]}", "E: {at: [0.3, 0.7]}")) == [
+        f"m.yaml:10: error: slot 's1': pin 'A' is {0.01 / math.hypot(0.3, 0.7):.6g} off the "
+        f"line C-E; a slot's line passes through its pin at the assembly pose"]
