@@ -26,7 +26,6 @@ would need the jerk). Written to measures.csv (``t [s]``, then ``<name> [unit]``
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -237,7 +236,6 @@ def _distance(P, Q):
 
 def _slide(ch, cm, el_index):
     """u_i . (P_j - P_i) of a translational joint, with derivatives (user length unit)."""
-    el = cm.spec.elements[el_index]
     g, k = _group_of(cm, el_index)
     bi, bj = (int(x) for x in g.bodies[k, :2])
     Pi = _body(ch, cm, bi, g.params["si"][k])
@@ -250,7 +248,6 @@ def _slide(ch, cm, el_index):
     u1 = w[:, None] * Ru
     u2 = al[:, None] * Ru - (w * w)[:, None] * u
     h, h1, h2 = (Pj[m] - Pi[m] for m in range(3))
-    del el
     return _dot(u, h), _dot(u1, h) + _dot(u, h1), _dot(u2, h) + 2 * _dot(u1, h1) + _dot(u, h2)
 
 
