@@ -272,3 +272,9 @@ analysis: {steps: 40}
     assert _errors(text.replace("E: {at: [0.3, 0.6]}", "E: {at: [0.3, 0.7]}")) == [
         f"m.yaml:10: error: slot 's1': pin 'A' is {0.01 / math.hypot(0.3, 0.7):.6g} off the "
         f"line C-E; a slot's line passes through its pin at the assembly pose"]
+
+
+def test_no_moving_link_is_an_input_error():
+    assert _errors("points:\n  A: {at: [0, 0], ground: true}\nlinks: {}\n") == [
+        "m.yaml:3: error: links is empty: a mechanism needs at least one moving link, e.g. "
+        "crank: [O, A]"]

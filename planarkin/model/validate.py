@@ -174,6 +174,9 @@ class _Validator:
         bodies = self.bodies(root.value.get("bodies"))
         sk.register_links()
         bodies += sk.bodies(angle_unit)
+        if sketched and not self.body_names and "bodies" not in root.value:
+            self.err(root.value["links"], "links is empty: a mechanism needs at least one "
+                                          "moving link, e.g. crank: [O, A]")
         joints = self.elements(root.value.get("joints"), "joint")
         joints += sk.joints(len(joints) + 1)
         drivers = self.elements(root.value.get("drivers"), "driver")
