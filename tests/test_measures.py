@@ -265,3 +265,21 @@ def test_check_prints_grashof_and_run_reports_cycle(tmp_path):
     assert line.strip().startswith(f"reach: min {b - a:.6g} m at t = ")
     assert f"max {b + a:.6g} m at t = " in line and "time ratio" in line
     del ROOT_FB
+
+
+def test_lower_orders_write_what_they_can(fourbar):
+    res, M = fourbar
+    text = R.FOURBAR_DEG_YAML.replace('f: "360*t"', f'f: "{WOBBLY_DEG}"')
+    text = text.replace("- {type: revolute, i: coupler, j: rocker",
+                        "- {type: revolute, name: B, i: coupler, j: rocker")
+    text = text.replace("points:\n", "points:" + FOURBAR_MEASURES.split("measures:")[0], 1)
+    text = text.replace("analysis:", "measures:" + FOURBAR_MEASURES.split("measures:")[1]
+                        + "analysis:")
+    m = planarkin.load("fourbar.yaml", text=text)
+    for order, want in ((1, {"reach", "reach.rate", "vr", "ma"}), (0, {"reach", "mu"})):
+        lo = planarkin.solve(m, steps=180, order=order).table("measures.csv")
+        assert want <= set(lo) and "reach.accel" not in lo
+        assert (order == 1) == ("vr" in lo) and "vr.rate" not in lo
+        for k in lo:
+            if k != "t":
+                assert np.array_equal(lo[k], M[k], equal_nan=True), k

@@ -342,26 +342,41 @@ def unit_of(cm, m: MeasureSpec, units: dict) -> str:
     return au
 
 
-def columns(cm, measures) -> list[tuple[str, str, int]]:
-    """(header name, unit, derivative order) of every column after t."""
+def _orders(m: MeasureSpec, order: int) -> tuple[int, ...]:
+    """The derivative orders of m that can be written with q up to `order` (a ratio of rates
+    needs q' for its value and q'' for its rate, and has no acceleration)."""
+    if m.kind in ("ratio", "advantage"):
+        return tuple(k for k in (0, 1) if k + 1 <= order)
+    return tuple(range(order + 1))
+
+
+def columns(cm, measures, order: int = 2) -> list[tuple[str, str, int, int]]:
+    """(header name, unit, derivative order, measure index) of every column after t."""
     units: dict[str, str] = {}
     out = []
-    order = 2
-    for m in measures:
+    for k, m in enumerate(measures):
         u = units[m.name] = unit_of(cm, m, units)
-        out.append((m.name, u, 0))
-        out.append((f"{m.name}.rate", f"{u}/s" if u != "-" else "1/s", 1))
-        if m.kind not in ("ratio", "advantage") and order >= 2:
-            out.append((f"{m.name}.accel", f"{u}/s^2" if u != "-" else "1/s^2", 2))
+        suffix = ("", ".rate", ".accel")
+        per = ("", "/s", "/s^2")
+        for d in _orders(m, order):
+            unit = (u + per[d]) if u != "-" or d == 0 else ("1" + per[d])
+            out.append((m.name + suffix[d], unit, d, k))
     return out
 
 
-def compute(cm, measures, ch) -> np.ndarray:
+def compute(cm, measures, ch, order: int = 2) -> np.ndarray:
+    """(N, 1 + columns) table: t, then the columns of `columns(cm, measures, order)`."""
+    if order < 2:
+        # the formulas take q', q''; the columns that would need the missing ones are dropped
+        from dataclasses import replace
+        z = np.zeros_like(ch.q)
+        ch = replace(ch, qd=ch.qd if ch.qd is not None else z, qdd=z)
     done: dict = {}
-    cols = [ch.t]
+    vals = []
     for m in measures:
         val = done[m.name] = evaluate(cm, ch, m, done)
-        cols += [val[0], val[1]] + ([val[2]] if val[2] is not None else [])
+        vals.append(val)
+    cols = [ch.t] + [vals[k][d] for _, _, d, k in columns(cm, measures, order)]
     return np.column_stack(cols)
 
 
@@ -369,15 +384,13 @@ def derived_tables(cm, opts) -> list[DerivedTable]:
     measures = getattr(cm.spec, "measures", ())
     if not measures:
         return []
-    if opts.order < 2:
-        # rates and accelerations are the point of a measure; refuse rather than half-write
-        return []
-    cols = columns(cm, measures)
-    header = ["t [s]"] + [f"{n} [{u}]" for n, u, _ in cols]
+    order = opts.order
+    cols = columns(cm, measures, order)
+    header = ["t [s]"] + [f"{n} [{u}]" for n, u, _, _ in cols]
     from .cycle import CycleFigures
     return [DerivedTable(
         filename="measures.csv", header=header,
-        compute=lambda ch: compute(cm, measures, ch),
+        compute=lambda ch: compute(cm, measures, ch, order),
         section="cycle",
         accumulator=lambda: CycleFigures(cm, header, opts),
         plot=_plot)]

@@ -53,9 +53,9 @@ class CycleFigures:
                 v = col[idx]
                 old = self.best.get((k, which))
                 if old is None or (v < old[1] if which == "min" else v > old[1]):
-                    rate = X[idx, k + 1]
-                    acc = X[idx, k + 2] if self.names[k + 2:k + 3] == [f"{self.names[k]}.accel"] \
-                        else np.nan
+                    nm = self.names
+                    rate = X[idx, k + 1] if nm[k + 1:k + 2] == [f"{nm[k]}.rate"] else np.nan
+                    acc = X[idx, k + 2] if nm[k + 2:k + 3] == [f"{nm[k]}.accel"] else np.nan
                     self.best[(k, which)] = (float(X[idx, 0]), float(v), float(rate), float(acc))
 
     def _limit(self, rec) -> dict:
