@@ -156,14 +156,16 @@ def assemble(cm: CompiledModel, start: float | None = None) -> Assembly:
     """Assemble the model at t = start (default: its analysis: start; a run whose start is set
     on the command line or in the API assembles there) and check its degrees of freedom; raise
     InputError when it cannot be analysed."""
+    sketched = True           # the sketch is the pose at the model's own start time only
     if start is not None and start != cm.spec.analysis.start:
         from dataclasses import replace
         cm = replace(cm, spec=replace(cm.spec, analysis=replace(cm.spec.analysis, start=start)))
+        sketched = False
     with np.errstate(all="ignore"):
-        return _assemble(cm)
+        return _assemble(cm, sketched)
 
 
-def _assemble(cm: CompiledModel) -> Assembly:
+def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
     spec = cm.spec
     t0 = spec.analysis.start
     S_all = System(cm)
@@ -266,6 +268,9 @@ def _assemble(cm: CompiledModel) -> Assembly:
                  redundant_rows=redundant, dof=dof, system=S, warnings=warnings)
     _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
+    if sketched:
+        from .model.sketch import moved_points
+        A.warnings += moved_points(cm, S.ext(A.q[None, :])[0])
     return A
 
 

@@ -137,8 +137,11 @@ def _analysis_options(f):
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
+@click.option("--report", "report_what", type=click.Choice(("cycle",)),
+              help="Also print the cycle figures of the measures (limit positions, stroke, time "
+                   "ratio).")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, quiet, **analysis):
+def run(models, out, no_plots, fmt, animate, quiet, report_what=None, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     from .output.directory import Interrupted, check_writable, interruptible, out_dirs
     if sys.platform.startswith("linux"):
@@ -153,7 +156,7 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
                 model = _load(path, report)
                 if model is not None:
                     _run_one(path, model, outdir, report, dict(analysis),
-                             None if no_plots else fmt, animate)
+                             None if no_plots else fmt, animate, cycle=report_what == "cycle")
         except (KeyboardInterrupt, Interrupted) as e:
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, _signame(e), "nothing more was written")
@@ -171,7 +174,8 @@ def _signame(e: BaseException) -> str:
     return "SIGINT" if isinstance(e, KeyboardInterrupt) else "SIGTERM"
 
 
-def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate):
+def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
+             cycle=False):
     """One model: options, preparation, then the directory. Invalid input (options, budget,
     assembly, a busy or foreign directory) is reported before anything is written; an
     interruption keeps the complete rows (status interrupted) and is raised again to stop the
@@ -239,12 +243,18 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.ok(path, detail)
     else:
         report.failed(path, info.message, detail)
+    if cycle:
+        from .measures.cycle import format_cycle
+        for line in format_cycle(summary.get("cycle")):
+            click.echo(line)
 
 
 @main.command()
 @click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def check(models, quiet):
+@click.option("--derived", is_flag=True,
+              help="Also print each model's body/joint form (YAML), as derived from a sketch.")
+def check(models, quiet, derived):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
     from .assembly import assemble
@@ -266,6 +276,9 @@ def check(models, quiet):
                                                          f"report)")])
             continue
         report.diagnostics(A.warnings)
+        if derived:
+            from .model.sketch import derived_yaml
+            click.echo(derived_yaml(model.spec), nl=False)
         ndrv = len(model.driver_rows)
         from .assembly import describe_modes
         words = describe_modes(model, A) if A.modes else []
@@ -279,6 +292,10 @@ def check(models, quiet):
                   + (f"; assembly branches {modes} (set assembly: {{branch: {{BODY: +|-}}}} to "
                      f"choose)" if modes else ""))
         report.ok(path, detail)
+        if not quiet:
+            from .measures.grashof import four_bar_loops
+            for loop in four_bar_loops(model):
+                click.echo(f"         {loop.describe(model.spec.length_unit)}")
     report.summary("checked")
     sys.exit(report.exit_code)
 

@@ -18,7 +18,8 @@ from typing import Any, Callable
 import numpy as np
 
 # modules with derived_tables(cm, opts); imported only when a model is run
-ROOMS: tuple[str, ...] = ("planarkin.elements.cam", "planarkin.forces")
+ROOMS: tuple[str, ...] = ("planarkin.elements.cam", "planarkin.forces", "planarkin.measures",
+                         "planarkin.centres")
 
 
 @dataclass

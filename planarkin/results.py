@@ -297,8 +297,10 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "condition": {"min": steps.cond_min if steps.rows else None,
                       "max": steps.cond_max if steps.rows else None, "t_max": steps.cond_tmax},
         "error_estimate": error_estimates(steps),
-        "warnings": [{"kind": "model" if d in spec.warnings else "redundant", "line": d.line,
-                      "message": d.message} for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
+        "warnings": [{"kind": "model" if d in spec.warnings and "is not consistent with" not in
+                      d.message else "moved" if "is not consistent with" in d.message else
+                      "redundant", "line": d.line, "message": d.message}
+                     for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
         "breakpoints": info.breakpoints,
         "columns": {"bodies.csv": body_stats.as_dict()},

@@ -82,6 +82,7 @@ class OutputSpec:
     bodies: tuple[str, ...] | None = None    # None: all bodies
     points: tuple[str, ...] | None = None    # None: all points
     order: int = 2                           # 0 positions, 1 + velocities, 2 + accelerations
+    centres: bool = False                    # centres.csv: instant centres of every body pair
 
 
 @dataclass(frozen=True)
@@ -102,6 +103,7 @@ class ModelSpec:
     section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
     warnings: tuple = ()               # Diagnostics of severity 'warning' found while validating
     forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
+    measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

@@ -21,7 +21,8 @@ from .yamlread import Node
 from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
-            "assembly", "output", "gravity", "loads")
+            "assembly", "output", "gravity", "loads", "links", "ground", "sliders", "slots",
+            "measures")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
@@ -56,6 +57,7 @@ class _Validator:
         self.body_names: list[str] = []
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
+        self.sketch = None           # planarkin.model.sketch.Sketch (pins and links)
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
@@ -158,8 +160,9 @@ class _Validator:
                            f"found {_type_name(root)}")
             self.C.raise_if_any()
         self.keys(root, TOP_KEYS, "model")
+        sketched = "links" in root.value
         for req in ("bodies", "joints"):
-            if req not in root.value:
+            if req not in root.value and not sketched:
                 self.err(None if not root.value else 1,
                          f"model: missing '{req}'" + (" (the moving bodies: name: {q: [x, y, phi]})"
                                                       if req == "bodies" else
@@ -169,11 +172,24 @@ class _Validator:
             name = self.text(root.value["name"], "name") or name
         length_unit, angle_unit = self.units(root.value.get("units"))
         self.parameters(root.value.get("parameters"))
+        from .sketch import Sketch
+        sk = self.sketch = Sketch(self, root.value)
         bodies = self.bodies(root.value.get("bodies"))
+        sk.register_links()
+        bodies += sk.bodies(angle_unit)
+        if sketched and not self.body_names and "bodies" not in root.value:
+            self.err(root.value["links"], "links is empty: a mechanism needs at least one "
+                                          "moving link, e.g. crank: [O, A]")
         joints = self.elements(root.value.get("joints"), "joint")
+        joints += sk.joints(len(joints) + 1)
         drivers = self.elements(root.value.get("drivers"), "driver")
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
+        names = {p.name for p in points}
+        points += [p for p in sk.points() if p.name not in names]
+        from ..measures import read_measures
+        measures = read_measures(self, root.value.get("measures"), [p.name for p in points],
+                                 {el.name: el for el in joints if el.name})
         analysis = self.analysis(root.value.get("analysis"))
         self.check_drivers(drivers, analysis)
         output = self.output(root.value.get("output"), points)
@@ -185,7 +201,7 @@ class _Validator:
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}), forces=forces,
+                         section_lines=dict(root.key_lines or {}), forces=forces, measures=measures,
                          warnings=tuple(d for d in self.C.items if d.severity == "warning"))
 
     def angle_units(self, bodies: list[BodySpec], angle_unit: str, root: Node) -> None:
@@ -269,7 +285,7 @@ class _Validator:
             elif self.identifier(key, line, "body"):
                 self.body_names.append(key)
                 self.body_set.add(key)
-        if not node.value:
+        if not node.value and "links" not in self.root.value:
             self.err(node, "bodies is empty: a mechanism needs at least one moving body")
         for key, val in node.value.items():
             if key not in self.body_set:
@@ -338,13 +354,36 @@ class _Validator:
         allowed = ["type", "name"] + body_keys
         if role == "driver":
             allowed.append("body")
+            allowed.append("link")
+            if "link" in v:
+                if "body" in v:
+                    self.err(v["link"], f"{what}: give either link or body, not both")
+                v = dict(v)
+                v["body"] = v.pop("link")
+            if kind.name == "distance":
+                allowed.append("between")
+        between = None
+        if role == "driver" and "between" in v and kind.name == "distance":
+            if "i" in v or "j" in v or "body" in v:
+                self.err(v["between"], f"{what} ({kname}): give either between: [C, D] or the "
+                                       f"bodies i and j, not both")
+                return None
+            between = self.sketch.between(v["between"], f"{what} ({kname})")
+            if between is None:
+                return None
+            v = dict(v)
+            for key in ("si", "sj"):
+                if key in v:
+                    self.err(v[key], f"{what} ({kname}): {key} is fixed by between; drop it")
         use_body = role == "driver" and "body" in v
-        raw = ["ground", _raw(v["body"])] if use_body else \
+        raw = ["ground", _raw(v["body"])] if use_body else list(between[0]) if between else \
             [_raw(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
         shown = f" {'-'.join(raw)}" if any(r != "?" for r in raw) else ""
         what = (f"{role} '{ename}'" if ename else what) + f" ({kname}{shown})"
         bodies: list[str | None] = []
-        if use_body:
+        if between is not None:
+            bodies = list(between[0])
+        elif use_body:
             if "i" in v or "j" in v:
                 self.err(v["body"], f"{what}: give either body or i and j, not both")
             bodies = ["ground", self.body_ref(v["body"], what, allow_ground=False)]
@@ -399,7 +438,11 @@ class _Validator:
                 self.err(v["s"], f"{what}: give either s or sj, not both")
             v = dict(v)
             v["sj"] = v.pop("s")
+        if between is not None:
+            params["si"], params["sj"] = between[1], between[2]
         for p in kind.params:
+            if between is not None and p.name in ("si", "sj"):
+                continue
             if p.name in v:
                 lines[p.name] = v[p.name].line
                 val = self.param(v[p.name], p, what)
@@ -762,7 +805,13 @@ class _Validator:
             if not self.identifier(key, line, "point"):
                 continue
             what = f"point '{key}'"
-            if not self.keys(val, ("body", "s", "at"), what):
+            if not self.keys(val, ("body", "s", "at", "ground"), what):
+                continue
+            if "body" not in val.value and "at" in val.value and "s" not in val.value:
+                continue        # a sketch pin: planarkin.model.sketch reads it
+            if "ground" in val.value and "body" in val.value:
+                self.err(val.value["ground"], f"{what}: ground: true marks a sketch pin (at: "
+                                              f"[x, y] without body); drop body or ground")
                 continue
             if "body" not in val.value:
                 self.err(val, f"{what}: missing body (the body that carries the point)")
@@ -832,7 +881,7 @@ class _Validator:
             self.C.items.append(d)
 
     def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
-        if node is None or not self.keys(node, ("bodies", "points", "up_to"), "output"):
+        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres"), "output"):
             return OutputSpec()
         v = node.value
         vals: dict[str, Any] = {}
@@ -853,6 +902,12 @@ class _Validator:
                 else:
                     chosen.append(s)
             vals[key] = tuple(chosen)
+        if "centres" in v:
+            n = v["centres"]
+            if n.kind == "scalar" and isinstance(n.value, bool):
+                vals["centres"] = n.value
+            else:
+                self.err(n, f"output: centres must be true or false, not {_type_name(n)}")
         if "up_to" in v:
             c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
