@@ -260,20 +260,20 @@ class System:
 
     def point_bytes(self) -> int:
         """Estimated working set of one time point in solve_batch and the grid pass around it,
-        bytes: ~24 arrays of the (n + 3) coordinates and m rows (predictions, Hermite terms,
-        results, driver values, residuals, user-unit copies), plus the largest block's
-        factorisation: dense, the matrix, its inverse and the elimination's 2 k^2 workspace and
-        copies (8 k^2 numbers); sparse, its entries, fill and SuperLU's bookkeeping (SuperLU's
-        objects measured 9-14 numbers per entry of the pattern on the arch of 300 and 1,500
-        unknowns; 16 allowed)."""
-        work = 24 * (self.n + 3 + self.cm.m)
+        bytes: 12 numbers per coordinate and per equation (predictions, Hermite terms, results,
+        driver values, residuals, user-unit copies; measured 11 on the 6,003-coordinate chain),
+        plus the largest block's factorisation: dense, the matrix, its inverse and the
+        elimination's 2 k^2 workspace and copies (8 k^2 numbers); sparse, 32 numbers per entry
+        of the block's pattern (its values, the gradients they come from, SuperLU's fill and
+        bookkeeping: measured 30 on the 300-coordinate arch, of which SuperLU's objects 9-14)."""
+        base = 12 * (self.n + 3 + self.cm.m)
+        work = base
         for B in self.blocks or ():
             kb = len(B.cols)
             if self.is_large(B):
-                work = max(work, 24 * (self.n + 3 + self.cm.m)
-                           + 16 * sum(len(p.jac_dst) for p in B.parts))
+                work = max(work, base + 32 * sum(len(p.jac_dst) for p in B.parts))
             else:
-                work = max(work, 24 * (self.n + 3 + self.cm.m) + 8 * kb * kb)
+                work = max(work, base + 8 * kb * kb)
         return 8 * work
 
     # -- block evaluations ---------------------------------------------------------------------
