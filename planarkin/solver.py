@@ -45,9 +45,11 @@ COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 MAX_NODES = 500_000
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
-# Bound of a grid chunk's working set (Analysis.chunks), bytes: with the interpreter, numpy,
-# scipy and the path nodes this keeps the 300-coordinate arch's whole run under 300 MB
-CHUNK_BYTES = 128 << 20
+# Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
+# memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
+# numpy, scipy and the path nodes: measured 205-222 MB for the 300-coordinate arch at 1,000 and
+# 3,000 steps (128 MB gave 385-397 MB)
+CHUNK_BYTES = 64 << 20
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -591,7 +593,7 @@ class Analysis:
         """Yield Chunk objects over the grid (up to the stopping time). A chunk's working set is
         kept under CHUNK_BYTES (System.point_bytes: coordinates and the largest block's
         factorisation), so memory does not grow with the number of steps: the 6,003-coordinate
-        chain solves 116 points per chunk, the 300-coordinate arch 261, the slider-crank the
+        chain solves 58 points per chunk, the 300-coordinate arch 130, the slider-crank the
         default 8192."""
         g = self.grid()
         per_point = max(S.point_bytes() for S, _ in self.follower.systems)

@@ -28,9 +28,10 @@ from .structure import Blocks, block_triangular
 
 EPS = np.finfo(float).eps
 # Irreducible blocks of at least this many unknowns are factored by sparse LU, one per time
-# point, instead of dense batched inverses (k^3 time, k^2 memory per point); measured on the
-# arch (benchmarks/bigmodels.py), see benchmarks/README.md "Large blocks".
-SPARSE_BLOCK = 64
+# point, instead of dense batched inverses (k^3 time, k^2 memory per point). The crossover,
+# measured on the arch's blocks by benchmarks/bench_blocks.py: dense / sparse CPU time 0.63 at
+# 64 unknowns, 1.2 at 88, 4 at 148, 14 at 298 (benchmarks/README.md "Large blocks").
+SPARSE_BLOCK = 80
 
 
 @dataclass(frozen=True)
