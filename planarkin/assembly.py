@@ -20,6 +20,7 @@ import numpy as np
 
 from .diagnostics import Diagnostic, InputError
 from .model.compile import CompiledModel
+from .linalg import one_blas_thread
 from .system import System
 
 ASSEMBLED = 1e-10        # largest |Phi| (internal units) of an assembled pose
@@ -161,7 +162,9 @@ def assemble(cm: CompiledModel, start: float | None = None) -> Assembly:
         from dataclasses import replace
         cm = replace(cm, spec=replace(cm.spec, analysis=replace(cm.spec.analysis, start=start)))
         sketched = False
-    with np.errstate(all="ignore"):
+    # dense SVDs and least squares of up to DENSE_LIMIT columns: on one BLAS thread, because
+    # a busy second core made OpenBLAS's threads take 50 times longer (linalg.one_blas_thread)
+    with np.errstate(all="ignore"), one_blas_thread():
         return _assemble(cm, sketched)
 
 
@@ -188,9 +191,7 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
                                              f"f({t0:g}) = {T[0, r] * cm.L:g}")])
     # an element that cannot be differentiated at the estimates (the two points of a distance
     # on top of each other) would poison every step of the assembly
-    with np.errstate(all="ignore"):
-        J0 = S_all.jacobian(S_all.ext(cm.q0))[0]
-    bad_rows = np.nonzero(~np.isfinite(J0).all(axis=1))[0]
+    bad_rows = _undifferentiable_rows(S_all, cm.q0)
     if bad_rows.size:
         raise InputError([_diag(cm, int(r), f"{cm.element_of_row(r).label}: its two points "
                                             f"coincide at the body estimates q, where the "
@@ -272,6 +273,22 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
         from .model.sketch import moved_points
         A.warnings += moved_points(cm, S.ext(A.q[None, :])[0])
     return A
+
+
+def _undifferentiable_rows(S: System, q: np.ndarray) -> np.ndarray:
+    """Sorted rows whose gradient has a non-finite entry at q (ground columns excluded), read
+    element by element: the dense m x n Jacobian of an 18,003-coordinate chain would need 2.6 GB
+    where this needs the elements' own entries."""
+    F = S.frame(S.ext(q))
+    bad = []
+    n = S.n
+    with np.errstate(all="ignore"):
+        for G in S.cm.groups:
+            g = G.grad(F)[0]                                   # (K, neq, nc)
+            own = (G.cols < n)[:, None, :]
+            rows = G.rows[~(np.isfinite(g) | ~own).all(axis=2)]
+            bad.extend(int(r) for r in rows.ravel())
+    return np.array(sorted(bad), dtype=np.intp)
 
 
 def _plural(k: int, word: str) -> str:
@@ -485,16 +502,21 @@ def block_modes(cm: CompiledModel, S: System, q: np.ndarray) -> list[Mode]:
 
 
 def _mode(cm: CompiledModel, S: System, B, b: int, F) -> Mode:
-    J = S.block_matrix(B, S.block_grads(B, F))[0]
-    sign = int(np.sign(np.linalg.det(J)))
+    grads = S.block_grads(B, F)
+    if S.is_large(B):             # no dense matrix for a large block: the sign from its LU
+        sign = int(S.block_lu(B, grads).sign[0])
+    else:
+        sign = int(np.sign(np.linalg.det(S.block_matrix(B, grads)[0])))
     bodies = tuple(sorted({int(c) // 3 for c in B.cols}))
     names = tuple(cm.body_names[k] for k in bodies)
     return Mode(names, sign, names[0], b)
 
 
 def _block_sign(S: System, B, Q: np.ndarray) -> int:
-    J = S.block_matrix(B, S.block_grads(B, S.frame(Q)))[0]
-    return int(np.sign(np.linalg.det(J)))
+    grads = S.block_grads(B, S.frame(Q))
+    if S.is_large(B):
+        return int(S.block_lu(B, grads).sign[0])
+    return int(np.sign(np.linalg.det(S.block_matrix(B, grads)[0])))
 
 
 def _newton_block(S: System, B, Q: np.ndarray, T: np.ndarray, maxit: int = 25) -> bool:

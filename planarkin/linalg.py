@@ -12,6 +12,9 @@ norms for a condition estimate.
 
 from __future__ import annotations
 
+import ctypes
+import sys
+
 import numpy as np
 
 # Below this batch size numpy's LAPACK loop is faster than our vectorised elimination.
@@ -109,3 +112,183 @@ def noise(n: int, seed: int) -> np.ndarray:
     relation between them.)"""
     k = np.arange(1, n + 1, dtype=float)
     return np.sin(k * 12.9898 + seed * 78.233) * 43758.5453 % 2.0 - 1.0
+
+
+# -- large blocks: one sparse LU per matrix -------------------------------------------------------
+
+class SparseLU:
+    """Sparse LU factorisations (SuperLU, via scipy.sparse.linalg.splu) of a batch of k x k
+    matrices that share one sparsity pattern: the large irreducible blocks of a mechanism whose
+    constraint graph does not split (an arch, a truss), where a dense k x k inverse per time
+    point costs k^3 time and k^2 memory and a sparse factorisation costs about its fill.
+
+    values: (N, nnz) the entries in compressed-column order of the pattern (indices, indptr),
+    whose column j is column order[j] of the matrix (a fill-reducing order chosen once per
+    pattern; order_sign: its sign), factored without further column ordering. want: also compute the determinant signs and the sigma_min bounds (at the first Newton
+    iterate only; the factorisations for the velocity systems need neither).
+    Attributes: sign (N,) in {-1, 0, +1}; smin (N,) an estimate of sigma_min, 1 / ||J^-1||_1
+    (0 where singular); ok (N,) bool. scipy is imported here only: small models never pay its start-up.
+    """
+
+    def __init__(self, values: np.ndarray, indices: np.ndarray, indptr: np.ndarray,
+                 order: np.ndarray, order_sign: float = 1.0, want: bool = True):
+        from scipy.sparse import csc_matrix
+        from scipy.sparse.linalg import splu
+        values = np.ascontiguousarray(values)       # each point's entries one C vector
+        N = values.shape[0]
+        k = len(order)
+        self.k = k
+        self.order = order
+        self.lus: list = [None] * N
+        self.sign = np.zeros(N)
+        self.smin = np.zeros(N)
+        self.ok = np.zeros(N, dtype=bool)
+        finite = np.isfinite(values).all(axis=1)
+        parity: dict[bytes, float] = {}
+        # one matrix object, its entries replaced per point: building a csc_matrix checks its
+        # indices every time (30 us, as much as factoring a 28-unknown block)
+        A = csc_matrix((np.zeros(values.shape[1]), indices, indptr), shape=(k, k))
+        for n in range(N):
+            if not finite[n]:
+                continue
+            A.data = values[n]
+            try:
+                lu = splu(A, permc_spec="NATURAL")
+            except RuntimeError:            # exactly singular
+                continue
+            self.lus[n] = lu
+            self.ok[n] = True
+            if want:
+                d = lu.U.diagonal()
+                sg = float(np.prod(np.sign(d)))
+                sg *= _parity(lu.perm_r, parity) * _parity(lu.perm_c, parity) * order_sign
+                self.sign[n] = sg
+                inv1 = _inv_norm1_estimate(lu, k)
+                # 1 / ||J^-1||_1: an estimate of sigma_min, not a bound as the dense blocks'
+                # 1 / ||J^-1||_F (that needs the inverse); ||J^-1||_1 and ||J^-1||_F lie within
+                # sqrt(k) of each other, and within a factor 2 on the arch and the ladder of
+                # benchmarks/bigmodels.py, so the condition thresholds keep their meaning
+                self.smin[n] = 1.0 / inv1 if inv1 > 0 else 0.0
+                if not (np.isfinite(self.smin[n]) and sg != 0):
+                    self.ok[n] = False
+                    self.sign[n] = 0.0
+                    self.smin[n] = 0.0
+
+    def solve(self, R: np.ndarray) -> np.ndarray:
+        """(N, k) right-hand sides -> (N, k) solutions (nan where the matrix was singular)."""
+        out = np.full(R.shape, np.nan)
+        order = self.order
+        for n, lu in enumerate(self.lus):
+            if lu is not None:
+                out[n, order] = lu.solve(R[n])
+        return out
+
+
+def _parity(p: np.ndarray, cache: dict) -> float:
+    """permutation_sign, remembered per permutation (pivoting rarely changes along a path)."""
+    key = p.tobytes()
+    if key not in cache:
+        cache[key] = permutation_sign(p)
+    return cache[key]
+
+
+def permutation_sign(p: np.ndarray) -> float:
+    """Sign (+1 / -1) of the permutation p: (-1)^(k - number of cycles)."""
+    seen = np.zeros(len(p), dtype=bool)
+    pl = p.tolist()
+    cycles = 0
+    for i in range(len(pl)):
+        if not seen[i]:
+            cycles += 1
+            j = i
+            while not seen[j]:
+                seen[j] = True
+                j = pl[j]
+    return -1.0 if (len(pl) - cycles) % 2 else 1.0
+
+
+def _inv_norm1_estimate(lu, k: int, maxit: int = 3) -> float:
+    """Hager's estimate (Higham's refinement, as LAPACK's dlacon) of ||A^-1||_1 from the LU
+    factors: a few solves with A and A^T, a lower bound of the true norm that is exact in most
+    cases."""
+    x = np.full(k, 1.0 / k)
+    est = 0.0
+    j_old = -1
+    for it in range(maxit):
+        y = lu.solve(x)
+        est_new = np.abs(y).sum()
+        if not np.isfinite(est_new):
+            return np.inf
+        if it > 0 and est_new <= est:
+            break
+        est = est_new
+        z = lu.solve(np.where(y >= 0, 1.0, -1.0), trans="T")
+        j = int(np.argmax(np.abs(z)))
+        if it > 0 and (j == j_old or np.abs(z[j]) <= z @ x):
+            break
+        x = np.zeros(k)
+        x[j] = 1.0
+        j_old = j
+    # Higham's alternative vector guards against the estimator's known bad cases
+    b = np.where(np.arange(k) % 2, -1.0, 1.0) * (1.0 + np.arange(k) / max(k - 1, 1))
+    alt = 2.0 * np.abs(lu.solve(b)).sum() / (3.0 * k)
+    return max(est, alt)
+
+
+# -- BLAS threads ---------------------------------------------------------------------------------
+
+_BLAS_NAMES = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
+               ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
+               ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
+               ("openblas_set_num_threads", "openblas_get_num_threads"))
+_blas_cache: list = [-1, []]          # [len(sys.modules) when scanned, [(set, get), ...]]
+
+
+def _blas_controls() -> list:
+    """(set_num_threads, get_num_threads) of every OpenBLAS loaded in this process (numpy's and,
+    once imported, scipy's). Found through /proc/self/maps (Linux; elsewhere: none, and the
+    threads are left alone); rescanned only when modules were imported since."""
+    if _blas_cache[0] == len(sys.modules):
+        return _blas_cache[1]
+    found = []
+    try:
+        with open("/proc/self/maps") as f:
+            paths = sorted({ln.split()[-1] for ln in f if "openblas" in ln.lower()
+                            and ln.split()[-1].startswith("/")})
+    except OSError:
+        paths = []
+    for p in paths:
+        try:
+            lib = ctypes.CDLL(p)
+        except OSError:
+            continue
+        for set_name, get_name in _BLAS_NAMES:
+            if hasattr(lib, set_name) and hasattr(lib, get_name):
+                st, gt = getattr(lib, set_name), getattr(lib, get_name)
+                st.argtypes, st.restype, gt.restype = [ctypes.c_int], None, ctypes.c_int
+                found.append((st, gt))
+                break
+    _blas_cache[:] = [len(sys.modules), found]
+    return found
+
+
+class one_blas_thread:
+    """Context: OpenBLAS runs on one thread inside (restored on exit). The solver's linear
+    algebra is many small factorisations; with the threads of OpenBLAS spinning on a core that
+    another process holds, the same run took 50 times longer (issue 12: 3.5 s -> 165-184 s).
+    An environment variable would have to be set before numpy loads, which a library called from
+    someone's program cannot do; threadpoolctl would be a dependency."""
+
+    def __enter__(self):
+        self.saved = []
+        for st, gt in _blas_controls():
+            n = gt()
+            if n != 1:
+                st(1)
+                self.saved.append((st, n))
+        return self
+
+    def __exit__(self, *exc):
+        for st, n in self.saved:
+            st(n)
+        return False

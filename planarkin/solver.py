@@ -50,6 +50,11 @@ COND_SINGULAR = 1e6
 COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
+# Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
+# memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
+# numpy, scipy and the path nodes: measured 205-222 MB for the 300-coordinate arch at 1,000 and
+# 3,000 steps (128 MB gave 385-397 MB)
+CHUNK_BYTES = 64 << 20
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -781,10 +786,13 @@ class Analysis:
         return np.concatenate(list(self._grid_chunks())) if self.opts.rows else np.zeros(0)
 
     def _grid_chunks(self):
-        """Grid times chunk by chunk, up to the stopping time. Chunks hold at most about 4
-        million coordinates, so a 6000-coordinate model uses ~700 points per chunk; the grid
-        itself is never held whole (a 10^9-step grid is 8 GB)."""
-        size = max(16, min(self.opts.chunk, (1 << 22) // (self.cm.n + 3)))
+        """Grid times chunk by chunk, up to the stopping time; the grid itself is never held
+        whole (a 10^9-step grid is 8 GB). A chunk's working set is kept under CHUNK_BYTES
+        (System.point_bytes: coordinates and the largest block's factorisation), so memory does
+        not grow with the number of steps: the 6,003-coordinate chain solves 58 points per
+        chunk, the 300-coordinate arch 130, the slider-crank the default 8192."""
+        per_point = max(S.point_bytes() for S, _ in self.follower.systems)
+        size = max(16, min(self.opts.chunk, CHUNK_BYTES // per_point))
         for a in range(0, self.opts.rows, size):
             g = self.opts.times(a, a + size)
             if self.event is not None:

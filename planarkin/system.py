@@ -21,11 +21,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from .elements.base import Frame, Group
-from .linalg import inv_batched, matvec, noise, sigma_min_lower
+from .linalg import (SparseLU, inv_batched, matvec, noise, one_blas_thread, permutation_sign,
+                     sigma_min_lower)
 from .model.compile import CompiledModel
 from .structure import Blocks, block_triangular
 
 EPS = np.finfo(float).eps
+# Irreducible blocks of at least this many unknowns are factored by sparse LU, one per time
+# point, instead of dense batched inverses (k^3 time, k^2 memory per point). The crossover,
+# measured on the arch's blocks by benchmarks/bench_blocks.py: dense / sparse CPU time 0.63 at
+# 64 unknowns, 1.2 at 88, 4 at 148, 14 at 298 (benchmarks/README.md "Large blocks").
+SPARSE_BLOCK = 80
 
 
 @dataclass(frozen=True)
@@ -77,6 +83,7 @@ class System:
         self.rows = np.arange(cm.m) if rows is None else np.asarray(rows, dtype=np.intp)
         self.merge_to = merge_to
         self.blocks: tuple[Block, ...] | None = None
+        self._csc: dict = {}
 
     # -- helpers -----------------------------------------------------------------------------
     def ext(self, q: np.ndarray) -> np.ndarray:
@@ -254,6 +261,24 @@ class System:
             o += sz
         return out
 
+    def point_bytes(self) -> int:
+        """Estimated working set of one time point in solve_batch and the grid pass around it,
+        bytes: 12 numbers per coordinate and per equation (predictions, Hermite terms, results,
+        driver values, residuals, user-unit copies; measured 11 on the 6,003-coordinate chain),
+        plus the largest block's factorisation: dense, the matrix, its inverse and the
+        elimination's 2 k^2 workspace and copies (8 k^2 numbers); sparse, 32 numbers per entry
+        of the block's pattern (its values, the gradients they come from, SuperLU's fill and
+        bookkeeping: measured 30 on the 300-coordinate arch, of which SuperLU's objects 9-14)."""
+        base = 12 * (self.n + 3 + self.cm.m)
+        work = base
+        for B in self.blocks or ():
+            kb = len(B.cols)
+            if self.is_large(B):
+                work = max(work, base + 32 * sum(len(p.jac_dst) for p in B.parts))
+            else:
+                work = max(work, base + 8 * kb * kb)
+        return 8 * work
+
     # -- block evaluations ---------------------------------------------------------------------
     @staticmethod
     def _gather(B: Block, N: int, pieces) -> np.ndarray:
@@ -282,6 +307,56 @@ class System:
             J[:, p.jac_dst] = g.reshape(N, -1)[:, p.jac_src]
         return J.reshape(N, kb, kb)
 
+    @staticmethod
+    def is_large(B: Block) -> bool:
+        """Factored by sparse LU (an irreducible block of SPARSE_BLOCK unknowns or more)."""
+        return len(B.cols) >= SPARSE_BLOCK and len(B.sizes) == 1
+
+    def block_pattern(self, B: Block):
+        """The large block's compressed-column pattern, columns in fill-reducing order: (sel,
+        indices, indptr, order, order_sign). sel indexes the concatenated per-part gradient
+        entries (block_values) in that order; column j of the stored matrix is the block's
+        column order[j]; order_sign is the sign of that permutation. The ordering (COLAMD on the
+        pattern) is computed once per block here: SuperLU then factors every time point with
+        its NATURAL ordering, 80 us instead of 750 us for the 298-unknown arch, whose COLAMD
+        pass costs more than the factorisation itself."""
+        key = (B.first, len(B.cols))
+        if key not in self._csc:
+            from scipy.sparse import csc_matrix
+            from scipy.sparse.linalg import splu
+            kb = len(B.cols)
+            dst = np.concatenate([p.jac_dst for p in B.parts])
+            # block_matrix assigns, so of a repeated position the last entry counts
+            last = {int(d): i for i, d in enumerate(dst.tolist())}
+            keep = np.fromiter(last.values(), dtype=np.intp, count=len(last))
+            rows, cols = dst[keep] // kb, dst[keep] % kb
+            try:
+                lu = splu(csc_matrix((1.5 + noise(len(keep), 7), (rows, cols)), shape=(kb, kb)),
+                          permc_spec="COLAMD")
+                newpos = np.asarray(lu.perm_c, dtype=np.intp)
+            except RuntimeError:                  # singular by accident: keep the order
+                newpos = np.arange(kb)
+            order = np.argsort(newpos)
+            newcol = newpos[cols]
+            srt = np.lexsort((rows, newcol))
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(newcol, minlength=kb))])
+            self._csc[key] = (keep[srt], rows[srt].astype(np.int32), indptr.astype(np.int32),
+                              order, permutation_sign(order))
+        return self._csc[key]
+
+    def block_values(self, B: Block, grads) -> np.ndarray:
+        """(N, nnz) the block matrix's entries in compressed-column order (block_pattern): the
+        sparse counterpart of block_matrix, without the dense (N, kb, kb) array."""
+        sel = self.block_pattern(B)[0]
+        N = grads[0].shape[0]
+        vals = np.concatenate([g.reshape(N, -1)[:, p.jac_src] for p, g in zip(B.parts, grads)],
+                              axis=1)
+        return vals[:, sel]
+
+    def block_lu(self, B: Block, grads, want: bool = True) -> SparseLU:
+        _, indices, indptr, order, osign = self.block_pattern(B)
+        return SparseLU(self.block_values(B, grads), indices, indptr, order, osign, want)
+
     def block_product(self, B: Block, grads, Qd: np.ndarray) -> np.ndarray:
         """Rows of Phi_q qdot for the block's equations (all columns, not only the block's)."""
         N = Qd.shape[0]
@@ -304,6 +379,10 @@ class System:
         (T, NU, FDD) of driver_values(t) when the caller already has them.
         Returns BatchInfo.
         """
+        with one_blas_thread():
+            return self._solve_batch(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
+
+    def _solve_batch(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
         N = Q.shape[0]
         nblk = len(self.blocks)
         T, NU, FDD = self.driver_values(t) if drivers is None else drivers
@@ -320,19 +399,24 @@ class System:
             for b, B in enumerate(self.blocks):
                 cols = B.cols
                 one = len(cols) == 1           # the common case: a scalar equation
+                large = self.is_large(B)
                 pcol = 3 * B.phis + 2
                 Minv = None
                 size = np.zeros(N)
                 for it in range(maxit):
                     if Minv is None or (policy == "full" and not B.affine):
                         grads0 = self.block_grads(B, F)
-                        J = self.block_matrix(B, grads0)
-                        Minv, sg, sm = _invert(J, one)
+                        if large:
+                            Minv = self.block_lu(B, grads0, want=it == 0)
+                            J, sg, sm = None, Minv.sign, Minv.smin
+                        else:
+                            J = self.block_matrix(B, grads0)
+                            Minv, sg, sm = _invert(J, one)
                         if it == 0:
                             sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
                             smin[:, b] = sm
                     r = self.block_residual(B, F, T)
-                    dx = r * Minv if one else matvec(Minv, r)
+                    dx = _apply(Minv, r, one)
                     Q[:, cols] -= dx
                     if len(pcol):
                         c[:, B.phis] = np.cos(Q[:, pcol])
@@ -360,7 +444,10 @@ class System:
                     grads = grads0                 # the same Jacobian as at the prediction
                 else:
                     grads = self.block_grads(B, F)
-                    Minv, _, _ = _invert(self.block_matrix(B, grads), one)
+                    if large:
+                        Minv = self.block_lu(B, grads, want=False)
+                    else:
+                        Minv, _, _ = _invert(self.block_matrix(B, grads), one)
                 self._direct(B, grads, Minv, one, NU[:, B.rows], Qd)
                 if order < 2:
                     continue
@@ -373,7 +460,7 @@ class System:
         columns of X known (earlier blocks)."""
         X[:, B.cols] = 0.0
         r = rhs - self.block_product(B, grads, X)
-        X[:, B.cols] = r * Minv if one else matvec(Minv, r)
+        X[:, B.cols] = _apply(Minv, r, one)
 
 
 class _ClassifyState:
@@ -398,11 +485,20 @@ class _ClassifyState:
             s[:, B.phis] = np.sin(Q2[:, 3 * B.phis + 2])
         g1 = S.block_grads(B, self.F)
         g2 = S.block_grads(B, Frame(Q2, c, s))
-        affine = bool(np.allclose(S.block_matrix(B, g1), S.block_matrix(B, g2),
-                                  rtol=1e-13, atol=1e-13))
+        mat = S.block_values if S.is_large(B) else S.block_matrix
+        affine = bool(np.allclose(mat(B, g1), mat(B, g2), rtol=1e-13, atol=1e-13))
         fixed = affine and all(np.allclose(a, b, rtol=1e-13, atol=1e-13)
                                for a, b in zip(S._rows_of(B, g1), S._rows_of(B, g2)))
         return replace(B, affine=affine, fixed_grad=fixed)
+
+
+def _apply(Minv, r: np.ndarray, one: bool) -> np.ndarray:
+    """The solution of J x = r for each point, from _invert's inverse or a SparseLU."""
+    if one:
+        return r * Minv
+    if isinstance(Minv, SparseLU):
+        return Minv.solve(r)
+    return matvec(Minv, r)
 
 
 def _invert(J: np.ndarray, one: bool):

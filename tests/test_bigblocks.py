@@ -1,0 +1,264 @@
+"""Big coupled mechanisms (benchmarks/bigmodels.py) at a small size, and the large-block machinery:
+sparse LU per time point, grid chunks sized from the block, one BLAS thread, no dense Jacobian
+for large models.
+
+Every run is checked against loop-closure invariants written here from the mechanisms' joint
+lists, independently of planarkin's elements: each pin's two points coincide, and so do their
+velocities and accelerations (the exact time derivatives r + A s, rdot + w B s,
+rddot + alpha B s - w^2 A s); the drivers' angles follow their functions.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+import bigmodels  # noqa: E402
+import planarkin  # noqa: E402
+from planarkin import assembly, linalg, solver, system  # noqa: E402
+
+
+# -- the mechanisms' pins, from their definitions in bigmodels --------------------------------
+
+def arch_pins(N):
+    R = bigmodels.arch_radius(N)
+    pins = [(None, (0.0, 0.0), 0, (0.0, 0.0))]
+    pins += [(k, (1.0, 0.0), k + 1, (0.0, 0.0)) for k in range(N - 1)]
+    pins += [(None, (2 * R, 0.0), N - 1, (1.0, 0.0))]
+    return pins
+
+
+def ladder_pins(N, h=0.5):
+    R = bigmodels.arch_radius(N)
+    lo = 2 * (R + h) * math.sin(math.pi / N / 2)
+    L = lambda k: k                       # noqa: E731  body indices: l0..l(N-1), r1..r(N-1), o1..
+    Rg = lambda k: N + k - 1              # noqa: E731
+    O = lambda k: 2 * N - 1 + k - 1       # noqa: E731
+    pins = arch_pins(N)
+    pins += [(L(k), (0.0, 0.0), Rg(k), (0.0, 0.0)) for k in range(1, N)]
+    for k in range(1, N - 1):
+        pins += [(Rg(k), (h, 0.0), O(k), (0.0, 0.0)), (Rg(k + 1), (h, 0.0), O(k), (lo, 0.0))]
+    return pins
+
+
+def scissor_pins(S):
+    pins = [(None, (0.0, 0.0), 0, (0.0, 0.0))]
+    for k in range(S):
+        pins.append((2 * k, (1.0, 0.0), 2 * k + 1, (1.0, 0.0)))
+        if k:
+            pins.append((2 * k - 1, (2.0, 0.0), 2 * k, (0.0, 0.0)))
+            pins.append((2 * k - 2, (2.0, 0.0), 2 * k + 1, (0.0, 0.0)))
+    return pins
+
+
+def _point(q, qd, qdd, b, s):
+    """Position, velocity, acceleration (N, 2) of point s of body b (None: ground)."""
+    if b is None:
+        z = np.zeros((q.shape[0], 2))
+        return z + np.asarray(s), z, z
+    x, y, p = q[:, 3 * b], q[:, 3 * b + 1], q[:, 3 * b + 2]
+    w, a = qd[:, 3 * b + 2], qdd[:, 3 * b + 2]
+    c, sn = np.cos(p), np.sin(p)
+    As = np.stack([c * s[0] - sn * s[1], sn * s[0] + c * s[1]], axis=1)
+    Bs = np.stack([-As[:, 1], As[:, 0]], axis=1)
+    r = np.stack([x, y], axis=1) + As
+    v = np.stack([qd[:, 3 * b], qd[:, 3 * b + 1]], axis=1) + w[:, None] * Bs
+    acc = (np.stack([qdd[:, 3 * b], qdd[:, 3 * b + 1]], axis=1) + a[:, None] * Bs
+           - (w * w)[:, None] * As)
+    return r, v, acc
+
+
+def closure_errors(res, pins):
+    """Largest pin mismatch of positions, velocities and accelerations over the run."""
+    q, qd, qdd = res.q, res.qd, res.qdd
+    out = np.zeros(3)
+    for bi, si, bj, sj in pins:
+        for k, (u, v) in enumerate(zip(_point(q, qd, qdd, bi, si), _point(q, qd, qdd, bj, sj))):
+            out[k] = max(out[k], np.abs(u - v).max())
+    return out
+
+
+MODELS = {
+    "arch": (lambda: bigmodels.arch_yaml(16, 24), lambda: arch_pins(16)),
+    "ladder": (lambda: bigmodels.ladder_yaml(6, 24), lambda: ladder_pins(6)),
+    "scissor": (lambda: bigmodels.scissor_yaml(8, 24), lambda: scissor_pins(8)),
+}
+
+
+def _solve(name, **kw):
+    text, _ = MODELS[name]
+    return planarkin.solve(planarkin.load(f"{name}.yaml", text=text()), **kw)
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_big_models_close_their_loops(name, monkeypatch):
+    # the small sizes' blocks (46 and 43 unknowns) take the sparse route, as the large ones do
+    monkeypatch.setattr(system, "SPARSE_BLOCK", 32)
+    res = _solve(name)
+    assert res.status == 0, res.message
+    assert len(res.t) == 25
+    ep, ev, ea = closure_errors(res, MODELS[name][1]())
+    scale_v = np.abs(res.qd).max()
+    scale_a = np.abs(res.qdd).max()
+    assert ep < 1e-11 and ev < 1e-11 * max(scale_v, 1) and ea < 1e-10 * max(scale_a, 1), \
+        (ep, ev, ea)
+    assert scale_v > 1e-3                     # it moves
+
+
+def test_arch_drivers_follow_their_functions():
+    N = 16
+    res = _solve("arch")
+    th, a = math.pi / N, 2.0 / N ** 2
+    t = res.t
+    for k in range(N - 2):
+        rel = res.q[:, 3 * (k + 1) + 2] - res.q[:, 3 * k + 2]
+        want = -th + a * (1 + k / N) * np.sin(2 * np.pi * t)
+        assert np.abs(rel - want).max() < 1e-12
+
+
+def test_arch_and_ladder_are_one_block():
+    for name, size in (("arch", 3 * 16 - 2), ("ladder", 9 * 5 - 2)):
+        cm = planarkin.load("m.yaml", text=MODELS[name][0]())
+        A = assembly.assemble(cm)
+        assert max(len(c) for c in A.system.fine.cols) == size
+
+
+@pytest.mark.parametrize("name", ["arch", "ladder"])
+def test_sparse_and_dense_blocks_agree(name, monkeypatch):
+    """The pure dense route (batched inverses) is the reference for the sparse LU route."""
+    monkeypatch.setattr(system, "SPARSE_BLOCK", 10 ** 9)
+    dense = _solve(name)
+    monkeypatch.setattr(system, "SPARSE_BLOCK", 32)
+    sparse = _solve(name)
+    assert dense.status == sparse.status == 0
+    for k in ("q", "qd", "qdd"):
+        ref = getattr(dense, k)
+        assert np.abs(getattr(sparse, k) - ref).max() <= 1e-12 * max(np.abs(ref).max(), 1)
+    assert (dense.iterations == sparse.iterations).all()
+    # both condition estimates are of the same order (1/||J^-1||_F bound against 1/||J^-1||_1)
+    ratio = sparse.cond / dense.cond
+    assert 0.2 < ratio.min() and ratio.max() < 5
+
+
+def _random_sparse(rng, k, density=0.08):
+    A = np.where(rng.random((k, k)) < density, rng.normal(size=(k, k)), 0.0)
+    A[np.arange(k), rng.permutation(k)] += 2.0 + rng.random(k)
+    return A
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_sparse_lu_sign_solve_and_sigma_min(seed):
+    rng = np.random.default_rng(seed)
+    k = 40
+    mats = [_random_sparse(rng, k) for _ in range(6)]
+    order = rng.permutation(k)                   # a column order chosen for the pattern
+    # one shared pattern: the union, explicit zeros where a matrix has none
+    mask = np.zeros((k, k), bool)
+    for A in mats:
+        mask |= A != 0
+    vals = []
+    for A in mats:
+        B = np.where(mask, A, 0.0)[:, order]
+        cols, rows = np.nonzero(mask[:, order].T)
+        vals.append(B[rows, cols])
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=k))]).astype(np.int32)
+    lu = linalg.SparseLU(np.array(vals), rows.astype(np.int32), indptr, order,
+                         linalg.permutation_sign(order))
+    det_sign = np.sign([np.linalg.det(A) for A in mats])
+    assert (lu.sign == det_sign).all() and lu.ok.all()
+    rhs = rng.normal(size=(6, k))
+    x = lu.solve(rhs)
+    for A, xi, b in zip(mats, x, rhs):
+        assert np.abs(A @ xi - b).max() < 1e-10
+    true = np.array([np.linalg.svd(A, compute_uv=False)[-1] for A in mats])
+    # 1/||A^-1||_1 lies within sqrt(k) of sigma_min = 1/||A^-1||_2 (Hager's estimate of the
+    # 1-norm can only be low, which moves it up)
+    assert ((lu.smin / true > 1 / math.sqrt(k)) & (lu.smin / true < math.sqrt(k))).all()
+
+
+def test_sparse_lu_singular_and_nonfinite_points():
+    k = 6
+    A = np.eye(k)
+    S = A.copy()
+    S[3, 3] = 0.0                                # exactly singular
+    cols, rows = np.nonzero(np.ones((k, k)).T)
+    indptr = np.arange(0, k * k + 1, k, dtype=np.int32)
+    vals = np.array([M[rows, cols] for M in (A, S, np.full((k, k), np.nan))])
+    lu = linalg.SparseLU(vals, rows.astype(np.int32), indptr, np.arange(k))
+    assert lu.ok.tolist() == [True, False, False]
+    assert lu.sign.tolist() == [1.0, 0.0, 0.0] and lu.smin[1:].tolist() == [0.0, 0.0]
+    x = lu.solve(np.ones((3, k)))
+    assert np.allclose(x[0], 1.0) and np.isnan(x[1:]).all()
+
+
+@pytest.mark.parametrize("p", [[0, 1, 2, 3], [1, 0, 2, 3], [1, 2, 0, 3], [3, 2, 1, 0],
+                               [1, 2, 3, 0]])
+def test_permutation_sign(p):
+    P = np.eye(4)[:, p]
+    assert linalg.permutation_sign(np.array(p)) == np.sign(np.linalg.det(P))
+
+
+def test_grid_chunks_are_bounded_by_the_working_set(monkeypatch):
+    """The grid chunk is sized from the block (memory independent of the step count)."""
+    cm = planarkin.load("arch.yaml", text=bigmodels.arch_yaml(16, 200))
+    A = assembly.assemble(cm)
+    per_point = A.system.point_bytes()
+    monkeypatch.setattr(solver, "CHUNK_BYTES", 40 * per_point)
+    an = solver.Analysis(cm, A, solver.Options.from_model(cm))
+    an.follow()
+    sizes = [len(ch.t) for ch in an.chunks()]
+    assert sum(sizes) == 201 and max(sizes) <= 40
+
+
+def test_one_blas_thread_pins_and_restores():
+    controls = linalg._blas_controls()
+    if not controls:
+        pytest.skip("no OpenBLAS found in this process")
+    before = [gt() for _, gt in controls]
+    with linalg.one_blas_thread():
+        assert [gt() for _, gt in controls] == [1] * len(controls)
+    assert [gt() for _, gt in controls] == before
+
+
+def test_large_model_never_builds_a_dense_jacobian(monkeypatch):
+    """Above DENSE_LIMIT neither assembly nor the analysis calls the dense Jacobian."""
+    monkeypatch.setattr(assembly, "DENSE_LIMIT", 30)
+    monkeypatch.setattr(solver, "DENSE_LIMIT", 30)
+    monkeypatch.setattr(system, "SPARSE_BLOCK", 32)
+
+    def refuse(self, Q):
+        raise AssertionError("dense Jacobian built for a large model")
+    monkeypatch.setattr(system.System, "jacobian", refuse)
+    res = _solve("arch")
+    assert res.status == 0, res.message
+    assert closure_errors(res, arch_pins(16))[0] < 1e-11
+
+
+COINCIDENT = """\
+name: coincident
+bodies:
+  a: {q: [0, 0, 0]}
+  b: {q: [0, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: a, si: [0, 0], sj: [0, 0]}
+  - {type: distance, i: a, j: b, si: [0, 0], sj: [0, 0], c: 1}
+  - {type: revolute, i: ground, j: b, si: [1, 0], sj: [1, 0]}
+drivers:
+  - {type: angle, body: a, f: "t"}
+"""
+
+
+@pytest.mark.parametrize("limit", [3000, 2])
+def test_coincident_distance_points_at_the_estimates_are_named(limit, monkeypatch):
+    monkeypatch.setattr(assembly, "DENSE_LIMIT", limit)
+    cm = planarkin.load("coincident.yaml", text=COINCIDENT)
+    with pytest.raises(planarkin.InputError) as e:
+        assembly.assemble(cm)
+    assert "coincide at the body estimates q" in str(e.value)
+    assert "coincident.yaml:7:" in str(e.value)
