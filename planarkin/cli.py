@@ -268,3 +268,23 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     click.echo(table)
     report.ok(model_path, f"-> {outdir}/tradeoff.csv")
     sys.exit(report.exit_code)
+
+
+@main.command()
+@click.argument("new", type=click.Path())
+@click.argument("golden", type=click.Path())
+@click.option("--rtol", type=click.FloatRange(min=0), default=1e-9, show_default=True,
+              help="Relative tolerance: |new - golden| <= atol + rtol |golden|.")
+@click.option("--atol", type=click.FloatRange(min=0), default=1e-12, show_default=True,
+              help="Absolute tolerance, in each column's unit.")
+@click.option("--show", type=click.IntRange(0), default=10, show_default=True,
+              help="How many of the worst differing columns to print.")
+def compare(new, golden, rtol, atol, show):
+    """Compare result directory NEW against GOLDEN column by column (every CSV table and
+    summary.json's status). Exit status: 0 same within the tolerances, 1 differs, 2 unusable
+    input (missing directory or table, malformed CSV, different columns or rows)."""
+    from .studies.compare import UNUSABLE, compare_dirs, report
+    c = compare_dirs(new, golden, rtol=rtol, atol=atol)
+    for line in report(c, rtol, atol, show):
+        click.echo(line, err=c.status == UNUSABLE)
+    sys.exit(c.status)
