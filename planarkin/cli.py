@@ -41,12 +41,12 @@ BIFURCATION = ("stop", "continue")
 ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 
 
-def _load(path: str, report: Report):
+def _load(path: str, report: Report, overrides: dict | None = None):
     """Read, validate, compile; report diagnostics. Returns the model or None."""
     from .diagnostics import Diagnostic, InputError
     from . import load
     try:
-        return load(path)
+        return load(path, **(overrides or {}))
     except InputError as e:
         report.invalid(path, e.diagnostics)
     except (RecursionError, MemoryError) as e:
@@ -56,6 +56,25 @@ def _load(path: str, report: Report):
         report.invalid(path, [Diagnostic(path, 1, f"internal error while reading the model: "
                                                    f"{type(e).__name__}: {e} (please report)")])
     return None
+
+
+def _parse_set(ctx, param, values) -> dict:
+    """--set NAME=VALUE (repeatable) -> {NAME: VALUE text}; the validator evaluates VALUE."""
+    out = {}
+    for v in values:
+        name, eq, value = v.partition("=")
+        name = name.strip()
+        if not eq or not name or not value.strip():
+            raise click.BadParameter(f"'{v}': write NAME=VALUE, e.g. --set a=0.12")
+        out[name] = value.strip()
+    return out
+
+
+def _set_option(f):
+    return click.option("--set", "overrides", multiple=True, metavar="NAME=VALUE",
+                        callback=_parse_set,
+                        help="Override a parameter (repeatable); VALUE may be an expression of "
+                             "the parameters before NAME.")(f)
 
 
 def _out_dirs(models: tuple[str, ...], out: Path) -> dict[str, Path]:
@@ -144,14 +163,15 @@ def _analysis_options(f):
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, quiet, **analysis):
+@_set_option
+def run(models, out, no_plots, fmt, animate, quiet, overrides, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if sys.platform.startswith("linux"):
         _tune_malloc()
     report = Report(quiet)
     dirs = _out_dirs(models, Path(out))
     for path in models:
-        model = _load(path, report)
+        model = _load(path, report, overrides)
         if model is None:
             continue
         _run_one(path, model, dirs[path], report, dict(analysis),
@@ -202,14 +222,15 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
 @main.command()
 @click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def check(models, quiet):
+@_set_option
+def check(models, quiet, overrides):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
     from .assembly import assemble
     from .diagnostics import InputError
     report = Report(quiet)
     for path in models:
-        model = _load(path, report)
+        model = _load(path, report, overrides)
         if model is None:
             continue
         try:
@@ -248,7 +269,8 @@ def check(models, quiet):
               help="Runs per setting; the best time counts.")
 @click.option("--no-plots", is_flag=True, help="Skip tradeoff.png.")
 @click.option("--quiet", "-q", is_flag=True, help="Only the table.")
-def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
+@_set_option
+def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
     """Run MODEL at a range of solver settings and measure wall time against the achieved
     errors in positions, velocities and accelerations (against a tight reference run)."""
     from .diagnostics import InputError
@@ -256,7 +278,7 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     if sys.platform.startswith("linux"):
         _tune_malloc()
     report = Report(quiet)
-    model = _load(model_path, report)
+    model = _load(model_path, report, overrides)
     if model is None:
         sys.exit(report.exit_code)
     outdir = Path(out) / Path(model_path).stem

@@ -98,6 +98,7 @@ class ModelSpec:
     branch: dict[str, int] = field(default_factory=dict)   # assembly-mode hints: body -> +1/-1
     branch_lines: dict[str, int] = field(default_factory=dict)
     section_lines: dict[str, int] = field(default_factory=dict)    # top-level key -> line
+    overrides: dict[str, float] = field(default_factory=dict)      # --set NAME=VALUE, evaluated
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

@@ -46,11 +46,12 @@ def _type_name(node: Node) -> str:
 
 
 class _Validator:
-    def __init__(self, root: Node, file: str):
+    def __init__(self, root: Node, file: str, overrides: dict | None = None):
         self.root = root
         self.file = file
         self.C = Collector(file)
         self.params: dict[str, float] = {}
+        self.overrides = dict(overrides or {})
         self.body_names: list[str] = []
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
@@ -180,7 +181,9 @@ class _Validator:
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
-                         section_lines=dict(root.key_lines or {}))
+                         section_lines=dict(root.key_lines or {}),
+                         overrides={k: self.params[k] for k in self.overrides
+                                    if k in self.params})
 
     def units(self, node: Node | None):
         length, angle = "m", "rad"
@@ -193,12 +196,19 @@ class _Validator:
         return length, angle
 
     def parameters(self, node: Node | None) -> None:
-        if node is None:
-            return
-        if node.kind != "map":
+        if node is not None and node.kind != "map":
             self.err(node, f"parameters must be a mapping of names to values, not {_type_name(node)}")
             return
-        for key, val in node.value.items():
+        items = node.value.items() if node is not None else ()
+        known = [k for k, _ in items]
+        for key in self.overrides:
+            if key not in known:
+                hint = did_you_mean(key, known) or (
+                    f" (parameters: {', '.join(known)})" if known else
+                    " (the model has no parameters: section)")
+                self.err(node.line if node is not None else None,
+                         f"--set {key}: unknown parameter '{key}'{hint}")
+        for key, val in items:
             line = node.key_lines[key]
             if not self.identifier(key, line, "parameter"):
                 continue
@@ -206,9 +216,23 @@ class _Validator:
                 self.err(line, f"parameter name '{key}' is reserved (t, pi and the function "
                                f"names cannot be parameters)")
                 continue
-            x = self.number(val, f"parameter '{key}'")
+            if key in self.overrides:
+                # the override takes the place of the file's value, so every parameter and number
+                # after it is evaluated with it
+                x = self.override(key, self.overrides[key], val)
+            else:
+                x = self.number(val, f"parameter '{key}'")
             if x is not None:
                 self.params[key] = x
+
+    def override(self, key: str, value, node: Node) -> float | None:
+        """The value of parameter key given by --set / load(key=...): a number or an expression
+        of the parameters before it (reported at the parameter's line)."""
+        what = f"--set {key}={value}: parameter '{key}'"
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            self.err(node, f"{what} must be a number or an expression, not {value!r}")
+            return None
+        return self.number(Node("scalar", value, node.line, text=str(value)), what)
 
     def bodies(self, node: Node | None) -> list[BodySpec]:
         out: list[BodySpec] = []
@@ -611,6 +635,9 @@ def _target_param(kind):
     return Param(kind.target, kind.target_unit or "real", "constant")
 
 
-def validate(root: Node, file: str) -> ModelSpec:
-    """Validate the node tree of one model file; raises InputError with every problem found."""
-    return _Validator(root, file).run()
+def validate(root: Node, file: str, overrides: dict | None = None) -> ModelSpec:
+    """Validate the node tree of one model file; raises InputError with every problem found.
+
+    overrides: parameter name -> number or expression text, replacing the file's values (the
+    parameters and numbers that depend on them are evaluated with the new values)."""
+    return _Validator(root, file, overrides).run()
