@@ -310,3 +310,82 @@ def compare(new, golden, rtol, atol, show):
     for line in report(c, rtol, atol, show):
         click.echo(line, err=c.status == UNUSABLE)
     sys.exit(c.status)
+
+
+def _ranges(texts, need_count: bool):
+    from .studies.sweep import parse_range
+    out = []
+    for t in texts:
+        try:
+            out.append(parse_range(t, need_count))
+        except ValueError as e:
+            raise click.BadParameter(str(e), param_hint="'--vary'") from None
+    names = [r.name for r in out]
+    if len(set(names)) != len(names):
+        raise click.BadParameter("each parameter may be varied once", param_hint="'--vary'")
+    return out
+
+
+def _study(model_path, report, overrides, analysis, metrics, varied):
+    """The Study of a model for sweep and tolerance; None (reported) when invalid."""
+    from .diagnostics import Diagnostic, InputError
+    from .studies.variants import Study
+    try:
+        study = Study(model_path, overrides, analysis, metrics)
+    except InputError as e:
+        report.invalid(model_path, e.diagnostics)
+        return None
+    unknown = [v for v in varied if v not in study.parameters]
+    if unknown:
+        from .diagnostics import did_you_mean
+        report.invalid(model_path, [Diagnostic(model_path, None, f"unknown parameter '{u}'"
+                                               f"{did_you_mean(u, study.parameters)}")
+                                    for u in unknown])
+        return None
+    return study
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--vary", "vary", multiple=True, required=True, metavar="NAME=LO:HI:N",
+              help="A parameter's range: N values from LO to HI (repeatable: full factorial); "
+                   "with --samples, NAME=LO:HI.")
+@click.option("--samples", type=click.IntRange(1, 10**7),
+              help="Sample the ranges by a Latin hypercube of this many variants.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Seed of the Latin hypercube.")
+@click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
+              help="max, min, stroke or absmax of a column of bodies.csv, points.csv or a "
+                   "derived table, e.g. max:slider.ax (repeatable).")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
+              help="Writes DIR/<file stem>/sweep.csv (+ .parquet, + plot).")
+@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every variant.")
+@click.option("--end", type=float, help="End time, s.")
+@click.option("--no-plots", is_flag=True, help="Skip sweep.png.")
+@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
+              show_default=True, help="Plot file format.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, fmt, quiet,
+          overrides):
+    """Run variants of MODEL over parameter ranges; one row per variant in sweep.csv with the
+    parameters, the status (ok, failed with the kind and time, invalid with the reason) and the
+    metrics."""
+    from .studies.sweep import run_sweep
+    if sys.platform.startswith("linux"):
+        _tune_malloc()
+    report = Report(quiet)
+    ranges = _ranges(vary, need_count=samples is None)
+    study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
+                   [r.name for r in ranges])
+    if study is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    t0 = time.perf_counter()
+    res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
+                    plots=None if no_plots else fmt)
+    c = res.counts()
+    report.ok(model_path, f"{len(res.variants)} variants: {c['ok']} ok, {c['failed']} failed, "
+                          f"{c['invalid']} invalid, {time.perf_counter() - t0:.2f} s -> "
+                          f"{outdir}/sweep.csv")
+    sys.exit(report.exit_code)

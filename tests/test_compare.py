@@ -53,7 +53,7 @@ def test_one_ulp_scaled_column_is_caught_above_the_tolerance(golden, tmp_path):
     assert c.status == DIFFERS
     assert [(d.table, d.column) for d in c.differences] == [("bodies.csv", "coupler.ay [m/s^2]")]
     d = c.differences[0]
-    header, data = read_table(golden / "bodies.csv")
+    header, data, _ = read_table(golden / "bodies.csv")
     col = data[:, header.index("coupler.ay [m/s^2]")]
     assert d.count == np.count_nonzero(col) > 30
     assert d.t == read_table(golden / "bodies.csv")[1][d.row - 1, 0]
@@ -136,3 +136,16 @@ def test_nan_equals_nan_and_infinities_must_match(tmp_path):
     (tmp_path / "b" / "x.csv").write_text("v [m]\n1.0\nnan\n-inf\n")
     c = compare_dirs(tmp_path / "a", tmp_path / "b", rtol=1, atol=1)
     assert c.status == DIFFERS and c.differences[0].row == 3 and c.differences[0].t is None
+
+
+def test_text_columns_compare_exactly_and_empty_cells_are_nan(tmp_path):
+    for name, rows in (("a", ["1,ok,", "2,failed,0.5"]), ("b", ["1,ok,", "2,failed,0.5"])):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "sweep.csv").write_text("variant,status,m [m]\n" + "\n".join(rows)
+                                                   + "\n")
+    assert compare_dirs(tmp_path / "a", tmp_path / "b", rtol=0, atol=0).status == SAME
+    (tmp_path / "a" / "sweep.csv").write_text("variant,status,m [m]\n1,ok,\n2,invalid,0.5\n")
+    c = compare_dirs(tmp_path / "a", tmp_path / "b")
+    assert c.status == DIFFERS
+    assert c.differences[0].format() == ("sweep.csv: status at row 2: 'invalid' (new) vs "
+                                         "'failed' (golden); 1 value of the column differ")

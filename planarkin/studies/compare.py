@@ -32,13 +32,17 @@ class Difference:
     column: str
     row: int                   # 1-based data row
     t: float | None            # the row's time when the table's first column is t [s]
-    new: float
-    golden: float
+    new: float | str
+    golden: float | str
     excess: float
     count: int                 # values of the column outside the tolerance
 
     def format(self) -> str:
         where = f"t = {self.t!r} s (row {self.row})" if self.t is not None else f"row {self.row}"
+        if isinstance(self.new, str) or isinstance(self.golden, str):
+            return (f"{self.table}: {self.column} at {where}: {self.new!r} (new) vs "
+                    f"{self.golden!r} (golden); {self.count} value{'s' if self.count != 1 else ''}"
+                    f" of the column differ")
         d = abs(self.new - self.golden) if math.isfinite(self.new - self.golden) else math.inf
         rel = d / abs(self.golden) if self.golden else math.inf
         return (f"{self.table}: {self.column} at {where}: {self.new!r} (new) vs {self.golden!r} "
@@ -57,8 +61,12 @@ class Comparison:
     error: str | None = None                                      # why the input is unusable
 
 
-def read_table(path: Path) -> tuple[list[str], np.ndarray]:
-    """Header and (rows, columns) float array of a CSV table; Unusable when malformed."""
+def read_table(path: Path) -> tuple[list[str], np.ndarray, dict]:
+    """Header, (rows, columns) float array and text columns of a CSV table.
+
+    An empty cell reads as NaN. A column with a cell that is not a number is a text column
+    (sweep.csv's status and message): texts maps its index to (its cells, the file line of its
+    first non-number). Unusable when the file cannot be read or a row has the wrong length."""
     try:
         with open(path, newline="") as f:
             rows = list(csv.reader(f))
@@ -71,17 +79,20 @@ def read_table(path: Path) -> tuple[list[str], np.ndarray]:
         dup = sorted({h for h in header if header.count(h) > 1})
         raise Unusable(f"{path}:1: repeated column name {', '.join(repr(d) for d in dup)}")
     data = np.empty((len(rows) - 1, len(header)))
+    texts: dict[int, tuple[list[str], int]] = {}
     for k, row in enumerate(rows[1:]):
         if len(row) != len(header):
             raise Unusable(f"{path}:{k + 2}: {len(row)} values, the header has {len(header)}")
         try:
-            data[k] = [float(v) for v in row]
+            data[k] = [float(v) if v else math.nan for v in row]
         except ValueError:
-            bad = next(v for v in row if not _is_float(v))
-            col = header[row.index(bad)]
-            raise Unusable(f"{path}:{k + 2}: column '{col}': '{bad[:40]}' is not a number") \
-                from None
-    return header, data
+            for c, v in enumerate(row):
+                if v and not _is_float(v) and c not in texts:
+                    texts[c] = (None, k + 2)
+            data[k] = [float(v) if v and _is_float(v) else math.nan for v in row]
+    for c in texts:
+        texts[c] = ([r[c] for r in rows[1:]], texts[c][1])
+    return header, data, texts
 
 
 def _is_float(v: str) -> bool:
@@ -90,6 +101,10 @@ def _is_float(v: str) -> bool:
         return True
     except ValueError:
         return False
+
+
+def _text(x: float) -> str:
+    return "" if math.isnan(x) else repr(x)
 
 
 def _status(d: Path):
@@ -105,7 +120,7 @@ def _status(d: Path):
 
 def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: float,
                    out: Comparison) -> None:
-    (hn, a), (hg, b) = new, golden
+    (hn, a, tn), (hg, b, tg) = new, golden
     if hn != hg:
         missing = [h for h in hg if h not in hn]
         extra = [h for h in hn if h not in hg]
@@ -117,6 +132,10 @@ def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: floa
     if a.shape[0] != b.shape[0]:
         raise Unusable(f"{name}: different number of rows: {a.shape[0]} new, {b.shape[0]} "
                        f"golden")
+    for c, (_, line) in tn.items():
+        if c not in tg:
+            bad = next(v for v in tn[c][0] if v and not _is_float(v))
+            raise Unusable(f"{name}:{line}: column '{hn[c]}': '{bad[:40]}' is not a number")
     out.columns += len(hn)
     out.values += a.size
     with np.errstate(invalid="ignore", over="ignore"):
@@ -129,6 +148,16 @@ def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: floa
                                         np.inf), 0.0)
         excess[bad & np.isnan(excess)] = np.inf
     timed = bool(hn) and hn[0].startswith("t [")
+    for c, (cells, _) in tg.items():
+        # a text column (a status, a message) must match exactly
+        new_cells = tn[c][0] if c in tn else [_text(x) for x in a[:, c]]
+        wrong = [r for r, (x, y) in enumerate(zip(new_cells, cells)) if x != y]
+        bad[:, c] = False
+        if wrong:
+            r = wrong[0]
+            out.differences.append(Difference(
+                name, hn[c], r + 1, float(b[r, 0]) if timed else None, new_cells[r], cells[r],
+                math.inf, len(wrong)))
     for c in np.flatnonzero(bad.any(axis=0)):
         col = excess[:, c]
         r = int(np.argmax(np.where(bad[:, c], col, -1.0)))

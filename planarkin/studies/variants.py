@@ -1,0 +1,177 @@
+"""Variants of one model: parameter values in, status and metrics out.
+
+A `Study` reads the model file once and resolves the metrics against the nominal model; each
+variant is then validated with its overrides (so every dependent parameter and number follows),
+compiled and solved in process. A variant that cannot be assembled is 'invalid' with the
+reason; one whose analysis stops (lock-up, bifurcation) is 'failed' with the kind and time of the
+event: both are results of the study, kept in its table, never exceptions.
+
+Metrics are ``KIND:COLUMN``: KIND one of `KINDS`, COLUMN a column of bodies.csv or points.csv
+without its unit (``slider.ax``, ``P.y``) or of a derived table the model writes (forces.csv,
+measures.csv, ...), e.g. ``max:slider.ax``, ``stroke:slider.x``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..diagnostics import Diagnostic, InputError, did_you_mean
+
+KINDS = {
+    "max": "largest value over the grid",
+    "min": "smallest value over the grid",
+    "stroke": "max - min over the grid",
+    "absmax": "largest magnitude over the grid",
+}
+STATUSES = ("ok", "failed", "invalid")
+
+
+@dataclass(frozen=True)
+class Metric:
+    kind: str
+    column: str          # without unit: 'slider.ax'
+    source: str          # 'bodies.csv', 'points.csv' or a derived table's file name
+    index: int           # column in that table
+    unit: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind}:{self.column} [{self.unit}]" if self.unit else \
+            f"{self.kind}:{self.column}"
+
+    def value(self, col: np.ndarray) -> float:
+        if len(col) == 0:
+            return float("nan")
+        if self.kind == "max":
+            return float(np.max(col))
+        if self.kind == "min":
+            return float(np.min(col))
+        if self.kind == "stroke":
+            return float(np.max(col) - np.min(col))
+        return float(np.max(np.abs(col)))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One variant's result: status 'ok' | 'failed' | 'invalid'; kind: the stopping event's kind
+    (lock-up, bifurcation, ...) or '' ; t: its time, s (nan when none); message: the reason;
+    metrics: one value per metric (nan unless ok)."""
+
+    status: str
+    kind: str
+    t: float
+    message: str
+    metrics: tuple
+
+
+def tables(cm, opts):
+    """Every table a run of cm writes: file name -> (header, function(chunk) -> array)."""
+    from ..derived import derived_tables
+    from ..output.tables import Layout
+    lay = Layout(cm, opts.order)
+    out = {"bodies.csv": (lay.body_header, lay.body_table),
+           "points.csv": (lay.point_header, lay.point_table)}
+    for d in derived_tables(cm, opts):
+        out[d.filename] = (d.header, d.compute)
+    return out
+
+
+def split_unit(header: str) -> tuple[str, str]:
+    name, _, unit = header.partition(" [")
+    return name, unit[:-1] if unit.endswith("]") else unit
+
+
+def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
+    """Resolve ``KIND:COLUMN`` texts against the nominal model's tables; InputError naming the
+    metric (with a suggestion) for an unknown kind or column."""
+    cols = {}
+    for fname, (header, _) in tables(cm, opts).items():
+        for k, h in enumerate(header[1:], start=1):
+            name, unit = split_unit(h)
+            cols.setdefault(name, (fname, k, unit))
+    out, problems = [], []
+    for text in texts:
+        kind, sep, col = text.partition(":")
+        if not sep or kind not in KINDS:
+            problems.append(f"--metric {text}: write KIND:COLUMN with KIND one of "
+                            f"{', '.join(KINDS)}{did_you_mean(kind, KINDS) if sep else ''}")
+            continue
+        if col not in cols:
+            hint = did_you_mean(col, cols) or (" (columns: " + ", ".join(list(cols)[:12])
+                                               + (", ..." if len(cols) > 12 else "") + ")")
+            problems.append(f"--metric {text}: no column '{col}' in this model's tables{hint}")
+            continue
+        out.append(Metric(kind, col, *cols[col]))
+    if problems:
+        raise InputError([Diagnostic(file, None, p) for p in problems])
+    return out
+
+
+def metric_values(metrics, cm, opts, chunk) -> tuple:
+    """Metric values from a result chunk (only the tables the metrics need are computed)."""
+    if not metrics:
+        return ()
+    tabs = tables(cm, opts)
+    cache = {}
+    vals = []
+    for m in metrics:
+        if m.source not in cache:
+            cache[m.source] = tabs[m.source][1](chunk)
+        vals.append(m.value(cache[m.source][:, m.index]))
+    return tuple(vals)
+
+
+class Study:
+    """A model file read once, its nominal model, the solver options and the metrics.
+
+    overrides: fixed --set values applied to every variant (a variant's own values win);
+    analysis: Options keyword overrides (steps, end, ...); metrics: KIND:COLUMN texts.
+    Picklable (it holds the parsed file, not the compiled model), so it can be sent once to
+    worker processes or a Dask cluster.
+    """
+
+    def __init__(self, path: str, overrides: dict | None = None, analysis: dict | None = None,
+                 metrics=()):
+        from ..model.compile import compile_model
+        from ..model.validate import validate
+        from ..model.yamlread import read_file
+        from ..solver import Options
+        self.path = str(path)
+        self.overrides = dict(overrides or {})
+        self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
+        self.root = read_file(path)
+        self.nominal = compile_model(validate(self.root, self.path, self.overrides))
+        self.opts = Options.from_model(self.nominal, **self.analysis)
+        self.metrics = parse_metrics(metrics, self.nominal, self.opts, self.path)
+        self.parameters = dict(self.nominal.spec.parameters)
+
+    def model(self, values: dict):
+        """The compiled model of one variant (raises InputError)."""
+        from ..model.compile import compile_model
+        from ..model.validate import validate
+        return compile_model(validate(self.root, self.path, {**self.overrides, **values}))
+
+    def solve(self, values: dict):
+        """(Outcome, Result or None) of one variant."""
+        from ..results import analyse
+        from ..solver import Options
+        nan = float("nan")
+        none = (nan,) * len(self.metrics)
+        try:
+            cm = self.model(values)
+            opts = Options.from_model(cm, **self.analysis)
+            info, res = analyse(cm, opts)
+        except InputError as e:
+            msg = "; ".join(d.message for d in e.diagnostics if d.severity == "error")
+            return Outcome("invalid", "", nan, msg, none), None
+        if info.status != 0:
+            ev = info.event
+            return Outcome("failed", ev.kind if ev else "failure", ev.t if ev else nan,
+                           info.message, none), res
+        return Outcome("ok", "", nan, "", metric_values(self.metrics, cm, opts, res._chunk)), res
+
+    def run(self, variants) -> list[Outcome]:
+        """Outcomes of variants (dicts name -> value) in order, serially in this process."""
+        return [self.solve(v)[0] for v in variants]
