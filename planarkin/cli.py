@@ -164,12 +164,20 @@ def _analysis_options(f):
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @_set_option
-def run(models, out, no_plots, fmt, animate, quiet, overrides, **analysis):
+@click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
+              help="Models analysed at once in local processes.")
+def run(models, out, no_plots, fmt, animate, quiet, overrides, jobs, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if sys.platform.startswith("linux"):
         _tune_malloc()
     report = Report(quiet)
     dirs = _out_dirs(models, Path(out))
+    if jobs > 1 and len(models) > 1:
+        from .studies.execute import run_models
+        run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
+                   animate, jobs)
+        report.summary()
+        sys.exit(report.exit_code)
     for path in models:
         model = _load(path, report, overrides)
         if model is None:
@@ -326,6 +334,14 @@ def _ranges(texts, need_count: bool):
     return out
 
 
+def _jobs_option(f):
+    f = click.option("--scheduler", metavar="tcp://HOST:8786",
+                     help="Run the variants on this Dask distributed scheduler "
+                          "(pip install 'planarkin[dask]').")(f)
+    return click.option("--jobs", "-j", type=click.IntRange(1, 1024),
+                        help="Local processes (default: the number of cores).")(f)
+
+
 def _study(model_path, report, overrides, analysis, metrics, varied):
     """The Study of a model for sweep and tolerance; None (reported) when invalid."""
     from .diagnostics import Diagnostic, InputError
@@ -366,8 +382,9 @@ def _study(model_path, report, overrides, analysis, metrics, varied):
               show_default=True, help="Plot file format.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @_set_option
+@_jobs_option
 def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, fmt, quiet,
-          overrides):
+          overrides, jobs, scheduler):
     """Run variants of MODEL over parameter ranges; one row per variant in sweep.csv with the
     parameters, the status (ok, failed with the kind and time, invalid with the reason) and the
     metrics."""
@@ -382,10 +399,93 @@ def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, f
         sys.exit(report.exit_code)
     outdir = Path(out) / Path(model_path).stem
     t0 = time.perf_counter()
+    from .studies.execute import executor
     res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
-                    plots=None if no_plots else fmt)
+                    plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
     c = res.counts()
     report.ok(model_path, f"{len(res.variants)} variants: {c['ok']} ok, {c['failed']} failed, "
                           f"{c['invalid']} invalid, {time.perf_counter() - t0:.2f} s -> "
                           f"{outdir}/sweep.csv")
+    sys.exit(report.exit_code)
+
+
+def _sigmas(texts) -> dict:
+    out = {}
+    for t in texts:
+        name, eq, value = t.partition("=")
+        name = name.strip()
+        try:
+            v = float(value)
+        except ValueError:
+            v = None
+        if not eq or not name or v is None or not (v >= 0 and v < float("inf")):
+            raise click.BadParameter(f"'{t}': write NAME=SIGMA with SIGMA a number >= 0, e.g. "
+                                     f"a=0.05e-3", param_hint="'--sigma'")
+        if name in out:
+            raise click.BadParameter(f"'{name}' is given twice", param_hint="'--sigma'")
+        out[name] = v
+    return out
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--sigma", "sigma", multiple=True, required=True, metavar="NAME=SIGMA",
+              help="Standard deviation of a parameter, in its unit (repeatable).")
+@click.option("--samples", type=click.IntRange(2, 10**7), default=1000, show_default=True,
+              help="Monte-Carlo samples.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Seed of the random draws (the same seed gives the same results bit for bit).")
+@click.option("--dist", type=click.Choice(("normal", "uniform")), default="normal",
+              show_default=True,
+              help="Deviations: normal, or uniform with the same standard deviation.")
+@click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
+              help="Outputs: max, min, stroke, absmax of a column (as for sweep) or dev:POINT, the "
+                   "largest distance of a point's path from nominal (default: dev of every point).")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
+              help="Writes DIR/<file stem>/tolerance.csv, samples.csv, sensitivities.csv.")
+@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every sample.")
+@click.option("--end", type=float, help="End time, s.")
+@click.option("--no-plots", is_flag=True, help="Skip tolerance.png.")
+@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
+              show_default=True, help="Plot file format.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+@_jobs_option
+def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, no_plots, fmt,
+              quiet, overrides, jobs, scheduler):
+    """Monte-Carlo tolerance analysis of MODEL: the distribution of the outputs under random
+    deviations of the parameters, and their exact first-order sensitivities."""
+    from .diagnostics import InputError
+    from .studies.tolerance import run_tolerance, summary_lines
+    if sys.platform.startswith("linux"):
+        _tune_malloc()
+    report = Report(quiet)
+    sig = _sigmas(sigma)
+    if not metrics:
+        from .model.yamlread import read_file
+        try:
+            pts = read_file(model_path).value.get("points")
+            metrics = tuple(f"dev:{p}" for p in (pts.value if pts is not None and
+                                                 pts.kind == "map" else ()))
+        except Exception:  # noqa: BLE001 - the Study below reports the file's problems
+            metrics = ()
+    study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
+                   list(sig))
+    if study is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    t0 = time.perf_counter()
+    try:
+        from .studies.execute import executor
+        res = run_tolerance(study, sig, outdir, samples, seed=seed, dist=dist,
+                            plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+    except InputError as e:
+        report.invalid(model_path, e.diagnostics)
+        sys.exit(report.exit_code)
+    if not quiet:
+        for line in summary_lines(res, study):
+            click.echo(line)
+    failed = sum(1 for o in res.outcomes if o.status != "ok")
+    report.ok(model_path, f"{samples} samples, {failed} failed, {time.perf_counter() - t0:.2f} s "
+                          f"-> {outdir}/tolerance.csv")
     sys.exit(report.exit_code)

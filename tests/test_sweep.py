@@ -99,6 +99,7 @@ def test_latin_hypercube_is_seeded_and_stratified():
         assert sorted(np.floor(u * 50).astype(int)) == list(range(50))   # one per stratum
 
 
+@pytest.mark.slow
 def test_cli_sweep_writes_table_and_plot(tmp_path):
     r = run_cli("sweep", FB, "--vary", "a=0.03:0.05:3", "--metric", "max:rocker.phi",
                 "--out", tmp_path, "--steps", "24")

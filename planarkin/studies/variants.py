@@ -24,6 +24,7 @@ KINDS = {
     "min": "smallest value over the grid",
     "stroke": "max - min over the grid",
     "absmax": "largest magnitude over the grid",
+    "dev": "largest distance of a point's path from its nominal path, at the same times",
 }
 STATUSES = ("ok", "failed", "invalid")
 
@@ -42,6 +43,7 @@ class Metric:
             f"{self.kind}:{self.column}"
 
     def value(self, col: np.ndarray) -> float:
+        """The metric of one column over the grid (for dev: the (N,) distances)."""
         if len(col) == 0:
             return float("nan")
         if self.kind == "max":
@@ -51,6 +53,13 @@ class Metric:
         if self.kind == "stroke":
             return float(np.max(col) - np.min(col))
         return float(np.max(np.abs(col)))
+
+    @property
+    def position(self) -> bool:
+        """Whether the column is a position (x, y, phi of a body or x, y of a point): the
+        quantities with exact sensitivities."""
+        return self.source in ("bodies.csv", "points.csv") and \
+            self.column.rsplit(".", 1)[-1] in ("x", "y", "phi") and self.kind != "dev"
 
 
 @dataclass(frozen=True)
@@ -94,6 +103,15 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
     out, problems = [], []
     for text in texts:
         kind, sep, col = text.partition(":")
+        if kind == "dev" and sep:
+            if col not in cm.point_names:
+                hint = did_you_mean(col, cm.point_names) or \
+                    f" (points: {', '.join(cm.point_names) or 'none'})"
+                problems.append(f"--metric {text}: dev needs a point name, not '{col}'{hint}")
+                continue
+            out.append(Metric("dev", col, "points.csv", list(cm.point_names).index(col),
+                              cm.spec.length_unit))
+            continue
         if not sep or kind not in KINDS:
             problems.append(f"--metric {text}: write KIND:COLUMN with KIND one of "
                             f"{', '.join(KINDS)}{did_you_mean(kind, KINDS) if sep else ''}")
@@ -109,14 +127,22 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
     return out
 
 
-def metric_values(metrics, cm, opts, chunk) -> tuple:
-    """Metric values from a result chunk (only the tables the metrics need are computed)."""
+def metric_values(metrics, cm, opts, chunk, reference=None) -> tuple:
+    """Metric values from a result chunk (only the tables the metrics need are computed).
+    reference: (N, P, 2) nominal point positions, for dev metrics."""
     if not metrics:
         return ()
     tabs = tables(cm, opts)
     cache = {}
     vals = []
     for m in metrics:
+        if m.kind == "dev":
+            if chunk.p.shape != reference.shape:      # another grid (analysis: uses parameters)
+                vals.append(float("nan"))
+                continue
+            d = chunk.p[:, m.index] - reference[:, m.index]
+            vals.append(m.value(np.hypot(d[:, 0], d[:, 1])))
+            continue
         if m.source not in cache:
             cache[m.source] = tabs[m.source][1](chunk)
         vals.append(m.value(cache[m.source][:, m.index]))
@@ -146,6 +172,29 @@ class Study:
         self.opts = Options.from_model(self.nominal, **self.analysis)
         self.metrics = parse_metrics(metrics, self.nominal, self.opts, self.path)
         self.parameters = dict(self.nominal.spec.parameters)
+        from .warm import CHAIN
+        self.chain = CHAIN              # variants per chain (the unit of work of a process)
+        self.reference = None
+        if any(m.kind == "dev" for m in self.metrics):
+            self.nominal_result = self._nominal()
+            self.reference = self.nominal_result.p
+
+    def _nominal(self):
+        from ..results import analyse
+        info, res = analyse(self.nominal, self.opts)
+        if info.status != 0:
+            raise InputError([Diagnostic(self.path, None, f"the nominal model fails: "
+                                                         f"{info.message}")])
+        return res
+
+    def texts(self) -> dict:
+        """The text of every parameter as used: the override's where one is given."""
+        node = self.root.value.get("parameters")
+        out = {}
+        for k, n in (node.value.items() if node is not None else ()):
+            v = self.overrides.get(k, n.value)
+            out[k] = v if isinstance(v, str) else float(v)
+        return out
 
     def model(self, values: dict):
         """The compiled model of one variant (raises InputError)."""
@@ -153,25 +202,53 @@ class Study:
         from ..model.validate import validate
         return compile_model(validate(self.root, self.path, {**self.overrides, **values}))
 
-    def solve(self, values: dict):
-        """(Outcome, Result or None) of one variant."""
+    def solve(self, values: dict, start=None, warm: bool = False):
+        """(Outcome, Result or None) of one variant; with warm, (Outcome, Result, Start for the
+        next variant) started from a neighbour's Start when one is given (studies.warm)."""
         from ..results import analyse
         from ..solver import Options
+        from . import warm as _warm
         nan = float("nan")
         none = (nan,) * len(self.metrics)
+        nxt = None
         try:
             cm = self.model(values)
             opts = Options.from_model(cm, **self.analysis)
-            info, res = analyse(cm, opts)
+            if warm:
+                info, res, nxt, _ = _warm.analyse(cm, opts, start)
+            else:
+                info, res = analyse(cm, opts)
         except InputError as e:
             msg = "; ".join(d.message for d in e.diagnostics if d.severity == "error")
-            return Outcome("invalid", "", nan, msg, none), None
+            out = Outcome("invalid", "", nan, msg, none), None
+            return out + (None,) if warm else out
+        out = self._outcome(cm, opts, info, res)
+        return out + (nxt,) if warm else out
+
+    def _outcome(self, cm, opts, info, res):
+        nan = float("nan")
+        none = (nan,) * len(self.metrics)
         if info.status != 0:
             ev = info.event
             return Outcome("failed", ev.kind if ev else "failure", ev.t if ev else nan,
                            info.message, none), res
-        return Outcome("ok", "", nan, "", metric_values(self.metrics, cm, opts, res._chunk)), res
+        return Outcome("ok", "", nan, "", metric_values(self.metrics, cm, opts, res._chunk,
+                                                        self.reference)), res
 
     def run(self, variants) -> list[Outcome]:
-        """Outcomes of variants (dicts name -> value) in order, serially in this process."""
-        return [self.solve(v)[0] for v in variants]
+        """Outcomes of variants (dicts name -> value) in order, serially in this process, chain
+        by chain (studies.warm.chains: each variant started from its predecessor in the
+        chain)."""
+        from .warm import chains
+        out = []
+        for ch in chains(len(variants), self.chain):
+            out += self.run_chain([variants[i] for i in ch])
+        return out
+
+    def run_chain(self, variants) -> list[Outcome]:
+        """Outcomes of one chain of variants, each started from its predecessor's solution."""
+        out, start = [], None
+        for v in variants:
+            o, _, start = self.solve(v, start, warm=True)
+            out.append(o)
+        return out
