@@ -124,3 +124,17 @@ def test_cli_sweep_usage_and_input_errors(tmp_path):
     assert r.exit_code == 2 and "give the number of values" in r.stderr
     r = run("--vary", "a=0.03:0.05:2", "--vary", "a=1:2:2")
     assert r.exit_code == 2 and "each parameter may be varied once" in r.stderr
+
+
+def test_sweep_parquet_holds_the_same_table(tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    study = Study(FB, analysis={"steps": 12}, metrics=["max:rocker.phi"])
+    res = run_sweep(study, [Range("a", 0.04, 0.08, 2)], tmp_path, plots=None)
+    assert tmp_path / "sweep.parquet" in res.files
+    t = pq.read_table(tmp_path / "sweep.parquet").to_pydict()
+    with open(tmp_path / "sweep.csv") as f:
+        rows = list(csv.reader(f))
+    assert list(t) == rows[0]
+    assert t["status"] == ["ok", "invalid"] and t["a"] == [0.04, 0.08]
+    assert t["max:rocker.phi [deg]"][0] == float(rows[1][-1])
+    assert math.isnan(t["max:rocker.phi [deg]"][1])
