@@ -4,7 +4,8 @@ run's results bit for bit; run --jobs gives the same directories."""
 import pytest
 
 from clitools import run_cli
-from planarkin.studies.execute import chains, executor, run_dask
+from planarkin.studies.execute import executor, run_dask
+from planarkin.studies.warm import chains
 from planarkin.studies.sweep import Range, factorial
 from planarkin.studies.variants import Study
 

@@ -160,7 +160,12 @@ def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: floa
                 math.inf, len(wrong)))
     for c in np.flatnonzero(bad.any(axis=0)):
         col = excess[:, c]
-        r = int(np.argmax(np.where(bad[:, c], col, -1.0)))
+        key = np.where(bad[:, c], col, -1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # among equal excesses (nothing allowed: all infinite) the largest relative one
+            rel = np.where(key == key.max(), diff[:, c] / np.abs(b[:, c]), -1.0)
+        rel = np.nan_to_num(rel, nan=np.inf, posinf=np.inf)
+        r = int(np.argmax(rel))
         out.differences.append(Difference(
             name, hn[c], r + 1, float(b[r, 0]) if timed else None, float(a[r, c]),
             float(b[r, c]), float(col[r]), int(bad[:, c].sum())))

@@ -1,7 +1,7 @@
 """Where the variants of a study run: this process, local processes, or a Dask cluster.
 
-The unit of work is a chain of variants (studies.warm.chains): each chain is solved the same
-way wherever it runs, so the results of `--jobs N` and `--scheduler` equal the serial run's bit
+The unit of work is a group of chains of variants (Study.units): each is solved the same way
+wherever it runs, so the results of `--jobs N` and `--scheduler` equal the serial run's bit
 for bit. The Study (the parsed file, the nominal model, the metrics) is sent once per worker
 process (Pool initializer) or scattered once to the cluster; each task gets a chain's variants
 and returns its outcomes, collected in variant order.
@@ -10,8 +10,6 @@ and returns its outcomes, collected in variant order.
 from __future__ import annotations
 
 import os
-
-from .warm import chains
 
 _STUDY = None       # the worker process's Study (set once by the Pool initializer)
 
@@ -28,12 +26,12 @@ def _init(study) -> None:
     _STUDY = study
 
 
-def _chain(variants):
-    return _STUDY.run_chain(variants)
+def _unit(unit):
+    return _STUDY.run_unit(unit)
 
 
-def _dask_chain(study, variants):
-    return study.run_chain(variants)
+def _dask_unit(study, unit):
+    return study.run_unit(unit)
 
 
 def executor(jobs: int | None = None, scheduler: str | None = None):
@@ -50,13 +48,13 @@ def executor(jobs: int | None = None, scheduler: str | None = None):
 
 def run_processes(study, variants, jobs: int):
     import multiprocessing as mp
-    parts = [[variants[i] for i in ch] for ch in chains(len(variants), study.chain)]
+    parts = study.units(variants)          # prepares the batched solver before the fork
     if len(parts) <= 1:
         return study.run(variants)
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     out = []
     with ctx.Pool(min(jobs, len(parts)), initializer=_init, initargs=(study,)) as pool:
-        for res in pool.imap(_chain, parts):        # in order, as they arrive
+        for res in pool.imap(_unit, parts):        # in order, as they arrive
             out += res
     return out
 
@@ -70,9 +68,9 @@ def run_dask(study, variants, scheduler):
     own = not isinstance(scheduler, Client)
     client = Client(scheduler) if own else scheduler
     try:
+        units = study.units(variants)
         [remote] = client.scatter([study], broadcast=True)
-        futures = [client.submit(_dask_chain, remote, [variants[i] for i in ch], pure=False)
-                   for ch in chains(len(variants), study.chain)]
+        futures = [client.submit(_dask_unit, remote, u, pure=False) for u in units]
         out = []
         for f in futures:                           # in order
             out += f.result()

@@ -173,7 +173,9 @@ class Study:
         self.metrics = parse_metrics(metrics, self.nominal, self.opts, self.path)
         self.parameters = dict(self.nominal.spec.parameters)
         from .warm import CHAIN
-        self.chain = CHAIN              # variants per chain (the unit of work of a process)
+        from .batch import GROUP
+        self.chain = CHAIN              # variants per chain
+        self.group = GROUP              # chains per unit of work when batched
         self.reference = None
         if any(m.kind == "dev" for m in self.metrics):
             self.nominal_result = self._nominal()
@@ -235,14 +237,43 @@ class Study:
         return Outcome("ok", "", nan, "", metric_values(self.metrics, cm, opts, res._chunk,
                                                         self.reference)), res
 
-    def run(self, variants) -> list[Outcome]:
-        """Outcomes of variants (dicts name -> value) in order, serially in this process, chain
-        by chain (studies.warm.chains: each variant started from its predecessor in the
-        chain)."""
+    def units(self, variants) -> list[list[list[dict]]]:
+        """The variants as units of work: groups of chains (studies.warm.chains), GROUP chains
+        per unit when the study can be batched (studies.batch), else one chain per unit. A
+        unit's outcomes do not depend on where it runs."""
         from .warm import chains
+        chs = [[variants[i] for i in ch] for ch in chains(len(variants), self.chain)]
+        per = self.group if self.batch(variants) is not None else 1
+        return [chs[k:k + per] for k in range(0, len(chs), per)]
+
+    def batch(self, variants):
+        """The batched solver for these variants' parameter names, or None (cached)."""
+        from .batch import Batch, Unsupported
+        keys = tuple(sorted({k for v in variants for k in v}))
+        if not keys or any(set(v) != set(keys) for v in variants):
+            return None
+        cache = self.__dict__.setdefault("_batches", {})
+        if keys not in cache:
+            try:
+                cache[keys] = Batch(self, list(keys))
+            except (Unsupported, InputError):
+                cache[keys] = None
+        return cache[keys]
+
+    def run_unit(self, unit) -> list[Outcome]:
+        """Outcomes of one unit (a list of chains of variants), in order."""
+        flat = [v for ch in unit for v in ch]
+        B = self.batch(flat)
+        if B is not None:
+            return [o for ch in B.run_group(unit) for o in ch]
+        return [o for ch in unit for o in self.run_chain(ch)]
+
+    def run(self, variants) -> list[Outcome]:
+        """Outcomes of variants (dicts name -> value) in order, serially in this process, unit
+        by unit (see `units`)."""
         out = []
-        for ch in chains(len(variants), self.chain):
-            out += self.run_chain([variants[i] for i in ch])
+        for unit in self.units(variants):
+            out += self.run_unit(unit)
         return out
 
     def run_chain(self, variants) -> list[Outcome]:
