@@ -60,3 +60,13 @@ def test_batched_units_in_processes_equal_the_serial_run_bit_for_bit(study):
 def test_what_the_batch_does_not_take(study):
     with pytest.raises(batchmod.Unsupported, match="coarser than the path follower"):
         batchmod.Batch(Study(FB, analysis={"steps": 12}), ["a"])
+
+
+def test_a_parameter_reaching_the_analysis_settings_is_not_batched(tmp_path):
+    text = open(FB).read().replace("d: 0.10 ", "d: 0.10\n  T: 1 ").replace(
+        "analysis: {start: 0, end: 1, steps: 360}", "analysis: {start: 0, end: T, steps: 360}")
+    path = tmp_path / "fb.yaml"
+    path.write_text(text)
+    with pytest.raises(batchmod.Unsupported, match="analysis settings"):
+        batchmod.Batch(Study(str(path)), ["T"])
+    assert Study(str(path)).batch([{"T": 1.0}]) is None

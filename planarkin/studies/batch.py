@@ -86,12 +86,14 @@ class Batch:
                 dep.add(k)
         self.dep = dep
         self.L, self.af = cm.L, cm.angle_factor
+        uses = lambda node: node is not None and self._depends(node)
         A = assemble(cm)
         if A.redundant_rows:
             raise Unsupported("redundant constraints")
         self.S = A.system
+        if uses(root.value.get("analysis")):
+            raise Unsupported("a varied parameter reaches the analysis settings")
         sections = {"joint": root.value.get("joints"), "driver": root.value.get("drivers")}
-        uses = lambda node: node is not None and self._depends(node)
         # per group, per parameter: the (instance, component, Expr, scale) that vary
         self.gvar = []
         self.tvar = []          # (row, Expr, scale): joint constants

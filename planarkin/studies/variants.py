@@ -154,8 +154,8 @@ class Study:
 
     overrides: fixed --set values applied to every variant (a variant's own values win);
     analysis: Options keyword overrides (steps, end, ...); metrics: KIND:COLUMN texts.
-    Picklable (it holds the parsed file, not the compiled model), so it can be sent once to
-    worker processes or a Dask cluster.
+    Picklable (the parsed file, the nominal model, the batched solver once built), so it is
+    sent once to worker processes or a Dask cluster.
     """
 
     def __init__(self, path: str, overrides: dict | None = None, analysis: dict | None = None,
@@ -257,6 +257,8 @@ class Study:
             try:
                 cache[keys] = Batch(self, list(keys))
             except (Unsupported, InputError):
+                cache[keys] = None
+            except Exception:  # noqa: BLE001 - a model the batch cannot take runs per variant
                 cache[keys] = None
         return cache[keys]
 
