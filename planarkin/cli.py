@@ -372,7 +372,8 @@ def _study(model_path, report, overrides, analysis, metrics, varied):
               help="Seed of the Latin hypercube.")
 @click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
               help="max, min, stroke or absmax of a column of bodies.csv, points.csv or a "
-                   "derived table, e.g. max:slider.ax (repeatable).")
+                   "derived table, e.g. max:slider.ax, or dev:POINT, the largest distance of a "
+                   "point's path from nominal (repeatable).")
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Writes DIR/<file stem>/sweep.csv (+ .parquet, + plot).")
 @click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every variant.")
