@@ -23,15 +23,18 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
-def load(path, text: str | None = None):
+def load(path, text: str | None = None, **overrides):
     """Read, validate and compile a model file. Raises planarkin.InputError (with every
-    FILE:LINE diagnostic) for invalid input. Returns the compiled model."""
+    FILE:LINE diagnostic) for invalid input. Returns the compiled model.
+
+    overrides: parameter values replacing the file's, ``load(path, a=0.12, b="3*a")`` (a number
+    or an expression of earlier parameters); every number that depends on them follows."""
     from .model.compile import compile_model
     from .model.validate import validate
     from .model.yamlread import read_file, read_yaml
     name = str(path)
     root = read_yaml(text, name) if text is not None else read_file(path)
-    return compile_model(validate(root, name))
+    return compile_model(validate(root, name, overrides))
 
 
 def solve(model, **options):

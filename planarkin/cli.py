@@ -39,12 +39,12 @@ def _tune_malloc() -> None:
 
 
 
-def _load(path: str, report: Report):
+def _load(path: str, report: Report, overrides: dict | None = None):
     """Read, validate, compile; report diagnostics. Returns the model or None."""
     from .diagnostics import Diagnostic, InputError
     from . import load
     try:
-        model = load(path)
+        model = load(path, **(overrides or {}))
         report.diagnostics(model.spec.warnings)
         return model
     except InputError as e:
@@ -56,6 +56,25 @@ def _load(path: str, report: Report):
         report.invalid(path, [Diagnostic(path, 1, f"internal error while reading the model: "
                                                    f"{type(e).__name__}: {e} (please report)")])
     return None
+
+
+def _parse_set(ctx, param, values) -> dict:
+    """--set NAME=VALUE (repeatable) -> {NAME: VALUE text}; the validator evaluates VALUE."""
+    out = {}
+    for v in values:
+        name, eq, value = v.partition("=")
+        name = name.strip()
+        if not eq or not name or not value.strip():
+            raise click.BadParameter(f"'{v}': write NAME=VALUE, e.g. --set a=0.12")
+        out[name] = value.strip()
+    return out
+
+
+def _set_option(f):
+    return click.option("--set", "overrides", multiple=True, metavar="NAME=VALUE",
+                        callback=_parse_set,
+                        help="Override a parameter (repeatable); VALUE may be an expression of "
+                             "the parameters before NAME.")(f)
 
 
 class _Progress:
@@ -141,7 +160,11 @@ def _analysis_options(f):
               help="Also print the cycle figures of the measures (limit positions, stroke, time "
                    "ratio).")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, quiet, report_what=None, **analysis):
+@_set_option
+@click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
+              help="Models analysed at once in local processes.")
+def run(models, out, no_plots, fmt, animate, quiet, overrides, jobs, report_what=None,
+        **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     from .output.directory import Interrupted, check_writable, interruptible, out_dirs
     if sys.platform.startswith("linux"):
@@ -152,8 +175,14 @@ def run(models, out, no_plots, fmt, animate, quiet, report_what=None, **analysis
             problem = check_writable(Path(out))
             if problem is not None:
                 raise click.BadParameter(problem, param_hint="'--out'")
-            for path, outdir in zip(models, out_dirs(models, Path(out))):
-                model = _load(path, report)
+            dirs = out_dirs(models, Path(out))
+            if jobs > 1 and len(models) > 1:
+                from .studies.execute import run_models
+                run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
+                           animate, jobs)
+                models = ()
+            for path, outdir in zip(models, dirs):
+                model = _load(path, report, overrides)
                 if model is not None:
                     _run_one(path, model, outdir, report, dict(analysis),
                              None if no_plots else fmt, animate, cycle=report_what == "cycle")
@@ -254,14 +283,15 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @click.option("--derived", is_flag=True,
               help="Also print each model's body/joint form (YAML), as derived from a sketch.")
-def check(models, quiet, derived):
+@_set_option
+def check(models, quiet, derived, overrides):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
     from .assembly import assemble
     from .diagnostics import InputError
     report = Report(quiet)
     for path in models:
-        model = _load(path, report)
+        model = _load(path, report, overrides)
         if model is None:
             continue
         try:
@@ -310,7 +340,8 @@ def check(models, quiet, derived):
               help="Runs per setting; the best time counts.")
 @click.option("--no-plots", is_flag=True, help="Skip tradeoff.png.")
 @click.option("--quiet", "-q", is_flag=True, help="Only the table.")
-def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
+@_set_option
+def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
     """Run MODEL at a range of solver settings and measure wall time against the achieved
     errors in positions, velocities and accelerations (against a tight reference run)."""
     from .diagnostics import InputError
@@ -318,7 +349,7 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
     if sys.platform.startswith("linux"):
         _tune_malloc()
     report = Report(quiet)
-    model = _load(model_path, report)
+    model = _load(model_path, report, overrides)
     if model is None:
         sys.exit(report.exit_code)
     from .options import resolve
@@ -336,4 +367,196 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet):
         sys.exit(report.exit_code)
     click.echo(table)
     report.ok(model_path, f"-> {outdir}/tradeoff.csv")
+    sys.exit(report.exit_code)
+
+
+@main.command()
+@click.argument("new", type=click.Path())
+@click.argument("golden", type=click.Path())
+@click.option("--rtol", type=click.FloatRange(min=0), default=1e-9, show_default=True,
+              help="Relative tolerance: |new - golden| <= atol + rtol |golden|.")
+@click.option("--atol", type=click.FloatRange(min=0), default=1e-12, show_default=True,
+              help="Absolute tolerance, in each column's unit.")
+@click.option("--show", type=click.IntRange(0), default=10, show_default=True,
+              help="How many of the worst differing columns to print.")
+def compare(new, golden, rtol, atol, show):
+    """Compare result directory NEW against GOLDEN column by column (every CSV table and
+    summary.json's status). Exit status: 0 same within the tolerances, 1 differs, 2 unusable
+    input (missing directory or table, malformed CSV, different columns or rows)."""
+    from .studies.compare import UNUSABLE, compare_dirs, report
+    c = compare_dirs(new, golden, rtol=rtol, atol=atol)
+    for line in report(c, rtol, atol, show):
+        click.echo(line, err=c.status == UNUSABLE)
+    sys.exit(c.status)
+
+
+def _ranges(texts, need_count: bool):
+    from .studies.sweep import parse_range
+    out = []
+    for t in texts:
+        try:
+            out.append(parse_range(t, need_count))
+        except ValueError as e:
+            raise click.BadParameter(str(e), param_hint="'--vary'") from None
+    names = [r.name for r in out]
+    if len(set(names)) != len(names):
+        raise click.BadParameter("each parameter may be varied once", param_hint="'--vary'")
+    return out
+
+
+def _jobs_option(f):
+    f = click.option("--scheduler", metavar="tcp://HOST:8786",
+                     help="Run the variants on this Dask distributed scheduler "
+                          "(pip install 'planarkin[dask]').")(f)
+    return click.option("--jobs", "-j", type=click.IntRange(1, 1024),
+                        help="Local processes (default: the number of cores).")(f)
+
+
+def _study(model_path, report, overrides, analysis, metrics, varied):
+    """The Study of a model for sweep and tolerance; None (reported) when invalid."""
+    from .diagnostics import Diagnostic, InputError
+    from .studies.variants import Study
+    try:
+        study = Study(model_path, overrides, analysis, metrics)
+    except InputError as e:
+        report.invalid(model_path, e.diagnostics)
+        return None
+    unknown = [v for v in varied if v not in study.parameters]
+    if unknown:
+        from .diagnostics import did_you_mean
+        report.invalid(model_path, [Diagnostic(model_path, None, f"unknown parameter '{u}'"
+                                               f"{did_you_mean(u, study.parameters)}")
+                                    for u in unknown])
+        return None
+    return study
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--vary", "vary", multiple=True, required=True, metavar="NAME=LO:HI:N",
+              help="A parameter's range: N values from LO to HI (repeatable: full factorial); "
+                   "with --samples, NAME=LO:HI.")
+@click.option("--samples", type=click.IntRange(1, 10**7),
+              help="Sample the ranges by a Latin hypercube of this many variants.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Seed of the Latin hypercube.")
+@click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
+              help="max, min, stroke or absmax of a column of bodies.csv, points.csv or a "
+                   "derived table, e.g. max:slider.ax, or dev:POINT, the largest distance of a "
+                   "point's path from nominal (repeatable).")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
+              help="Writes DIR/<file stem>/sweep.csv (+ .parquet, + plot).")
+@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every variant.")
+@click.option("--end", type=float, help="End time, s.")
+@click.option("--no-plots", is_flag=True, help="Skip sweep.png.")
+@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
+              show_default=True, help="Plot file format.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+@_jobs_option
+def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, fmt, quiet,
+          overrides, jobs, scheduler):
+    """Run variants of MODEL over parameter ranges; one row per variant in sweep.csv with the
+    parameters, the status (ok, failed with the kind and time, invalid with the reason) and the
+    metrics."""
+    from .studies.sweep import run_sweep
+    if sys.platform.startswith("linux"):
+        _tune_malloc()
+    report = Report(quiet)
+    ranges = _ranges(vary, need_count=samples is None)
+    study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
+                   [r.name for r in ranges])
+    if study is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    t0 = time.perf_counter()
+    from .studies.execute import executor
+    res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
+                    plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+    c = res.counts()
+    report.ok(model_path, f"{len(res.variants)} variants: {c['ok']} ok, {c['failed']} failed, "
+                          f"{c['invalid']} invalid, {time.perf_counter() - t0:.2f} s -> "
+                          f"{outdir}/sweep.csv")
+    sys.exit(report.exit_code)
+
+
+def _sigmas(texts) -> dict:
+    out = {}
+    for t in texts:
+        name, eq, value = t.partition("=")
+        name = name.strip()
+        try:
+            v = float(value)
+        except ValueError:
+            v = None
+        if not eq or not name or v is None or not (v >= 0 and v < float("inf")):
+            raise click.BadParameter(f"'{t}': write NAME=SIGMA with SIGMA a number >= 0, e.g. "
+                                     f"a=0.05e-3", param_hint="'--sigma'")
+        if name in out:
+            raise click.BadParameter(f"'{name}' is given twice", param_hint="'--sigma'")
+        out[name] = v
+    return out
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--sigma", "sigma", multiple=True, required=True, metavar="NAME=SIGMA",
+              help="Standard deviation of a parameter, in its unit (repeatable).")
+@click.option("--samples", type=click.IntRange(2, 10**7), default=1000, show_default=True,
+              help="Monte-Carlo samples.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Seed of the random draws (the same seed gives the same results bit for bit).")
+@click.option("--dist", type=click.Choice(("normal", "uniform")), default="normal",
+              show_default=True,
+              help="Deviations: normal, or uniform with the same standard deviation.")
+@click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
+              help="Outputs: max, min, stroke, absmax of a column (as for sweep) or dev:POINT, the "
+                   "largest distance of a point's path from nominal (default: dev of every point).")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
+              help="Writes DIR/<file stem>/tolerance.csv, samples.csv, sensitivities.csv.")
+@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every sample.")
+@click.option("--end", type=float, help="End time, s.")
+@click.option("--no-plots", is_flag=True, help="Skip tolerance.png.")
+@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
+              show_default=True, help="Plot file format.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+@_jobs_option
+def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, no_plots, fmt,
+              quiet, overrides, jobs, scheduler):
+    """Monte-Carlo tolerance analysis of MODEL: the distribution of the outputs under random
+    deviations of the parameters, and their exact first-order sensitivities."""
+    from .diagnostics import InputError
+    from .studies.tolerance import run_tolerance, summary_lines
+    if sys.platform.startswith("linux"):
+        _tune_malloc()
+    report = Report(quiet)
+    sig = _sigmas(sigma)
+    if not metrics:
+        from .model.yamlread import read_file
+        try:
+            pts = read_file(model_path).value.get("points")
+            metrics = tuple(f"dev:{p}" for p in (pts.value if pts is not None and
+                                                 pts.kind == "map" else ()))
+        except Exception:  # noqa: BLE001 - the Study below reports the file's problems
+            metrics = ()
+    study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
+                   list(sig))
+    if study is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    t0 = time.perf_counter()
+    try:
+        from .studies.execute import executor
+        res = run_tolerance(study, sig, outdir, samples, seed=seed, dist=dist,
+                            plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+    except InputError as e:
+        report.invalid(model_path, e.diagnostics)
+        sys.exit(report.exit_code)
+    if not quiet:
+        for line in summary_lines(res, study):
+            click.echo(line)
+    failed = sum(1 for o in res.outcomes if o.status != "ok")
+    report.ok(model_path, f"{samples} samples, {failed} failed, {time.perf_counter() - t0:.2f} s "
+                          f"-> {outdir}/tolerance.csv")
     sys.exit(report.exit_code)

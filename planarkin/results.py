@@ -306,6 +306,8 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "columns": {"bodies.csv": body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
     }
+    if spec.overrides:
+        out["overrides"] = dict(spec.overrides)
     if point_stats is not None:
         out["columns"]["points.csv"] = point_stats.as_dict()
     if wall is not None:

@@ -104,6 +104,7 @@ class ModelSpec:
     warnings: tuple = ()               # Diagnostics of severity 'warning' found while validating
     forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
     measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
+    overrides: dict[str, float] = field(default_factory=dict)      # --set NAME=VALUE, evaluated
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

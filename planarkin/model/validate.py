@@ -49,11 +49,12 @@ def _type_name(node: Node) -> str:
 
 
 class _Validator:
-    def __init__(self, root: Node, file: str):
+    def __init__(self, root: Node, file: str, overrides: dict | None = None):
         self.root = root
         self.file = file
         self.C = Collector(file)
         self.params: dict[str, float] = {}
+        self.overrides = dict(overrides or {})
         self.body_names: list[str] = []
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
@@ -202,6 +203,8 @@ class _Validator:
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
                          section_lines=dict(root.key_lines or {}), forces=forces, measures=measures,
+                         overrides={k: self.params[k] for k in self.overrides
+                                    if k in self.params},
                          warnings=tuple(d for d in self.C.items if d.severity == "warning"))
 
     def angle_units(self, bodies: list[BodySpec], angle_unit: str, root: Node) -> None:
@@ -232,12 +235,19 @@ class _Validator:
         return length, angle
 
     def parameters(self, node: Node | None) -> None:
-        if node is None:
-            return
-        if node.kind != "map":
+        if node is not None and node.kind != "map":
             self.err(node, f"parameters must be a mapping of names to values, not {_type_name(node)}")
             return
-        for key, val in node.value.items():
+        items = node.value.items() if node is not None else ()
+        known = [k for k, _ in items]
+        for key in self.overrides:
+            if key not in known:
+                hint = did_you_mean(key, known) or (
+                    f" (parameters: {', '.join(known)})" if known else
+                    " (the model has no parameters: section)")
+                self.err(node.line if node is not None else None,
+                         f"--set {key}: unknown parameter '{key}'{hint}")
+        for key, val in items:
             line = node.key_lines[key]
             if not self.identifier(key, line, "parameter"):
                 continue
@@ -245,16 +255,31 @@ class _Validator:
                 self.err(line, f"parameter name '{key}' is reserved (t, pi and the function "
                                f"names cannot be parameters)")
                 continue
-            later = self._defined_later(node, key, val)
+            later = None if key in self.overrides else self._defined_later(node, key, val)
             if later:
                 name, at = later
                 self.err(val, f"parameter '{key}' uses '{name}', which is defined later (line "
                               f"{at}): parameters are read top to bottom; move '{name}' above "
                               f"'{key}'")
                 continue
-            x = self.number(val, f"parameter '{key}'")
+            if key in self.overrides:
+                # the override takes the place of the file's value, so every parameter and number
+                # after it is evaluated with it
+                x = self.override(key, self.overrides[key], val)
+            else:
+                x = self.number(val, f"parameter '{key}'")
             if x is not None:
                 self.params[key] = x
+
+
+    def override(self, key: str, value, node: Node) -> float | None:
+        """The value of parameter key given by --set / load(key=...): a number or an expression
+        of the parameters before it (reported at the parameter's line)."""
+        what = f"--set {key}={value}: parameter '{key}'"
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            self.err(node, f"{what} must be a number or an expression, not {value!r}")
+            return None
+        return self.number(Node("scalar", value, node.line, text=str(value)), what)
 
     def _defined_later(self, node: Node, key: str, val: Node):
         """(name, line) of a parameter after `key` that val's expression uses, or None."""
@@ -955,6 +980,9 @@ def _target_param(kind):
     return Param(kind.target, kind.target_unit or "real", "constant")
 
 
-def validate(root: Node, file: str) -> ModelSpec:
-    """Validate the node tree of one model file; raises InputError with every problem found."""
-    return _Validator(root, file).run()
+def validate(root: Node, file: str, overrides: dict | None = None) -> ModelSpec:
+    """Validate the node tree of one model file; raises InputError with every problem found.
+
+    overrides: parameter name -> number or expression text, replacing the file's values (the
+    parameters and numbers that depend on them are evaluated with the new values)."""
+    return _Validator(root, file, overrides).run()

@@ -1,0 +1,166 @@
+"""Throughput of a four-bar design sweep (variants per second, P + V + A over 360 steps),
+planarkin against pylinkage with numba, the textbook solver and the closed form, in one run.
+
+    python benchmarks/bench_sweep.py [--variants 10000] [--planarkin 64] [--textbook 4]
+                                     [--pylinkage-python /tmp/benchvenv/bin/python]
+
+The sweep: the four-bar of benchmarks/models.py (crank a, coupler b, rocker c = 0.10, ground
+d = 0.10), a full factorial of sqrt(V) crank lengths a in [0.03, 0.05] times sqrt(V) coupler
+lengths b in [0.11, 0.13], each variant one crank turn at 360 steps with positions, velocities
+and accelerations.
+
+* pylinkage + numba (its own venv: `python -m venv /tmp/benchvenv && /tmp/benchvenv/bin/pip
+  install pylinkage numba`; not a dependency of planarkin): `Linkage.step_fast_with_kinematics`
+  (the numba-compiled solver with velocities and accelerations) in a Python loop over the
+  variants, `set_constraints` per variant; the compile run excluded. All V variants.
+* planarkin: `planarkin.studies.variants.Study.run` (what `planarkin sweep --jobs 1` runs:
+  validate + compile + assemble every variant, each started from its neighbour's nodes, grid
+  pass with P, V, A, a max metric) on the first `--planarkin` variants; variants/s extrapolates.
+* textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
+* closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
+
+Every rate is measured in this one run; the ratios are the figures to quote (the machine is
+shared, absolute times vary).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+import models  # noqa: E402
+
+STEPS = 360
+
+PYLINKAGE = r'''
+import json, math, sys, time
+import numpy as np
+from pylinkage.components import Ground
+from pylinkage.actuators import Crank
+from pylinkage.dyads import RRRDyad
+from pylinkage.simulation import Linkage
+a_vals, b_vals, steps = json.loads(sys.argv[1])
+c = d = 0.10
+O1 = Ground(0.0, 0.0, name="A")
+O2 = Ground(d, 0.0, name="D")
+crank = Crank(anchor=O1, radius=a_vals[0], angular_velocity=2 * math.pi / steps)
+rocker = RRRDyad(crank.output, O2, distance1=b_vals[0], distance2=c, x=0.05, y=0.1)
+lk = Linkage([O1, O2, crank, rocker], name="four-bar")
+lk.set_input_velocity(crank, omega=2 * math.pi)
+base = lk.get_constraints()
+init = lk.get_coords()
+def one(a, b):
+    cons = list(base)
+    cons[0], cons[1] = a, b        # crank radius, coupler length (rocker length stays c)
+    lk.set_constraints(cons)
+    lk.set_coords(init)
+    return lk.step_fast_with_kinematics(iterations=steps, dt=1.0)
+pos, vel, acc = one(a_vals[0], b_vals[0])     # numba compile, excluded
+t = time.perf_counter()
+n = 0
+worst = 0
+for a in a_vals:
+    for b in b_vals:
+        pos, vel, acc = one(a, b)
+        n += 1
+elapsed = time.perf_counter() - t
+print(json.dumps({"variants": n, "seconds": elapsed, "constraints": list(base),
+                  "nan": bool(np.isnan(pos).any()),
+                  "last_C": [pos[-1, 3, 0], pos[-1, 3, 1]]}))
+'''
+
+
+def run_pylinkage(python: str, a_vals, b_vals):
+    if not Path(python).exists():
+        return None, f"{python} not found (install pylinkage + numba in their own venv)"
+    r = subprocess.run([python, "-c", PYLINKAGE, json.dumps([list(a_vals), list(b_vals), STEPS])],
+                       capture_output=True, text=True, timeout=3600)
+    if r.returncode != 0:
+        return None, r.stderr.strip().splitlines()[-1] if r.stderr else "failed"
+    return json.loads(r.stdout), None
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--variants", type=int, default=10_000)
+    ap.add_argument("--planarkin", type=int, default=64)
+    ap.add_argument("--textbook", type=int, default=4)
+    ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
+    args = ap.parse_args()
+    side = int(round(args.variants ** 0.5))
+    a_vals = np.linspace(0.03, 0.05, side)
+    b_vals = np.linspace(0.11, 0.13, side)
+    variants = [{"a": float(a), "b": float(b)} for a in a_vals for b in b_vals]
+    t_grid = np.linspace(0, 1, STEPS + 1)
+    print(f"four-bar sweep: {len(variants)} variants x {STEPS} steps (P, V, A); "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    rates = {}
+
+    # closed form
+    t0 = time.perf_counter()
+    for v in variants[: max(200, args.planarkin)]:
+        models.four_bar_closed_form(t_grid, a=v["a"], b=v["b"])
+    n = max(200, args.planarkin)
+    rates["closed form (numpy, per variant)"] = n / (time.perf_counter() - t0)
+
+    # planarkin
+    from planarkin.studies.variants import Study
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "four-bar.yaml"
+        path.write_text(models.four_bar_yaml())
+        study = Study(str(path), metrics=["max:rocker.phi"])
+        sub = [variants[i] for i in np.linspace(0, len(variants) - 1, args.planarkin).astype(int)]
+        study.run(sub[:2])
+        t0 = time.perf_counter()
+        out = study.run(sub)
+        el = time.perf_counter() - t0
+        ok = sum(o.status == "ok" for o in out)
+        rates["planarkin Study.run (sweep --jobs 1)"] = len(sub) / el
+        # accuracy: the metric against the closed form
+        err = 0.0
+        for v, o in zip(sub, out):
+            cf = models.four_bar_closed_form(t_grid, a=v["a"], b=v["b"])
+            ref = cf["q"][:, 8].max()
+            err = max(err, abs(o.metrics[0] - ref) / abs(ref))
+        print(f"planarkin: {ok}/{len(sub)} ok, max relative error of max:rocker.phi against the "
+              f"closed form {err:.1e}")
+
+    # textbook
+    import textbook
+    t0 = time.perf_counter()
+    for v in variants[: args.textbook]:
+        sysm = textbook.System.from_mechanism(models.four_bar_mechanism(a=v["a"], b=v["b"]))
+        q0 = models.four_bar_closed_form(np.array([0.0]), a=v["a"], b=v["b"])["q"][0]
+        textbook.solve(sysm, q0, t_grid)
+    rates["textbook (per-step dense Newton)"] = args.textbook / (time.perf_counter() - t0)
+
+    # pylinkage
+    res, why = run_pylinkage(args.pylinkage_python, a_vals, b_vals)
+    if res is not None:
+        rates["pylinkage + numba (step_fast_with_kinematics)"] = res["variants"] / res["seconds"]
+        print(f"pylinkage: {res['variants']} variants in {res['seconds']:.2f} s, "
+              f"NaN in results: {res['nan']}")
+    else:
+        print(f"pylinkage: not measured: {why}")
+
+    ref = rates.get("pylinkage + numba (step_fast_with_kinematics)")
+    print(f"\n{'solver':<48} {'variants/s':>12} {'us/step':>9} {'vs pylinkage':>13}")
+    for k, r in rates.items():
+        rel = f"{r / ref:.3g}x" if ref else "-"
+        print(f"{k:<48} {r:12.1f} {1e6 / (r * (STEPS + 1)):9.2f} {rel:>13}")
+
+
+if __name__ == "__main__":
+    main()

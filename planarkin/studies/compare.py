@@ -1,0 +1,225 @@
+"""Compare two result directories column by column: the regression gate for CI.
+
+Every CSV table the directories hold (bodies.csv, points.csv, derived tables such as forces.csv,
+sweep.csv, ...) is compared value by value with numpy's rule |new - golden| <= atol + rtol *
+|golden| (NaN equals NaN, infinities must match exactly), and summary.json's status must agree.
+The outcome is an exit status: 0 equal within the tolerances, 1 differs, 2 unusable input
+(a missing directory or table, a malformed CSV, different columns or row counts).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SAME, DIFFERS, UNUSABLE = 0, 1, 2
+
+
+class Unusable(Exception):
+    """The inputs cannot be compared (the message says which file and why)."""
+
+
+@dataclass
+class Difference:
+    """One column's worst difference. excess: |d| / allowed (inf when nothing is allowed)."""
+
+    table: str
+    column: str
+    row: int                   # 1-based data row
+    t: float | None            # the row's time when the table's first column is t [s]
+    new: float | str
+    golden: float | str
+    excess: float
+    count: int                 # values of the column outside the tolerance
+
+    def format(self) -> str:
+        where = f"t = {self.t!r} s (row {self.row})" if self.t is not None else f"row {self.row}"
+        if isinstance(self.new, str) or isinstance(self.golden, str):
+            return (f"{self.table}: {self.column} at {where}: {self.new!r} (new) vs "
+                    f"{self.golden!r} (golden); {self.count} value{'s' if self.count != 1 else ''}"
+                    f" of the column differ")
+        d = abs(self.new - self.golden) if math.isfinite(self.new - self.golden) else math.inf
+        rel = d / abs(self.golden) if self.golden else math.inf
+        return (f"{self.table}: {self.column} at {where}: {self.new!r} (new) vs {self.golden!r} "
+                f"(golden), difference {d:.3g}, relative {rel:.3g}; {self.count} value"
+                f"{'s' if self.count != 1 else ''} of the column outside the tolerance")
+
+
+@dataclass
+class Comparison:
+    status: int = SAME
+    tables: list[str] = field(default_factory=list)
+    columns: int = 0
+    values: int = 0
+    differences: list[Difference] = field(default_factory=list)   # worst first
+    notes: list[str] = field(default_factory=list)                # e.g. summary status differs
+    error: str | None = None                                      # why the input is unusable
+
+
+def read_table(path: Path) -> tuple[list[str], np.ndarray, dict]:
+    """Header, (rows, columns) float array and text columns of a CSV table.
+
+    An empty cell reads as NaN. A column with a cell that is not a number is a text column
+    (sweep.csv's status and message): texts maps its index to (its cells, the file line of its
+    first non-number). Unusable when the file cannot be read or a row has the wrong length."""
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise Unusable(f"{path}: cannot read: {e}") from None
+    if not rows:
+        raise Unusable(f"{path}:1: empty file (no header)")
+    header = rows[0]
+    if len(set(header)) != len(header):
+        dup = sorted({h for h in header if header.count(h) > 1})
+        raise Unusable(f"{path}:1: repeated column name {', '.join(repr(d) for d in dup)}")
+    data = np.empty((len(rows) - 1, len(header)))
+    texts: dict[int, tuple[list[str], int]] = {}
+    for k, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise Unusable(f"{path}:{k + 2}: {len(row)} values, the header has {len(header)}")
+        try:
+            data[k] = [float(v) if v else math.nan for v in row]
+        except ValueError:
+            for c, v in enumerate(row):
+                if v and not _is_float(v) and c not in texts:
+                    texts[c] = (None, k + 2)
+            data[k] = [float(v) if v and _is_float(v) else math.nan for v in row]
+    for c in texts:
+        texts[c] = ([r[c] for r in rows[1:]], texts[c][1])
+    return header, data, texts
+
+
+def _is_float(v: str) -> bool:
+    try:
+        float(v)
+        return True
+    except ValueError:
+        return False
+
+
+def _text(x: float) -> str:
+    return "" if math.isnan(x) else repr(x)
+
+
+def _status(d: Path):
+    p = d / "summary.json"
+    if not p.exists():
+        return None
+    try:
+        s = json.loads(p.read_text())
+        return s["status"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise Unusable(f"{p}: not a planarkin summary (no readable 'status')") from None
+
+
+def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: float,
+                   out: Comparison) -> None:
+    (hn, a, tn), (hg, b, tg) = new, golden
+    if hn != hg:
+        missing = [h for h in hg if h not in hn]
+        extra = [h for h in hn if h not in hg]
+        why = "; ".join(filter(None, [
+            f"columns missing in the new table: {', '.join(missing)}" if missing else "",
+            f"columns only in the new table: {', '.join(extra)}" if extra else "",
+            "the same columns in another order" if not missing and not extra else ""]))
+        raise Unusable(f"{name}: different columns ({why})")
+    if a.shape[0] != b.shape[0]:
+        raise Unusable(f"{name}: different number of rows: {a.shape[0]} new, {b.shape[0]} "
+                       f"golden")
+    for c, (_, line) in tn.items():
+        if c not in tg:
+            bad = next(v for v in tn[c][0] if v and not _is_float(v))
+            raise Unusable(f"{name}:{line}: column '{hn[c]}': '{bad[:40]}' is not a number")
+    out.columns += len(hn)
+    out.values += a.size
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(a - b)
+        allowed = atol + rtol * np.abs(b)
+        both_nan = np.isnan(a) & np.isnan(b)
+        inf_differs = (np.isinf(a) | np.isinf(b)) & (a != b)
+        bad = (~(diff <= allowed) & ~both_nan & (a != b)) | inf_differs
+        excess = np.where(bad, np.where(allowed > 0, diff / np.where(allowed > 0, allowed, 1),
+                                        np.inf), 0.0)
+        excess[bad & np.isnan(excess)] = np.inf
+    timed = bool(hn) and hn[0].startswith("t [")
+    for c, (cells, _) in tg.items():
+        # a text column (a status, a message) must match exactly
+        new_cells = tn[c][0] if c in tn else [_text(x) for x in a[:, c]]
+        wrong = [r for r, (x, y) in enumerate(zip(new_cells, cells)) if x != y]
+        bad[:, c] = False
+        if wrong:
+            r = wrong[0]
+            out.differences.append(Difference(
+                name, hn[c], r + 1, float(b[r, 0]) if timed else None, new_cells[r], cells[r],
+                math.inf, len(wrong)))
+    for c in np.flatnonzero(bad.any(axis=0)):
+        col = excess[:, c]
+        key = np.where(bad[:, c], col, -1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # among equal excesses (nothing allowed: all infinite) the largest relative one
+            rel = np.where(key == key.max(), diff[:, c] / np.abs(b[:, c]), -1.0)
+        rel = np.nan_to_num(rel, nan=np.inf, posinf=np.inf)
+        r = int(np.argmax(rel))
+        out.differences.append(Difference(
+            name, hn[c], r + 1, float(b[r, 0]) if timed else None, float(a[r, c]),
+            float(b[r, c]), float(col[r]), int(bad[:, c].sum())))
+
+
+def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
+                 atol: float = 1e-12) -> Comparison:
+    """Compare result directory `new` against `golden`. Never raises for bad input: the
+    Comparison's status is UNUSABLE and its error says why."""
+    out = Comparison()
+    new, golden = Path(new), Path(golden)
+    try:
+        for d, what in ((new, "new"), (golden, "golden")):
+            if not d.is_dir():
+                raise Unusable(f"{d}: no such directory (the {what} results)")
+        tn = {p.name for p in new.glob("*.csv")}
+        tg = {p.name for p in golden.glob("*.csv")}
+        if tn != tg:
+            parts = []
+            if tg - tn:
+                parts.append(f"missing in {new}: {', '.join(sorted(tg - tn))}")
+            if tn - tg:
+                parts.append(f"missing in {golden}: {', '.join(sorted(tn - tg))}")
+            raise Unusable("different tables (" + "; ".join(parts) + ")")
+        if not tn:
+            raise Unusable(f"{golden}: no CSV tables to compare")
+        sn, sg = _status(new), _status(golden)
+        if (sn is None) != (sg is None):
+            raise Unusable(f"{new if sn is None else golden}/summary.json is missing")
+        if sn != sg:
+            out.notes.append(f"summary.json: status '{sn}' (new) vs '{sg}' (golden)")
+        for name in sorted(tn):
+            out.tables.append(name)
+            compare_tables(name, read_table(new / name), read_table(golden / name), rtol, atol,
+                           out)
+    except Unusable as e:
+        out.status, out.error = UNUSABLE, str(e)
+        return out
+    out.differences.sort(key=lambda d: -d.excess)
+    out.status = DIFFERS if out.differences or out.notes else SAME
+    return out
+
+
+def report(c: Comparison, rtol: float, atol: float, show: int = 10) -> list[str]:
+    """Lines for the terminal: the verdict first, then the worst differences."""
+    if c.status == UNUSABLE:
+        return [f"error: cannot compare: {c.error}"]
+    tol = f"rtol {rtol:g}, atol {atol:g}"
+    if c.status == SAME:
+        return [f"same: {len(c.tables)} tables, {c.columns} columns, {c.values} values within "
+                f"{tol}"]
+    lines = [f"differs: {len(c.differences)} of {c.columns} columns outside {tol}"
+             + (f"; {'; '.join(c.notes)}" if c.notes else "")]
+    lines += ["  " + d.format() for d in c.differences[:show]]
+    if len(c.differences) > show:
+        lines.append(f"  ... and {len(c.differences) - show} more columns")
+    return lines

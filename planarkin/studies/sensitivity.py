@@ -1,0 +1,194 @@
+"""Exact first-order sensitivities of the positions to the model's parameters.
+
+At every grid time the constraints Phi(q(t, p), t, p) = 0 hold, so differentiating with respect
+to a parameter p gives Phi_q dq/dp = -Phi_p: a linear solve with the same Jacobian as the
+velocity solve. Phi_p is exact, by the chain rule, never by finite differences:
+
+* every number of the file is an expression of the parameters; its derivative with respect to p
+  is the symbolic derivative (planarkin.expr ``diff``) of the text as written, through the
+  parameters it uses, which are themselves differentiated in file order (``b: 3*a`` gives
+  db/da = 3);
+* a body-frame point s'_i of body i enters every kind only through r_i + A_i s'_i (reference
+  §0), so dg/ds'_i = (dg/dr_i) A_i, from the kind's own gradient;
+* a joint's constant c enters as g - c (dPhi/dc = -1) and a driver's f(t) as g - f(t)
+  (dPhi/dp = -df/dp, the symbolic derivative of f at every grid time).
+
+A parameter that reaches a direction (vi, vj), a gear radius, or a global placement ``at`` is
+refused with a message naming the element (those enter nonlinearly through the compile step).
+Results are in user units per unit of the parameter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..diagnostics import Diagnostic, InputError
+from ..elements import KINDS
+from ..elements.base import make_frame
+from ..expr import parse
+
+
+def _text(node):
+    v = node.value
+    return v if isinstance(v, str) else float(v)
+
+
+class ParameterDerivatives:
+    """d(number)/d(parameter) for every number of a model file, exact (symbolic chain rule).
+
+    root: the file's node tree; values: the parameters' values as evaluated (with overrides);
+    texts: parameter -> text used (an override's text replaces the file's)."""
+
+    def __init__(self, root, values: dict, texts: dict, wrt: list[str]):
+        self.values = dict(values)
+        self.wrt = list(wrt)
+        self.order = list(values)
+        # dparam[k][p]: derivative of parameter k with respect to p, in file order
+        self.dparam: dict[str, np.ndarray] = {}
+        for k, name in enumerate(self.order):
+            e = parse(texts[name], self.order[:k])
+            g = np.array([1.0 if name == p else 0.0 for p in self.wrt])
+            if name not in self.wrt:
+                g = self._chain(e)
+            self.dparam[name] = g
+
+    def _chain(self, e, extra=None) -> np.ndarray:
+        """Gradient of an expression with respect to wrt, through the parameters it uses."""
+        env = {**self.values, **(extra or {})}
+        g = np.zeros(len(self.wrt))
+        for name in e.names:
+            if name in self.dparam and self.dparam[name].any():
+                g = g + np.asarray(e.diff(name).evaluate(env)) * self.dparam[name]
+        return g
+
+    def number(self, node) -> np.ndarray:
+        """(len(wrt),) derivative of one scalar node of the file."""
+        return self._chain(parse(_text(node), self.order))
+
+    def function(self, node, t: np.ndarray) -> np.ndarray:
+        """(N, len(wrt)) derivative of a driver function f(t) with respect to wrt."""
+        e = parse(_text(node), self.order, allow_t=True)
+        out = np.zeros((len(t), len(self.wrt)))
+        env = {**self.values, "t": t}
+        for name in e.names - {"t"}:
+            if name in self.dparam and self.dparam[name].any():
+                out += np.broadcast_to(e.diff(name).evaluate(env), t.shape)[:, None] * \
+                       self.dparam[name]
+        return out
+
+    def depends(self, node) -> bool:
+        if node is None:
+            return False
+        if node.kind == "seq":
+            return any(self.depends(n) for n in node.value)
+        if node.kind == "map":
+            return any(self.depends(n) for n in node.value.values())
+        if node.value is None or isinstance(node.value, bool):
+            return False
+        return bool(self.number(node).any())
+
+
+def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.ndarray):
+    """Exact dq/dp of the body coordinates and dP/dp of the points at the grid times.
+
+    cm: the compiled model (nominal); root: its file's node tree; texts: the parameter texts
+    used; wrt: parameter names; t: (N,) s; q: (N, n) body coordinates in user units (a Result's
+    q). Returns (dq (N, n, k), dp (N, P, 2, k)), user units per unit of each parameter.
+    Raises InputError naming the element where a parameter enters in a way not differentiated.
+    """
+    spec = cm.spec
+    D = ParameterDerivatives(root, spec.parameters, texts, wrt)
+    k = len(wrt)
+    N = len(t)
+    L, af = cm.L, cm.angle_factor
+    Q = np.array(q, dtype=float)
+    Q[:, 0::3] /= L
+    Q[:, 1::3] /= L
+    Q[:, 2::3] *= af
+    Qe = np.concatenate([Q, np.zeros((N, 3))], axis=1)
+    F = make_frame(Qe)
+    n, m = cm.n, cm.m
+    J = np.zeros((N, m, n + 3))
+    Phi_p = np.zeros((N, m, k))
+    problems = []
+    sections = {"joint": root.value.get("joints"), "driver": root.value.get("drivers")}
+    for g in cm.groups:
+        grad = g.grad(F)                              # (N, K, neq, 3 nbody)
+        for kk in range(len(g)):
+            rows = g.rows[kk]
+            J[:, rows[:, None], g.cols[kk][None, :]] += grad[:, kk]
+    # Phi_p element by element (an element's rows are consecutive; its bodies from the group)
+    where = {}
+    for g in cm.groups:
+        for kk in range(len(g)):
+            where[int(g.rows[kk][0])] = (g, kk)
+    for r0, (g, kk) in where.items():
+        el = cm.element_of_row(r0)
+        kind = KINDS[el.kind]
+        node = sections[el.role].value[el.index - 1]
+        keys = node.value
+        rows = g.rows[kk]
+        if D.depends(keys.get("at")) or D.depends(keys.get("axis")):
+            problems.append((el, "at", "its global placement"))
+            continue
+        grad = None
+        for p in kind.params:
+            pn = keys.get(p.name)
+            if pn is None or not D.depends(pn):
+                continue
+            if p.unit == "point" and p.name in ("si", "sj"):
+                if grad is None:
+                    grad = g.grad(F)[:, kk]           # (N, neq, 3 nbody)
+                side = 0 if p.name == "si" else 1
+                b = g.bodies[kk, side]
+                ds = np.stack([D.number(pn.value[0]), D.number(pn.value[1])]) / L   # (2, k)
+                c, s = F.c[:, b], F.s[:, b]
+                Ads = np.stack([c[:, None] * ds[0] - s[:, None] * ds[1],
+                                s[:, None] * ds[0] + c[:, None] * ds[1]], axis=1)  # (N, 2, k)
+                Phi_p[:, rows, :] += np.einsum("nex,nxk->nek", grad[:, :, 3 * side:3 * side + 2],
+                                               Ads)
+            elif el.role == "joint" and p.name == kind.target:
+                scale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
+                Phi_p[:, rows[0], :] -= scale * D.number(pn)
+            else:
+                problems.append((el, p.name, f"its {p.name}"))
+        if el.role == "driver" and "f" in keys:
+            scale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
+            Phi_p[:, rows[0], :] -= scale * D.function(keys["f"], t)
+    if problems:
+        raise InputError([Diagnostic(spec.file, el.param_lines.get(key, el.line),
+                                     f"{el.label}: parameters {', '.join(wrt)} reach {what}; "
+                                     f"sensitivities are computed for parameters that enter "
+                                     f"points si/sj, constants c and driver functions f")
+                          for el, key, what in problems])
+    Jq = J[:, :, :n]
+    if m == n:
+        dq = -np.linalg.solve(Jq, Phi_p)
+    else:       # consistent redundant rows: the least-squares solution is the exact one
+        dq = np.stack([-np.linalg.lstsq(Jq[i], Phi_p[i], rcond=None)[0] for i in range(N)])
+    # points: P = r_b + A_b s'
+    pts = spec.points
+    dP = np.zeros((N, len(pts), 2, k))
+    for j, ps in enumerate(pts):
+        b = int(cm.point_body[j])
+        s0 = cm.point_s[j]
+        c, s = F.c[:, b], F.s[:, b]
+        dphi = dq[:, 3 * b + 2, :]
+        # d(A s')/dphi = R A s'
+        ax, ay = c * s0[0] - s * s0[1], s * s0[0] + c * s0[1]
+        dP[:, j, 0] = dq[:, 3 * b] - ay[:, None] * dphi
+        dP[:, j, 1] = dq[:, 3 * b + 1] + ax[:, None] * dphi
+        pnode = root.value["points"].value[ps.name]
+        sn = pnode.value.get("s")
+        if D.depends(pnode.value.get("at")):
+            raise InputError([Diagnostic(spec.file, ps.line, f"point '{ps.name}': parameters "
+                                         f"reach its global placement at; give s instead")])
+        if sn is not None and D.depends(sn):
+            ds = np.stack([D.number(sn.value[0]), D.number(sn.value[1])]) / L
+            dP[:, j, 0] += c[:, None] * ds[0] - s[:, None] * ds[1]
+            dP[:, j, 1] += s[:, None] * ds[0] + c[:, None] * ds[1]
+    dq_user = dq.copy()
+    dq_user[:, 0::3] *= L
+    dq_user[:, 1::3] *= L
+    dq_user[:, 2::3] /= af
+    return dq_user, dP * L

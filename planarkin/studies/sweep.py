@@ -1,0 +1,169 @@
+"""`planarkin sweep`: one row per variant of a model, over a grid or a Latin hypercube.
+
+``--vary a=0.10:0.20:11`` gives 11 values of a from 0.10 to 0.20 (ends included); several
+``--vary`` make the full factorial (the last varies fastest). With ``--samples N --seed S`` the
+ranges are sampled by a Latin hypercube instead (``--vary a=0.10:0.20``): each range is cut into N
+equal strata, each stratum gets exactly one sample at a uniformly random place in it, and the
+strata of the parameters are paired by independent random permutations (numpy's PCG64 generator
+seeded with S, so the same seed gives the same variants bit for bit).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .variants import Outcome, Study
+
+_RANGE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_\-]*)\s*=\s*([^:]+):([^:]+?)(?::([^:]+))?\s*$")
+
+
+@dataclass(frozen=True)
+class Range:
+    name: str
+    lo: float
+    hi: float
+    n: int | None        # grid points (None: sampled)
+
+    def values(self) -> np.ndarray:
+        if self.n == 1:
+            return np.array([self.lo])
+        return np.linspace(self.lo, self.hi, self.n)
+
+
+def parse_range(text: str, need_count: bool) -> Range:
+    """``NAME=LO:HI:N`` (N >= 1 values, ends included) or, for sampling, ``NAME=LO:HI``.
+    ValueError with the reason for anything else."""
+    m = _RANGE.match(text)
+    if not m:
+        raise ValueError(f"'{text}': write NAME=LO:HI:N, e.g. a=0.10:0.20:11")
+    name, lo, hi, n = m.groups()
+    try:
+        lo_v, hi_v = float(lo), float(hi)
+    except ValueError:
+        raise ValueError(f"'{text}': LO and HI must be numbers") from None
+    if not (math.isfinite(lo_v) and math.isfinite(hi_v)):
+        raise ValueError(f"'{text}': LO and HI must be finite")
+    count = None
+    if n is not None:
+        try:
+            count = int(n)
+        except ValueError:
+            raise ValueError(f"'{text}': N must be a whole number of values") from None
+        if count < 1:
+            raise ValueError(f"'{text}': N must be at least 1")
+    elif need_count:
+        raise ValueError(f"'{text}': give the number of values, NAME=LO:HI:N (or use --samples)")
+    return Range(name, lo_v, hi_v, count)
+
+
+def factorial(ranges: list[Range]) -> list[dict]:
+    """Full factorial of the ranges' grids; the last range varies fastest."""
+    grids = [r.values() for r in ranges]
+    return [{r.name: float(v) for r, v in zip(ranges, combo)}
+            for combo in itertools.product(*grids)]
+
+
+def latin_hypercube(ranges: list[Range], n: int, seed: int) -> list[dict]:
+    """n variants, one per stratum of every range, seeded (see the module docstring)."""
+    rng = np.random.Generator(np.random.PCG64(seed))
+    cols = []
+    for r in ranges:
+        u = (rng.permutation(n) + rng.random(n)) / n
+        cols.append(r.lo + u * (r.hi - r.lo))
+    return [{r.name: float(c[k]) for r, c in zip(ranges, cols)} for k in range(n)]
+
+
+def header(study: Study, names: list[str]) -> list[str]:
+    return (["variant"] + names + ["status", "kind", "t [s]", "message"]
+            + [m.label for m in study.metrics])
+
+
+def rows(study: Study, variants: list[dict], outcomes: list[Outcome]) -> list[list]:
+    out = []
+    for k, (v, o) in enumerate(zip(variants, outcomes), start=1):
+        out.append([k] + list(v.values()) + [o.status, o.kind, o.t, o.message] + list(o.metrics))
+    return out
+
+
+def _cell(x) -> str:
+    from ..output.fastcsv import format_value
+    if isinstance(x, str):
+        if any(c in x for c in ',"\n\r'):
+            return '"' + x.replace('"', '""') + '"'
+        return x
+    if isinstance(x, (int, np.integer)):
+        return str(x)
+    return "" if math.isnan(x) else format_value(float(x))
+
+
+def write_csv(path: Path, head: list[str], table: list[list]) -> None:
+    """sweep.csv: numbers as the shortest round-trip text; empty where there is no value."""
+    with open(path, "w", newline="") as f:
+        f.write(",".join(head) + "\n")
+        for row in table:
+            f.write(",".join(_cell(x) for x in row) + "\n")
+
+
+def write_parquet(path: Path, head: list[str], table: list[list]) -> str | None:
+    """sweep.parquet through pyarrow or polars when one is importable; returns the library used
+    or None."""
+    cols = {h: [row[k] for row in table] for k, h in enumerate(head)}
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        pa = None
+    if pa is not None:
+        pq.write_table(pa.table(cols), path)
+        return "pyarrow"
+    try:
+        import polars as pl
+    except ImportError:
+        return None
+    pl.DataFrame(cols, strict=False).write_parquet(path)
+    return "polars"
+
+
+@dataclass
+class SweepResult:
+    variants: list[dict]
+    outcomes: list[Outcome]
+    files: list[Path]
+
+    def counts(self) -> dict:
+        return {s: sum(1 for o in self.outcomes if o.status == s)
+                for s in ("ok", "failed", "invalid")}
+
+
+def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | None = None,
+              seed: int = 0, plots: str | None = "png", execute=None) -> SweepResult:
+    """Run the variants (factorial of ranges, or samples of a Latin hypercube) and write
+    sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
+    in order (default: serially in this process)."""
+    variants = factorial(ranges) if samples is None else latin_hypercube(ranges, samples, seed)
+    outcomes = (execute or Study.run)(study, variants)
+    names = [r.name for r in ranges]
+    head = header(study, names)
+    table = rows(study, variants, outcomes)
+    outdir.mkdir(parents=True, exist_ok=True)
+    files = [outdir / "sweep.csv"]
+    write_csv(files[0], head, table)
+    if write_parquet(outdir / "sweep.parquet", head, table):
+        files.append(outdir / "sweep.parquet")
+    if plots:
+        from .plots import sweep_plot
+        P = np.array([[v[n] for n in names] for v in variants])
+        M = np.array([o.metrics for o in outcomes], dtype=float).reshape(len(outcomes), -1)
+        grid = [r.values() for r in ranges] if samples is None else None
+        title = (f"{study.nominal.spec.name}: {len(variants)} variants "
+                 + ("(full factorial)" if samples is None else f"(Latin hypercube, seed {seed})"))
+        files.append(sweep_plot(outdir / f"sweep.{plots}", names, P,
+                                [o.status for o in outcomes], [m.label for m in study.metrics],
+                                M, grid, title))
+    return SweepResult(variants, outcomes, files)

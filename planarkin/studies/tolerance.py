@@ -1,0 +1,171 @@
+"""`planarkin tolerance`: Monte-Carlo tolerance analysis with exact first-order sensitivities.
+
+Each sample draws every toleranced parameter as nominal + sigma * z, z standard normal
+(``--dist normal``) or uniform on [-sqrt(3), sqrt(3)] (``--dist uniform``: the same standard
+deviation sigma, half-width sigma sqrt(3)), from numpy's PCG64 generator seeded with the seed,
+all draws made before any sample is solved (so the samples, and every result, are the same bit
+for bit however the samples are distributed over processes). The outputs are the metrics of
+`planarkin.studies.variants`, including ``dev:POINT``, the largest distance of a point's path
+from its nominal path.
+
+First order: for an output on a position column (max, min, stroke, absmax of x, y, phi of a
+body or x, y of a point) d(output)/dp is the exact sensitivity (planarkin.studies.sensitivity) at
+the nominal extreme's grid time, and the first-order standard deviation is
+sqrt(sum_p (d(output)/dp sigma_p)^2), to set against the Monte-Carlo spread.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .sweep import write_csv
+from .variants import Outcome, Study
+
+PERCENTILES = (1, 5, 50, 95, 99)
+DISTRIBUTIONS = ("normal", "uniform")
+
+
+def draw(names: list[str], nominal: dict, sigma: dict, n: int, seed: int, dist: str):
+    """n variants (dicts) of the toleranced parameters; all draws at once, in order."""
+    rng = np.random.Generator(np.random.PCG64(seed))
+    k = len(names)
+    if dist == "normal":
+        Z = rng.standard_normal((n, k))
+    else:
+        Z = rng.uniform(-math.sqrt(3.0), math.sqrt(3.0), (n, k))
+    V = np.array([nominal[p] for p in names]) + Z * np.array([sigma[p] for p in names])
+    return [{p: float(V[i, j]) for j, p in enumerate(names)} for i in range(n)]
+
+
+@dataclass
+class ToleranceResult:
+    names: list[str]
+    variants: list[dict]
+    outcomes: list[Outcome]
+    nominal: tuple              # nominal value of each output
+    gradient: np.ndarray        # (outputs, parameters) exact d(output)/dp (nan: not available)
+    first_order_sd: np.ndarray  # (outputs,)
+    stats: list[dict]           # per output: mean, std, percentiles, samples ok
+    files: list[Path]
+
+
+def output_gradients(study: Study, res, names: list[str]) -> np.ndarray:
+    """(outputs, parameters) exact d(output)/dp at the nominal result res (nan where the
+    output is not a max/min/stroke/absmax of a position column)."""
+    from .sensitivity import sensitivities
+    from .variants import split_unit, tables
+    cm = study.nominal
+    G = np.full((len(study.metrics), len(names)), np.nan)
+    if not any(m.position for m in study.metrics):
+        return G
+    dq, dP = sensitivities(cm, study.root, study.texts(), names, res.t, res.q)
+    header = tables(cm, study.opts)
+    for i, m in enumerate(study.metrics):
+        if not m.position:
+            continue
+        name, q = m.column.rsplit(".", 1)
+        if m.source == "bodies.csv":
+            b = cm.body_names.index(name)
+            col = res.q[:, 3 * b + ("x", "y", "phi").index(q)]
+            d = dq[:, 3 * b + ("x", "y", "phi").index(q)]
+        else:
+            j = cm.point_names.index(name)
+            col = res.p[:, j, ("x", "y").index(q)]
+            d = dP[:, j, ("x", "y").index(q)]
+        imax, imin = int(np.argmax(col)), int(np.argmin(col))
+        if m.kind == "max":
+            G[i] = d[imax]
+        elif m.kind == "min":
+            G[i] = d[imin]
+        elif m.kind == "stroke":
+            G[i] = d[imax] - d[imin]
+        else:
+            ia = int(np.argmax(np.abs(col)))
+            G[i] = np.sign(col[ia]) * d[ia]
+    return G
+
+
+def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: int = 0,
+                  dist: str = "normal", plots: str | None = "png", execute=None
+                  ) -> ToleranceResult:
+    """Monte-Carlo samples of the toleranced parameters, their outputs and the first-order
+    prediction; writes tolerance.csv, samples.csv, sensitivities.csv (+ tolerance.png)."""
+    names = list(sigma)
+    nominal_res = getattr(study, "nominal_result", None) or study._nominal()
+    from .variants import metric_values
+    nominal = metric_values(study.metrics, study.nominal, study.opts, nominal_res._chunk,
+                            nominal_res.p)
+    G = output_gradients(study, nominal_res, names)
+    s = np.array([sigma[p] for p in names])
+    fo = np.sqrt(((G * s) ** 2).sum(axis=1)) if len(names) else np.zeros(len(study.metrics))
+    variants = draw(names, study.parameters, sigma, samples, seed, dist)
+    outcomes = (execute or Study.run)(study, variants)
+    Y = np.array([o.metrics for o in outcomes], dtype=float).reshape(len(outcomes), -1)
+    stats = []
+    for i in range(Y.shape[1]):
+        y = Y[:, i][np.isfinite(Y[:, i])]
+        st = {"ok": len(y), "mean": float(np.mean(y)) if len(y) else math.nan,
+              "std": float(np.std(y, ddof=1)) if len(y) > 1 else math.nan}
+        for q in PERCENTILES:
+            st[q] = float(np.percentile(y, q)) if len(y) else math.nan
+        stats.append(st)
+    outdir.mkdir(parents=True, exist_ok=True)
+    files = [outdir / "tolerance.csv", outdir / "samples.csv", outdir / "sensitivities.csv"]
+    labels = [m.label for m in study.metrics]
+    head = (["output", "nominal", "mean", "std", "first_order_std", "samples_ok"]
+            + [f"p{q}" for q in PERCENTILES] + [f"d/d{p}" for p in names])
+    write_csv(files[0], head, [[lab, nominal[i], stats[i]["mean"], stats[i]["std"], fo[i],
+                                stats[i]["ok"]] + [stats[i][q] for q in PERCENTILES]
+                               + list(G[i]) for i, lab in enumerate(labels)])
+    write_csv(files[1], ["sample"] + names + ["status", "kind", "t [s]", "message"] + labels,
+              [[k + 1] + list(v.values()) + [o.status, o.kind, o.t, o.message] + list(o.metrics)
+               for k, (v, o) in enumerate(zip(variants, outcomes))])
+    _write_sensitivities(files[2], study, nominal_res, names)
+    if plots:
+        from .plots import tolerance_plot
+        title = (f"{study.nominal.spec.name}: {samples} samples ({dist}, seed {seed}), "
+                 + ", ".join(f"sigma {p} = {sigma[p]:g}" for p in names))
+        files.append(tolerance_plot(outdir / f"tolerance.{plots}", labels, Y, list(nominal),
+                                    list(fo), {q: [st[q] for st in stats] for q in (5, 95)},
+                                    title))
+    return ToleranceResult(names, variants, outcomes, nominal, G, fo, stats, files)
+
+
+def _write_sensitivities(path: Path, study: Study, res, names: list[str]) -> None:
+    """sensitivities.csv: t, then d(column)/d(parameter) of every position column."""
+    from .sensitivity import sensitivities
+    cm = study.nominal
+    dq, dP = sensitivities(cm, study.root, study.texts(), names, res.t, res.q)
+    lu, au = cm.spec.length_unit, cm.spec.angle_unit
+    head, cols = ["t [s]"], [res.t]
+    for b, bn in enumerate(cm.body_names):
+        for c, (q, u) in enumerate((("x", lu), ("y", lu), ("phi", au))):
+            for j, p in enumerate(names):
+                head.append(f"d({bn}.{q})/d({p}) [{u} per unit of {p}]")
+                cols.append(dq[:, 3 * b + c, j])
+    for k, pn in enumerate(cm.point_names):
+        for c, q in enumerate(("x", "y")):
+            for j, p in enumerate(names):
+                head.append(f"d({pn}.{q})/d({p}) [{lu} per unit of {p}]")
+                cols.append(dP[:, k, c, j])
+    from ..output.tables import CsvWriter
+    w = CsvWriter(path, head)
+    w.write(np.column_stack(cols))
+    w.close()
+
+
+def summary_lines(r: ToleranceResult, study: Study) -> list[str]:
+    """The table printed on stdout."""
+    labels = [m.label for m in study.metrics]
+    width = max([len(x) for x in labels] + [6])
+    lines = [f"{'output':<{width}}  {'nominal':>12} {'mean':>12} {'std':>10} {'1st order':>10} "
+             f"{'p5':>12} {'p95':>12}"]
+    for i, lab in enumerate(labels):
+        st = r.stats[i]
+        lines.append(f"{lab:<{width}}  {r.nominal[i]:12.6g} {st['mean']:12.6g} {st['std']:10.3g} "
+                     f"{r.first_order_sd[i]:10.3g} {st[5]:12.6g} {st[95]:12.6g}")
+    return lines

@@ -1,0 +1,287 @@
+"""Variants of one model: parameter values in, status and metrics out.
+
+A `Study` reads the model file once and resolves the metrics against the nominal model; each
+variant is then validated with its overrides (so every dependent parameter and number follows),
+compiled and solved in process. A variant that cannot be assembled is 'invalid' with the
+reason; one whose analysis stops (lock-up, bifurcation) is 'failed' with the kind and time of the
+event: both are results of the study, kept in its table, never exceptions.
+
+Metrics are ``KIND:COLUMN``: KIND one of `KINDS`, COLUMN a column of bodies.csv or points.csv
+without its unit (``slider.ax``, ``P.y``) or of a derived table the model writes (forces.csv,
+measures.csv, ...), e.g. ``max:slider.ax``, ``stroke:slider.x``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..diagnostics import Diagnostic, InputError, did_you_mean
+
+KINDS = {
+    "max": "largest value over the grid",
+    "min": "smallest value over the grid",
+    "stroke": "max - min over the grid",
+    "absmax": "largest magnitude over the grid",
+    "dev": "largest distance of a point's path from its nominal path, at the same times",
+}
+STATUSES = ("ok", "failed", "invalid")
+
+
+@dataclass(frozen=True)
+class Metric:
+    kind: str
+    column: str          # without unit: 'slider.ax'
+    source: str          # 'bodies.csv', 'points.csv' or a derived table's file name
+    index: int           # column in that table
+    unit: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind}:{self.column} [{self.unit}]" if self.unit else \
+            f"{self.kind}:{self.column}"
+
+    def value(self, col: np.ndarray) -> float:
+        """The metric of one column over the grid (for dev: the (N,) distances)."""
+        if len(col) == 0:
+            return float("nan")
+        if self.kind == "max":
+            return float(np.max(col))
+        if self.kind == "min":
+            return float(np.min(col))
+        if self.kind == "stroke":
+            return float(np.max(col) - np.min(col))
+        return float(np.max(np.abs(col)))
+
+    @property
+    def position(self) -> bool:
+        """Whether the column is a position (x, y, phi of a body or x, y of a point): the
+        quantities with exact sensitivities."""
+        return self.source in ("bodies.csv", "points.csv") and \
+            self.column.rsplit(".", 1)[-1] in ("x", "y", "phi") and self.kind != "dev"
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One variant's result: status 'ok' | 'failed' | 'invalid'; kind: the stopping event's kind
+    (lock-up, bifurcation, ...) or '' ; t: its time, s (nan when none); message: the reason;
+    metrics: one value per metric (nan unless ok)."""
+
+    status: str
+    kind: str
+    t: float
+    message: str
+    metrics: tuple
+
+
+def tables(cm, opts):
+    """Every table a run of cm writes: file name -> (header, function(chunk) -> array)."""
+    from ..derived import derived_tables
+    from ..output.tables import Layout
+    lay = Layout(cm, opts.order)
+    out = {"bodies.csv": (lay.body_header, lay.body_table),
+           "points.csv": (lay.point_header, lay.point_table)}
+    for d in derived_tables(cm, opts):
+        out[d.filename] = (d.header, d.compute)
+    return out
+
+
+def split_unit(header: str) -> tuple[str, str]:
+    name, _, unit = header.partition(" [")
+    return name, unit[:-1] if unit.endswith("]") else unit
+
+
+def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
+    """Resolve ``KIND:COLUMN`` texts against the nominal model's tables; InputError naming the
+    metric (with a suggestion) for an unknown kind or column."""
+    cols = {}
+    for fname, (header, _) in tables(cm, opts).items():
+        for k, h in enumerate(header[1:], start=1):
+            name, unit = split_unit(h)
+            cols.setdefault(name, (fname, k, unit))
+    out, problems = [], []
+    for text in texts:
+        kind, sep, col = text.partition(":")
+        if kind == "dev" and sep:
+            if col not in cm.point_names:
+                hint = did_you_mean(col, cm.point_names) or \
+                    f" (points: {', '.join(cm.point_names) or 'none'})"
+                problems.append(f"--metric {text}: dev needs a point name, not '{col}'{hint}")
+                continue
+            out.append(Metric("dev", col, "points.csv", list(cm.point_names).index(col),
+                              cm.spec.length_unit))
+            continue
+        if not sep or kind not in KINDS:
+            problems.append(f"--metric {text}: write KIND:COLUMN with KIND one of "
+                            f"{', '.join(KINDS)}{did_you_mean(kind, KINDS) if sep else ''}")
+            continue
+        if col not in cols:
+            hint = did_you_mean(col, cols) or (" (columns: " + ", ".join(list(cols)[:12])
+                                               + (", ..." if len(cols) > 12 else "") + ")")
+            problems.append(f"--metric {text}: no column '{col}' in this model's tables{hint}")
+            continue
+        out.append(Metric(kind, col, *cols[col]))
+    if problems:
+        raise InputError([Diagnostic(file, None, p) for p in problems])
+    return out
+
+
+def metric_values(metrics, cm, opts, chunk, reference=None) -> tuple:
+    """Metric values from a result chunk (only the tables the metrics need are computed).
+    reference: (N, P, 2) nominal point positions, for dev metrics."""
+    if not metrics:
+        return ()
+    tabs = tables(cm, opts)
+    cache = {}
+    vals = []
+    for m in metrics:
+        if m.kind == "dev":
+            if chunk.p.shape != reference.shape:      # another grid (analysis: uses parameters)
+                vals.append(float("nan"))
+                continue
+            d = chunk.p[:, m.index] - reference[:, m.index]
+            vals.append(m.value(np.hypot(d[:, 0], d[:, 1])))
+            continue
+        if m.source not in cache:
+            cache[m.source] = tabs[m.source][1](chunk)
+        vals.append(m.value(cache[m.source][:, m.index]))
+    return tuple(vals)
+
+
+class Study:
+    """A model file read once, its nominal model, the solver options and the metrics.
+
+    overrides: fixed --set values applied to every variant (a variant's own values win);
+    analysis: Options keyword overrides (steps, end, ...); metrics: KIND:COLUMN texts.
+    Picklable (the parsed file, the nominal model, the batched solver once built), so it is
+    sent once to worker processes or a Dask cluster.
+    """
+
+    def __init__(self, path: str, overrides: dict | None = None, analysis: dict | None = None,
+                 metrics=()):
+        from ..model.compile import compile_model
+        from ..model.validate import validate
+        from ..model.yamlread import read_file
+        from ..solver import Options
+        self.path = str(path)
+        self.overrides = dict(overrides or {})
+        self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
+        self.root = read_file(path)
+        self.nominal = compile_model(validate(self.root, self.path, self.overrides))
+        self.opts = Options.from_model(self.nominal, **self.analysis)
+        self.metrics = parse_metrics(metrics, self.nominal, self.opts, self.path)
+        self.parameters = dict(self.nominal.spec.parameters)
+        from .warm import CHAIN
+        from .batch import GROUP
+        self.chain = CHAIN              # variants per chain
+        self.group = GROUP              # chains per unit of work when batched
+        self.reference = None
+        if any(m.kind == "dev" for m in self.metrics):
+            self.nominal_result = self._nominal()
+            self.reference = self.nominal_result.p
+
+    def _nominal(self):
+        from ..results import analyse
+        info, res = analyse(self.nominal, self.opts)
+        if info.status != 0:
+            raise InputError([Diagnostic(self.path, None, f"the nominal model fails: "
+                                                         f"{info.message}")])
+        return res
+
+    def texts(self) -> dict:
+        """The text of every parameter as used: the override's where one is given."""
+        node = self.root.value.get("parameters")
+        out = {}
+        for k, n in (node.value.items() if node is not None else ()):
+            v = self.overrides.get(k, n.value)
+            out[k] = v if isinstance(v, str) else float(v)
+        return out
+
+    def model(self, values: dict):
+        """The compiled model of one variant (raises InputError)."""
+        from ..model.compile import compile_model
+        from ..model.validate import validate
+        return compile_model(validate(self.root, self.path, {**self.overrides, **values}))
+
+    def solve(self, values: dict, start=None, warm: bool = False):
+        """(Outcome, Result or None) of one variant; with warm, (Outcome, Result, Start for the
+        next variant) started from a neighbour's Start when one is given (studies.warm)."""
+        from ..results import analyse
+        from ..solver import Options
+        from . import warm as _warm
+        nan = float("nan")
+        none = (nan,) * len(self.metrics)
+        nxt = None
+        try:
+            cm = self.model(values)
+            opts = Options.from_model(cm, **self.analysis)
+            if warm:
+                info, res, nxt, _ = _warm.analyse(cm, opts, start)
+            else:
+                info, res = analyse(cm, opts)
+        except InputError as e:
+            msg = "; ".join(d.message for d in e.diagnostics if d.severity == "error")
+            out = Outcome("invalid", "", nan, msg, none), None
+            return out + (None,) if warm else out
+        out = self._outcome(cm, opts, info, res)
+        return out + (nxt,) if warm else out
+
+    def _outcome(self, cm, opts, info, res):
+        nan = float("nan")
+        none = (nan,) * len(self.metrics)
+        if info.status != 0:
+            ev = info.event
+            return Outcome("failed", ev.kind if ev else "failure", ev.t if ev else nan,
+                           info.message, none), res
+        return Outcome("ok", "", nan, "", metric_values(self.metrics, cm, opts, res._chunk,
+                                                        self.reference)), res
+
+    def units(self, variants) -> list[list[list[dict]]]:
+        """The variants as units of work: groups of chains (studies.warm.chains), GROUP chains
+        per unit when the study can be batched (studies.batch), else one chain per unit. A
+        unit's outcomes do not depend on where it runs."""
+        from .warm import chains
+        chs = [[variants[i] for i in ch] for ch in chains(len(variants), self.chain)]
+        per = self.group if self.batch(variants) is not None else 1
+        return [chs[k:k + per] for k in range(0, len(chs), per)]
+
+    def batch(self, variants):
+        """The batched solver for these variants' parameter names, or None (cached)."""
+        from .batch import Batch, Unsupported
+        keys = tuple(sorted({k for v in variants for k in v}))
+        if not keys or any(set(v) != set(keys) for v in variants):
+            return None
+        cache = self.__dict__.setdefault("_batches", {})
+        if keys not in cache:
+            try:
+                cache[keys] = Batch(self, list(keys))
+            except (Unsupported, InputError):
+                cache[keys] = None
+            except Exception:  # noqa: BLE001 - a model the batch cannot take runs per variant
+                cache[keys] = None
+        return cache[keys]
+
+    def run_unit(self, unit) -> list[Outcome]:
+        """Outcomes of one unit (a list of chains of variants), in order."""
+        flat = [v for ch in unit for v in ch]
+        B = self.batch(flat)
+        if B is not None:
+            return [o for ch in B.run_group(unit) for o in ch]
+        return [o for ch in unit for o in self.run_chain(ch)]
+
+    def run(self, variants) -> list[Outcome]:
+        """Outcomes of variants (dicts name -> value) in order, serially in this process, unit
+        by unit (see `units`)."""
+        out = []
+        for unit in self.units(variants):
+            out += self.run_unit(unit)
+        return out
+
+    def run_chain(self, variants) -> list[Outcome]:
+        """Outcomes of one chain of variants, each started from its predecessor's solution."""
+        out, start = [], None
+        for v in variants:
+            o, _, start = self.solve(v, start, warm=True)
+            out.append(o)
+        return out

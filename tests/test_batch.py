@@ -1,0 +1,72 @@
+"""Variants solved together (variant x time as one batch): the closed form, the per-variant
+path's results, failures that fall back, and parallel runs bit for bit."""
+
+import numpy as np
+import pytest
+
+from planarkin.studies import batch as batchmod
+from planarkin.studies.execute import executor
+from planarkin.studies.sweep import Range, factorial
+from planarkin.studies.variants import Study
+from test_sweep import four_bar_closed_form
+
+FB = "mechanisms/four-bar.yaml"
+STEPS = 180        # fine enough for the follower's step test on the grid (the batch applies)
+
+
+@pytest.fixture(scope="module")
+def study():
+    s = Study(FB, analysis={"steps": STEPS},
+              metrics=["max:rocker.phi", "stroke:rocker.phi", "max:P.x", "min:P.y", "dev:P"])
+    s.chain, s.group = 4, 2
+    return s
+
+
+def test_batched_sweep_matches_the_closed_form_without_falling_back(study, monkeypatch):
+    variants = factorial([Range("a", 0.03, 0.05, 4), Range("b", 0.11, 0.13, 3)])
+    assert study.batch(variants) is not None
+    fallbacks = []
+    orig = study.solve
+    monkeypatch.setattr(study, "solve", lambda v, *a, **k: fallbacks.append(v) or orig(v, *a, **k))
+    out = study.run(variants)
+    monkeypatch.undo()
+    assert fallbacks == [] and [o.status for o in out] == ["ok"] * 12
+    theta2 = np.radians(360 * np.linspace(0, 1, STEPS + 1))
+    _, Px0, Py0 = four_bar_closed_form(0.04, 0.12, 0.10, 0.10, theta2)
+    for v, o in zip(variants, out):
+        rocker, Px, Py = four_bar_closed_form(v["a"], v["b"], 0.10, 0.10, theta2)
+        dev = np.hypot(Px - Px0, Py - Py0).max()
+        expect = [rocker.max(), rocker.max() - rocker.min(), Px.max(), Py.min(), dev]
+        assert np.allclose(o.metrics, expect, rtol=1e-12, atol=1e-15), (v, o.metrics, expect)
+        cold = study.solve(v)[0]            # the ordinary per-variant path
+        assert np.allclose(o.metrics, cold.metrics, rtol=1e-12, atol=1e-15)
+
+
+def test_variants_the_batch_cannot_take_fall_back_to_the_ordinary_path(study):
+    variants = [{"a": 0.04, "b": 0.12}, {"a": 0.08, "b": 0.12}, {"a": 0.17, "b": 0.12},
+                {"a": 0.041, "b": 0.12}]
+    out = study.run(variants)
+    assert [(o.status, o.kind) for o in out] == [("ok", ""), ("invalid", ""),
+                                                 ("failed", "lock-up"), ("ok", "")]
+
+
+def test_batched_units_in_processes_equal_the_serial_run_bit_for_bit(study):
+    variants = factorial([Range("a", 0.035, 0.045, 4), Range("b", 0.115, 0.125, 4)])
+    assert len(study.units(variants)) == 2
+    serial = study.run(variants)
+    assert repr(executor(2)(study, variants)) == repr(serial)
+
+
+def test_what_the_batch_does_not_take(study):
+    with pytest.raises(batchmod.Unsupported, match="coarser than the path follower"):
+        batchmod.Batch(Study(FB, analysis={"steps": 12}), ["a"])
+
+
+def test_a_parameter_reaching_the_analysis_settings_is_not_batched(tmp_path):
+    text = open(FB).read().replace("d: 0.10 ", "d: 0.10\n  T: 1 ").replace(
+        "analysis: {start: 0, end: 1, steps: 360}", "analysis: {start: 0, end: T, steps: 360}")
+    path = tmp_path / "fb.yaml"
+    path.write_text(text)
+    with pytest.raises(batchmod.Unsupported, match="analysis settings"):
+        batchmod.Batch(Study(str(path)), ["T"])
+    assert Study(str(path)).batch([{"T": 1.0}]) is None

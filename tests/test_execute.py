@@ -1,0 +1,66 @@
+"""Parallel and distributed studies: local processes and a Dask LocalCluster give the serial
+run's results bit for bit; run --jobs gives the same directories."""
+
+import pytest
+
+from clitools import run_cli
+from planarkin.studies.execute import executor, run_dask
+from planarkin.studies.warm import chains
+from planarkin.studies.sweep import Range, factorial
+from planarkin.studies.variants import Study
+
+FB = "mechanisms/four-bar.yaml"
+
+
+@pytest.fixture(scope="module")
+def study():
+    s = Study(FB, analysis={"steps": 12}, metrics=["max:rocker.phi", "dev:P", "min:P.y"])
+    s.chain = 4
+    return s
+
+
+@pytest.fixture(scope="module")
+def variants():
+    # 12 variants in three chains, with invalid (a = 0.08) and failed (lock-up) ones among them
+    return factorial([Range("a", 0.03, 0.08, 6), Range("b", 0.12, 0.12, 1)]) + \
+        factorial([Range("a", 0.17, 0.30, 2), Range("b", 0.12, 0.13, 2)]) + \
+        factorial([Range("a", 0.035, 0.045, 2)])
+
+
+@pytest.fixture(scope="module")
+def serial(study, variants):
+    return study.run(variants)
+
+
+def test_chains_cut_the_variants_independently_of_the_workers():
+    assert [list(c) for c in chains(5, 2)] == [[0, 1], [2, 3], [4]]
+
+
+def test_local_processes_equal_the_serial_run_bit_for_bit(study, variants, serial):
+    assert {o.status for o in serial} == {"ok", "failed", "invalid"}
+    par = executor(2)(study, variants)
+    assert repr(par) == repr(serial)          # repr: nan == nan, and every bit of the floats
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_equals_the_serial_run_bit_for_bit(study, variants, serial):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        got = run_dask(study, variants, cluster.scheduler_address)
+    assert repr(got) == repr(serial)
+
+
+@pytest.mark.slow
+def test_run_jobs_writes_the_same_directories(tmp_path):
+    models = [FB, "mechanisms/slider-crank.yaml", "mechanisms/trammel.yaml"]
+    r1 = run_cli("run", *models, "--out", tmp_path / "1", "--no-plots", "--steps", "24")
+    r2 = run_cli("run", *models, "--out", tmp_path / "2", "--no-plots", "--steps", "24", "-j",
+                 "2")
+    assert r1.returncode == r2.returncode == 0
+    strip = lambda s: [line.split(" rows")[0] for line in s.splitlines()]
+    assert strip(r1.stdout) == strip(r2.stdout)
+    for m in ("four-bar", "slider-crank", "trammel"):
+        r = run_cli("compare", tmp_path / "1" / m, tmp_path / "2" / m, "--rtol", "0", "--atol",
+                    "0")
+        assert r.returncode == 0, r.stdout

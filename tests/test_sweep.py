@@ -1,0 +1,140 @@
+"""`planarkin sweep`: variants over parameter ranges, metrics checked against closed forms."""
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from clitools import run_cli
+from planarkin.studies.sweep import Range, factorial, latin_hypercube, parse_range, run_sweep
+from planarkin.studies.variants import Study
+
+FB = "mechanisms/four-bar.yaml"
+
+
+def four_bar_closed_form(a, b, c, d, theta2):
+    """Rocker angle and coupler point P of the four-bar of mechanisms/four-bar.yaml (A at the
+    origin, D = (d, 0), P at (0.06, 0.045) in the coupler frame at B along B->C), on the branch
+    with C to the left of B->D, from the intersection of the circles |C - B| = b, |C - D| = c."""
+    Bx, By = a * np.cos(theta2), a * np.sin(theta2)
+    ex, ey = d - Bx, -By
+    e = np.hypot(ex, ey)
+    along = (b * b - c * c + e * e) / (2 * e)
+    h = np.sqrt(b * b - along * along)
+    Cx = Bx + (along * ex - h * ey) / e
+    Cy = By + (along * ey + h * ex) / e
+    rocker = np.degrees(np.arctan2(Cy, Cx - d))
+    t3 = np.arctan2(Cy - By, Cx - Bx)
+    Px = Bx + 0.06 * np.cos(t3) - 0.045 * np.sin(t3)
+    Py = By + 0.06 * np.sin(t3) + 0.045 * np.cos(t3)
+    return rocker, Px, Py
+
+
+def test_four_bar_sweep_metrics_match_the_closed_form(tmp_path):
+    steps = 72
+    study = Study(FB, analysis={"steps": steps},
+                  metrics=["max:rocker.phi", "min:rocker.phi", "stroke:rocker.phi", "max:P.x",
+                           "absmax:P.y"])
+    ranges = [Range("a", 0.03, 0.05, 3), Range("b", 0.11, 0.13, 2)]
+    res = run_sweep(study, ranges, tmp_path, plots=None)
+    assert [o.status for o in res.outcomes] == ["ok"] * 6
+    theta2 = np.radians(360 * np.linspace(0, 1, steps + 1))
+    worst = 0.0
+    for v, o in zip(res.variants, res.outcomes):
+        rocker, Px, Py = four_bar_closed_form(v["a"], v["b"], 0.10, 0.10, theta2)
+        expect = [rocker.max(), rocker.min(), rocker.max() - rocker.min(), Px.max(),
+                  np.abs(Py).max()]
+        assert np.allclose(o.metrics, expect, rtol=1e-12, atol=0), (v, o.metrics, expect)
+        worst = max(worst, max(abs(x - y) / abs(y) for x, y in zip(o.metrics, expect)))
+    assert worst < 1e-13
+    with open(tmp_path / "sweep.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["variant", "a", "b", "status", "kind", "t [s]", "message",
+                       "max:rocker.phi [deg]", "min:rocker.phi [deg]", "stroke:rocker.phi [deg]",
+                       "max:P.x [m]", "absmax:P.y [m]"]
+    assert [r[1:3] for r in rows[1:]] == [["0.03", "0.11"], ["0.03", "0.13"], ["0.04", "0.11"],
+                                          ["0.04", "0.13"], ["0.05", "0.11"], ["0.05", "0.13"]]
+    assert [float(x) for x in rows[1][7:]] == list(res.outcomes[0].metrics)
+
+
+def test_failed_and_invalid_variants_are_rows_with_their_reason(tmp_path):
+    study = Study(FB, analysis={"steps": 36}, metrics=["max:rocker.phi"])
+    # a = 0.08: s + l = p + q, the coupler and rocker are folded at t = 0 (cannot be
+    # assembled); a = 0.17 and 0.30: non-Grashof, the crank cannot turn: lock-up
+    res = run_sweep(study, [Range("a", 0.04, 0.08, 2), Range("b", 0.12, 0.12, 1)], tmp_path,
+                    plots=None)
+    res2 = run_sweep(study, [Range("a", 0.17, 0.30, 2)], tmp_path, plots=None)
+    st = [(o.status, o.kind) for o in res.outcomes + res2.outcomes]
+    assert st == [("ok", ""), ("invalid", ""), ("failed", "lock-up"), ("failed", "lock-up")]
+    assert res.outcomes[1].message.startswith("the mechanism has 1 degree of freedom")
+    for o, tmax in zip(res2.outcomes, (0.30, 0.09)):
+        assert 0 < o.t < tmax and o.message.startswith("singular configuration at t = ")
+    res = run_sweep(study, [Range("a", 0.04, 0.08, 2), Range("b", 0.12, 0.12, 1)], tmp_path,
+                    plots=None)
+    assert all(math.isnan(o.metrics[0]) for o in res.outcomes if o.status != "ok")
+    text = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert len(text) == 3 and text[2].startswith('2,0.08,0.12,invalid,,,"the mechanism has 1 ')
+
+
+def test_factorial_order_and_ranges():
+    assert parse_range("a=0.10:0.20:11", True) == Range("a", 0.1, 0.2, 11)
+    assert parse_range("b = 1:2", False) == Range("b", 1.0, 2.0, None)
+    assert factorial([Range("a", 0, 1, 2), Range("b", 5, 5, 1)]) == [{"a": 0.0, "b": 5.0},
+                                                                      {"a": 1.0, "b": 5.0}]
+    for bad, why in (("a=1:2", "give the number of values"), ("a", "write NAME=LO:HI:N"),
+                     ("a=x:2:3", "LO and HI must be numbers"), ("a=1:2:0", "at least 1"),
+                     ("a=1:2:2.5", "whole number")):
+        with pytest.raises(ValueError, match=why):
+            parse_range(bad, True)
+
+
+def test_latin_hypercube_is_seeded_and_stratified():
+    r = [Range("a", 0.1, 0.2, None), Range("b", -1.0, 3.0, None)]
+    v1 = latin_hypercube(r, 50, seed=7)
+    assert v1 == latin_hypercube(r, 50, seed=7)
+    assert v1 != latin_hypercube(r, 50, seed=8)
+    for rg in r:
+        u = np.array([(v[rg.name] - rg.lo) / (rg.hi - rg.lo) for v in v1])
+        assert sorted(np.floor(u * 50).astype(int)) == list(range(50))   # one per stratum
+
+
+@pytest.mark.slow
+def test_cli_sweep_writes_table_and_plot(tmp_path):
+    r = run_cli("sweep", FB, "--vary", "a=0.03:0.05:3", "--metric", "max:rocker.phi",
+                "--out", tmp_path, "--steps", "24")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("ok       mechanisms/four-bar.yaml: 3 variants: 3 ok, 0 failed, "
+                               "0 invalid, ")
+    assert (tmp_path / "four-bar" / "sweep.png").stat().st_size > 0
+
+
+def test_cli_sweep_usage_and_input_errors(tmp_path):
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    run = lambda *a: CliRunner().invoke(main, ["sweep", FB, "--out", str(tmp_path)] + list(a))
+    r = run("--vary", "aa=0.03:0.05:3")
+    assert r.exit_code == 2
+    assert r.stderr == "mechanisms/four-bar.yaml: error: unknown parameter 'aa'; did you mean 'a'?\n"
+    r = run("--vary", "a=0.03:0.05:3", "--metric", "max:rocker.ph")
+    assert r.exit_code == 2
+    assert r.stderr == ("mechanisms/four-bar.yaml: error: --metric max:rocker.ph: no column "
+                        "'rocker.ph' in this model's tables; did you mean 'rocker.phi'?\n")
+    r = run("--vary", "a=0.03:0.05")
+    assert r.exit_code == 2 and "give the number of values" in r.stderr
+    r = run("--vary", "a=0.03:0.05:2", "--vary", "a=1:2:2")
+    assert r.exit_code == 2 and "each parameter may be varied once" in r.stderr
+
+
+def test_sweep_parquet_holds_the_same_table(tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    study = Study(FB, analysis={"steps": 12}, metrics=["max:rocker.phi"])
+    res = run_sweep(study, [Range("a", 0.04, 0.08, 2)], tmp_path, plots=None)
+    assert tmp_path / "sweep.parquet" in res.files
+    t = pq.read_table(tmp_path / "sweep.parquet").to_pydict()
+    with open(tmp_path / "sweep.csv") as f:
+        rows = list(csv.reader(f))
+    assert list(t) == rows[0]
+    assert t["status"] == ["ok", "invalid"] and t["a"] == [0.04, 0.08]
+    assert t["max:rocker.phi [deg]"][0] == float(rows[1][-1])
+    assert math.isnan(t["max:rocker.phi [deg]"][1])
