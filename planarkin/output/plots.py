@@ -3,8 +3,8 @@
 Called by `results.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
 few thousand rows, user units). matplotlib is imported inside the functions only, and only through
 its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
-switch, no windows, no global state (except one rcParam for the duration of an svg save, see
-`_save`).
+switch, no windows, no global state (rcParams only inside rc_context: the axes style while a
+figure is built and drawn, `_styled`, and an svg id salt while it is saved, `_save`).
 
 Files (``<fmt>`` is png at 150 dpi, svg or pdf):
 
@@ -35,13 +35,32 @@ ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has
 ANIM_FPS = 20
 ANIM_DPI = 100                 # 6.4 in wide -> 640 px
 FONT = 9                       # legends, annotations (ticks and labels use matplotlib's 10 pt)
-GRID = dict(color="0.88", linewidth=0.6)
+# Axes style, set through rcParams for the duration of each figure (`_styled`): given as
+# ax.grid/ax.tick_params calls instead, matplotlib rebuilds every tick of every axes (a third of
+# the time of building a figure). The titles' y is fixed so that matplotlib does not measure the
+# tick labels to place them.
+STYLE = {"axes.grid": True, "grid.color": "0.88", "grid.linewidth": 0.6,
+         "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
 ROW_NAMES = ("position", "velocity", "acceleration")
 
 
+def _styled(fn):
+    """Run fn (a figure builder or writer) with STYLE in effect: rcParams are read when artists
+    are created and when ticks are drawn, so both happen inside."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import matplotlib as mpl
+        with mpl.rc_context(STYLE):
+            return fn(*args, **kwargs)
+    return wrapper
+
+
 # -- public API ----------------------------------------------------------------------------------
 
+@_styled
 def write_plots(cm, data, info, out: Path, fmt: str = "png") -> list[Path]:
     """Write bodies, points, trajectories and mechanism plots into directory out.
 
@@ -62,6 +81,7 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png") -> list[Path]:
     return files
 
 
+@_styled
 def write_animation(cm, data, out: Path) -> Path:
     """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
     joint and point paths growing), up to ANIM_FRAMES frames at ANIM_FPS frames per second.
@@ -86,7 +106,7 @@ def write_animation(cm, data, out: Path) -> Path:
                     zorder=30)
     fig.legend(handles=drawing.legend_handles(), loc="upper left", bbox_to_anchor=beside,
                fontsize=FONT, frameon=False)
-    ax.set_title(f"{cm.spec.name}: motion", fontsize=11)
+    ax.set_title(f"{cm.spec.name}: motion", fontsize=11, y=1.0)
     moving = traces + drawing.artists + [stamp]
     for a in moving:
         a.set_animated(True)
@@ -141,6 +161,7 @@ def write_animation(cm, data, out: Path) -> Path:
 
 # -- time histories ------------------------------------------------------------------------------
 
+@_styled
 def _bodies_figure(cm, data, info):
     """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time."""
     from matplotlib.lines import Line2D
@@ -163,8 +184,8 @@ def _bodies_figure(cm, data, info):
         right.set_ylabel(f"{qphi} [{ru}]")
         _tidy_ylim(left, arr[:, 0::3], arr[:, 1::3], ref=cm.L / T ** o)
         _tidy_ylim(right, arr[:, 2::3], ref=1.0 / cm.angle_factor / T ** o)
-    axes[0][0].set_title("translation of the body frames", fontsize=10)
-    axes[0][1].set_title("rotation", fontsize=10)
+    axes[0][0].set_title("translation of the body frames", fontsize=10, y=1.0)
+    axes[0][1].set_title("rotation", fontsize=10, y=1.0)
     handles = []
     for b, name in enumerate(cm.body_names):
         handles += [Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.x"),
@@ -176,6 +197,7 @@ def _bodies_figure(cm, data, info):
     return fig
 
 
+@_styled
 def _points_figure(cm, data, info):
     """One column: x, y of every point (and their derivatives) against time."""
     from matplotlib.lines import Line2D
@@ -210,10 +232,6 @@ def _time_grid(nrows, ncols):
 
     fig = Figure()
     axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
-    for row in axes:
-        for ax in row:
-            ax.grid(True, **GRID)
-            ax.tick_params(labelsize=9)
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
     return fig, axes
@@ -673,8 +691,6 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
     unit = cm.spec.length_unit
     ax.set_xlabel(f"x [{unit}]")
     ax.set_ylabel(f"y [{unit}]")
-    ax.grid(True, **GRID)
-    ax.tick_params(labelsize=9)
     x0, x1, y0, y1 = scene.bounds
     ax.update_datalim([(x0, y0), (x1, y1)])     # limits stay automatic: the equal aspect
     ax.margins(0.0)                             # widens whichever range the axes need
@@ -698,6 +714,7 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
                 zorder=7)
 
 
+@_styled
 def _trajectories_figure(cm, scene: _Scene):
     """Paths of the points of interest, start dots, direction arrows, the mechanism faint at
     t = start."""
@@ -723,7 +740,7 @@ def _trajectories_figure(cm, scene: _Scene):
     ax.legend(handles=handles, loc="best", fontsize=FONT,
               ncol=1 if len(handles) <= 12 else 2, framealpha=0.85)
     ax.set_title(f"{cm.spec.name}: paths of the points "
-                 f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12)
+                 f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12, y=1.0)
     return fig
 
 
@@ -752,6 +769,7 @@ def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
     return out
 
 
+@_styled
 def _mechanism_figure(cm, scene: _Scene):
     """The mechanism at INSTANTS evenly spread times (light to dark) and every path of the run."""
     from matplotlib import colormaps
@@ -776,14 +794,14 @@ def _mechanism_figure(cm, scene: _Scene):
     fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside, fontsize=FONT,
                frameon=False, borderaxespad=0)
     ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
-                 f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12)
+                 f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12, y=1.0)
     return fig
 
 
 # -- small helpers -------------------------------------------------------------------------------
 
 def _save(fig, path: Path) -> Path:
-    """Save and release a figure: png at DPI; svg and pdf without a date and (svg) with fixed
+    """Save a figure: png at DPI; svg and pdf without a date and (svg) with fixed
     element ids, so that the same run gives byte-identical files."""
     from contextlib import nullcontext
 
@@ -794,9 +812,12 @@ def _save(fig, path: Path) -> Path:
     # svg ids are salted with a random uuid unless this rcParam is set: the only rcParams use,
     # for the duration of one save
     salt = mpl.rc_context({"svg.hashsalt": "planarkin"}) if fmt == "svg" else nullcontext()
+    # png: zlib level 1 encodes in a third of the time of the default 6 for files ~10 % larger
+    pil = {"pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
     with salt:
-        fig.savefig(path, format=fmt, dpi=DPI, metadata=meta)
-    fig.clear()
+        fig.savefig(path, format=fmt, dpi=DPI, metadata=meta, **pil)
+    # no fig.clear(): tearing the artists down costs a tenth of the drawing; dropping the last
+    # reference frees them as well
     return path
 
 
