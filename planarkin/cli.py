@@ -148,6 +148,9 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if sys.platform.startswith("linux"):
         _tune_malloc()
+    if not no_plots or animate:
+        from .output import plotworker      # imports matplotlib while the models solve
+        plotworker.start()                  # (stopped below, or at exit)
     report = Report(quiet)
     dirs = _out_dirs(models, Path(out))
     for path in models:
@@ -156,6 +159,8 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
             continue
         _run_one(path, model, dirs[path], report, dict(analysis),
                  None if no_plots else fmt, animate)
+    if not no_plots or animate:
+        plotworker.stop()
     report.summary()
     sys.exit(report.exit_code)
 

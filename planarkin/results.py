@@ -233,16 +233,26 @@ class DirectoryWriter:
         if self.buffer is not None:
             data = self.buffer.chunk()
             if data is not None:
-                from .output import plots as plotting   # matplotlib only when plotting
-                files = []
-                if self.plots:
-                    files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
+                t0 = time.perf_counter()
+                files = None
+                if self.background:     # the CLI's plot server, if it started one
+                    from .output import plotworker
+                    files = plotworker.draw(self.cm, data, info, self.out, self.plots,
+                                            self.animate)
+                if files is None:
+                    from .output import plots as plotting   # matplotlib only when plotting
+                    files = []
+                    if self.plots:
+                        files += plotting.write_plots(self.cm, data, info, self.out,
+                                                      fmt=self.plots)
+                    if self.animate:
+                        files.append(plotting.write_animation(self.cm, data, self.out))
+                if self.plots:      # rooms' plot functions (closures) draw in this process
                     for d in self.derived:
                         if d.plot is not None:
                             files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
-                if self.animate:
-                    files.append(plotting.write_animation(self.cm, data, self.out))
                 summary["plots"] = [f.name for f in files]
+                summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
         write_json(self.out / "summary.json", summary)
         return summary
 

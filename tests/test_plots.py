@@ -194,3 +194,78 @@ def test_animation_gif(model, result, tmp_path):
         assert im.n_frames > 10
         assert im.info["duration"] == 50           # 20 frames per second
         im.seek(im.n_frames - 1)                   # every frame decodes
+
+
+def _legend_labels(fig):
+    return [t.get_text() for lg in fig.legends for t in lg.get_texts() if t.get_text().strip()]
+
+
+def test_bodies_figure_skips_constant_curves_and_names_each_body_once(model, result):
+    """Slider-crank: the crank's frame is pinned at the origin (x, y constant), the slider's
+    y and phi are 0, the crank turns at 2 pi rad/s: those curves are not drawn but named with
+    their values; every body appears once in the legend, with the line styles."""
+    fig = plots._bodies_figure(model, result._chunk, result.info)
+    labels = _legend_labels(fig)
+    assert labels == ["x, phi", "y", "crank", "rod", "slider"]
+    assert len(labels) == len(set(labels))
+    (note,) = [t.get_text().replace("\n", " ") for t in fig.texts
+               if t.get_text().startswith("constant")]
+    for item in ("crank.x = 0 m", "crank.y = 0 m", "slider.y = 0 m", "slider.phi = 0 rad",
+                 "crank.omega = 6.283 rad/s", "crank.alpha = 0 rad/s²"):
+        assert item in note
+    assert "crank.vx" not in note            # derivatives of a constant are not repeated
+    x_pos, phi_pos, x_vel, phi_vel = (len(fig.axes[k].get_lines()) for k in (0, 1, 2, 3))
+    assert x_pos == 3                        # rod.x, rod.y, slider.x (not crank, not slider.y)
+    assert phi_pos == 2 and phi_vel == 1     # crank.phi, rod.phi; rod.omega
+    assert fig.axes[0].get_ylabel() == "x, y [m]" and fig.axes[3].get_ylabel() == "omega [rad/s]"
+
+
+def test_identical_curves_are_drawn_once():
+    from matplotlib.figure import Figure
+    ax = Figure().add_subplot()
+    t = np.linspace(0, 1, 11)
+    a, b = np.sin(t), np.sin(t) * (1 + 1e-13)
+    sel = plots._Selection()
+    sel.draw(ax, t, [(a, "C0", "-", "p.x", (0, 0)), (b, "C1", "-", "q.x", (1, 0)),
+                     (np.full(11, 2.0), "C2", "-", "r.x", (2, 0))], 1.0, "m", 0)
+    assert len(ax.get_lines()) == 1
+    assert sel.note() == "constant, not drawn: r.x = 2 m; equal to a curve drawn: q.x = p.x"
+    ax = Figure().add_subplot()                # all constant: drawn all the same
+    sel = plots._Selection()
+    sel.draw(ax, t, [(np.zeros(11), "C0", "-", "p.x", (0, 0)),
+                     (np.ones(11), "C1", "-", "q.x", (1, 0))], 1.0, "m", 0)
+    assert len(ax.get_lines()) == 2 and sel.note() == ""
+
+
+def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path):
+    """planarkin run with plots: the figures come from the background server (one per call,
+    stopped at the end: no process is left), and summary.json says how long the parent waited."""
+    import json
+    import multiprocessing as mp
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    from planarkin.output import plotworker
+    runner = CliRunner()
+    r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
+                             "--out", str(tmp_path), "--steps", "60", "-q"])
+    assert r.exit_code == 0, r.output
+    assert not plotworker.running() and not mp.active_children()
+    for stem in ("slider-crank", "four-bar"):
+        s = json.loads((tmp_path / stem / "summary.json").read_text())
+        assert s["plots"] == ["bodies.png", "points.png", "trajectories.png", "mechanism.png"]
+        assert s["wall_time"]["plots"] > 0
+        for name in s["plots"]:
+            check_file(tmp_path / stem / name, "png")
+
+
+def test_plot_server_splits_the_figures():
+    assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
+        "bodies", "points", "trajectories", "mechanism"]
+    names = ["bodies", "points", "trajectories", "mechanism"]
+    assert plotworker_split(names, False) == (["bodies"], names[1:], False)
+    assert plotworker_split(names, True) == ([], names, True)
+
+
+def plotworker_split(names, animate):
+    from planarkin.output import plotworker
+    return plotworker.split(names, animate)

@@ -60,25 +60,33 @@ def _styled(fn):
 
 # -- public API ----------------------------------------------------------------------------------
 
+def figure_names(cm) -> list[str]:
+    """The figures write_plots draws for this model, in order (file stems)."""
+    return ["bodies"] + (["points", "trajectories"] if len(cm.point_names) else []) + \
+        ["mechanism"]
+
+
 @_styled
-def write_plots(cm, data, info, out: Path, fmt: str = "png") -> list[Path]:
+def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None) -> list[Path]:
     """Write bodies, points, trajectories and mechanism plots into directory out.
 
     cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
-    event and warnings are marked on the time axes; None is allowed). Returns the files written
-    (points and trajectories only when the model has points; nothing when data has no rows).
+    event and warnings are marked on the time axes; None is allowed); only: a subset of
+    figure_names(cm) to draw (default all; `plotworker` splits them between two processes).
+    Returns the files written (points and trajectories only when the model has points; nothing
+    when data has no rows).
     """
     out = Path(out)
     fmt = fmt.lower().lstrip(".")
     if not len(data.t):
         return []
-    scene = _Scene(cm, data)
-    files = [_save(_bodies_figure(cm, data, info), out / f"bodies.{fmt}")]
-    if len(cm.point_names):
-        files.append(_save(_points_figure(cm, data, info), out / f"points.{fmt}"))
-        files.append(_save(_trajectories_figure(cm, scene), out / f"trajectories.{fmt}"))
-    files.append(_save(_mechanism_figure(cm, scene), out / f"mechanism.{fmt}"))
-    return files
+    names = [n for n in figure_names(cm) if only is None or n in only]
+    scene = _Scene(cm, data) if set(names) & {"trajectories", "mechanism"} else None
+    build = {"bodies": lambda: _bodies_figure(cm, data, info),
+             "points": lambda: _points_figure(cm, data, info),
+             "trajectories": lambda: _trajectories_figure(cm, scene),
+             "mechanism": lambda: _mechanism_figure(cm, scene)}
+    return [_save(build[n](), out / f"{n}.{fmt}") for n in names]
 
 
 @_styled
@@ -163,67 +171,137 @@ def write_animation(cm, data, out: Path) -> Path:
 
 @_styled
 def _bodies_figure(cm, data, info):
-    """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time."""
-    from matplotlib.lines import Line2D
+    """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time.
 
+    Curves constant over the run (a frame pinned to ground) or identical to one already drawn
+    are left out and named, with their value, in a note under the legend (an axes whose curves
+    are all constant keeps them)."""
     series = [a for a in (data.q, data.qd, data.qdd) if a is not None]
-    nb = cm.nb
-    colors = _palette(nb)
+    colors = _palette(cm.nb)
     fig, axes = _time_grid(len(series), 2)
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
     T = _duration(data, info)
+    sel = _Selection()
     for o, arr in enumerate(series):
         tu, ru = (_pretty(u) for u in units(lu, au, o))
         qx, qy, qphi = BODY_QUANTITIES[o]
         left, right = axes[o]
-        for b in range(nb):
-            left.plot(data.t, arr[:, 3 * b], color=colors[b], lw=1.4)
-            left.plot(data.t, arr[:, 3 * b + 1], color=colors[b], lw=1.4, ls="--")
-            right.plot(data.t, arr[:, 3 * b + 2], color=colors[b], lw=1.4)
+        lin = [(arr[:, 3 * b + k], colors[b], ls, f"{name}.{q}", (b, k))
+               for b, name in enumerate(cm.body_names) for k, q, ls in ((0, qx, "-"),
+                                                                        (1, qy, "--"))]
+        ang = [(arr[:, 3 * b + 2], colors[b], "-", f"{name}.{qphi}", (b, 2))
+               for b, name in enumerate(cm.body_names)]
+        sel.draw(left, data.t, lin, cm.L / T ** o, tu, o)
+        sel.draw(right, data.t, ang, 1.0 / cm.angle_factor / T ** o, ru, o)
         left.set_ylabel(f"{qx}, {qy} [{tu}]")
         right.set_ylabel(f"{qphi} [{ru}]")
-        _tidy_ylim(left, arr[:, 0::3], arr[:, 1::3], ref=cm.L / T ** o)
-        _tidy_ylim(right, arr[:, 2::3], ref=1.0 / cm.angle_factor / T ** o)
     axes[0][0].set_title("translation of the body frames", fontsize=10, y=1.0)
     axes[0][1].set_title("rotation", fontsize=10, y=1.0)
-    handles = []
-    for b, name in enumerate(cm.body_names):
-        handles += [Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.x"),
-                    Line2D([], [], color=colors[b], lw=1.4, ls="--", label=f"{name}.y"),
-                    Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.phi")]
+    handles = _style_handles([("-", "x, phi"), ("--", "y")]) + _name_handles(
+        cm.body_names, colors, sel.drawn)
     _finish_time_axes(axes, data, info)
     title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]), info)
-    _arrange_time_grid(fig, axes, handles, 3, title, width=10.0, row_height=1.75)
+    _arrange_time_grid(fig, axes, handles, title, width=10.0, row_height=1.75,
+                       note=sel.note())
     return fig
 
 
 @_styled
 def _points_figure(cm, data, info):
-    """One column: x, y of every point (and their derivatives) against time."""
-    from matplotlib.lines import Line2D
-
+    """One column: x, y of every point (and their derivatives) against time; constant and
+    repeated curves left out as in bodies.<fmt>."""
     series = [a for a in (data.p, data.pd, data.pdd) if a is not None]
-    P = len(cm.point_names)
-    colors = _point_palette(P)
+    colors = _point_palette(len(cm.point_names))
     fig, axes = _time_grid(len(series), 1)
     T = _duration(data, info)
+    sel = _Selection()
     for o, arr in enumerate(series):
         tu, _ = (_pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
         qx, qy = POINT_QUANTITIES[o]
         ax = axes[o][0]
-        for k in range(P):
-            ax.plot(data.t, arr[:, k, 0], color=colors[k], lw=1.4)
-            ax.plot(data.t, arr[:, k, 1], color=colors[k], lw=1.4, ls="--")
+        curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
+                  for k, name in enumerate(cm.point_names)
+                  for c, q, ls in ((0, qx, "-"), (1, qy, "--"))]
+        sel.draw(ax, data.t, curves, cm.L / T ** o, tu, o)
         ax.set_ylabel(f"{qx}, {qy} [{tu}]")
-        _tidy_ylim(ax, arr[:, :, 0], arr[:, :, 1], ref=cm.L / T ** o)
-    handles = []
-    for k, name in enumerate(cm.point_names):
-        handles += [Line2D([], [], color=colors[k], lw=1.4, label=f"{name}.x"),
-                    Line2D([], [], color=colors[k], lw=1.4, ls="--", label=f"{name}.y")]
+    handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
+        cm.point_names, colors, sel.drawn)
     _finish_time_axes(axes, data, info)
     title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]), info)
-    _arrange_time_grid(fig, axes, handles, 2, title, width=7.0, row_height=1.7)
+    _arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
     return fig
+
+
+class _Selection:
+    """Which curves of a time-history figure are drawn.
+
+    A curve is constant when its range is within 1e-9 of its axes' scale (ref: model length /
+    duration^order, or one radian), identical to another when they differ by no more than that
+    everywhere. The derivatives of a coordinate constant in position are not named again."""
+
+    def __init__(self):
+        self.drawn = set()              # indices (first element of a curve's key) drawn
+        self.constant = []              # "name = value unit"
+        self.same = []                  # "name = other"
+        self.still = set()              # keys constant in position
+
+    def draw(self, ax, t, curves, ref, unit, order):
+        """Plot the curves to keep against t (N,) s; curves: (values (N,), colour, line style,
+        label, key (index, coordinate)); ref: the axes' scale; unit: for the note."""
+        tol = 1e-9 * (ref if ref > 0 and math.isfinite(ref) else 1.0)
+        const, moving = [], []
+        for c in curves:
+            v = c[0][np.isfinite(c[0])]
+            scale = max(tol, 1e-9 * float(np.abs(v).max())) if len(v) else tol
+            (const if not len(v) or np.ptp(v) <= scale else moving).append(c)
+        keep = moving if moving else const
+        shown = []
+        for c in keep:
+            twin = next((d for d in shown if _same(c[0], d[0], tol)), None)
+            if twin is not None:
+                self.same.append(f"{c[3]} = {twin[3]}")
+                continue
+            shown.append(c)
+            self.drawn.add(c[4][0])
+        for v, color, ls, label, key in shown:
+            ax.plot(t, v, color=color, lw=1.4, ls=ls)
+        _tidy_ylim(ax, *[c[0] for c in keep], ref=ref)
+        if moving:
+            for v, _, _, label, key in const:
+                if order > 0 and key in self.still:
+                    continue
+                if order == 0:
+                    self.still.add(key)
+                f = v[np.isfinite(v)]
+                val = float(np.median(f)) if len(f) else float("nan")
+                val = 0.0 if abs(val) <= tol else val
+                self.constant.append(f"{label} = {val:.4g} {unit}")
+
+    def note(self) -> str:
+        parts = []
+        if self.constant:
+            parts.append("constant, not drawn: " + ", ".join(self.constant))
+        if self.same:
+            parts.append("equal to a curve drawn: " + ", ".join(self.same))
+        return "; ".join(parts)
+
+
+def _same(a, b, tol) -> bool:
+    with np.errstate(invalid="ignore"):
+        d = np.abs(a - b)
+    return bool(np.all((d <= tol) | (np.isnan(a) & np.isnan(b))))
+
+
+def _style_handles(styles):
+    from matplotlib.lines import Line2D
+    return [Line2D([], [], color="0.25", lw=1.4, ls=ls, label=label) for ls, label in styles]
+
+
+def _name_handles(names, colors, drawn):
+    """One legend entry per body (point) that has a curve drawn, in its colour."""
+    from matplotlib.lines import Line2D
+    return [Line2D([], [], color=colors[k], lw=2.5, label=n) for k, n in enumerate(names)
+            if k in drawn]
 
 
 def _time_grid(nrows, ncols):
@@ -237,14 +315,16 @@ def _time_grid(nrows, ncols):
     return fig, axes
 
 
-def _arrange_time_grid(fig, axes, handles, group, title, width, row_height):
-    """Size the figure and place axes, title and legend, in inches.
+def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
+    """Size the figure and place axes, title, legend and note, in inches.
 
     A fixed layout computed here costs nothing, where matplotlib's constrained layout measures
     every text (a third of the time of writing these figures). Tick-label widths come from the
-    axes' own locators and formatters. The legend below the axes is a table read row by row,
-    `group` entries (one body or point) per group of columns, as many groups as fit the width.
+    axes' own locators and formatters. The legend below the axes is a table read row by row, as
+    many entries per row as fit the width; the note (curves not drawn) is wrapped under it.
     """
+    import textwrap
+
     from matplotlib.lines import Line2D
 
     nrows, ncols = len(axes), len(axes[0])
@@ -253,23 +333,27 @@ def _arrange_time_grid(fig, axes, handles, group, title, width, row_height):
     room = [w + 0.5 for w in label_w]           # tick labels, ticks, y label (inches)
     right = 0.2
     gap_h = 0.12
-    per_row = group * max(1, min(len(handles) // group,
-                                 int((width - 0.6) / (group * _entry_width(handles)))))
+    per_row = max(1, min(len(handles), int((width - 0.6) / _entry_width(handles))))
     blank = Line2D([], [], alpha=0.0, label=" ")
     cells = list(handles) + [blank] * (-len(handles) % per_row)
     legend_rows = len(cells) // per_row
     # matplotlib fills legend columns first: transpose the row-major table
     ordered = [cells[r * per_row + c] for c in range(per_row) for r in range(legend_rows)]
+    lines = textwrap.wrap(note, int((width - 0.4) / 0.068)) if note else []
     top = 0.12 + 0.21 * (title.count("\n") + 1) + 0.12 + (0.22 if axes[0][0].get_title() else 0)
-    bottom = 0.6 + 0.2 * legend_rows
+    bottom = 0.6 + 0.2 * legend_rows + (0.16 * len(lines) + 0.08 if lines else 0.0)
     height = top + bottom + nrows * row_height + (nrows - 1) * gap_h
     fig.set_size_inches(width, height)
     aw = (width - sum(room) - right) / ncols
     fig.subplots_adjust(left=room[0] / width, right=1 - right / width, bottom=bottom / height,
                         top=1 - top / height, hspace=gap_h / row_height,
                         wspace=(room[1] / aw) if ncols > 1 else 0.2)
-    fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+    below = (0.16 * len(lines) + 0.1) / height if lines else 0.0
+    fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, below),
                fontsize=FONT, frameon=False, handlelength=2.2, columnspacing=1.4)
+    if lines:
+        fig.text(0.5, 0.1 / height, "\n".join(lines), ha="center", va="bottom",
+                 fontsize=FONT - 1, color="0.3", linespacing=1.25)
     fig.suptitle(title, fontsize=12, y=1 - 0.12 / height, va="top")
 
 
