@@ -269,3 +269,42 @@ def test_plot_server_splits_the_figures():
 def plotworker_split(names, animate):
     from planarkin.output import plotworker
     return plotworker.split(names, animate)
+
+
+def _run(name, **kw):
+    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+    return m, planarkin.solve(m, **kw)
+
+
+def test_mechanism_instants_few_distinct_and_the_final_pose_of_an_open_motion():
+    """Six-bar: three instants of a full cycle (the end is the start); boom (cylinder extending,
+    not periodic, the frame origin pinned to ground): its final pose is drawn; trammel (there and
+    back): the pose at t = 0.75 s repeats t = 0.25 s and is drawn once."""
+    m, r = _run("six-bar", steps=120)
+    sc = plots._Scene(m, r._chunk)
+    assert plots.instant_count(m) == 3 and sc.closed
+    assert list(sc.instants(3)) == [0, 40, 80]
+    m, r = _run("boom", steps=40)
+    sc = plots._Scene(m, r._chunk)
+    assert not sc.closed
+    assert list(sc.instants(plots.instant_count(m))) == [0, 13, 27, 40]
+    m, r = _run("trammel", steps=120)
+    sc = plots._Scene(m, r._chunk)
+    assert list(sc.instants(4)) == [0, 30, 60]
+
+
+def test_mechanism_figure_legend_and_body_colours(model, result):
+    """Every body drawn in its own colour (that of bodies.png) and named in it once; the legend
+    names each instant and each kind of path once."""
+    from matplotlib.colors import to_rgb
+    fig = plots._mechanism_figure(model, plots._Scene(model, result._chunk))
+    labels = _legend_labels(fig)
+    assert labels == ["B", "joint paths", "t = 0 s (named)", "t = 0.25 s", "t = 0.5 s",
+                      "t = 0.75 s"]
+    ax = fig.axes[0]
+    names = {t.get_text(): t for t in ax.texts}
+    colors = plots._palette(model.nb)
+    for b, name in enumerate(model.body_names):
+        assert np.allclose(to_rgb(names[name].get_color()), plots._darker(colors[b]))
+    bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]
+    assert {to_rgb(ln.get_color()) for ln in bars} == {to_rgb(colors[0]), to_rgb(colors[1])}

@@ -30,7 +30,6 @@ import numpy as np
 from .tables import BODY_QUANTITIES, POINT_QUANTITIES, units
 
 DPI = 150                      # raster output (png)
-INSTANTS = 6                   # mechanism drawings in mechanism.<fmt>
 ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has fewer rows)
 ANIM_FPS = 20
 ANIM_DPI = 100                 # 6.4 in wide -> 640 px
@@ -484,8 +483,9 @@ class _Scene:
         span = max(np.nanmax(X) - np.nanmin(X), np.nanmax(Y) - np.nanmin(Y))
         self.span = span if span > 1e-12 * cm.L else cm.L
         self.size = 0.07 * self.span                    # slider blocks, ground pivots
-        first = np.r_[[g[0] for g in (self.at(b, a, 0) for b, a in enumerate(attach))]]
-        last = np.r_[[g[0] for g in (self.at(b, a, -1) for b, a in enumerate(attach))]]
+        # every attachment point, not only the frame origins (a boom pinned at its origin)
+        first = np.concatenate([self.at(b, a, 0) for b, a in enumerate(attach)])
+        last = np.concatenate([self.at(b, a, -1) for b, a in enumerate(attach)])
         self.closed = len(self.t) > 2 and np.nanmax(np.abs(first - last)) <= 1e-6 * self.span
 
         self._shapes(attach, slide_dir, revolutes, gears)
@@ -628,12 +628,23 @@ class _Scene:
         self.bounds = (lo[0], hi[0], lo[1], hi[1])
 
     def instants(self, n: int) -> np.ndarray:
-        """n rows evenly spread over the run; a full cycle leaves out its end (same pose as
-        the start)."""
+        """Up to n rows evenly spread over the run, the first and (unless the run is a full
+        cycle, whose end is its start) the last among them; a row whose pose repeats one
+        already chosen (a motion there and back) is left out."""
         N = len(self.t)
         if self.closed and N > n:
-            return np.unique(np.linspace(0, N - 1, n + 1)[:-1].round().astype(int))
-        return np.unique(np.linspace(0, N - 1, min(n, N)).round().astype(int))
+            rows = np.unique(np.linspace(0, N - 1, n + 1)[:-1].round().astype(int))
+        else:
+            rows = np.unique(np.linspace(0, N - 1, min(n, N)).round().astype(int))
+        tol = 1e-6 * self.span
+        out = []
+        for i in rows:
+            if not any(np.nanmax(np.abs(self.x[i] - self.x[j])) <= tol
+                       and np.nanmax(np.abs(self.y[i] - self.y[j])) <= tol
+                       and np.nanmax(np.abs(self.c[i] - self.c[j])) <= 1e-6
+                       and np.nanmax(np.abs(self.s[i] - self.s[j])) <= 1e-6 for j in out):
+                out.append(int(i))
+        return np.array(out, dtype=int)
 
     def to_global(self, b: int, S, rows=slice(None)):
         """Global x, y (N, k) of body-fixed points S (k, 2) of body b at the given rows."""
@@ -664,7 +675,7 @@ class _Drawing:
     body's own colour (as in bodies.<fmt>)."""
 
     def __init__(self, ax, scene: _Scene, row: int, color=None, body_colors=False, alpha=1.0,
-                 fill=0.25, zorder=10.0, labels=False):
+                 fill=0.25, zorder=10.0, labels=False, width=4.5):
         from matplotlib.patches import Polygon
 
         self.scene = scene
@@ -680,7 +691,7 @@ class _Drawing:
                 ax.add_patch(patch)
                 self.parts.append((patch, b, scene.fills[b], "fill"))
             if scene.bars[b] is not None:
-                line, = ax.plot([], [], color=c, lw=4.5, alpha=alpha, solid_capstyle="round",
+                line, = ax.plot([], [], color=c, lw=width, alpha=alpha, solid_capstyle="round",
                                 zorder=zorder)
                 self.parts.append((line, b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
@@ -853,17 +864,29 @@ def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
     return out
 
 
+def instant_count(cm) -> int:
+    """Instants drawn in mechanism.<fmt> by default: four for up to three moving bodies, three
+    beyond (a six-bar drawn six times over is a tangle)."""
+    return 4 if cm.nb <= 3 else 3
+
+
 @_styled
-def _mechanism_figure(cm, scene: _Scene):
-    """The mechanism at INSTANTS evenly spread times (light to dark) and every path of the run."""
-    from matplotlib import colormaps
+def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
+    """The mechanism at a few instants and every path of the run.
+
+    Every body in its own colour (as in bodies.<fmt>), named in that colour at the first
+    instant, which is drawn solid; the later instants fade (the legend gives their times). A run
+    that is not a full cycle always shows its final pose; instants with the same pose are drawn
+    once."""
     from matplotlib.lines import Line2D
 
-    rows = scene.instants(INSTANTS)
-    labels = [f"t = {scene.t[i]:.4g} s" for i in rows] + [s[0] for s in scene.trace_styles]
+    rows = scene.instants(instants or instant_count(cm))
+    times = [f"t = {scene.t[i]:.4g} s" for i in rows]
+    if len(rows) > 1:
+        times[0] += " (named)"
+    alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
+    labels = times + [s[0] for s in scene.trace_styles]
     fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
-    cmap = colormaps["viridis"]
-    shades = [cmap(v) for v in np.linspace(0.78, 0.0, len(rows))]   # later = darker
     handles, seen = [], set()
     for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=w, zorder=5,
@@ -872,9 +895,13 @@ def _mechanism_figure(cm, scene: _Scene):
             seen.add(label)
             line.set_label(label)
             handles.append(line)
-    for k, (i, c) in enumerate(zip(rows, shades)):
-        _Drawing(ax, scene, i, color=c, fill=0.12, zorder=10 + k, labels=(k == 0))
-        handles.append(Line2D([], [], color=c, lw=4, label=labels[k]))
+    # later instants below the first, fainter the later they are
+    for k in range(len(rows) - 1, -1, -1):
+        _Drawing(ax, scene, rows[k], body_colors=True, alpha=alphas[k],
+                 fill=0.22 if k == 0 else 0.12, zorder=20 - k, labels=(k == 0),
+                 width=4.5 if k == 0 else 3.0)
+    handles += [Line2D([], [], color="0.2", lw=4 if k == 0 else 3, alpha=a, label=tt)
+                for k, (tt, a) in enumerate(zip(times, alphas))]
     fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside, fontsize=FONT,
                frameon=False, borderaxespad=0)
     ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
@@ -916,10 +943,11 @@ def _palette(n: int) -> list:
 
 
 def _point_palette(n: int) -> list:
-    """Point colours: Dark2 (distinct from the body colours where it matters), then tab20."""
+    """Point colours: Dark2, the hues least like the first body colours (tab10 blue, orange,
+    green, red) first, then tab20."""
     from matplotlib import colormaps
     if n <= 8:
-        return [colormaps["Dark2"](k) for k in range(n)]
+        return [colormaps["Dark2"](k) for k in (0, 3, 5, 6, 2, 4, 1, 7)[:n]]
     return _palette(n)
 
 
