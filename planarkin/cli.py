@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from . import __version__
+from .model.spec import X_AXES, x_axis_problem
 from .report import Report
 
 
@@ -143,8 +144,11 @@ def _analysis_options(f):
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
+@click.option("--x", "x_axis", type=click.Choice(X_AXES),
+              help="Abscissa of bodies and points plots: time, or driver (the first driver's "
+                   "coordinate, e.g. the crank angle). Default: output: x of the model, or time.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, quiet, **analysis):
+def run(models, out, no_plots, fmt, animate, x_axis, quiet, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if sys.platform.startswith("linux"):
         _tune_malloc()
@@ -158,14 +162,15 @@ def run(models, out, no_plots, fmt, animate, quiet, **analysis):
         if model is None:
             continue
         _run_one(path, model, dirs[path], report, dict(analysis),
-                 None if no_plots else fmt, animate)
+                 None if no_plots else fmt, animate, x_axis)
     if not no_plots or animate:
         plotworker.stop()
     report.summary()
     sys.exit(report.exit_code)
 
 
-def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate):
+def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
+             x_axis=None):
     from .diagnostics import InputError
     from .results import DirectoryWriter, analyse
     t0 = time.perf_counter()
@@ -177,8 +182,13 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
                 "end", model.spec.analysis.line) or None,
                 f"analysis: end ({opts.end:g}) must be greater than start ({opts.start:g})")])
             return
+        problem = x_axis and x_axis_problem(x_axis, model.spec, "--x")
+        if problem:
+            from .diagnostics import Diagnostic
+            report.invalid(path, [Diagnostic(path, None, problem)])
+            return
         writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
-                                 background=True)
+                                 background=True, x=x_axis)
         progress = _Progress(opts.steps + 1, Path(path).name)
         try:
             info, _ = analyse(model, opts, sink=writer, progress=progress)

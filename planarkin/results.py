@@ -164,7 +164,7 @@ class DirectoryWriter:
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False, background: bool = False):
+                 animate: bool = False, background: bool = False, x: str | None = None):
         self.cm = cm
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
@@ -173,6 +173,7 @@ class DirectoryWriter:
         self.steps = StepStats()
         self.plots = plots
         self.animate = animate
+        self.x = x or cm.spec.output.x          # abscissa of the time histories
         self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
         self.t_write = 0.0
         ctx = None
@@ -238,13 +239,13 @@ class DirectoryWriter:
                 if self.background:     # the CLI's plot server, if it started one
                     from .output import plotworker
                     files = plotworker.draw(self.cm, data, info, self.out, self.plots,
-                                            self.animate)
+                                            self.animate, self.x)
                 if files is None:
                     from .output import plots as plotting   # matplotlib only when plotting
                     files = []
                     if self.plots:
                         files += plotting.write_plots(self.cm, data, info, self.out,
-                                                      fmt=self.plots)
+                                                      fmt=self.plots, x=self.x)
                     if self.animate:
                         files.append(plotting.write_animation(self.cm, data, self.out))
                 if self.plots:      # rooms' plot functions (closures) draw in this process
@@ -386,11 +387,20 @@ class Result:
         raise KeyError(f"this result has no table '{filename}'"
                        f"{did_you_mean(filename, names) or ' (derived tables: ' + (', '.join(names) or 'none') + ')'}")
 
-    def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
+    def write(self, out: str | Path, plots: str | None = "png", animate: bool = False,
+              x: str | None = None) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out; returns the
-        summary."""
+        summary. x: abscissa of the time-history plots, "time" or "driver" (default: the
+        model's output: x)."""
+        if x is not None:
+            from .model.spec import X_AXES, x_axis_problem
+            problem = (f"x must be one of {', '.join(X_AXES)}, not {x!r}" if x not in X_AXES
+                       else x_axis_problem(x, self.model.spec, "x"))
+            if problem:
+                from .diagnostics import Diagnostic, InputError
+                raise InputError([Diagnostic(self.model.spec.file, None, problem)])
         w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
-                            animate=animate)
+                            animate=animate, x=x)
         w.add(self._chunk)
         return w.finish(self.info)
 

@@ -308,3 +308,39 @@ def test_mechanism_figure_legend_and_body_colours(model, result):
         assert np.allclose(to_rgb(names[name].get_color()), plots._darker(colors[b]))
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]
     assert {to_rgb(ln.get_color()) for ln in bars} == {to_rgb(colors[0]), to_rgb(colors[1])}
+
+
+def test_time_histories_against_the_driver_coordinate():
+    """four-bar (degrees, crank driven by f = 360 t): with x = driver every curve is drawn
+    against the crank angle, ticks every 45 degrees, the labels name it with its unit."""
+    m, r = _run("four-bar", steps=72)
+    for fig in (plots._bodies_figure(m, r._chunk, r.info, "driver"),
+                plots._points_figure(m, r._chunk, r.info, "driver")):
+        bottom = fig.axes[-1]
+        assert bottom.get_xlabel() == "crank angle [deg]"
+        assert "against the crank angle" in fig._suptitle.get_text()
+        assert bottom.get_xlim() == (0.0, 360.0)
+        ticks = [v for v in bottom.get_xticks() if 0 <= v <= 360]
+        assert ticks == [0, 45, 90, 135, 180, 225, 270, 315, 360]
+        for ax in fig.axes:
+            for ln in ax.get_lines():
+                assert np.allclose(ln.get_xdata(), 360 * r.t)
+    fig = plots._bodies_figure(m, r._chunk, r.info)
+    assert fig.axes[-1].get_xlabel() == "t [s]"
+
+
+def test_x_option_is_checked_like_the_yaml_key(tmp_path):
+    """--x driver on a model without drivers: the same message as output: x, exit 2; the API
+    refuses an unknown abscissa with an InputError."""
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    case = ROOT / "tests" / "cases" / "output-x.yaml"
+    text = case.read_text().replace("output: {x: driver}\n", "")
+    f = tmp_path / "structure.yaml"
+    f.write_text(text)
+    r = CliRunner().invoke(main, ["run", str(f), "--x", "driver", "--out", str(tmp_path), "-q"])
+    assert r.exit_code == 2
+    assert f"{f}: error: --x: driver needs a driver, and this model has none; use time" in r.output
+    m, res = _run("slider-crank", steps=20)
+    with pytest.raises(planarkin.InputError, match="x must be one of time, driver, not 'crank'"):
+        res.write(tmp_path / "out", x="crank")

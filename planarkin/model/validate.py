@@ -15,7 +15,8 @@ from typing import Any
 from ..diagnostics import Collector, did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
 from ..expr import ExprError, TimeFunction, evaluate_constant
-from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
+from .spec import (X_AXES, AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec,
+                   x_axis_problem)
 from .yamlread import Node
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
@@ -173,7 +174,7 @@ class _Validator:
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
         analysis = self.analysis(root.value.get("analysis"))
-        output = self.output(root.value.get("output"), points)
+        output = self.output(root.value.get("output"), points, drivers)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
@@ -542,8 +543,8 @@ class _Validator:
         if a.max_step is not None and a.max_step <= 0:
             self.err(at("max_step"), f"analysis: max_step must be positive, not {a.max_step:g}")
 
-    def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
-        if node is None or not self.keys(node, ("bodies", "points", "up_to"), "output"):
+    def output(self, node: Node | None, points: list[PointSpec], drivers=()) -> OutputSpec:
+        if node is None or not self.keys(node, ("bodies", "points", "up_to", "x"), "output"):
             return OutputSpec()
         v = node.value
         vals: dict[str, Any] = {}
@@ -568,6 +569,13 @@ class _Validator:
             c = self.choice(v["up_to"], "output: up_to", tuple(ORDERS))
             if c is not None:
                 vals["order"] = ORDERS[c]
+        if "x" in v:
+            c = self.choice(v["x"], "output: x", X_AXES)
+            problem = c and x_axis_problem(c, drivers, "output: x")
+            if problem:
+                self.err(v["x"], problem)
+            elif c is not None:
+                vals["x"] = c
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):

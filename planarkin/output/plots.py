@@ -66,12 +66,14 @@ def figure_names(cm) -> list[str]:
 
 
 @_styled
-def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None) -> list[Path]:
+def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
+                x: str = "time") -> list[Path]:
     """Write bodies, points, trajectories and mechanism plots into directory out.
 
     cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
     event and warnings are marked on the time axes; None is allowed); only: a subset of
-    figure_names(cm) to draw (default all; `plotworker` splits them between two processes).
+    figure_names(cm) to draw (default all; `plotworker` splits them between two processes);
+    x: abscissa of bodies and points, "time" or "driver" (model.spec.X_AXES).
     Returns the files written (points and trajectories only when the model has points; nothing
     when data has no rows).
     """
@@ -81,8 +83,8 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None) -> list[
         return []
     names = [n for n in figure_names(cm) if only is None or n in only]
     scene = _Scene(cm, data) if set(names) & {"trajectories", "mechanism"} else None
-    build = {"bodies": lambda: _bodies_figure(cm, data, info),
-             "points": lambda: _points_figure(cm, data, info),
+    build = {"bodies": lambda: _bodies_figure(cm, data, info, x),
+             "points": lambda: _points_figure(cm, data, info, x),
              "trajectories": lambda: _trajectories_figure(cm, scene),
              "mechanism": lambda: _mechanism_figure(cm, scene)}
     return [_save(build[n](), out / f"{n}.{fmt}") for n in names]
@@ -169,7 +171,7 @@ def write_animation(cm, data, out: Path) -> Path:
 # -- time histories ------------------------------------------------------------------------------
 
 @_styled
-def _bodies_figure(cm, data, info):
+def _bodies_figure(cm, data, info, x: str = "time"):
     """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time.
 
     Curves constant over the run (a frame pinned to ground) or identical to one already drawn
@@ -177,7 +179,9 @@ def _bodies_figure(cm, data, info):
     are all constant keeps them)."""
     series = [a for a in (data.q, data.qd, data.qdd) if a is not None]
     colors = _palette(cm.nb)
-    fig, axes = _time_grid(len(series), 2)
+    xa = _XAxis(cm, x)
+    X = xa(data.t)
+    fig, axes = _time_grid(len(series), 2, xa.label)
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
     T = _duration(data, info)
     sel = _Selection()
@@ -190,28 +194,31 @@ def _bodies_figure(cm, data, info):
                                                                         (1, qy, "--"))]
         ang = [(arr[:, 3 * b + 2], colors[b], "-", f"{name}.{qphi}", (b, 2))
                for b, name in enumerate(cm.body_names)]
-        sel.draw(left, data.t, lin, cm.L / T ** o, tu, o)
-        sel.draw(right, data.t, ang, 1.0 / cm.angle_factor / T ** o, ru, o)
+        sel.draw(left, X, lin, cm.L / T ** o, tu, o)
+        sel.draw(right, X, ang, 1.0 / cm.angle_factor / T ** o, ru, o)
         left.set_ylabel(f"{qx}, {qy} [{tu}]")
         right.set_ylabel(f"{qphi} [{ru}]")
     axes[0][0].set_title("translation of the body frames", fontsize=10, y=1.0)
     axes[0][1].set_title("rotation", fontsize=10, y=1.0)
     handles = _style_handles([("-", "x, phi"), ("--", "y")]) + _name_handles(
         cm.body_names, colors, sel.drawn)
-    _finish_time_axes(axes, data, info)
-    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]), info)
+    _finish_time_axes(axes, data, info, xa)
+    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
+                   info)
     _arrange_time_grid(fig, axes, handles, title, width=10.0, row_height=1.75,
                        note=sel.note())
     return fig
 
 
 @_styled
-def _points_figure(cm, data, info):
+def _points_figure(cm, data, info, x: str = "time"):
     """One column: x, y of every point (and their derivatives) against time; constant and
     repeated curves left out as in bodies.<fmt>."""
     series = [a for a in (data.p, data.pd, data.pdd) if a is not None]
     colors = _point_palette(len(cm.point_names))
-    fig, axes = _time_grid(len(series), 1)
+    xa = _XAxis(cm, x)
+    X = xa(data.t)
+    fig, axes = _time_grid(len(series), 1, xa.label)
     T = _duration(data, info)
     sel = _Selection()
     for o, arr in enumerate(series):
@@ -221,12 +228,12 @@ def _points_figure(cm, data, info):
         curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
                   for k, name in enumerate(cm.point_names)
                   for c, q, ls in ((0, qx, "-"), (1, qy, "--"))]
-        sel.draw(ax, data.t, curves, cm.L / T ** o, tu, o)
+        sel.draw(ax, X, curves, cm.L / T ** o, tu, o)
         ax.set_ylabel(f"{qx}, {qy} [{tu}]")
     handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
         cm.point_names, colors, sel.drawn)
-    _finish_time_axes(axes, data, info)
-    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]), info)
+    _finish_time_axes(axes, data, info, xa)
+    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
     _arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
     return fig
 
@@ -303,14 +310,43 @@ def _name_handles(names, colors, drawn):
             if k in drawn]
 
 
-def _time_grid(nrows, ncols):
-    """Figure and (nrows, ncols) axes sharing the time axis; sized by _arrange_time_grid."""
+class _XAxis:
+    """The abscissa of the time histories: t [s], or (kind "driver") the coordinate of the
+    model's first driver, f(t) in the file's units: the crank angle of a crank-driven linkage.
+    Calling it maps times (s) to abscissae."""
+
+    def __init__(self, cm, kind: str = "time"):
+        self.f = None
+        self.degrees = False
+        self.label, self.against = "t [s]", ""
+        if kind == "driver":
+            from ..elements import KINDS
+            from ..model.spec import spec_drivers
+            el = spec_drivers(cm.spec)[0]
+            unit = {"angle": cm.spec.angle_unit, "length": cm.spec.length_unit}.get(
+                KINDS[el.kind].target_unit, "")
+            who = el.name or "-".join(b for b in el.bodies if b != "ground")
+            self.f = el.f
+            self.degrees = unit == "deg"
+            self.label = f"{who} {el.kind}" + (f" [{_pretty(unit)}]" if unit else "")
+            self.against = f" against the {who} {el.kind}"
+
+    def __call__(self, t):
+        t = np.asarray(t, float)
+        if self.f is None:
+            return t
+        with np.errstate(all="ignore"):
+            return np.broadcast_to(np.asarray(self.f(t), float), t.shape).copy()
+
+
+def _time_grid(nrows, ncols, xlabel="t [s]"):
+    """Figure and (nrows, ncols) axes sharing the abscissa; sized by _arrange_time_grid."""
     from matplotlib.figure import Figure
 
     fig = Figure()
     axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
     for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
+        ax.set_xlabel(xlabel)
     return fig, axes
 
 
@@ -356,10 +392,11 @@ def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
     fig.suptitle(title, fontsize=12, y=1 - 0.12 / height, va="top")
 
 
-def _finish_time_axes(axes, data, info):
+def _finish_time_axes(axes, data, info, xa=None):
     """Time range (the planned one, so that a failed run shows where it stopped) and the event
     lines: the stop (red dashed), near-singular passages (thin orange), bifurcations stepped
-    over (purple); each kind labelled once, beside its first line, in the top row."""
+    over (purple); each kind labelled once, beside its first line, in the top row. xa (an
+    _XAxis) maps the times to the abscissa."""
     from matplotlib.transforms import blended_transform_factory
 
     lo, hi = float(data.t[0]), float(data.t[-1])
@@ -380,6 +417,12 @@ def _finish_time_axes(axes, data, info):
                      and lo <= w.t <= hi})
         if ts:
             marks.append((ts, style, label))
+    if xa is not None and xa.f is not None:
+        # the driver's range over the planned time range, the events where the driver was then
+        span = xa(np.r_[np.linspace(lo, hi, 257), data.t])
+        span = span[np.isfinite(span)]
+        marks = [(list(xa(np.array(ts))), style, label) for ts, style, label in marks]
+        lo, hi = (float(span.min()), float(span.max())) if len(span) else (lo, hi)
     for r, row in enumerate(axes):
         for ax in row:
             for ts, style, label in marks:
@@ -395,6 +438,12 @@ def _finish_time_axes(axes, data, info):
                                 xycoords=blended_transform_factory(ax.transData, ax.transAxes))
     if hi > lo:
         axes[0][0].set_xlim(lo, hi)
+        if xa is not None and xa.degrees:       # angles in degrees: ticks at 15, 30, 45, 90...
+            from matplotlib.ticker import MultipleLocator
+            step = next((s for s in (15, 30, 45, 90, 180, 360, 720) if (hi - lo) / s <= 8),
+                        None)
+            if step is not None and (hi - lo) / step >= 2:
+                axes[0][0].xaxis.set_major_locator(MultipleLocator(step))
 
 
 def _tidy_ylim(ax, *arrays, ref):

@@ -48,9 +48,9 @@ def running() -> bool:
     return _server is not None
 
 
-def draw(cm, data, info, out, fmt: str | None, animate: bool):
-    """Draw the figures (fmt: png, svg, pdf or None for none) and animation.gif of one run into
-    directory out, in the server; returns the files written (Paths, in figure order), or None
+def draw(cm, data, info, out, fmt: str | None, animate: bool, x: str = "time"):
+    """Draw the figures (fmt: png, svg, pdf or None for none; x: their abscissa) and
+    animation.gif of one run into directory out, in the server; returns the files written (Paths, in figure order), or None
     when there is no server (the caller then draws in its own process). Raises RuntimeError when
     the drawing itself failed."""
     global _server
@@ -58,7 +58,7 @@ def draw(cm, data, info, out, fmt: str | None, animate: bool):
         return None
     proc, conn = _server
     try:
-        conn.send((cm, data, info, str(out), fmt, animate))
+        conn.send((cm, data, info, str(out), fmt, animate, x))
         status, payload = conn.recv()
     except (EOFError, OSError):
         # the server died (killed, out of memory): draw here from now on
@@ -124,7 +124,7 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
     return names[:1], names[1:], False
 
 
-def _draw(cm, data, info, out, fmt, animate):
+def _draw(cm, data, info, out, fmt, animate, x):
     from pathlib import Path
 
     from . import plots
@@ -133,7 +133,8 @@ def _draw(cm, data, info, out, fmt, animate):
     mine_child, mine, child_anim = split(names, animate)
 
     def part(figs, anim):
-        files = plots.write_plots(cm, data, info, out, fmt, only=figs) if figs and fmt else []
+        files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \
+            else []
         if anim:
             files.append(plots.write_animation(cm, data, out))
         return files
