@@ -144,12 +144,21 @@ def _analysis_options(f):
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
+@click.option("--animate-fps", type=click.IntRange(1, 100),
+              help="Frames per second of animation.gif (default 20; 80 frames at most). "
+                   "Implies --animate.")
+@click.option("--animate-width", type=click.IntRange(320, 4000),
+              help="Width of animation.gif in pixels (default 640; the legend may widen it). "
+                   "Implies --animate.")
 @click.option("--x", "x_axis", type=click.Choice(X_AXES),
               help="Abscissa of bodies and points plots: time, or driver (the first driver's "
                    "coordinate, e.g. the crank angle). Default: output: x of the model, or time.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-def run(models, out, no_plots, fmt, animate, x_axis, quiet, **analysis):
+def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis, quiet,
+        **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
+    if animate_fps or animate_width:
+        animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
     if sys.platform.startswith("linux"):
         _tune_malloc()
     if not no_plots or animate:

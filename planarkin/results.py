@@ -247,7 +247,8 @@ class DirectoryWriter:
                         files += plotting.write_plots(self.cm, data, info, self.out,
                                                       fmt=self.plots, x=self.x)
                     if self.animate:
-                        files.append(plotting.write_animation(self.cm, data, self.out))
+                        opts = self.animate if isinstance(self.animate, dict) else {}
+                        files.append(plotting.write_animation(self.cm, data, self.out, **opts))
                 if self.plots:      # rooms' plot functions (closures) draw in this process
                     for d in self.derived:
                         if d.plot is not None:

@@ -193,7 +193,11 @@ def test_animation_gif(model, result, tmp_path):
     with Image.open(path) as im:
         assert im.n_frames > 10
         assert im.info["duration"] == 50           # 20 frames per second
+        assert im.width == 640
         im.seek(im.n_frames - 1)                   # every frame decodes
+    path = plots.write_animation(model, result._chunk, tmp_path, fps=10, width=480)
+    with Image.open(path) as im:
+        assert im.info["duration"] == 100 and im.width == 480
 
 
 def _legend_labels(fig):
@@ -344,3 +348,18 @@ def test_x_option_is_checked_like_the_yaml_key(tmp_path):
     m, res = _run("slider-crank", steps=20)
     with pytest.raises(planarkin.InputError, match="x must be one of time, driver, not 'crank'"):
         res.write(tmp_path / "out", x="crank")
+
+
+def test_legend_beside_the_drawing_is_never_cut():
+    """A long point name (the text widths are estimated, never measured, when the figure is
+    laid out): the figure widens until the legend fits."""
+    from matplotlib.backends.backend_agg import RendererAgg
+    text = SLIDER_CRANK.read_text().replace("  B: {body", "  WWWWWWWWWWWWWWWWWWWWWWWWWWWWWW: {body")
+    m = planarkin.load("long.yaml", text=text)
+    r = planarkin.solve(m, steps=40)
+    fig = plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    W, H = fig.get_size_inches()
+    assert W > 9.0
+    box = fig.legends[0].get_window_extent(RendererAgg(int(W * fig.dpi), int(H * fig.dpi),
+                                                       fig.dpi))
+    assert box.x1 <= W * fig.dpi

@@ -91,9 +91,12 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
 
 
 @_styled
-def write_animation(cm, data, out: Path) -> Path:
+def write_animation(cm, data, out: Path, fps: int | None = None,
+                    width: int | None = None) -> Path:
     """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
-    joint and point paths growing), up to ANIM_FRAMES frames at ANIM_FPS frames per second.
+    joint and point paths growing), up to ANIM_FRAMES frames at fps frames per second (default
+    ANIM_FPS), width pixels wide (default 640; the height follows the drawing, the legend
+    beside it is never cut: the image widens for it).
 
     Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
@@ -106,15 +109,17 @@ def write_animation(cm, data, out: Path) -> Path:
     scene = _Scene(cm, data)
     N = len(data.t)
     rows = np.unique(np.linspace(0, max(N - 1, 0), min(ANIM_FRAMES, max(N, 1))).round().astype(int))
-    fig, ax, beside = _plane_figure(cm, scene, 6.4, 0.55 + _text_width(cm.body_names),
-                                    dpi=ANIM_DPI)
+    fps = int(fps or ANIM_FPS)
+    fig, ax, beside = _plane_figure(cm, scene, (width or 640) / ANIM_DPI,
+                                    0.7 + _text_width(cm.body_names), dpi=ANIM_DPI)
     traces = [ax.plot([], [], color=c, lw=w, zorder=5)[0] for _, _, c, w in scene.trace_styles]
     drawing = _Drawing(ax, scene, rows[-1], body_colors=True, zorder=10)
     stamp = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=FONT,
                     bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
                     zorder=30)
-    fig.legend(handles=drawing.legend_handles(), loc="upper left", bbox_to_anchor=beside,
-               fontsize=FONT, frameon=False)
+    legend = fig.legend(handles=drawing.legend_handles(), loc="upper left",
+                        bbox_to_anchor=beside, fontsize=FONT, frameon=False)
+    _fit_legend(fig, legend, ax, beside)
     ax.set_title(f"{cm.spec.name}: motion", fontsize=11, y=1.0)
     moving = traces + drawing.artists + [stamp]
     for a in moving:
@@ -159,7 +164,7 @@ def write_animation(cm, data, out: Path) -> Path:
             frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
                            duration=int(1000 / self.fps), loop=0)
 
-    writer = BlitWriter(fps=ANIM_FPS)
+    writer = BlitWriter(fps=fps)
     writer.setup(fig, path, ANIM_DPI)       # (not writer.saving(): it changes rcParams)
     for i in rows:
         writer.row = i
@@ -951,11 +956,31 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
                  width=4.5 if k == 0 else 3.0)
     handles += [Line2D([], [], color="0.2", lw=4 if k == 0 else 3, alpha=a, label=tt)
                 for k, (tt, a) in enumerate(zip(times, alphas))]
-    fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside, fontsize=FONT,
-               frameon=False, borderaxespad=0)
+    legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside,
+                        fontsize=FONT, frameon=False, borderaxespad=0)
+    _fit_legend(fig, legend, ax, beside)
     ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
                  f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12, y=1.0)
     return fig
+
+
+def _fit_legend(fig, legend, ax, anchor):
+    """Widen the figure until the legend beside the axes fits (the width of its texts is only
+    estimated when the figure is laid out), keeping the axes' size and place in inches; the
+    legend's upper-left corner is at anchor (figure fraction before widening)."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    W, H = fig.get_size_inches()
+    dpi = fig.dpi
+    box = legend.get_window_extent(RendererAgg(int(W * dpi), int(H * dpi), dpi))
+    extra = box.x1 / dpi + 0.08 - W                   # inches past the right edge
+    if extra <= 0:
+        return
+    pos = ax.get_position()
+    k = W / (W + extra)
+    fig.set_size_inches(W + extra, H)
+    ax.set_position((pos.x0 * k, pos.y0, pos.width * k, pos.height))
+    legend.set_bbox_to_anchor((anchor[0] * k, anchor[1]), transform=fig.transFigure)
 
 
 # -- small helpers -------------------------------------------------------------------------------

@@ -50,7 +50,8 @@ def running() -> bool:
 
 def draw(cm, data, info, out, fmt: str | None, animate: bool, x: str = "time"):
     """Draw the figures (fmt: png, svg, pdf or None for none; x: their abscissa) and
-    animation.gif of one run into directory out, in the server; returns the files written (Paths, in figure order), or None
+    animation.gif of one run into directory out (animate: False, True or the keyword arguments
+    of plots.write_animation), in the server; returns the files written (Paths, in figure order), or None
     when there is no server (the caller then draws in its own process). Raises RuntimeError when
     the drawing itself failed."""
     global _server
@@ -136,7 +137,8 @@ def _draw(cm, data, info, out, fmt, animate, x):
         files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \
             else []
         if anim:
-            files.append(plots.write_animation(cm, data, out))
+            opts = animate if isinstance(animate, dict) else {}
+            files.append(plots.write_animation(cm, data, out, **opts))
         return files
 
     if not (mine_child or child_anim):
