@@ -363,3 +363,31 @@ def test_legend_beside_the_drawing_is_never_cut():
     box = fig.legends[0].get_window_extent(RendererAgg(int(W * fig.dpi), int(H * fig.dpi),
                                                        fig.dpi))
     assert box.x1 <= W * fig.dpi
+
+
+def test_tradeoff_labels_do_not_overlap():
+    """Five settings on one spot and two close by: every name gets a place of its own inside
+    the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+    from planarkin.tradeoff import _label_points
+    fig = Figure(figsize=(8, 5.5))
+    ax = fig.add_subplot()
+    pts = [(40.0, 3e-16, f"setting {k}") for k in range(5)] + [(41.0, 3e-16, "close"),
+                                                                (200.0, 1e-6, "far")]
+    ax.scatter([p[0] for p in pts], [p[1] for p in pts])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(1e-17, 1e-3)
+    r = FigureCanvasAgg(fig).get_renderer()
+    _label_points(ax, r, pts)
+    boxes = []
+    for t in ax.texts:
+        t.update_positions(r)
+        boxes.append(Text.get_window_extent(t, r))
+    assert len(boxes) == 7
+    frame = ax.get_window_extent(r)
+    for k, b in enumerate(boxes):
+        assert frame.contains(b.x0, b.y0) and frame.contains(b.x1, b.y1)
+        assert not any(b.overlaps(o) for o in boxes[k + 1:])
