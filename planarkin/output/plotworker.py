@@ -32,6 +32,10 @@ def start() -> None:
     if _server is not None:
         return
     import multiprocessing as mp
+
+    # numpy before the fork: the parent needs it anyway, and the server then does not import
+    # it a second time (CPU that a busy machine does not have to spare)
+    import numpy  # noqa: F401
     try:
         ctx = mp.get_context("fork")
     except ValueError:
@@ -96,9 +100,7 @@ def _serve(conn, parent_end) -> None:
     parent_end.close()
     # a Ctrl-C is the parent's to handle; the server ends when the parent closes the pipe
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import matplotlib.figure  # noqa: F401 - the import the parent should not wait for
-    import matplotlib.backends.backend_agg  # noqa: F401
-    from . import plots  # noqa: F401
+    _warm_up()
     while True:
         try:
             job = conn.recv()
@@ -114,6 +116,22 @@ def _serve(conn, parent_end) -> None:
             conn.send(reply)
         except OSError:
             break
+
+
+def _warm_up() -> None:
+    """What the parent should not wait for: importing matplotlib, and the first drawing (the
+    font file opened, the first glyphs rendered, the png encoder loaded), here on a tiny
+    figure that is thrown away."""
+    import io
+
+    from matplotlib.figure import Figure
+
+    from . import plots  # noqa: F401 - numpy, the tables module
+    fig = Figure(figsize=(1, 1))
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1])
+    ax.set_xlabel("t [s]")
+    fig.savefig(io.BytesIO(), format="png", dpi=30)
 
 
 def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
