@@ -223,6 +223,13 @@ class DirectoryWriter:
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
         value) and the plots; returns the summary."""
+        data = self.buffer.chunk() if self.buffer is not None else None
+        sent = False
+        if data is not None and self.background:
+            # the CLI's plot server (if it started one) draws while the tables close
+            from .output import plotworker
+            sent = plotworker.submit(self.cm, data, info, self.out, self.plots, self.animate,
+                                     self.x)
         body_stats, point_stats, derived, busy = self._close_tables()
         wall = None if started is None else time.perf_counter() - started
         info.timings["write"] = busy
@@ -231,30 +238,24 @@ class DirectoryWriter:
             summary["columns"][d.filename] = stats.as_dict()
             if d.section is not None and extra is not None:
                 summary[d.section] = extra
-        if self.buffer is not None:
-            data = self.buffer.chunk()
-            if data is not None:
-                t0 = time.perf_counter()
-                files = None
-                if self.background:     # the CLI's plot server, if it started one
-                    from .output import plotworker
-                    files = plotworker.draw(self.cm, data, info, self.out, self.plots,
-                                            self.animate, self.x)
-                if files is None:
-                    from .output import plots as plotting   # matplotlib only when plotting
-                    files = []
-                    if self.plots:
-                        files += plotting.write_plots(self.cm, data, info, self.out,
-                                                      fmt=self.plots, x=self.x)
-                    if self.animate:
-                        opts = self.animate if isinstance(self.animate, dict) else {}
-                        files.append(plotting.write_animation(self.cm, data, self.out, **opts))
-                if self.plots:      # rooms' plot functions (closures) draw in this process
-                    for d in self.derived:
-                        if d.plot is not None:
-                            files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
-                summary["plots"] = [f.name for f in files]
-                summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
+        if data is not None:
+            t0 = time.perf_counter()
+            files = plotworker.collect() if sent else None
+            if files is None:
+                from .output import plots as plotting   # matplotlib only when plotting
+                files = []
+                if self.plots:
+                    files += plotting.write_plots(self.cm, data, info, self.out,
+                                                  fmt=self.plots, x=self.x)
+                if self.animate:
+                    opts = self.animate if isinstance(self.animate, dict) else {}
+                    files.append(plotting.write_animation(self.cm, data, self.out, **opts))
+            if self.plots:      # rooms' plot functions (closures) draw in this process
+                for d in self.derived:
+                    if d.plot is not None:
+                        files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
+            summary["plots"] = [f.name for f in files]
+            summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
         write_json(self.out / "summary.json", summary)
         return summary
 

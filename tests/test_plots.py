@@ -391,3 +391,24 @@ def test_tradeoff_labels_do_not_overlap():
     for k, b in enumerate(boxes):
         assert frame.contains(b.x0, b.y0) and frame.contains(b.x1, b.y1)
         assert not any(b.overlaps(o) for o in boxes[k + 1:])
+
+
+def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, positions, tmp_path):
+    from planarkin.output import plotworker
+    plotworker.start()
+    try:
+        files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
+        assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
+                                           "mechanism.png"]
+        with pytest.raises(RuntimeError, match="drawing the plots failed"):
+            plotworker.draw(model, positions._chunk, positions.info, tmp_path / "missing" / "x",
+                            "png", False)
+        assert plotworker.running()             # a failed job does not end the server
+        proc = plotworker._server[0]
+        proc.kill()
+        proc.join()
+        assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
+                               False) is None   # the caller then draws itself
+        assert not plotworker.running()
+    finally:
+        plotworker.stop()

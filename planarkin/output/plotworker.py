@@ -23,7 +23,8 @@ import json
 import os
 import signal
 
-_server = None          # the running _Server of this process, if any
+_server = None          # (process, connection) of the running server of this process, if any
+_pending = False        # a job was sent and its answer not read yet
 
 
 def start() -> None:
@@ -52,22 +53,48 @@ def running() -> bool:
     return _server is not None
 
 
-def draw(cm, data, info, out, fmt: str | None, animate: bool, x: str = "time"):
+def draw(cm, data, info, out, fmt: str | None, animate, x: str = "time"):
     """Draw the figures (fmt: png, svg, pdf or None for none; x: their abscissa) and
     animation.gif of one run into directory out (animate: False, True or the keyword arguments
-    of plots.write_animation), in the server; returns the files written (Paths, in figure order), or None
-    when there is no server (the caller then draws in its own process). Raises RuntimeError when
-    the drawing itself failed."""
-    global _server
+    of plots.write_animation), in the server; returns the files written (Paths, in figure
+    order), or None when there is no server (the caller then draws in its own process). Raises
+    RuntimeError when the drawing itself failed."""
+    return collect() if submit(cm, data, info, out, fmt, animate, x) else None
+
+
+def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bool:
+    """Send a job (arguments as for draw) and return at once: True when the server has it
+    (its answer is then read by `collect`), False when there is no server."""
+    global _pending
     if _server is None:
-        return None
-    proc, conn = _server
+        return False
+    if _pending:                    # a job whose caller gave up on it (an error in between)
+        try:
+            collect()
+        except RuntimeError:
+            pass
+        if _server is None:
+            return False
     try:
-        conn.send((cm, data, info, str(out), fmt, animate, x))
-        status, payload = conn.recv()
-    except (EOFError, OSError):
-        # the server died (killed, out of memory): draw here from now on
+        _server[1].send((cm, data, info, str(out), fmt, animate, x))
+    except OSError:
         stop()
+        return False
+    _pending = True
+    return True
+
+
+def collect():
+    """Wait for the answer to the job sent by `submit`: the files written, or None when the
+    server died meanwhile (the caller draws in its own process; later jobs too)."""
+    global _pending
+    if _server is None or not _pending:
+        return None
+    _pending = False
+    try:
+        status, payload = _server[1].recv()
+    except (EOFError, OSError):
+        stop()                  # killed, out of memory: draw here from now on
         return None
     if status != "ok":
         raise RuntimeError(f"drawing the plots failed: {payload}")
@@ -77,11 +104,12 @@ def draw(cm, data, info, out, fmt: str | None, animate: bool, x: str = "time"):
 
 def stop() -> None:
     """Tell the server to finish and wait for it (terminate it if it does not end)."""
-    global _server
+    global _server, _pending
     if _server is None:
         return
     proc, conn = _server
     _server = None
+    _pending = False
     try:
         conn.send(None)
     except OSError:
