@@ -42,17 +42,21 @@ EXAMPLES = ["four-bar", "slider-crank", "six-bar", "quick-return", "boom", "tram
 def single(model: str, repeat: int, tmp: Path) -> dict:
     """Median wall time of `planarkin run MODEL` with plots and with --no-plots, interleaved."""
     walls = {"plots": [], "no-plots": []}
+    cpus = {"plots": [], "no-plots": []}
     args = ["run", str(ROOT / "mechanisms" / f"{model}.yaml"), "--quiet"]
     run_cli(args + ["--out", str(tmp / "warm")])                        # warm the file cache
     for _ in range(repeat):
         for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
-            w, _, _ = run_cli(args + extra + ["--out", str(tmp / kind)])
+            w, cpu, _ = run_cli(args + extra + ["--out", str(tmp / kind)])
             walls[kind].append(w)
+            cpus[kind].append(cpu)
     with open(tmp / "plots" / model / "summary.json") as f:
         inner = json.load(f)["wall_time"].get("plots")
     med = {k: statistics.median(v) for k, v in walls.items()}
-    return {"model": model, "walls": walls, "median": med,
-            "ratio": med["plots"] / med["no-plots"], "plots_wait_last": inner}
+    cpu = {k: statistics.median(v) for k, v in cpus.items()}
+    return {"model": model, "walls": walls, "median": med, "cpus": cpus, "cpu_median": cpu,
+            "ratio": med["plots"] / med["no-plots"], "cpu_ratio": cpu["plots"] / cpu["no-plots"],
+            "plots_wait_last": inner}
 
 
 def batch(n: int, tmp: Path) -> dict:
@@ -75,38 +79,42 @@ def batch(n: int, tmp: Path) -> dict:
             waits.append(json.load(fh)["wall_time"]["plots"])
     out["models"] = n
     out["per_model_extra"] = (out["plots"]["wall"] - out["no-plots"]["wall"]) / n
+    out["per_model_extra_cpu"] = (out["plots"]["cpu"] - out["no-plots"]["cpu"]) / n
     out["per_model_wait_mean"] = statistics.mean(waits)
     out["per_model_wait_max"] = max(waits)
     return out
 
 
 def in_process(models, repeat: int, tmp: Path) -> list[dict]:
-    """Per figure: best-of-repeat seconds to build and write it in this process."""
+    """Per figure: best-of-repeat seconds to build and write it in this process (wall and CPU:
+    on a busy machine the CPU seconds are the steadier figure)."""
     import planarkin
     from planarkin.output import plots
     rows = []
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     import matplotlib.figure  # noqa: F401
     import matplotlib.backends.backend_agg  # noqa: F401
-    rows.append({"model": "-", "figure": "import matplotlib", "seconds": time.perf_counter() - t0})
+    rows.append({"model": "-", "figure": "import matplotlib", "seconds": time.perf_counter() - t0,
+                 "cpu": time.process_time() - c0})
     for name in models:
         cm = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = planarkin.solve(cm)
-        solve = time.perf_counter() - t0
-        rows.append({"model": name, "figure": "solve (in process)", "seconds": solve})
+        rows.append({"model": name, "figure": "solve (in process)",
+                     "seconds": time.perf_counter() - t0, "cpu": time.process_time() - c0})
         d = tmp / f"fig-{name}"
         d.mkdir(exist_ok=True)
         for fig in plots.figure_names(cm) + ["animation.gif"]:
-            best = float("inf")
+            best = cpu = float("inf")
             for _ in range(repeat):
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 if fig == "animation.gif":
                     plots.write_animation(cm, res._chunk, d)
                 else:
                     plots.write_plots(cm, res._chunk, res.info, d, only=[fig])
                 best = min(best, time.perf_counter() - t0)
-            rows.append({"model": name, "figure": fig, "seconds": best})
+                cpu = min(cpu, time.process_time() - c0)
+            rows.append({"model": name, "figure": fig, "seconds": best, "cpu": cpu})
     return rows
 
 
@@ -131,6 +139,9 @@ def main() -> None:
         print(f"  with plots      {m['plots']:.3f} s   ({', '.join(f'{w:.2f}' for w in s['walls']['plots'])})")
         print(f"  --no-plots      {m['no-plots']:.3f} s   ({', '.join(f'{w:.2f}' for w in s['walls']['no-plots'])})")
         print(f"  ratio           {s['ratio']:.2f} x   (target <= 2)")
+        c = s["cpu_median"]
+        print(f"  CPU (all processes of the run, median): with plots {c['plots']:.3f} s, "
+              f"--no-plots {c['no-plots']:.3f} s, ratio {s['cpu_ratio']:.2f} x")
         print(f"  waited for the plots at the end (summary.json wall_time.plots, last run): "
               f"{s['plots_wait_last']:.3f} s")
         print()
@@ -139,15 +150,15 @@ def main() -> None:
         print(f"  --no-plots      {b['no-plots']['wall']:.2f} s wall, {b['no-plots']['cpu']:.2f} s CPU")
         print(f"  with plots      {b['plots']['wall']:.2f} s wall, {b['plots']['cpu']:.2f} s CPU")
         print(f"  plotting per model: {b['per_model_extra']:.3f} s (wall difference / models; "
-              f"target <= 0.3)")
+              f"target <= 0.3), CPU {b['per_model_extra_cpu']:.3f} s")
         print(f"  waited for the plots per model (summary.json): mean {b['per_model_wait_mean']:.3f} s, "
               f"max {b['per_model_wait_max']:.3f} s")
         print()
         rows = in_process(EXAMPLES, 1 if a.quick else 3, tmp)
         print("== in process, one figure at a time (best of "
-              f"{1 if a.quick else 3}), seconds ==")
+              f"{1 if a.quick else 3}), seconds: wall  CPU ==")
         for r in rows:
-            print(f"  {r['model']:<14} {r['figure']:<20} {r['seconds']:.3f}")
+            print(f"  {r['model']:<14} {r['figure']:<20} {r['seconds']:.3f}  {r['cpu']:.3f}")
     la = os.getloadavg()
     print(f"\nload avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}; total "
           f"{time.perf_counter() - t_all:.0f} s")
