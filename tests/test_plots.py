@@ -268,6 +268,7 @@ def test_plot_server_splits_the_figures():
     names = ["bodies", "points", "trajectories", "mechanism"]
     assert plotworker_split(names, False) == (["bodies"], names[1:], False)
     assert plotworker_split(names, True) == ([], names, True)
+    assert plotworker_split([], True) == ([], [], False)        # --no-plots --animate
 
 
 def plotworker_split(names, animate):

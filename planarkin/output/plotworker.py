@@ -166,6 +166,8 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
     """(figures for the child, figures for the server, whether the child draws the animation):
     about equal halves of the drawing time. bodies.png (six axes) costs about what the other
     three together cost; the animation about what all four cost."""
+    if not names:                   # the animation alone: no one to share it with
+        return [], [], False
     if animate:
         return [], names, True
     return names[:1], names[1:], False
