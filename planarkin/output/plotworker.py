@@ -5,10 +5,10 @@ drawing the four figures of a model as much again. `start()` (the first thing `p
 does when it will plot) forks one server process that imports matplotlib at once, behind the
 parent's own start-up, model loading, solve and CSV writing, and then waits for jobs. `draw()`
 sends it a job (model, plot rows and run info, pickled: a few hundred kB) and waits for the file
-names. The server splits the job's figures between itself and one child it forks for the job
-(the child inherits the imported matplotlib), so a model's figures take about half the time of
-drawing them one after the other. In a batch the same server serves every model: matplotlib is
-imported once per call.
+names. When a core is idle the server splits the job's figures between itself and one child it
+forks for the job (the child inherits the imported matplotlib), so a model's figures take about
+half the time of drawing them one after the other; on a busy machine it draws them all itself.
+In a batch the same server serves every model: matplotlib is imported once per call.
 
 Processes: at most two draw at any time (the server and its child of the current job); the child
 is waited for by the server before it answers, the server by `stop()` (called by the CLI when the
@@ -173,13 +173,23 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
     return names[:1], names[1:], False
 
 
+def _idle_core() -> bool:
+    """Whether a second drawing process would find a core to run on (load average below the
+    number of cores). On a machine already busy it would only add the cost of the fork and of
+    the work both processes repeat, and finish no sooner."""
+    try:
+        return os.getloadavg()[0] < (os.cpu_count() or 1) - 0.5
+    except OSError:
+        return True
+
+
 def _draw(cm, data, info, out, fmt, animate, x):
     from pathlib import Path
 
     from . import plots
     out = Path(out)
     names = plots.figure_names(cm) if fmt else []
-    mine_child, mine, child_anim = split(names, animate)
+    mine_child, mine, child_anim = split(names, animate) if _idle_core() else ([], names, False)
 
     def part(figs, anim):
         files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \
