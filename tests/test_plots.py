@@ -419,3 +419,19 @@ def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, posi
         assert not plotworker.running()
     finally:
         plotworker.stop()
+
+
+def test_the_cli_process_never_imports_matplotlib(tmp_path):
+    """The speed property behind the plot server: `planarkin run` with plots leaves the import
+    of matplotlib (0.3-0.5 s) and the drawing to the server, so the run itself never waits for
+    the import; the plots are there when it returns."""
+    import subprocess
+    import sys
+    code = ("import sys\nfrom planarkin.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    code = e.code\n"
+            "print('matplotlib' in sys.modules, code)")
+    out = subprocess.run([sys.executable, "-c", code, "run", str(SLIDER_CRANK), "--steps", "30",
+                          "--out", str(tmp_path), "-q"], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert out.stdout.split()[-2:] == ["False", "0"], out.stdout + out.stderr
+    assert (tmp_path / "slider-crank" / "mechanism.png").exists()
