@@ -15,6 +15,7 @@ from pathlib import Path
 import click
 
 from . import __version__
+from .model.spec import X_AXES, x_axis_problem
 from .report import Report
 
 
@@ -156,6 +157,15 @@ def _analysis_options(f):
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
 @click.option("--animate", is_flag=True, help="Also write animation.gif.")
+@click.option("--animate-fps", type=click.IntRange(1, 100),
+              help="Frames per second of animation.gif (default 20; 80 frames at most). "
+                   "Implies --animate.")
+@click.option("--animate-width", type=click.IntRange(320, 4000),
+              help="Width of animation.gif in pixels (default 640; the legend may widen it). "
+                   "Implies --animate.")
+@click.option("--x", "x_axis", type=click.Choice(X_AXES),
+              help="Abscissa of bodies and points plots: time, or driver (the first driver's "
+                   "coordinate, e.g. the crank angle). Default: output: x of the model, or time.")
 @click.option("--report", "report_what", type=click.Choice(("cycle",)),
               help="Also print the cycle figures of the measures (limit positions, stroke, time "
                    "ratio).")
@@ -163,12 +173,19 @@ def _analysis_options(f):
 @_set_option
 @click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
               help="Models analysed at once in local processes.")
-def run(models, out, no_plots, fmt, animate, quiet, overrides, jobs, report_what=None,
-        **analysis):
+def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis, quiet,
+        overrides, jobs, report_what=None, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
-    from .output.directory import Interrupted, check_writable, interruptible, out_dirs
+    if animate_fps or animate_width:
+        animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
+    from .output.directory import (Interrupted, check_writable, held_signals, interruptible,
+                                   out_dirs)
     if sys.platform.startswith("linux"):
         _tune_malloc()
+    plotting = (not no_plots or animate) and not (jobs > 1 and len(models) > 1)
+    if plotting:
+        from .output import plotworker      # imports matplotlib while the models solve
+        plotworker.start()                  # (stopped below, or at exit)
     report = Report(quiet)
     with interruptible():
         try:
@@ -185,10 +202,15 @@ def run(models, out, no_plots, fmt, animate, quiet, overrides, jobs, report_what
                 model = _load(path, report, overrides)
                 if model is not None:
                     _run_one(path, model, outdir, report, dict(analysis),
-                             None if no_plots else fmt, animate, cycle=report_what == "cycle")
+                             None if no_plots else fmt, animate, x_axis,
+                             cycle=report_what == "cycle")
         except (KeyboardInterrupt, Interrupted) as e:
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, _signame(e), "nothing more was written")
+        finally:
+            if plotting:
+                with held_signals():
+                    plotworker.stop()
     report.summary()
     if report.signal is not None:
         # every writer is joined and every directory in place: leave now, with the status the
@@ -204,7 +226,7 @@ def _signame(e: BaseException) -> str:
 
 
 def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
-             cycle=False):
+             x_axis=None, cycle=False):
     """One model: options, preparation, then the directory. Invalid input (options, budget,
     assembly, a busy or foreign directory) is reported before anything is written; an
     interruption keeps the complete rows (status interrupted) and is raised again to stop the
@@ -216,6 +238,9 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     t0 = time.perf_counter()
     try:
         opts = resolve(model, analysis, source="cli")
+        problem = x_axis and x_axis_problem(x_axis, model.spec, "--x")
+        if problem:
+            raise InputError([Diagnostic(path, None, problem)])
         an = prepare(model, opts)
     except InputError as e:
         report.invalid(path, e.diagnostics)
@@ -228,7 +253,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         return
     try:
         writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
-                                 background=True)
+                                 background=True, x=x_axis)
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return

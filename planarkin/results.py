@@ -111,7 +111,7 @@ class DirectoryWriter:
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False, background: bool = False):
+                 animate: bool = False, background: bool = False, x: str | None = None):
         self.cm = cm
         self.final = Path(out)
         self.dir = ResultDirectory(self.final)
@@ -125,6 +125,7 @@ class DirectoryWriter:
             self.steps = StepStats()
             self.plots = plots
             self.animate = animate
+            self.x = x or cm.spec.output.x          # abscissa of the time histories
             self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
             self.t_write = 0.0
             ctx = fork_context() if background else None
@@ -183,7 +184,16 @@ class DirectoryWriter:
         interruption while plotting keeps the complete tables (status interrupted) and is
         raised again once the directory is in place."""
         pending = None
+        drawn: list = []
         try:
+            data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
+                else None
+            sent = False
+            if data is not None and self.background:
+                # the CLI's plot server (if it started one) draws while the tables close
+                from .output import plotworker
+                sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
+                                         self.animate, self.x)
             with held_signals():
                 closed, busy = self._close_tables()
             wall = None if started is None else time.perf_counter() - started
@@ -197,17 +207,28 @@ class DirectoryWriter:
                     summary[d.section] = extra
             files = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
                      for name in self.sinks}
-            plots: list = []
-            if self.buffer is not None and info.interrupted is None:
+            if data is not None:
+                t0 = time.perf_counter()
                 try:
-                    plots = self._plots(info)
+                    drawn = [p.name for p in self._plots(info, data, sent)]
+                except Exception as e:  # noqa: BLE001 - a figure must not cost the tables
+                    summary["warnings"].append({"kind": "plots", "message": f"drawing the "
+                                                f"plots failed: {type(e).__name__}: {e}"})
                 except (KeyboardInterrupt, Interrupted) as e:
                     pending = e
                     info.interrupted = _signal_name(e)
                     summary.update(_interrupted_status(info, "while plotting: the tables are "
                                                              "complete, some plots are missing"))
+                    if sent:           # nothing may still be drawing into the directory
+                        from .output import plotworker
+                        with held_signals():
+                            plotworker.stop()
+                summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
             summary["files"] = files
-            summary["plots"] = [f.name for f in plots if f.exists()]
+            # what is there, whoever drew it, in figure order (the plot server, this process,
+            # a room; an interrupted drawing may have left some)
+            there = {p.name for p in self.out.iterdir()} - set(files) - {"summary.json"}
+            summary["plots"] = [n for n in drawn if n in there] + sorted(there - set(drawn))
             with held_signals():
                 write_json(self.out / "summary.json", summary)
                 self.dir.commit()
@@ -219,19 +240,26 @@ class DirectoryWriter:
             raise pending
         return summary
 
-    def _plots(self, info: RunInfo) -> list:
-        data = self.buffer.chunk()
-        if data is None:
-            return []
-        from .output import plots as plotting   # matplotlib only when plotting
-        files = []
+    def _plots(self, info: RunInfo, data, sent: bool) -> list:
+        """Collect the plot server's files (the model's and the rooms' figures), or draw them all
+        here (no server, or it died). Returns the files in figure order."""
+        from .output import plotworker
+        files = plotworker.collect() if sent else None
+        if files is not None:
+            return files                # the server drew the rooms' figures too
+        if files is None:
+            from .output import plots as plotting   # matplotlib only when plotting
+            files = []
+            if self.plots:
+                files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots,
+                                              x=self.x)
+            if self.animate:
+                opts = self.animate if isinstance(self.animate, dict) else {}
+                files.append(plotting.write_animation(self.cm, data, self.out, **opts))
         if self.plots:
-            files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots)
             for d in self.derived:
                 if d.plot is not None:
                     files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
-        if self.animate:
-            files.append(plotting.write_animation(self.cm, data, self.out))
         return files
 
     def abort(self) -> None:
@@ -408,16 +436,24 @@ class Result:
                            f"{did_you_mean(name, names) or ' (names: ' + ', '.join(names) + ')'}")
         return out
 
-    def write(self, out: str | Path, plots: str | None = "png", animate: bool = False) -> dict:
+    def write(self, out: str | Path, plots: str | None = "png", animate: bool = False,
+              x: str | None = None) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out, under the
         same output contract as `planarkin run` (raises planarkin.InputError when out is
         being written by another run, is not a planarkin result directory, or cannot be
-        written); returns the summary."""
+        written); returns the summary. x: abscissa of the time-history plots, "time" or
+        "driver" (default: the model's output: x)."""
         from .diagnostics import Diagnostic, InputError
         from .output.directory import OutputError
+        if x is not None:
+            from .model.spec import X_AXES, x_axis_problem
+            problem = (f"x must be one of {', '.join(X_AXES)}, not {x!r}" if x not in X_AXES
+                       else x_axis_problem(x, self.model.spec, "x"))
+            if problem:
+                raise InputError([Diagnostic(self.model.spec.file, None, problem)])
         try:
             w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
-                                animate=animate)
+                                animate=animate, x=x)
         except OutputError as e:
             raise InputError([Diagnostic(self.model.spec.file, None, f"write(): {e}")]) from None
         w.add(self._chunk)

@@ -140,9 +140,9 @@ def format_table(cm, rows, steps) -> str:
 
 
 def _plot(cm, rows, path: Path, steps):
-    import matplotlib
-    matplotlib.use("Agg")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FuncFormatter
     fig = Figure(figsize=(8, 5.5))
     ax = fig.add_subplot()
     marks = (("position", "o", "C0"), ("velocity", "s", "C1"), ("acceleration", "^", "C2"))
@@ -158,20 +158,64 @@ def _plot(cm, rows, path: Path, steps):
         if len(front) > 1:
             fx, fy = zip(*front)
             ax.step(fx, fy, where="post", color=c, alpha=0.5, lw=1)
-    for r in rows:
-        if np.isfinite(r.errors[0]):
-            ax.annotate(r.label, (r.us_per_step, max(r.errors[0], floor)), fontsize=7,
-                        xytext=(4, 3), textcoords="offset points")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    # 20, 30, 50, not 3 x 10^1; minor ticks named at 2, 3 and 5 only, so that names never touch
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(FuncFormatter(
+        lambda v, _: f"{v:g}" if f"{v:.0e}"[0] in "235" else ""))
     ax.set_xlabel("time per step [us] (whole analysis, in process)")
     ax.set_ylabel("max relative error against the reference")
     ax.set_title(f"{cm.spec.name}: speed against accuracy ({steps} steps)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best")
+    ax.legend(loc="upper right")
     fig.tight_layout()
+    canvas = FigureCanvasAgg(fig)
+    _label_points(ax, canvas.get_renderer(),
+                  [(r.us_per_step, max(r.errors[0], floor), r.label) for r in rows
+                   if np.isfinite(r.errors[0])])
     fig.savefig(path, dpi=150)
     return path
+
+
+def _label_points(ax, renderer, pts, fontsize=7):
+    """Name each point (x, y, text) beside it without two names overlapping each other, a
+    marker, the legend or the axes' edge: settings that cost and buy the same (the Newton
+    variants) sit on one spot, so their names stack above and below it, tied to it by a thin
+    line. Greedy, in order of x: the first free spot of a fixed list of offsets."""
+    from matplotlib.text import Text
+    from matplotlib.transforms import Bbox
+    frame = ax.get_window_extent(renderer)
+    taken = []
+    for coll in ax.collections:                           # the markers
+        for xy in ax.transData.transform(coll.get_offsets()):
+            taken.append(Bbox.from_bounds(xy[0] - 4, xy[1] - 4, 8, 8))
+    legend = ax.get_legend()
+    if legend is not None:
+        taken.append(legend.get_window_extent(renderer))
+    offsets = [(dx, dy) for step in range(12) for dy in ((0,) if step == 0 else
+                                                          (10 * step, -10 * step))
+               for dx in (6, -6)]
+    for x, y, text in sorted(pts):
+        ann = None
+        for dx, dy in offsets:
+            ann = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
+                              ha="left" if dx > 0 else "right", va="center", fontsize=fontsize,
+                              arrowprops=dict(arrowstyle="-", color="0.55", lw=0.5,
+                                              shrinkA=0, shrinkB=3) if dy else None)
+            ann.update_positions(renderer)
+            box = Text.get_window_extent(ann, renderer)     # the text, not its leader line
+            if (frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+                    and not any(box.overlaps(b) for b in taken)):
+                break
+            ann.remove()
+            ann = None
+        if ann is None:       # no free spot: beside the point all the same
+            ann = ax.annotate(text, (x, y), xytext=(6, 0), textcoords="offset points",
+                              va="center", fontsize=fontsize)
+            ann.update_positions(renderer)
+            box = Text.get_window_extent(ann, renderer)
+        taken.append(box)
 
 
 def _pareto(points):

@@ -193,4 +193,247 @@ def test_animation_gif(model, result, tmp_path):
     with Image.open(path) as im:
         assert im.n_frames > 10
         assert im.info["duration"] == 50           # 20 frames per second
+        assert im.width == 640
         im.seek(im.n_frames - 1)                   # every frame decodes
+    path = plots.write_animation(model, result._chunk, tmp_path, fps=10, width=480)
+    with Image.open(path) as im:
+        assert im.info["duration"] == 100 and im.width == 480
+
+
+def _legend_labels(fig):
+    return [t.get_text() for lg in fig.legends for t in lg.get_texts() if t.get_text().strip()]
+
+
+def test_bodies_figure_skips_constant_curves_and_names_each_body_once(model, result):
+    """Slider-crank: the crank's frame is pinned at the origin (x, y constant), the slider's
+    y and phi are 0, the crank turns at 2 pi rad/s: those curves are not drawn but named with
+    their values; every body appears once in the legend, with the line styles."""
+    fig = plots._bodies_figure(model, result._chunk, result.info)
+    labels = _legend_labels(fig)
+    assert labels == ["x, phi", "y", "crank", "rod", "slider"]
+    assert len(labels) == len(set(labels))
+    (note,) = [t.get_text().replace("\n", " ") for t in fig.texts
+               if t.get_text().startswith("constant")]
+    for item in ("crank.x = 0 m", "crank.y = 0 m", "slider.y = 0 m", "slider.phi = 0 rad",
+                 "crank.omega = 6.283 rad/s", "crank.alpha = 0 rad/s²"):
+        assert item in note
+    assert "crank.vx" not in note            # derivatives of a constant are not repeated
+    x_pos, phi_pos, x_vel, phi_vel = (len(fig.axes[k].get_lines()) for k in (0, 1, 2, 3))
+    assert x_pos == 3                        # rod.x, rod.y, slider.x (not crank, not slider.y)
+    assert phi_pos == 2 and phi_vel == 1     # crank.phi, rod.phi; rod.omega
+    assert fig.axes[0].get_ylabel() == "x, y [m]" and fig.axes[3].get_ylabel() == "omega [rad/s]"
+
+
+def test_identical_curves_are_drawn_once():
+    from matplotlib.figure import Figure
+    ax = Figure().add_subplot()
+    t = np.linspace(0, 1, 11)
+    a, b = np.sin(t), np.sin(t) * (1 + 1e-13)
+    sel = plots._Selection()
+    sel.draw(ax, t, [(a, "C0", "-", "p.x", (0, 0)), (b, "C1", "-", "q.x", (1, 0)),
+                     (np.full(11, 2.0), "C2", "-", "r.x", (2, 0))], 1.0, "m", 0)
+    assert len(ax.get_lines()) == 1
+    assert sel.note() == "constant, not drawn: r.x = 2 m; equal to a curve drawn: q.x = p.x"
+    ax = Figure().add_subplot()                # all constant: drawn all the same
+    sel = plots._Selection()
+    sel.draw(ax, t, [(np.zeros(11), "C0", "-", "p.x", (0, 0)),
+                     (np.ones(11), "C1", "-", "q.x", (1, 0))], 1.0, "m", 0)
+    assert len(ax.get_lines()) == 2 and sel.note() == ""
+
+
+def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
+    """planarkin run with plots: the figures come from the background server (one per call,
+    stopped at the end: no process is left; here on a machine taken as busy, so the server
+    draws every figure itself), and summary.json says how long the parent waited."""
+    import json
+    import multiprocessing as mp
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    from planarkin.output import plotworker
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
+    runner = CliRunner()
+    r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
+                             "--out", str(tmp_path), "--steps", "60", "-q"])
+    assert r.exit_code == 0, r.output
+    assert not plotworker.running() and not mp.active_children()
+    for stem in ("slider-crank", "four-bar"):
+        s = json.loads((tmp_path / stem / "summary.json").read_text())
+        forces = ["forces.png"] if stem == "slider-crank" else []      # it has masses
+        assert s["plots"] == ["bodies.png", "points.png", "trajectories.png",
+                              "mechanism.png"] + forces
+        assert s["wall_time"]["plots"] > 0
+        for name in s["plots"]:
+            check_file(tmp_path / stem / name, "png")
+
+
+def test_plot_server_splits_the_figures():
+    assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
+        "bodies", "points", "trajectories", "mechanism"]
+    names = ["bodies", "points", "trajectories", "mechanism"]
+    assert plotworker_split(names, False) == (["bodies"], names[1:], False)
+    assert plotworker_split(names, True) == ([], names, True)
+    assert plotworker_split([], True) == ([], [], False)        # --no-plots --animate
+
+
+def plotworker_split(names, animate):
+    from planarkin.output import plotworker
+    return plotworker.split(names, animate)
+
+
+def _run(name, **kw):
+    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+    return m, planarkin.solve(m, **kw)
+
+
+def test_mechanism_instants_few_distinct_and_the_final_pose_of_an_open_motion():
+    """Six-bar: three instants of a full cycle (the end is the start); boom (cylinder extending,
+    not periodic, the frame origin pinned to ground): its final pose is drawn; trammel (there and
+    back): the pose at t = 0.75 s repeats t = 0.25 s and is drawn once."""
+    m, r = _run("six-bar", steps=120)
+    sc = plots._Scene(m, r._chunk)
+    assert plots.instant_count(m) == 3 and sc.closed
+    assert list(sc.instants(3)) == [0, 40, 80]
+    m, r = _run("boom", steps=40)
+    sc = plots._Scene(m, r._chunk)
+    assert not sc.closed
+    assert list(sc.instants(plots.instant_count(m))) == [0, 13, 27, 40]
+    m, r = _run("trammel", steps=120)
+    sc = plots._Scene(m, r._chunk)
+    assert list(sc.instants(4)) == [0, 30, 60]
+
+
+def test_mechanism_figure_legend_and_body_colours(model, result):
+    """Every body drawn in its own colour (that of bodies.png) and named in it once; the legend
+    names each instant and each kind of path once."""
+    from matplotlib.colors import to_rgb
+    fig = plots._mechanism_figure(model, plots._Scene(model, result._chunk))
+    labels = _legend_labels(fig)
+    assert labels == ["B", "joint paths", "t = 0 s (named)", "t = 0.25 s", "t = 0.5 s",
+                      "t = 0.75 s"]
+    ax = fig.axes[0]
+    names = {t.get_text(): t for t in ax.texts}
+    colors = plots._palette(model.nb)
+    for b, name in enumerate(model.body_names):
+        assert np.allclose(to_rgb(names[name].get_color()), plots._darker(colors[b]))
+    bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]
+    assert {to_rgb(ln.get_color()) for ln in bars} == {to_rgb(colors[0]), to_rgb(colors[1])}
+
+
+def test_time_histories_against_the_driver_coordinate():
+    """four-bar (degrees, crank driven by f = 360 t): with x = driver every curve is drawn
+    against the crank angle, ticks every 45 degrees, the labels name it with its unit."""
+    m, r = _run("four-bar", steps=72)
+    for fig in (plots._bodies_figure(m, r._chunk, r.info, "driver"),
+                plots._points_figure(m, r._chunk, r.info, "driver")):
+        bottom = fig.axes[-1]
+        assert bottom.get_xlabel() == "crank angle [deg]"
+        assert "against the crank angle" in fig._suptitle.get_text()
+        assert bottom.get_xlim() == (0.0, 360.0)
+        ticks = [v for v in bottom.get_xticks() if 0 <= v <= 360]
+        assert ticks == [0, 45, 90, 135, 180, 225, 270, 315, 360]
+        for ax in fig.axes:
+            for ln in ax.get_lines():
+                assert np.allclose(ln.get_xdata(), 360 * r.t)
+    fig = plots._bodies_figure(m, r._chunk, r.info)
+    assert fig.axes[-1].get_xlabel() == "t [s]"
+
+
+def test_x_option_is_checked_like_the_yaml_key(tmp_path):
+    """--x driver on a model without drivers: the same message as output: x, exit 2; the API
+    refuses an unknown abscissa with an InputError."""
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    case = ROOT / "tests" / "cases" / "output-x.yaml"
+    text = case.read_text().replace("output: {x: driver}\n", "")
+    f = tmp_path / "structure.yaml"
+    f.write_text(text)
+    r = CliRunner().invoke(main, ["run", str(f), "--x", "driver", "--out", str(tmp_path), "-q"])
+    assert r.exit_code == 2
+    assert f"{f}: error: --x: driver needs a driver, and this model has none; use time" in r.output
+    m, res = _run("slider-crank", steps=20)
+    with pytest.raises(planarkin.InputError, match="x must be one of time, driver, not 'crank'"):
+        res.write(tmp_path / "out", x="crank")
+
+
+def test_legend_beside_the_drawing_is_never_cut():
+    """A long point name (the text widths are estimated, never measured, when the figure is
+    laid out): the figure widens until the legend fits."""
+    from matplotlib.backends.backend_agg import RendererAgg
+    text = SLIDER_CRANK.read_text().replace("  B: {body", "  WWWWWWWWWWWWWWWWWWWWWWWWWWWWWW: {body")
+    m = planarkin.load("long.yaml", text=text)
+    r = planarkin.solve(m, steps=40)
+    fig = plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    W, H = fig.get_size_inches()
+    assert W > 9.0
+    box = fig.legends[0].get_window_extent(RendererAgg(int(W * fig.dpi), int(H * fig.dpi),
+                                                       fig.dpi))
+    assert box.x1 <= W * fig.dpi
+
+
+def test_tradeoff_labels_do_not_overlap():
+    """Five settings on one spot and two close by: every name gets a place of its own inside
+    the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+    from planarkin.tradeoff import _label_points
+    fig = Figure(figsize=(8, 5.5))
+    ax = fig.add_subplot()
+    pts = [(40.0, 3e-16, f"setting {k}") for k in range(5)] + [(41.0, 3e-16, "close"),
+                                                                (200.0, 1e-6, "far")]
+    ax.scatter([p[0] for p in pts], [p[1] for p in pts])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(1e-17, 1e-3)
+    r = FigureCanvasAgg(fig).get_renderer()
+    _label_points(ax, r, pts)
+    boxes = []
+    for t in ax.texts:
+        t.update_positions(r)
+        boxes.append(Text.get_window_extent(t, r))
+    assert len(boxes) == 7
+    frame = ax.get_window_extent(r)
+    for k, b in enumerate(boxes):
+        assert frame.contains(b.x0, b.y0) and frame.contains(b.x1, b.y1)
+        assert not any(b.overlaps(o) for o in boxes[k + 1:])
+
+
+def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, positions, tmp_path,
+                                                                    monkeypatch):
+    """Split between the server and a child it forks (an idle core, forced here; the CLI test
+    takes the other path): the files in figure order, a failure in the child raises here."""
+    from planarkin.output import plotworker
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: True)     # inherited by the fork
+    plotworker.start()
+    try:
+        files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
+        assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
+                                           "mechanism.png"]
+        with pytest.raises(RuntimeError, match="drawing the plots failed"):
+            plotworker.draw(model, positions._chunk, positions.info, tmp_path / "missing" / "x",
+                            "png", False)
+        assert plotworker.running()             # a failed job does not end the server
+        proc = plotworker._server[0]
+        proc.kill()
+        proc.join()
+        assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
+                               False) is None   # the caller then draws itself
+        assert not plotworker.running()
+    finally:
+        plotworker.stop()
+
+
+def test_the_cli_process_never_imports_matplotlib(tmp_path):
+    """The speed property behind the plot server: `planarkin run` with plots leaves the import
+    of matplotlib (0.3-0.5 s) and the drawing to the server, so the run itself never waits for
+    the import; the plots are there when it returns."""
+    import subprocess
+    import sys
+    code = ("import sys\nfrom planarkin.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    code = e.code\n"
+            "print('matplotlib' in sys.modules, code)")
+    out = subprocess.run([sys.executable, "-c", code, "run", str(SLIDER_CRANK), "--steps", "30",
+                          "--out", str(tmp_path), "-q"], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert out.stdout.split()[-2:] == ["False", "0"], out.stdout + out.stderr
+    assert (tmp_path / "slider-crank" / "mechanism.png").exists()

@@ -83,6 +83,26 @@ class OutputSpec:
     points: tuple[str, ...] | None = None    # None: all points
     order: int = 2                           # 0 positions, 1 + velocities, 2 + accelerations
     centres: bool = False                    # centres.csv: instant centres of every body pair
+    x: str = "time"                          # abscissa of the time-history plots (X_AXES)
+
+
+# The abscissa of bodies.<fmt> and points.<fmt>: `output: {x: ...}` and `planarkin run --x`.
+# driver: the coordinate of the model's first driver, f(t) in the file's units (crank angle).
+X_AXES = ("time", "driver")
+
+
+def x_axis_problem(x: str, spec, what: str) -> str | None:
+    """Why abscissa x does not fit the model (None: it does); what names the option in the
+    message (``output: x`` or ``--x``). Shared by the YAML validator and the command line."""
+    if x == "driver" and not spec_drivers(spec):
+        return f"{what}: driver needs a driver, and this model has none; use time"
+    return None
+
+
+def spec_drivers(spec) -> list:
+    """The drivers of a ModelSpec (or of a list of element specs), in file order."""
+    elements = getattr(spec, "drivers", spec)
+    return [e for e in elements if e.role == "driver"]
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ from ..diagnostics import Collector, did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
 from ..expr import ExprError, TimeFunction, evaluate_constant, function_names
 from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
-from .spec import AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec
+from .spec import (X_AXES, AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec,
+                   x_axis_problem)
 from .yamlread import Node
 from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
@@ -193,7 +194,7 @@ class _Validator:
                                  {el.name: el for el in joints if el.name})
         analysis = self.analysis(root.value.get("analysis"))
         self.check_drivers(drivers, analysis)
-        output = self.output(root.value.get("output"), points)
+        output = self.output(root.value.get("output"), points, drivers)
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
         forces = validate_forces(self, root)
@@ -905,8 +906,9 @@ class _Validator:
         for d in cross_check(self.file, a, vals, {k: "yaml" for k in given}):
             self.C.items.append(d)
 
-    def output(self, node: Node | None, points: list[PointSpec]) -> OutputSpec:
-        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres"), "output"):
+    def output(self, node: Node | None, points: list[PointSpec], drivers=()) -> OutputSpec:
+        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres", "x"),
+                                         "output"):
             return OutputSpec()
         v = node.value
         vals: dict[str, Any] = {}
@@ -937,6 +939,13 @@ class _Validator:
             c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
                 vals["order"] = ORDERS.index(c)
+        if "x" in v:
+            c = self.choice(v["x"], "output: x", X_AXES)
+            problem = c and x_axis_problem(c, drivers, "output: x")
+            if problem:
+                self.err(v["x"], problem)
+            elif c is not None:
+                vals["x"] = c
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):

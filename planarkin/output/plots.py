@@ -3,8 +3,8 @@
 Called by `results.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
 few thousand rows, user units). matplotlib is imported inside the functions only, and only through
 its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
-switch, no windows, no global state (except one rcParam for the duration of an svg save, see
-`_save`).
+switch, no windows, no global state (rcParams only inside rc_context: the axes style while a
+figure is built and drawn, `_styled`, and an svg id salt while it is saved, `_save`).
 
 Files (``<fmt>`` is png at 150 dpi, svg or pdf):
 
@@ -30,41 +30,73 @@ import numpy as np
 from .tables import BODY_QUANTITIES, POINT_QUANTITIES, units
 
 DPI = 150                      # raster output (png)
-INSTANTS = 6                   # mechanism drawings in mechanism.<fmt>
 ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has fewer rows)
 ANIM_FPS = 20
 ANIM_DPI = 100                 # 6.4 in wide -> 640 px
 FONT = 9                       # legends, annotations (ticks and labels use matplotlib's 10 pt)
-GRID = dict(color="0.88", linewidth=0.6)
+# Axes style, set through rcParams for the duration of each figure (`_styled`): given as
+# ax.grid/ax.tick_params calls instead, matplotlib rebuilds every tick of every axes (a third of
+# the time of building a figure). The titles' y is fixed so that matplotlib does not measure the
+# tick labels to place them.
+STYLE = {"axes.grid": True, "grid.color": "0.88", "grid.linewidth": 0.6,
+         "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
 ROW_NAMES = ("position", "velocity", "acceleration")
 
 
+def _styled(fn):
+    """Run fn (a figure builder or writer) with STYLE in effect: rcParams are read when artists
+    are created and when ticks are drawn, so both happen inside."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import matplotlib as mpl
+        with mpl.rc_context(STYLE):
+            return fn(*args, **kwargs)
+    return wrapper
+
+
 # -- public API ----------------------------------------------------------------------------------
 
-def write_plots(cm, data, info, out: Path, fmt: str = "png") -> list[Path]:
+def figure_names(cm) -> list[str]:
+    """The figures write_plots draws for this model, in order (file stems)."""
+    return ["bodies"] + (["points", "trajectories"] if len(cm.point_names) else []) + \
+        ["mechanism"]
+
+
+@_styled
+def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
+                x: str = "time") -> list[Path]:
     """Write bodies, points, trajectories and mechanism plots into directory out.
 
     cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
-    event and warnings are marked on the time axes; None is allowed). Returns the files written
-    (points and trajectories only when the model has points; nothing when data has no rows).
+    event and warnings are marked on the time axes; None is allowed); only: a subset of
+    figure_names(cm) to draw (default all; `plotworker` splits them between two processes);
+    x: abscissa of bodies and points, "time" or "driver" (model.spec.X_AXES).
+    Returns the files written (points and trajectories only when the model has points; nothing
+    when data has no rows).
     """
     out = Path(out)
     fmt = fmt.lower().lstrip(".")
     if not len(data.t):
         return []
-    scene = _Scene(cm, data)
-    files = [_save(_bodies_figure(cm, data, info), out / f"bodies.{fmt}")]
-    if len(cm.point_names):
-        files.append(_save(_points_figure(cm, data, info), out / f"points.{fmt}"))
-        files.append(_save(_trajectories_figure(cm, scene), out / f"trajectories.{fmt}"))
-    files.append(_save(_mechanism_figure(cm, scene), out / f"mechanism.{fmt}"))
-    return files
+    names = [n for n in figure_names(cm) if only is None or n in only]
+    scene = _Scene(cm, data) if set(names) & {"trajectories", "mechanism"} else None
+    build = {"bodies": lambda: _bodies_figure(cm, data, info, x),
+             "points": lambda: _points_figure(cm, data, info, x),
+             "trajectories": lambda: _trajectories_figure(cm, scene),
+             "mechanism": lambda: _mechanism_figure(cm, scene)}
+    return [_save(build[n](), out / f"{n}.{fmt}") for n in names]
 
 
-def write_animation(cm, data, out: Path) -> Path:
+@_styled
+def write_animation(cm, data, out: Path, fps: int | None = None,
+                    width: int | None = None) -> Path:
     """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
-    joint and point paths growing), up to ANIM_FRAMES frames at ANIM_FPS frames per second.
+    joint and point paths growing), up to ANIM_FRAMES frames at fps frames per second (default
+    ANIM_FPS), width pixels wide (default 640; the height follows the drawing, the legend
+    beside it is never cut: the image widens for it).
 
     Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
@@ -77,16 +109,18 @@ def write_animation(cm, data, out: Path) -> Path:
     scene = _Scene(cm, data)
     N = len(data.t)
     rows = np.unique(np.linspace(0, max(N - 1, 0), min(ANIM_FRAMES, max(N, 1))).round().astype(int))
-    fig, ax, beside = _plane_figure(cm, scene, 6.4, 0.55 + _text_width(cm.body_names),
-                                    dpi=ANIM_DPI)
+    fps = int(fps or ANIM_FPS)
+    fig, ax, beside = _plane_figure(cm, scene, (width or 640) / ANIM_DPI,
+                                    0.7 + _text_width(cm.body_names), dpi=ANIM_DPI)
     traces = [ax.plot([], [], color=c, lw=w, zorder=5)[0] for _, _, c, w in scene.trace_styles]
     drawing = _Drawing(ax, scene, rows[-1], body_colors=True, zorder=10)
     stamp = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=FONT,
                     bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
                     zorder=30)
-    fig.legend(handles=drawing.legend_handles(), loc="upper left", bbox_to_anchor=beside,
-               fontsize=FONT, frameon=False)
-    ax.set_title(f"{cm.spec.name}: motion", fontsize=11)
+    legend = fig.legend(handles=drawing.legend_handles(), loc="upper left",
+                        bbox_to_anchor=beside, fontsize=FONT, frameon=False)
+    _fit_legend(fig, legend, ax, beside)
+    ax.set_title(f"{cm.spec.name}: motion", fontsize=11, y=1.0)
     moving = traces + drawing.artists + [stamp]
     for a in moving:
         a.set_animated(True)
@@ -130,7 +164,7 @@ def write_animation(cm, data, out: Path) -> Path:
             frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
                            duration=int(1000 / self.fps), loop=0)
 
-    writer = BlitWriter(fps=ANIM_FPS)
+    writer = BlitWriter(fps=fps)
     writer.setup(fig, path, ANIM_DPI)       # (not writer.saving(): it changes rcParams)
     for i in rows:
         writer.row = i
@@ -141,92 +175,202 @@ def write_animation(cm, data, out: Path) -> Path:
 
 # -- time histories ------------------------------------------------------------------------------
 
-def _bodies_figure(cm, data, info):
-    """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time."""
-    from matplotlib.lines import Line2D
+@_styled
+def _bodies_figure(cm, data, info, x: str = "time"):
+    """3 x 2 grid (rows that exist): frame origins x, y (left) and angles (right) against time.
 
+    Curves constant over the run (a frame pinned to ground) or identical to one already drawn
+    are left out and named, with their value, in a note under the legend (an axes whose curves
+    are all constant keeps them)."""
     series = [a for a in (data.q, data.qd, data.qdd) if a is not None]
-    nb = cm.nb
-    colors = _palette(nb)
-    fig, axes = _time_grid(len(series), 2)
+    colors = _palette(cm.nb)
+    xa = _XAxis(cm, x)
+    X = xa(data.t)
+    fig, axes = _time_grid(len(series), 2, xa.label)
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
     T = _duration(data, info)
+    sel = _Selection()
     for o, arr in enumerate(series):
         tu, ru = (_pretty(u) for u in units(lu, au, o))
         qx, qy, qphi = BODY_QUANTITIES[o]
         left, right = axes[o]
-        for b in range(nb):
-            left.plot(data.t, arr[:, 3 * b], color=colors[b], lw=1.4)
-            left.plot(data.t, arr[:, 3 * b + 1], color=colors[b], lw=1.4, ls="--")
-            right.plot(data.t, arr[:, 3 * b + 2], color=colors[b], lw=1.4)
+        lin = [(arr[:, 3 * b + k], colors[b], ls, f"{name}.{q}", (b, k))
+               for b, name in enumerate(cm.body_names) for k, q, ls in ((0, qx, "-"),
+                                                                        (1, qy, "--"))]
+        ang = [(arr[:, 3 * b + 2], colors[b], "-", f"{name}.{qphi}", (b, 2))
+               for b, name in enumerate(cm.body_names)]
+        sel.draw(left, X, lin, cm.L / T ** o, tu, o)
+        sel.draw(right, X, ang, 1.0 / cm.angle_factor / T ** o, ru, o)
         left.set_ylabel(f"{qx}, {qy} [{tu}]")
         right.set_ylabel(f"{qphi} [{ru}]")
-        _tidy_ylim(left, arr[:, 0::3], arr[:, 1::3], ref=cm.L / T ** o)
-        _tidy_ylim(right, arr[:, 2::3], ref=1.0 / cm.angle_factor / T ** o)
-    axes[0][0].set_title("translation of the body frames", fontsize=10)
-    axes[0][1].set_title("rotation", fontsize=10)
-    handles = []
-    for b, name in enumerate(cm.body_names):
-        handles += [Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.x"),
-                    Line2D([], [], color=colors[b], lw=1.4, ls="--", label=f"{name}.y"),
-                    Line2D([], [], color=colors[b], lw=1.4, label=f"{name}.phi")]
-    _finish_time_axes(axes, data, info)
-    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]), info)
-    _arrange_time_grid(fig, axes, handles, 3, title, width=10.0, row_height=1.75)
+    axes[0][0].set_title("translation of the body frames", fontsize=10, y=1.0)
+    axes[0][1].set_title("rotation", fontsize=10, y=1.0)
+    handles = _style_handles([("-", "x, phi"), ("--", "y")]) + _name_handles(
+        cm.body_names, colors, sel.drawn)
+    _finish_time_axes(axes, data, info, xa)
+    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
+                   info)
+    _arrange_time_grid(fig, axes, handles, title, width=10.0, row_height=1.75,
+                       note=sel.note())
     return fig
 
 
-def _points_figure(cm, data, info):
-    """One column: x, y of every point (and their derivatives) against time."""
-    from matplotlib.lines import Line2D
-
+@_styled
+def _points_figure(cm, data, info, x: str = "time"):
+    """One column: x, y of every point (and their derivatives) against time; constant and
+    repeated curves left out as in bodies.<fmt>."""
     series = [a for a in (data.p, data.pd, data.pdd) if a is not None]
-    P = len(cm.point_names)
-    colors = _point_palette(P)
-    fig, axes = _time_grid(len(series), 1)
+    colors = _point_palette(len(cm.point_names))
+    xa = _XAxis(cm, x)
+    X = xa(data.t)
+    fig, axes = _time_grid(len(series), 1, xa.label)
     T = _duration(data, info)
+    sel = _Selection()
     for o, arr in enumerate(series):
         tu, _ = (_pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
         qx, qy = POINT_QUANTITIES[o]
         ax = axes[o][0]
-        for k in range(P):
-            ax.plot(data.t, arr[:, k, 0], color=colors[k], lw=1.4)
-            ax.plot(data.t, arr[:, k, 1], color=colors[k], lw=1.4, ls="--")
+        curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
+                  for k, name in enumerate(cm.point_names)
+                  for c, q, ls in ((0, qx, "-"), (1, qy, "--"))]
+        sel.draw(ax, X, curves, cm.L / T ** o, tu, o)
         ax.set_ylabel(f"{qx}, {qy} [{tu}]")
-        _tidy_ylim(ax, arr[:, :, 0], arr[:, :, 1], ref=cm.L / T ** o)
-    handles = []
-    for k, name in enumerate(cm.point_names):
-        handles += [Line2D([], [], color=colors[k], lw=1.4, label=f"{name}.x"),
-                    Line2D([], [], color=colors[k], lw=1.4, ls="--", label=f"{name}.y")]
-    _finish_time_axes(axes, data, info)
-    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]), info)
-    _arrange_time_grid(fig, axes, handles, 2, title, width=7.0, row_height=1.7)
+    handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
+        cm.point_names, colors, sel.drawn)
+    _finish_time_axes(axes, data, info, xa)
+    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
+    _arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
     return fig
 
 
-def _time_grid(nrows, ncols):
-    """Figure and (nrows, ncols) axes sharing the time axis; sized by _arrange_time_grid."""
+class _Selection:
+    """Which curves of a time-history figure are drawn.
+
+    A curve is constant when its range is within 1e-9 of its axes' scale (ref: model length /
+    duration^order, or one radian), identical to another when they differ by no more than that
+    everywhere. The derivatives of a coordinate constant in position are not named again."""
+
+    def __init__(self):
+        self.drawn = set()              # indices (first element of a curve's key) drawn
+        self.constant = []              # "name = value unit"
+        self.same = []                  # "name = other"
+        self.still = set()              # keys constant in position
+
+    def draw(self, ax, t, curves, ref, unit, order):
+        """Plot the curves to keep against t (N,) s; curves: (values (N,), colour, line style,
+        label, key (index, coordinate)); ref: the axes' scale; unit: for the note."""
+        tol = 1e-9 * (ref if ref > 0 and math.isfinite(ref) else 1.0)
+        const, moving = [], []
+        for c in curves:
+            v = c[0][np.isfinite(c[0])]
+            scale = max(tol, 1e-9 * float(np.abs(v).max())) if len(v) else tol
+            (const if not len(v) or np.ptp(v) <= scale else moving).append(c)
+        keep = moving if moving else const
+        shown = []
+        for c in keep:
+            twin = next((d for d in shown if _same(c[0], d[0], tol)), None)
+            if twin is not None:
+                self.same.append(f"{c[3]} = {twin[3]}")
+                continue
+            shown.append(c)
+            self.drawn.add(c[4][0])
+        for v, color, ls, label, key in shown:
+            ax.plot(t, v, color=color, lw=1.4, ls=ls)
+        _tidy_ylim(ax, *[c[0] for c in keep], ref=ref)
+        if moving:
+            for v, _, _, label, key in const:
+                if order > 0 and key in self.still:
+                    continue
+                if order == 0:
+                    self.still.add(key)
+                f = v[np.isfinite(v)]
+                val = float(np.median(f)) if len(f) else float("nan")
+                val = 0.0 if abs(val) <= tol else val
+                self.constant.append(f"{label} = {val:.4g} {unit}")
+
+    def note(self) -> str:
+        parts = []
+        if self.constant:
+            parts.append("constant, not drawn: " + ", ".join(self.constant))
+        if self.same:
+            parts.append("equal to a curve drawn: " + ", ".join(self.same))
+        return "; ".join(parts)
+
+
+def _same(a, b, tol) -> bool:
+    with np.errstate(invalid="ignore"):
+        d = np.abs(a - b)
+    return bool(np.all((d <= tol) | (np.isnan(a) & np.isnan(b))))
+
+
+def _style_handles(styles):
+    from matplotlib.lines import Line2D
+    return [Line2D([], [], color="0.25", lw=1.4, ls=ls, label=label) for ls, label in styles]
+
+
+def _name_handles(names, colors, drawn):
+    """One legend entry per body (point) that has a curve drawn, in its colour."""
+    from matplotlib.lines import Line2D
+    return [Line2D([], [], color=colors[k], lw=2.5, label=n) for k, n in enumerate(names)
+            if k in drawn]
+
+
+class _XAxis:
+    """The abscissa of the time histories: t [s], or (kind "driver") the coordinate of the
+    model's first driver, f(t) in the file's units: the crank angle of a crank-driven linkage.
+    Calling it maps times (s) to abscissae."""
+
+    def __init__(self, cm, kind: str = "time"):
+        self.f = None
+        self.degrees = False
+        self.label, self.against = "t [s]", ""
+        if kind == "driver":
+            from ..elements import KINDS
+            from ..model.spec import spec_drivers
+            el = spec_drivers(cm.spec)[0]
+            unit = {"angle": cm.spec.angle_unit, "length": cm.spec.length_unit}.get(
+                KINDS[el.kind].target_unit, "")
+            who = el.name or "-".join(b for b in el.bodies if b != "ground")
+            self.f = el.f
+            self.degrees = unit == "deg"
+            self.label = f"{who} {el.kind}" + (f" [{_pretty(unit)}]" if unit else "")
+            self.against = f" against the {who} {el.kind}"
+
+    def __call__(self, t):
+        t = np.asarray(t, float)
+        if self.f is None:
+            return t
+        with np.errstate(all="ignore"):
+            return np.broadcast_to(np.asarray(self.f(t), float), t.shape).copy()
+
+
+def _time_grid(nrows, ncols, xlabel="t [s]"):
+    """Figure and (nrows, ncols) axes sharing the abscissa; sized by _arrange_time_grid."""
     from matplotlib.figure import Figure
 
     fig = Figure()
     axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
+    from matplotlib.ticker import MaxNLocator
+    # at most five intervals on each y axis (1.7 in high): every tick is three lines and two
+    # texts to create and draw, two thirds of the drawing time of these figures
     for row in axes:
         for ax in row:
-            ax.grid(True, **GRID)
-            ax.tick_params(labelsize=9)
+            ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
     for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
+        ax.set_xlabel(xlabel)
     return fig, axes
 
 
-def _arrange_time_grid(fig, axes, handles, group, title, width, row_height):
-    """Size the figure and place axes, title and legend, in inches.
+def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
+    """Size the figure and place axes, title, legend and note, in inches.
 
     A fixed layout computed here costs nothing, where matplotlib's constrained layout measures
     every text (a third of the time of writing these figures). Tick-label widths come from the
-    axes' own locators and formatters. The legend below the axes is a table read row by row,
-    `group` entries (one body or point) per group of columns, as many groups as fit the width.
+    axes' own locators and formatters. The legend below the axes is a table read row by row, as
+    many entries per row as fit the width; the note (curves not drawn) is wrapped under it.
     """
+    import textwrap
+
     from matplotlib.lines import Line2D
 
     nrows, ncols = len(axes), len(axes[0])
@@ -235,30 +379,35 @@ def _arrange_time_grid(fig, axes, handles, group, title, width, row_height):
     room = [w + 0.5 for w in label_w]           # tick labels, ticks, y label (inches)
     right = 0.2
     gap_h = 0.12
-    per_row = group * max(1, min(len(handles) // group,
-                                 int((width - 0.6) / (group * _entry_width(handles)))))
+    per_row = max(1, min(len(handles), int((width - 0.6) / _entry_width(handles))))
     blank = Line2D([], [], alpha=0.0, label=" ")
     cells = list(handles) + [blank] * (-len(handles) % per_row)
     legend_rows = len(cells) // per_row
     # matplotlib fills legend columns first: transpose the row-major table
     ordered = [cells[r * per_row + c] for c in range(per_row) for r in range(legend_rows)]
+    lines = textwrap.wrap(note, int((width - 0.4) / 0.068)) if note else []
     top = 0.12 + 0.21 * (title.count("\n") + 1) + 0.12 + (0.22 if axes[0][0].get_title() else 0)
-    bottom = 0.6 + 0.2 * legend_rows
+    bottom = 0.6 + 0.2 * legend_rows + (0.16 * len(lines) + 0.08 if lines else 0.0)
     height = top + bottom + nrows * row_height + (nrows - 1) * gap_h
     fig.set_size_inches(width, height)
     aw = (width - sum(room) - right) / ncols
     fig.subplots_adjust(left=room[0] / width, right=1 - right / width, bottom=bottom / height,
                         top=1 - top / height, hspace=gap_h / row_height,
                         wspace=(room[1] / aw) if ncols > 1 else 0.2)
-    fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+    below = (0.16 * len(lines) + 0.1) / height if lines else 0.0
+    fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, below),
                fontsize=FONT, frameon=False, handlelength=2.2, columnspacing=1.4)
+    if lines:
+        fig.text(0.5, 0.1 / height, "\n".join(lines), ha="center", va="bottom",
+                 fontsize=FONT - 1, color="0.3", linespacing=1.25)
     fig.suptitle(title, fontsize=12, y=1 - 0.12 / height, va="top")
 
 
-def _finish_time_axes(axes, data, info):
+def _finish_time_axes(axes, data, info, xa=None):
     """Time range (the planned one, so that a failed run shows where it stopped) and the event
     lines: the stop (red dashed), near-singular passages (thin orange), bifurcations stepped
-    over (purple); each kind labelled once, beside its first line, in the top row."""
+    over (purple); each kind labelled once, beside its first line, in the top row. xa (an
+    _XAxis) maps the times to the abscissa."""
     from matplotlib.transforms import blended_transform_factory
 
     lo, hi = float(data.t[0]), float(data.t[-1])
@@ -279,6 +428,12 @@ def _finish_time_axes(axes, data, info):
                      and lo <= w.t <= hi})
         if ts:
             marks.append((ts, style, label))
+    if xa is not None and xa.f is not None:
+        # the driver's range over the planned time range, the events where the driver was then
+        span = xa(np.r_[np.linspace(lo, hi, 257), data.t])
+        span = span[np.isfinite(span)]
+        marks = [(list(xa(np.array(ts))), style, label) for ts, style, label in marks]
+        lo, hi = (float(span.min()), float(span.max())) if len(span) else (lo, hi)
     for r, row in enumerate(axes):
         for ax in row:
             for ts, style, label in marks:
@@ -294,6 +449,12 @@ def _finish_time_axes(axes, data, info):
                                 xycoords=blended_transform_factory(ax.transData, ax.transAxes))
     if hi > lo:
         axes[0][0].set_xlim(lo, hi)
+        if xa is not None and xa.degrees:       # angles in degrees: ticks at 15, 30, 45, 90...
+            from matplotlib.ticker import MultipleLocator
+            step = next((s for s in (15, 30, 45, 90, 180, 360, 720) if (hi - lo) / s <= 8),
+                        None)
+            if step is not None and (hi - lo) / step >= 2:
+                axes[0][0].xaxis.set_major_locator(MultipleLocator(step))
 
 
 def _tidy_ylim(ax, *arrays, ref):
@@ -382,8 +543,9 @@ class _Scene:
         span = max(np.nanmax(X) - np.nanmin(X), np.nanmax(Y) - np.nanmin(Y))
         self.span = span if span > 1e-12 * cm.L else cm.L
         self.size = 0.07 * self.span                    # slider blocks, ground pivots
-        first = np.r_[[g[0] for g in (self.at(b, a, 0) for b, a in enumerate(attach))]]
-        last = np.r_[[g[0] for g in (self.at(b, a, -1) for b, a in enumerate(attach))]]
+        # every attachment point, not only the frame origins (a boom pinned at its origin)
+        first = np.concatenate([self.at(b, a, 0) for b, a in enumerate(attach)])
+        last = np.concatenate([self.at(b, a, -1) for b, a in enumerate(attach)])
         self.closed = len(self.t) > 2 and np.nanmax(np.abs(first - last)) <= 1e-6 * self.span
 
         self._shapes(attach, slide_dir, revolutes, gears)
@@ -533,12 +695,23 @@ class _Scene:
         self.bounds = (lo[0], hi[0], lo[1], hi[1])
 
     def instants(self, n: int) -> np.ndarray:
-        """n rows evenly spread over the run; a full cycle leaves out its end (same pose as
-        the start)."""
+        """Up to n rows evenly spread over the run, the first and (unless the run is a full
+        cycle, whose end is its start) the last among them; a row whose pose repeats one
+        already chosen (a motion there and back) is left out."""
         N = len(self.t)
         if self.closed and N > n:
-            return np.unique(np.linspace(0, N - 1, n + 1)[:-1].round().astype(int))
-        return np.unique(np.linspace(0, N - 1, min(n, N)).round().astype(int))
+            rows = np.unique(np.linspace(0, N - 1, n + 1)[:-1].round().astype(int))
+        else:
+            rows = np.unique(np.linspace(0, N - 1, min(n, N)).round().astype(int))
+        tol = 1e-6 * self.span
+        out = []
+        for i in rows:
+            if not any(np.nanmax(np.abs(self.x[i] - self.x[j])) <= tol
+                       and np.nanmax(np.abs(self.y[i] - self.y[j])) <= tol
+                       and np.nanmax(np.abs(self.c[i] - self.c[j])) <= 1e-6
+                       and np.nanmax(np.abs(self.s[i] - self.s[j])) <= 1e-6 for j in out):
+                out.append(int(i))
+        return np.array(out, dtype=int)
 
     def to_global(self, b: int, S, rows=slice(None)):
         """Global x, y (N, k) of body-fixed points S (k, 2) of body b at the given rows."""
@@ -569,7 +742,7 @@ class _Drawing:
     body's own colour (as in bodies.<fmt>)."""
 
     def __init__(self, ax, scene: _Scene, row: int, color=None, body_colors=False, alpha=1.0,
-                 fill=0.25, zorder=10.0, labels=False):
+                 fill=0.25, zorder=10.0, labels=False, width=4.5):
         from matplotlib.patches import Polygon
 
         self.scene = scene
@@ -585,7 +758,7 @@ class _Drawing:
                 ax.add_patch(patch)
                 self.parts.append((patch, b, scene.fills[b], "fill"))
             if scene.bars[b] is not None:
-                line, = ax.plot([], [], color=c, lw=4.5, alpha=alpha, solid_capstyle="round",
+                line, = ax.plot([], [], color=c, lw=width, alpha=alpha, solid_capstyle="round",
                                 zorder=zorder)
                 self.parts.append((line, b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
@@ -680,8 +853,6 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
     unit = cm.spec.length_unit
     ax.set_xlabel(f"x [{unit}]")
     ax.set_ylabel(f"y [{unit}]")
-    ax.grid(True, **GRID)
-    ax.tick_params(labelsize=9)
     x0, x1, y0, y1 = scene.bounds
     ax.update_datalim([(x0, y0), (x1, y1)])     # limits stay automatic: the equal aspect
     ax.margins(0.0)                             # widens whichever range the axes need
@@ -705,6 +876,7 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
                 zorder=7)
 
 
+@_styled
 def _trajectories_figure(cm, scene: _Scene):
     """Paths of the points of interest, start dots, direction arrows, the mechanism faint at
     t = start."""
@@ -730,7 +902,7 @@ def _trajectories_figure(cm, scene: _Scene):
     ax.legend(handles=handles, loc="best", fontsize=FONT,
               ncol=1 if len(handles) <= 12 else 2, framealpha=0.85)
     ax.set_title(f"{cm.spec.name}: paths of the points "
-                 f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12)
+                 f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12, y=1.0)
     return fig
 
 
@@ -759,16 +931,29 @@ def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
     return out
 
 
-def _mechanism_figure(cm, scene: _Scene):
-    """The mechanism at INSTANTS evenly spread times (light to dark) and every path of the run."""
-    from matplotlib import colormaps
+def instant_count(cm) -> int:
+    """Instants drawn in mechanism.<fmt> by default: four for up to three moving bodies, three
+    beyond (a six-bar drawn six times over is a tangle)."""
+    return 4 if cm.nb <= 3 else 3
+
+
+@_styled
+def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
+    """The mechanism at a few instants and every path of the run.
+
+    Every body in its own colour (as in bodies.<fmt>), named in that colour at the first
+    instant, which is drawn solid; the later instants fade (the legend gives their times). A run
+    that is not a full cycle always shows its final pose; instants with the same pose are drawn
+    once."""
     from matplotlib.lines import Line2D
 
-    rows = scene.instants(INSTANTS)
-    labels = [f"t = {scene.t[i]:.4g} s" for i in rows] + [s[0] for s in scene.trace_styles]
+    rows = scene.instants(instants or instant_count(cm))
+    times = [f"t = {scene.t[i]:.4g} s" for i in rows]
+    if len(rows) > 1:
+        times[0] += " (named)"
+    alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
+    labels = times + [s[0] for s in scene.trace_styles]
     fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
-    cmap = colormaps["viridis"]
-    shades = [cmap(v) for v in np.linspace(0.78, 0.0, len(rows))]   # later = darker
     handles, seen = [], set()
     for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=w, zorder=5,
@@ -777,20 +962,44 @@ def _mechanism_figure(cm, scene: _Scene):
             seen.add(label)
             line.set_label(label)
             handles.append(line)
-    for k, (i, c) in enumerate(zip(rows, shades)):
-        _Drawing(ax, scene, i, color=c, fill=0.12, zorder=10 + k, labels=(k == 0))
-        handles.append(Line2D([], [], color=c, lw=4, label=labels[k]))
-    fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside, fontsize=FONT,
-               frameon=False, borderaxespad=0)
+    # later instants below the first, fainter the later they are
+    for k in range(len(rows) - 1, -1, -1):
+        _Drawing(ax, scene, rows[k], body_colors=True, alpha=alphas[k],
+                 fill=0.22 if k == 0 else 0.12, zorder=20 - k, labels=(k == 0),
+                 width=4.5 if k == 0 else 3.0)
+    handles += [Line2D([], [], color="0.2", lw=4 if k == 0 else 3, alpha=a, label=tt)
+                for k, (tt, a) in enumerate(zip(times, alphas))]
+    legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside,
+                        fontsize=FONT, frameon=False, borderaxespad=0)
+    _fit_legend(fig, legend, ax, beside)
     ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
-                 f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12)
+                 f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12, y=1.0)
     return fig
+
+
+def _fit_legend(fig, legend, ax, anchor):
+    """Widen the figure until the legend beside the axes fits (the width of its texts is only
+    estimated when the figure is laid out), keeping the axes' size and place in inches; the
+    legend's upper-left corner is at anchor (figure fraction before widening)."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    W, H = fig.get_size_inches()
+    dpi = fig.dpi
+    box = legend.get_window_extent(RendererAgg(int(W * dpi), int(H * dpi), dpi))
+    extra = box.x1 / dpi + 0.08 - W                   # inches past the right edge
+    if extra <= 0:
+        return
+    pos = ax.get_position()
+    k = W / (W + extra)
+    fig.set_size_inches(W + extra, H)
+    ax.set_position((pos.x0 * k, pos.y0, pos.width * k, pos.height))
+    legend.set_bbox_to_anchor((anchor[0] * k, anchor[1]), transform=fig.transFigure)
 
 
 # -- small helpers -------------------------------------------------------------------------------
 
 def _save(fig, path: Path) -> Path:
-    """Save and release a figure: png at DPI; svg and pdf without a date and (svg) with fixed
+    """Save a figure: png at DPI; svg and pdf without a date and (svg) with fixed
     element ids, so that the same run gives byte-identical files."""
     from contextlib import nullcontext
 
@@ -801,9 +1010,23 @@ def _save(fig, path: Path) -> Path:
     # svg ids are salted with a random uuid unless this rcParam is set: the only rcParams use,
     # for the duration of one save
     salt = mpl.rc_context({"svg.hashsalt": "planarkin"}) if fmt == "svg" else nullcontext()
+    if fmt == "png":
+        # drawn by Agg and encoded here: RGB (no alpha channel: the figure is opaque) at zlib
+        # level 1 takes two thirds of the time of savefig's RGBA at level 6, for files of about
+        # the same size
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from PIL import Image
+        fig.set_dpi(DPI)
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
+                                 "RGBA", 0, 1).convert("RGB")
+        image.save(path, format="png", compress_level=1, dpi=(DPI, DPI))
+        return path
     with salt:
         fig.savefig(path, format=fmt, dpi=DPI, metadata=meta)
-    fig.clear()
+    # no fig.clear(): tearing the artists down costs a tenth of the drawing; dropping the last
+    # reference frees them as well
     return path
 
 
@@ -818,10 +1041,11 @@ def _palette(n: int) -> list:
 
 
 def _point_palette(n: int) -> list:
-    """Point colours: Dark2 (distinct from the body colours where it matters), then tab20."""
+    """Point colours: Dark2, the hues least like the first body colours (tab10 blue, orange,
+    green, red) first, then tab20."""
     from matplotlib import colormaps
     if n <= 8:
-        return [colormaps["Dark2"](k) for k in range(n)]
+        return [colormaps["Dark2"](k) for k in (0, 3, 5, 6, 2, 4, 1, 7)[:n]]
     return _palette(n)
 
 

@@ -1,0 +1,171 @@
+"""What plots cost: a default `planarkin run` with plots against `--no-plots`, a batch of models
+in one call with and without plots, and each figure drawn in process.
+
+    python benchmarks/bench_plots.py [--repeat 5] [--batch 200] [--quick] [--json PATH]
+
+Every ratio is measured in this one run, the runs with and without plots interleaved (a busy
+machine slows both alike). Targets (issue 12): a default run of mechanisms/four-bar.yaml with
+plots <= 2x its --no-plots time; a 200-model batch with plots <= 0.3 s of plotting per model.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+from common import ROOT, machine_info, print_header, run_cli  # noqa: E402
+
+
+def _this_checkout():
+    """`python -m planarkin` of this checkout: a `planarkin` console script on PATH may belong
+    to another checkout (an editable install), and this benchmark measures this one."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"]
+                                     if env.get("PYTHONPATH") else "")
+    return [sys.executable, "-m", "planarkin"], env
+
+
+common.planarkin_command = _this_checkout
+
+EXAMPLES = ["four-bar", "slider-crank", "six-bar", "quick-return", "boom", "trammel"]
+
+
+def single(model: str, repeat: int, tmp: Path) -> dict:
+    """Median wall time of `planarkin run MODEL` with plots and with --no-plots, interleaved."""
+    walls = {"plots": [], "no-plots": []}
+    cpus = {"plots": [], "no-plots": []}
+    args = ["run", str(ROOT / "mechanisms" / f"{model}.yaml"), "--quiet"]
+    run_cli(args + ["--out", str(tmp / "warm")])                        # warm the file cache
+    for _ in range(repeat):
+        for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
+            w, cpu, _ = run_cli(args + extra + ["--out", str(tmp / kind)])
+            walls[kind].append(w)
+            cpus[kind].append(cpu)
+    with open(tmp / "plots" / model / "summary.json") as f:
+        inner = json.load(f)["wall_time"].get("plots")
+    med = {k: statistics.median(v) for k, v in walls.items()}
+    cpu = {k: statistics.median(v) for k, v in cpus.items()}
+    return {"model": model, "walls": walls, "median": med, "cpus": cpus, "cpu_median": cpu,
+            "ratio": med["plots"] / med["no-plots"], "cpu_ratio": cpu["plots"] / cpu["no-plots"],
+            "plots_wait_last": inner}
+
+
+def batch(n: int, tmp: Path) -> dict:
+    """One call with n model files (the examples in turn), with plots and with --no-plots."""
+    src = tmp / "models"
+    src.mkdir(exist_ok=True)
+    files = []
+    for k in range(n):
+        name = EXAMPLES[k % len(EXAMPLES)]
+        f = src / f"{k:03d}-{name}.yaml"
+        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
+        files.append(str(f))
+    out = {}
+    for kind, extra in (("no-plots", ["--no-plots"]), ("plots", [])):
+        w, cpu, _ = run_cli(["run"] + files + extra + ["--quiet", "--out", str(tmp / f"batch-{kind}")])
+        out[kind] = {"wall": w, "cpu": cpu}
+    waits = []
+    for f in files:
+        with open(tmp / "batch-plots" / Path(f).stem / "summary.json") as fh:
+            waits.append(json.load(fh)["wall_time"]["plots"])
+    out["models"] = n
+    out["per_model_extra"] = (out["plots"]["wall"] - out["no-plots"]["wall"]) / n
+    out["per_model_extra_cpu"] = (out["plots"]["cpu"] - out["no-plots"]["cpu"]) / n
+    out["per_model_wait_mean"] = statistics.mean(waits)
+    out["per_model_wait_max"] = max(waits)
+    return out
+
+
+def in_process(models, repeat: int, tmp: Path) -> list[dict]:
+    """Per figure: best-of-repeat seconds to build and write it in this process (wall and CPU:
+    on a busy machine the CPU seconds are the steadier figure)."""
+    import planarkin
+    from planarkin.output import plots
+    rows = []
+    t0, c0 = time.perf_counter(), time.process_time()
+    import matplotlib.figure  # noqa: F401
+    import matplotlib.backends.backend_agg  # noqa: F401
+    rows.append({"model": "-", "figure": "import matplotlib", "seconds": time.perf_counter() - t0,
+                 "cpu": time.process_time() - c0})
+    for name in models:
+        cm = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = planarkin.solve(cm)
+        rows.append({"model": name, "figure": "solve (in process)",
+                     "seconds": time.perf_counter() - t0, "cpu": time.process_time() - c0})
+        d = tmp / f"fig-{name}"
+        d.mkdir(exist_ok=True)
+        for fig in plots.figure_names(cm) + ["animation.gif"]:
+            best = cpu = float("inf")
+            for _ in range(repeat):
+                t0, c0 = time.perf_counter(), time.process_time()
+                if fig == "animation.gif":
+                    plots.write_animation(cm, res._chunk, d)
+                else:
+                    plots.write_plots(cm, res._chunk, res.info, d, only=[fig])
+                best = min(best, time.perf_counter() - t0)
+                cpu = min(cpu, time.process_time() - c0)
+            rows.append({"model": name, "figure": fig, "seconds": best, "cpu": cpu})
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--batch", type=int, default=200)
+    ap.add_argument("--quick", action="store_true", help="3 repeats, a batch of 24")
+    ap.add_argument("--json", type=Path)
+    a = ap.parse_args()
+    if a.quick:
+        a.repeat, a.batch = 3, 24
+    info = machine_info()
+    print_header(info, "planarkin plot benchmark")
+    t_all = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="bench-plots-") as tmp:
+        tmp = Path(tmp)
+        s = single("four-bar", a.repeat, tmp)
+        m = s["median"]
+        print(f"== planarkin run mechanisms/four-bar.yaml (default 360 steps), median of "
+              f"{a.repeat}, interleaved ==")
+        print(f"  with plots      {m['plots']:.3f} s   ({', '.join(f'{w:.2f}' for w in s['walls']['plots'])})")
+        print(f"  --no-plots      {m['no-plots']:.3f} s   ({', '.join(f'{w:.2f}' for w in s['walls']['no-plots'])})")
+        print(f"  ratio           {s['ratio']:.2f} x   (target <= 2)")
+        c = s["cpu_median"]
+        print(f"  CPU (all processes of the run, median): with plots {c['plots']:.3f} s, "
+              f"--no-plots {c['no-plots']:.3f} s, ratio {s['cpu_ratio']:.2f} x")
+        print(f"  waited for the plots at the end (summary.json wall_time.plots, last run): "
+              f"{s['plots_wait_last']:.3f} s")
+        print()
+        b = batch(a.batch, tmp)
+        print(f"== batch: {b['models']} models (the six examples in turn) in one call ==")
+        print(f"  --no-plots      {b['no-plots']['wall']:.2f} s wall, {b['no-plots']['cpu']:.2f} s CPU")
+        print(f"  with plots      {b['plots']['wall']:.2f} s wall, {b['plots']['cpu']:.2f} s CPU")
+        print(f"  plotting per model: {b['per_model_extra']:.3f} s (wall difference / models; "
+              f"target <= 0.3), CPU {b['per_model_extra_cpu']:.3f} s")
+        print(f"  waited for the plots per model (summary.json): mean {b['per_model_wait_mean']:.3f} s, "
+              f"max {b['per_model_wait_max']:.3f} s")
+        print()
+        rows = in_process(EXAMPLES, 1 if a.quick else 3, tmp)
+        print("== in process, one figure at a time (best of "
+              f"{1 if a.quick else 3}), seconds: wall  CPU ==")
+        for r in rows:
+            print(f"  {r['model']:<14} {r['figure']:<20} {r['seconds']:.3f}  {r['cpu']:.3f}")
+    la = os.getloadavg()
+    print(f"\nload avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}; total "
+          f"{time.perf_counter() - t_all:.0f} s")
+    if a.json:
+        a.json.write_text(json.dumps({"machine": info, "single": s, "batch": b,
+                                      "in_process": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

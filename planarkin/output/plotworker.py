@@ -1,0 +1,246 @@
+"""Plots drawn in background processes, so that `planarkin run` does not wait for matplotlib.
+
+Importing matplotlib costs 0.3-0.5 s, as much as the whole analysis of an example model, and
+drawing the four figures of a model as much again. `start()` (the first thing `planarkin run`
+does when it will plot) forks one server process that imports matplotlib at once, behind the
+parent's own start-up, model loading, solve and CSV writing, and then waits for jobs. `draw()`
+sends it a job (model, plot rows and run info, pickled: a few hundred kB) and waits for the file
+names. When a core is idle the server splits the job's figures between itself and one child it
+forks for the job (the child inherits the imported matplotlib), so a model's figures take about
+half the time of drawing them one after the other; on a busy machine it draws them all itself.
+In a batch the same server serves every model: matplotlib is imported once per call.
+
+Processes: at most two draw at any time (the server and its child of the current job); the child
+is waited for by the server before it answers, the server by `stop()` (called by the CLI when the
+batch ends, and at exit as a safety net). Without fork (or when the server has died) `draw()`
+returns None and the caller draws in its own process.
+"""
+
+from __future__ import annotations
+
+import atexit
+import json
+import os
+import signal
+
+_server = None          # (process, connection) of the running server of this process, if any
+_pending = False        # a job was sent and its answer not read yet
+
+
+def start() -> None:
+    """Fork the plot server (once per process; nothing where fork does not exist)."""
+    global _server
+    if _server is not None:
+        return
+    import multiprocessing as mp
+
+    # numpy before the fork: the parent needs it anyway, and the server then does not import
+    # it a second time (CPU that a busy machine does not have to spare)
+    import numpy  # noqa: F401
+    try:
+        ctx = mp.get_context("fork")
+    except ValueError:
+        return
+    parent, child = ctx.Pipe()
+    proc = ctx.Process(target=_serve, args=(child, parent), daemon=True, name="planarkin-plots")
+    proc.start()
+    child.close()
+    _server = (proc, parent)
+    atexit.register(stop)
+
+
+def running() -> bool:
+    return _server is not None
+
+
+def draw(cm, data, info, out, fmt: str | None, animate, x: str = "time"):
+    """Draw the figures (fmt: png, svg, pdf or None for none; x: their abscissa) and
+    animation.gif of one run into directory out (animate: False, True or the keyword arguments
+    of plots.write_animation), in the server; returns the files written (Paths, in figure
+    order), or None when there is no server (the caller then draws in its own process). Raises
+    RuntimeError when the drawing itself failed."""
+    return collect() if submit(cm, data, info, out, fmt, animate, x) else None
+
+
+def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bool:
+    """Send a job (arguments as for draw) and return at once: True when the server has it
+    (its answer is then read by `collect`), False when there is no server."""
+    global _pending
+    if _server is None:
+        return False
+    if _pending:                    # a job whose caller gave up on it (an error in between)
+        try:
+            collect()
+        except RuntimeError:
+            pass
+        if _server is None:
+            return False
+    try:
+        _server[1].send((cm, data, info, str(out), fmt, animate, x))
+    except OSError:
+        stop()
+        return False
+    _pending = True
+    return True
+
+
+def collect():
+    """Wait for the answer to the job sent by `submit`: the files written, or None when the
+    server died meanwhile (the caller draws in its own process; later jobs too)."""
+    global _pending
+    if _server is None or not _pending:
+        return None
+    _pending = False
+    try:
+        status, payload = _server[1].recv()
+    except (EOFError, OSError):
+        stop()                  # killed, out of memory: draw here from now on
+        return None
+    if status != "ok":
+        raise RuntimeError(f"drawing the plots failed: {payload}")
+    from pathlib import Path
+    return [Path(p) for p in payload]
+
+
+def stop() -> None:
+    """Tell the server to finish and wait for it (terminate it if it does not end)."""
+    global _server, _pending
+    if _server is None:
+        return
+    proc, conn = _server
+    _server = None
+    _pending = False
+    try:
+        conn.send(None)
+    except OSError:
+        pass
+    conn.close()
+    proc.join(timeout=30)
+    if proc.is_alive():
+        proc.terminate()
+        proc.join()
+
+
+# -- in the server -------------------------------------------------------------------------------
+
+def _serve(conn, parent_end) -> None:
+    """Body of the server: import matplotlib, then draw jobs until None or the parent is gone."""
+    parent_end.close()
+    # a Ctrl-C is the parent's to handle; the server ends when the parent closes the pipe
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _warm_up()
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            break
+        if job is None:
+            break
+        try:
+            reply = ("ok", [str(p) for p in _draw(*job)])
+        except BaseException as e:  # noqa: BLE001 - reported by the parent
+            reply = ("error", f"{type(e).__name__}: {e}")
+        try:
+            conn.send(reply)
+        except OSError:
+            break
+
+
+def _warm_up() -> None:
+    """What the parent should not wait for: importing matplotlib, and the first drawing (the
+    font file opened, the first glyphs rendered, the png encoder loaded), here on a tiny
+    figure that is thrown away."""
+    import io
+
+    from matplotlib.figure import Figure
+
+    from . import plots  # noqa: F401 - numpy, the tables module
+    fig = Figure(figsize=(1, 1))
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1])
+    ax.set_xlabel("t [s]")
+    fig.savefig(io.BytesIO(), format="png", dpi=30)
+
+
+def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
+    """(figures for the child, figures for the server, whether the child draws the animation):
+    about equal halves of the drawing time. bodies.png (six axes) costs about what the other
+    three together cost; the animation about what all four cost."""
+    if not names:                   # the animation alone: no one to share it with
+        return [], [], False
+    if animate:
+        return [], names, True
+    return names[:1], names[1:], False
+
+
+def _idle_core() -> bool:
+    """Whether a second drawing process would find a core to run on (load average below the
+    number of cores). On a machine already busy it would only add the cost of the fork and of
+    the work both processes repeat, and finish no sooner."""
+    try:
+        return os.getloadavg()[0] < (os.cpu_count() or 1) - 0.5
+    except OSError:
+        return True
+
+
+def _draw(cm, data, info, out, fmt, animate, x):
+    """The model's figures, then the rooms' (forces.png, measures.png ...), all in the server:
+    the parent never imports matplotlib."""
+    files = _draw_model(cm, data, info, out, fmt, animate, x)
+    if fmt:
+        from pathlib import Path
+
+        from ..derived import derived_tables
+        for d in derived_tables(cm, info.options):
+            if d.plot is not None:
+                files += d.plot(cm, d.compute(data), info, Path(out), fmt)
+    return files
+
+
+def _draw_model(cm, data, info, out, fmt, animate, x):
+    from pathlib import Path
+
+    from . import plots
+    out = Path(out)
+    names = plots.figure_names(cm) if fmt else []
+    mine_child, mine, child_anim = split(names, animate) if _idle_core() else ([], names, False)
+
+    def part(figs, anim):
+        files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \
+            else []
+        if anim:
+            opts = animate if isinstance(animate, dict) else {}
+            files.append(plots.write_animation(cm, data, out, **opts))
+        return files
+
+    if not (mine_child or child_anim):
+        return part(mine, animate)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:                                        # the job's child
+        code = 0
+        try:
+            os.close(r)
+            msg = {"ok": [str(p) for p in part(mine_child, child_anim)]}
+        except BaseException as e:  # noqa: BLE001 - reported through the server
+            msg = {"error": f"{type(e).__name__}: {e}"}
+            code = 1
+        try:
+            os.write(w, json.dumps(msg).encode())
+        finally:
+            os._exit(code)              # no atexit handlers, no flushing of the parent's buffers
+    os.close(w)
+    try:
+        files = part(mine, animate and not child_anim)
+    finally:
+        with os.fdopen(r, "rb") as f:
+            raw = f.read()
+        os.waitpid(pid, 0)
+    msg = json.loads(raw or b'{"error": "the plot process ended without an answer"}')
+    if "error" in msg:
+        raise RuntimeError(msg["error"])
+    theirs = [Path(p) for p in msg["ok"]]
+    order = {n: k for k, n in enumerate(names)}
+    figs = sorted((p for p in theirs + files if p.name != "animation.gif"),
+                  key=lambda p: order.get(p.stem, len(order)))
+    return figs + [p for p in theirs + files if p.name == "animation.gif"]
