@@ -11,8 +11,8 @@ evaluates and differentiates exactly. scipy is imported only when a table is rea
 
 from __future__ import annotations
 
-import itertools
 import math
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,6 @@ __all__ = ["TableError", "read_table", "spline", "table_function"]
 
 MAX_ROWS = 1_000_000
 MAX_BYTES = 64 * 2**20
-_ids = itertools.count(1)
 
 
 class TableError(Exception):
@@ -138,7 +137,7 @@ def table_function(t: np.ndarray, y: np.ndarray, periodic: bool, shown: str) -> 
     """The driver function of a table: f(t) interpolated; periodic wraps t into the table's
     range [t0, tN) (period tN - t0; y[-1] is taken equal to y[0]), otherwise f is defined on
     [t0, tN] only (domain)."""
-    name = f"table{next(_ids)}"
+    name = f"table_{secrets.token_hex(6)}"  # unique across processes (printed trees are keys)
     if periodic:  # the caller has checked that they agree (to 1e-9); make them equal
         y = np.array(y, dtype=float)
         y[-1] = y[0]

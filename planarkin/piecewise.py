@@ -52,7 +52,9 @@ class Piece:
 
 class Piecewise:
     """pieces[0] below knots[0], pieces[i + 1] on [knots[i], knots[i + 1]), pieces[-1] from
-    knots[-1] on. name is how the function prints in expressions (unique per table)."""
+    knots[-1] on. name is how the function prints in expressions: it must be unique, since
+    printed trees are the keys of shared sub-expressions. switch_knots (optional attribute):
+    the knots where a derivative up to the second may jump (default: all knots)."""
 
     def __init__(self, name: str, knots, pieces):
         self.name = name
@@ -63,7 +65,11 @@ class Piecewise:
         self._poly = None
 
     def __reduce__(self):
-        return (Piecewise, (self.name, self.knots, self._orders[0]))
+        state = {"switch_knots": self.switch_knots} if hasattr(self, "switch_knots") else None
+        return (Piecewise, (self.name, self.knots, self._orders[0]), state)
+
+    def __setstate__(self, state):
+        self.__dict__.update(state or {})
 
     def pieces(self, order: int) -> list:
         while len(self._orders) <= order:
