@@ -24,6 +24,7 @@ __all__ = ["TableError", "read_table", "spline", "table_function"]
 
 MAX_ROWS = 1_000_000
 MAX_BYTES = 64 * 2**20
+MAX_MAGNITUDE = 1e100    # as for numbers in the model file: their squares must not overflow
 
 
 class TableError(Exception):
@@ -91,6 +92,10 @@ def read_table(path: Path, time=None, value=None):
             continue
         if not (math.isfinite(tv) and math.isfinite(yv)):
             problems.append((n, "values must be finite numbers"))
+            continue
+        if max(abs(tv), abs(yv)) > MAX_MAGNITUDE:
+            problems.append((n, f"{max(abs(tv), abs(yv)):.3g} is too large (numbers up to "
+                                f"{MAX_MAGNITUDE:g} in magnitude are accepted)"))
             continue
         if rows and not tv > rows[-1][0]:
             problems.append((n, f"times must increase strictly: {tv:g} follows {rows[-1][0]:g} "
