@@ -29,7 +29,7 @@ ORDERS = {"position": 0, "velocity": 1, "acceleration": 2}
 ANALYSIS_KEYS = ("start", "end", "steps", "tol", "newton", "iterations", "path_tol", "max_step",
                  "interpolate", "bifurcation")
 MAX_STEPS = 10**9
-MAX_SEGMENTS = 1000      # segments of one motion: profile
+MAX_SEGMENTS = 100       # segments of one motion: profile (longer motions: a table)
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
