@@ -11,8 +11,8 @@ evaluates and differentiates exactly. scipy is imported only when a table is rea
 
 from __future__ import annotations
 
-import itertools
 import math
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,7 @@ __all__ = ["TableError", "read_table", "spline", "table_function"]
 
 MAX_ROWS = 1_000_000
 MAX_BYTES = 64 * 2**20
-_ids = itertools.count(1)
+MAX_MAGNITUDE = 1e100    # as for numbers in the model file: their squares must not overflow
 
 
 class TableError(Exception):
@@ -93,6 +93,10 @@ def read_table(path: Path, time=None, value=None):
         if not (math.isfinite(tv) and math.isfinite(yv)):
             problems.append((n, "values must be finite numbers"))
             continue
+        if max(abs(tv), abs(yv)) > MAX_MAGNITUDE:
+            problems.append((n, f"{max(abs(tv), abs(yv)):.3g} is too large (numbers up to "
+                                f"{MAX_MAGNITUDE:g} in magnitude are accepted)"))
+            continue
         if rows and not tv > rows[-1][0]:
             problems.append((n, f"times must increase strictly: {tv:g} follows {rows[-1][0]:g} "
                                 f"(line {rows[-1][2]})"))
@@ -138,7 +142,7 @@ def table_function(t: np.ndarray, y: np.ndarray, periodic: bool, shown: str) -> 
     """The driver function of a table: f(t) interpolated; periodic wraps t into the table's
     range [t0, tN) (period tN - t0; y[-1] is taken equal to y[0]), otherwise f is defined on
     [t0, tN] only (domain)."""
-    name = f"table{next(_ids)}"
+    name = f"table_{secrets.token_hex(6)}"  # unique across processes (printed trees are keys)
     if periodic:  # the caller has checked that they agree (to 1e-9); make them equal
         y = np.array(y, dtype=float)
         y[-1] = y[0]

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .expr import Expr, TimeFunction, _bin, _call, _Num, _pw, _sugar
+from .expr import Expr, ExprError, TimeFunction, _bin, _call, _Fail, _Num, _pw, _sugar
 from .laws import law
 
 __all__ = ["Segment", "profile"]
@@ -48,15 +48,26 @@ def profile(segments, initial: float = 0.0, t0: float = 0.0, repeat: bool = Fals
     tau = _bin("-", t, _Num(t0))
     period = sum(s.duration for s in segments)
     local = _sugar("mod", (tau, _Num(period))) if repeat else tau
-    f = _Num(initial)
+    terms = [_Num(initial)]
     start = 0.0
     for s in segments:
         if s.kind != "dwell" and s.amount != 0:
             u = _bin("/", _bin("-", local, _Num(start)), _Num(s.duration))
-            f = _bin("+", f, _bin("*", _Num(s.amount), _pw(law(s.law), u)))
+            terms.append(_bin("*", _Num(s.amount), _pw(law(s.law), u)))
         start += s.duration
     net = sum(s.amount for s in segments)
     if repeat and net != 0:  # an indexing motion: each cycle starts where the last one ended
-        f = _bin("+", f, _bin("*", _Num(net), _call("floor", (_bin("/", tau, _Num(period)),))))
+        terms.append(_bin("*", _Num(net), _call("floor", (_bin("/", tau, _Num(period)),))))
     text = "motion: " + ", ".join(s.describe() for s in segments) + (", repeat" if repeat else "")
-    return TimeFunction.from_expr(f, text)
+    try:
+        return TimeFunction.from_expr(_sum(terms), text)
+    except _Fail as exc:
+        raise ExprError(exc.args[0].replace("{}", "'" + text[:77] + "'")) from None
+
+
+def _sum(terms: list) -> Expr:
+    """terms added as a balanced tree (its depth grows as log2 of the segments)."""
+    if len(terms) == 1:
+        return terms[0]
+    h = len(terms) // 2
+    return _bin("+", _sum(terms[:h]), _sum(terms[h:]))

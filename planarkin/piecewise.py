@@ -42,9 +42,12 @@ class Piece:
     def __call__(self, x):
         w = np.asarray(x, dtype=float) - self.origin
         c = self.poly
-        r = np.full(w.shape, c[0])
-        for k in range(1, len(c)):  # Horner
-            r = r * w + c[k]
+        if len(c) == 1:
+            r = np.full(w.shape, c[0])
+        else:
+            r = c[0] * w + c[1]
+            for k in range(2, len(c)):  # Horner
+                r = r * w + c[k]
         for a, b, om in self.sines:
             r = r + (a * np.sin(om * w) if a else 0.0) + (b * np.cos(om * w) if b else 0.0)
         return r
@@ -52,7 +55,9 @@ class Piece:
 
 class Piecewise:
     """pieces[0] below knots[0], pieces[i + 1] on [knots[i], knots[i + 1]), pieces[-1] from
-    knots[-1] on. name is how the function prints in expressions (unique per table)."""
+    knots[-1] on. name is how the function prints in expressions: it must be unique, since
+    printed trees are the keys of shared sub-expressions. switch_knots (optional attribute):
+    the knots where a derivative up to the second may jump (default: all knots)."""
 
     def __init__(self, name: str, knots, pieces):
         self.name = name
@@ -63,7 +68,11 @@ class Piecewise:
         self._poly = None
 
     def __reduce__(self):
-        return (Piecewise, (self.name, self.knots, self._orders[0]))
+        state = {"switch_knots": self.switch_knots} if hasattr(self, "switch_knots") else None
+        return (Piecewise, (self.name, self.knots, self._orders[0]), state)
+
+    def __setstate__(self, state):
+        self.__dict__.update(state or {})
 
     def pieces(self, order: int) -> list:
         while len(self._orders) <= order:
@@ -86,8 +95,11 @@ class Piecewise:
         x = np.asarray(x, dtype=float)
         P = self.pieces(order)
         sel = np.asarray(piece, dtype=np.int64) + 1
+        if len(P) <= 8 and (len(sel) == 1 or (sel == sel[0]).all()):  # one piece (the usual)
+            k = int(sel[0])
+            return P[k](x) if 0 <= k < len(P) else np.full(x.shape, np.nan)
         out = np.full(x.shape, np.nan)
-        if self._table(order) is not None and len(P) > 8:
+        if len(P) > 8 and self._table(order) is not None:
             C, O = self._table(order)
             ok = (sel >= 0) & (sel < len(P))
             s = sel[ok]
@@ -97,9 +109,6 @@ class Piecewise:
                 r = r * w + C[s, c]
             out[ok] = r
             return out
-        if len(sel) == 1 or (sel == sel[0]).all():
-            k = int(sel[0])
-            return P[k](x) if 0 <= k < len(P) else out
         for k in range(len(P)):
             m = sel == k
             if m.any():

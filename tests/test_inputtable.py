@@ -103,3 +103,25 @@ analysis: {end: 1.5, steps: 30}
     np.testing.assert_allclose(res.qd[:, 2], d1, atol=1e-12 * 200)
     np.testing.assert_allclose(res.qdd[:, 2], d2, atol=1e-12 * 1200)
     np.testing.assert_allclose(res.q[:, 2], 30 * np.sin(2 * PI * res.t), atol=1e-4)
+
+
+def test_table_sampled_from_a_quintic_drives_a_model_exactly(tmp_path):
+    """The issue's acceptance case: a tabulated motion reproduces the polynomial it was
+    sampled from, in the solved positions, velocities and accelerations (1e-12 relative)."""
+    p = np.poly1d([2.0, -5.0, 3.0, 1.0, 0.5, 0.1])    # x(t) of a slider, m
+    t = np.array([0.0, 0.1, 0.25, 0.3, 0.45, 0.6, 0.7, 0.85, 1.0])
+    (tmp_path / "x.csv").write_text("\n".join(f"{float(a)!r} {float(p(a))!r}" for a in t) + "\n")
+    (tmp_path / "m.yaml").write_text("""
+bodies:
+  slider: {q: [0.1, 0, 0]}
+joints:
+  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
+drivers:
+  - {type: x, body: slider, table: x.csv}
+analysis: {end: 1, steps: 20}
+""")
+    res = planarkin.solve(planarkin.load(tmp_path / "m.yaml"))
+    assert res.status == 0
+    for got, want in ((res.q[:, 0], p(res.t)), (res.qd[:, 0], p.deriv()(res.t)),
+                      (res.qdd[:, 0], p.deriv(2)(res.t))):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())

@@ -115,3 +115,22 @@ analysis: {end: 1.2, steps: 24}
     np.testing.assert_allclose(res.q[:, 2], phi, rtol=0, atol=1e-12 * 90)
     np.testing.assert_allclose(res.qd[:, 2], w, rtol=0, atol=1e-12 * 600)
     np.testing.assert_allclose(res.qdd[:, 2], a, rtol=0, atol=1e-12 * 6300)
+
+
+def test_long_chains_build_and_too_long_ones_are_refused(tmp_path):
+    f = profile([Segment("rise", 1.0, 0.01, "cycloidal"), Segment("dwell", 0, 0.01)] * 50,
+                repeat=True)
+    assert f(np.array([0.01, 0.995, 1.01, 2.0])).tolist() == pytest.approx([1, 50, 51, 100],
+                                                                           abs=1e-12)
+    segs = ", ".join(["{rise: 1, in: 0.01, law: cycloidal}"] * 101)
+    path = tmp_path / "long.yaml"
+    path.write_text(f"""
+bodies:
+  a: {{q: [0, 0, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: a, si: [0, 0], sj: [0, 0]}}
+drivers:
+  - {{type: angle, body: a, motion: {{segments: [{segs}]}}}}
+""")
+    with pytest.raises(planarkin.InputError, match="motion: at most 100 segments"):
+        planarkin.load(path)

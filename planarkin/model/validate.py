@@ -30,7 +30,7 @@ UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µ
 TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"} | set(function_names())
-MAX_SEGMENTS = 1000      # segments of one motion: profile
+MAX_SEGMENTS = 100       # segments of one motion: profile (longer motions: a table)
 MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker",
                  "curve-slot")
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
