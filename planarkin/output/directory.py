@@ -53,15 +53,34 @@ class Interrupted(BaseException):
     """SIGTERM arrived (SIGINT arrives as KeyboardInterrupt): stop, keep what is complete."""
 
 
+# SIGINT and SIGTERM are Python-level handlers while a run is interruptible: a handler always
+# runs in the main thread, whichever thread the kernel delivered the signal to (BLAS threads do
+# not block it), so holding signals back is a flag the handler reads, not a signal mask alone.
+_held = 0                  # depth of held_signals() blocks
+_pending: int | None = None   # a signal that arrived while held
+
+
+def _raise_for(signum: int):
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise Interrupted(signum)
+
+
+def _on_signal(signum, frame):
+    global _pending
+    if _held:
+        _pending = signum
+        return
+    _raise_for(signum)
+
+
 @contextlib.contextmanager
 def interruptible():
     """While inside, SIGINT raises KeyboardInterrupt and SIGTERM raises Interrupted in the main
-    thread, so that a run stops in order; the previous handlers are restored."""
-    def on_term(signum, frame):
-        raise Interrupted(signum)
+    thread, except inside held_signals() blocks, after which they are raised; the previous
+    handlers are restored."""
     try:
-        old = {signal.SIGTERM: signal.signal(signal.SIGTERM, on_term),
-               signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler)}
+        old = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     except ValueError:                      # not the main thread: leave signals alone
         yield
         return
@@ -74,17 +93,25 @@ def interruptible():
 
 @contextlib.contextmanager
 def held_signals():
-    """SIGINT and SIGTERM wait until the block is done (they are delivered right after), so
-    that a block of rows is never half sent and a shutdown is never cut short."""
+    """SIGINT and SIGTERM wait until the block is done (they are raised right after), so that a
+    block of rows is never half sent, a count never left behind, and a shutdown never cut
+    short. The thread's signal mask is held too, so that a process forked inside starts with
+    the signals blocked (it ignores them before it unblocks them)."""
+    global _held, _pending
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
-    except (AttributeError, ValueError, OSError):     # no signal masks here (or not main thread)
-        yield
-        return
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    except (AttributeError, ValueError, OSError):     # no signal masks here
+        mask = None
+    _held += 1
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        _held -= 1
+        if mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        if not _held and _pending is not None:
+            signum, _pending = _pending, None
+            _raise_for(signum)
 
 
 # -- directories ------------------------------------------------------------------------------
@@ -267,6 +294,8 @@ def _writer_main(path, header, accumulator, inbox, outbox) -> None:
     float64 data; an empty message ends the table), statistics out."""
     for s in _SIGNALS:
         signal.signal(s, signal.SIG_IGN)       # the parent stops us in order
+    with contextlib.suppress(AttributeError, ValueError, OSError):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)   # forked with them held
     try:
         sink = TableSink(path, header, accumulator)
         while True:
