@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -57,6 +58,36 @@ def single(model: str, repeat: int, tmp: Path) -> dict:
     return {"model": model, "walls": walls, "median": med, "cpus": cpus, "cpu_median": cpu,
             "ratio": med["plots"] / med["no-plots"], "cpu_ratio": cpu["plots"] / cpu["no-plots"],
             "plots_wait_last": inner}
+
+
+def against(baseline: Path, repeat: int, tmp: Path) -> dict:
+    """The default four-bar run with and without plots, this checkout and another one (e.g. a
+    `git archive` of main), all four interleaved: wall and CPU medians."""
+    import resource
+    trees = {"this": ROOT, "baseline": baseline}
+    got: dict = {}
+    for _ in range(repeat):
+        for name, root in trees.items():
+            env = dict(os.environ, PYTHONPATH=str(root))
+            for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
+                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t0 = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "planarkin", "run",
+                                str(root / "mechanisms" / "four-bar.yaml"), "-q", "--out",
+                                str(tmp / f"vs-{name}-{kind}")] + extra, cwd=root, env=env,
+                               check=True, capture_output=True)
+                wall = time.perf_counter() - t0
+                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
+                got.setdefault(name, {}).setdefault(kind, []).append((wall, cpu))
+    out = {}
+    for name, kinds in got.items():
+        med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+               for k, v in kinds.items()}
+        out[name] = {"median": med, "ratio_wall": med["plots"][0] / med["no-plots"][0],
+                     "ratio_cpu": med["plots"][1] / med["no-plots"][1],
+                     "plot_cpu": med["plots"][1] - med["no-plots"][1]}
+    return out
 
 
 def batch(n: int, tmp: Path) -> dict:
@@ -124,6 +155,8 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=200)
     ap.add_argument("--quick", action="store_true", help="3 repeats, a batch of 24")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--baseline", type=Path, help="another checkout (e.g. `git archive main`) "
+                    "to compare the default four-bar run with, interleaved")
     a = ap.parse_args()
     if a.quick:
         a.repeat, a.batch = 3, 24
@@ -145,15 +178,28 @@ def main() -> None:
         print(f"  waited for the plots at the end (summary.json wall_time.plots, last run): "
               f"{s['plots_wait_last']:.3f} s")
         print()
-        b = batch(a.batch, tmp)
-        print(f"== batch: {b['models']} models (the six examples in turn) in one call ==")
-        print(f"  --no-plots      {b['no-plots']['wall']:.2f} s wall, {b['no-plots']['cpu']:.2f} s CPU")
-        print(f"  with plots      {b['plots']['wall']:.2f} s wall, {b['plots']['cpu']:.2f} s CPU")
-        print(f"  plotting per model: {b['per_model_extra']:.3f} s (wall difference / models; "
-              f"target <= 0.3), CPU {b['per_model_extra_cpu']:.3f} s")
-        print(f"  waited for the plots per model (summary.json): mean {b['per_model_wait_mean']:.3f} s, "
-              f"max {b['per_model_wait_max']:.3f} s")
-        print()
+        if a.baseline:
+            v = against(a.baseline.resolve(), a.repeat, tmp)
+            print(f"== this checkout against {a.baseline}: four-bar, median of {a.repeat}, "
+                  f"interleaved ==")
+            for name, r in v.items():
+                (wp, cp), (wn, cn) = r["median"]["plots"], r["median"]["no-plots"]
+                print(f"  {name:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
+                      f"({cn:.2f} s CPU): ratio {r['ratio_wall']:.2f} x wall, "
+                      f"{r['ratio_cpu']:.2f} x CPU; plots cost {r['plot_cpu']:.2f} s CPU")
+            print()
+        b = batch(a.batch, tmp) if a.batch else None
+        if b is not None:
+            print(f"== batch: {b['models']} models (the six examples in turn) in one call ==")
+            print(f"  --no-plots      {b['no-plots']['wall']:.2f} s wall, "
+                  f"{b['no-plots']['cpu']:.2f} s CPU")
+            print(f"  with plots      {b['plots']['wall']:.2f} s wall, "
+                  f"{b['plots']['cpu']:.2f} s CPU")
+            print(f"  plotting per model: {b['per_model_extra']:.3f} s (wall difference / "
+                  f"models; target <= 0.3), CPU {b['per_model_extra_cpu']:.3f} s")
+            print(f"  waited for the plots per model (summary.json): mean "
+                  f"{b['per_model_wait_mean']:.3f} s, max {b['per_model_wait_max']:.3f} s")
+            print()
         rows = in_process(EXAMPLES, 1 if a.quick else 3, tmp)
         print("== in process, one figure at a time (best of "
               f"{1 if a.quick else 3}), seconds: wall  CPU ==")

@@ -12,7 +12,6 @@ norms for a condition estimate.
 
 from __future__ import annotations
 
-import ctypes
 import sys
 
 import numpy as np
@@ -250,6 +249,7 @@ def _blas_controls() -> list:
     threads are left alone); rescanned only when modules were imported since."""
     if _blas_cache[0] == len(sys.modules):
         return _blas_cache[1]
+    import ctypes                 # here: 3 ms of import that small models never need
     found = []
     try:
         with open("/proc/self/maps") as f:

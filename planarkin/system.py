@@ -32,6 +32,12 @@ EPS = np.finfo(float).eps
 # measured on the arch's blocks by benchmarks/bench_blocks.py: dense / sparse CPU time 0.63 at
 # 64 unknowns, 1.2 at 88, 4 at 148, 14 at 298 (benchmarks/README.md "Large blocks").
 SPARSE_BLOCK = 80
+# Systems with a block of at least this many unknowns are solved on one BLAS thread
+# (linalg.one_blas_thread): there OpenBLAS may thread inside a factorisation and its threads
+# fight a busy core. Pinning costs 35-60 us per call (openblas_set_num_threads), 5 % of a
+# 360-step four-bar run's 50 calls, so small systems (which never reach BLAS's threaded
+# sizes) are left alone.
+PIN_BLAS_FROM = 32
 
 
 @dataclass(frozen=True)
@@ -379,6 +385,8 @@ class System:
         (T, NU, FDD) of driver_values(t) when the caller already has them.
         Returns BatchInfo.
         """
+        if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
+            return self._solve_batch(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         with one_blas_thread():
             return self._solve_batch(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
 

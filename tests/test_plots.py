@@ -255,7 +255,9 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
     r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
                              "--out", str(tmp_path), "--steps", "60", "-q"])
     assert r.exit_code == 0, r.output
-    assert not plotworker.running() and not mp.active_children()
+    # (other tests of this process may leave table writers behind: only the plot server counts)
+    assert not plotworker.running()
+    assert not [p for p in mp.active_children() if p.name == "planarkin-plots"]
     for stem in ("slider-crank", "four-bar"):
         s = json.loads((tmp_path / stem / "summary.json").read_text())
         forces = ["forces.png"] if stem == "slider-crank" else []      # it has masses
