@@ -199,7 +199,7 @@ def test_full_disk_leaves_the_previous_results(tmp_path):
     no_leftovers(out)
 
 
-ENTRY = [sys.executable, "-m", "planarkin"]     # the entry point of the `planarkin` command
+ENTRY = command()                               # the `planarkin` command itself
 
 # moments spread over a run of ~2 s (imports, assembly, path, grid pass, writing, the end),
 # counted from when the program has started (its SIGTERM handler is installed: before that the
