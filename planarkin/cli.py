@@ -16,6 +16,7 @@ import click
 
 from . import __version__
 from .model.spec import X_AXES, x_axis_problem
+from .options import OPTIONS
 from .report import Report
 
 
@@ -131,7 +132,6 @@ class _OptionType(click.ParamType):
 
 def _analysis_options(f):
     """One click option per analysis option of planarkin.options, in its order."""
-    from .options import OPTIONS
     opts = []
     for o in OPTIONS.values():
         if o.kind == "bool":
@@ -359,7 +359,7 @@ def check(models, quiet, derived, overrides):
 @click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Output directory; writes DIR/<file stem>/tradeoff.csv and tradeoff.png.")
-@click.option("--steps", type=click.IntRange(1, 10**8),
+@click.option("--steps", type=_OptionType(OPTIONS["steps"]),
               help="Grid intervals for every setting (default: the model's, at least 20000).")
 @click.option("--repeats", type=click.IntRange(1, 100), default=3, show_default=True,
               help="Runs per setting; the best time counts.")
@@ -471,8 +471,8 @@ def _study(model_path, report, overrides, analysis, metrics, varied):
                    "point's path from nominal (repeatable).")
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Writes DIR/<file stem>/sweep.csv (+ .parquet, + plot).")
-@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every variant.")
-@click.option("--end", type=float, help="End time, s.")
+@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals of every variant.")
+@click.option("--end", type=_OptionType(OPTIONS["end"]), help="End time, s.")
 @click.option("--no-plots", is_flag=True, help="Skip sweep.png.")
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")
@@ -539,8 +539,8 @@ def _sigmas(texts) -> dict:
                    "largest distance of a point's path from nominal (default: dev of every point).")
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
               help="Writes DIR/<file stem>/tolerance.csv, samples.csv, sensitivities.csv.")
-@click.option("--steps", type=click.IntRange(1, 10**9), help="Grid intervals of every sample.")
-@click.option("--end", type=float, help="End time, s.")
+@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals of every sample.")
+@click.option("--end", type=_OptionType(OPTIONS["end"]), help="End time, s.")
 @click.option("--no-plots", is_flag=True, help="Skip tolerance.png.")
 @click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
               show_default=True, help="Plot file format.")

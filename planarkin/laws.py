@@ -7,7 +7,7 @@ called by name: ``cycloidal((t - 0.2)/0.3)``. For a rise h in time T, x = h*s(u)
 u = (t - t0)/T, so velocity h*s'/T, acceleration h*s''/T**2, jerk h*s'''/T**3.
 
 The modified trapezoid and modified sine are defined by their acceleration (reference:
-/work/shared/reference/forces-and-motion-laws.md §2) and integrated here piece by piece, exactly in
+../shared/reference/forces-and-motion-laws.md §2) and integrated here piece by piece, exactly in
 the coefficients, with s(0) = s'(0) = 0.
 """
 

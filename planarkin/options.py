@@ -10,10 +10,9 @@ entry points accept exactly the same values and refuse the others with the same 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field, replace
 from typing import Any
-
-import numpy as np
 
 from .diagnostics import Diagnostic, InputError, did_you_mean, one_of
 
@@ -72,13 +71,13 @@ class Option:
         if value is None:
             return (None, None) if self.optional else bad
         if self.kind == "bool":
-            return (value, None) if isinstance(value, (bool, np.bool_)) else bad
+            return (bool(value), None) if _is_bool(value) else bad
         if self.kind == "choice":
             if isinstance(value, str) and value in self.choices:
                 return value, None
             hint = did_you_mean(value, self.choices) if isinstance(value, str) else ""
             return None, bad[1] + hint
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        if _is_bool(value) or not isinstance(value, numbers.Real):
             return bad
         x = float(value)
         if not math.isfinite(x):
@@ -153,9 +152,10 @@ class Options:
     def rows(self) -> int:
         return self.steps + 1
 
-    def times(self, a: int = 0, b: int | None = None) -> np.ndarray:
+    def times(self, a: int = 0, b: int | None = None):
         """Grid times of rows a..b-1 (s): start + k (end - start) / steps, computed per chunk so
         that a long grid is never held whole; the last row is exactly `end`."""
+        import numpy as np
         b = self.rows if b is None else min(b, self.rows)
         k = np.arange(a, b, dtype=float)
         t = self.start + k * ((self.end - self.start) / self.steps)
@@ -164,7 +164,7 @@ class Options:
         return t
 
     @property
-    def grid(self) -> np.ndarray:
+    def grid(self):
         return self.times()
 
     def with_(self, **changes) -> "Options":
@@ -174,6 +174,11 @@ class Options:
     def from_model(cls, cm, **overrides) -> "Options":
         """Kept for callers inside planarkin: `resolve` with API semantics."""
         return resolve(cm, overrides, source="api")
+
+
+def _is_bool(v) -> bool:
+    """Python's bool or numpy's (which is no numbers.Number), without importing numpy."""
+    return isinstance(v, bool) or type(v).__name__ == "bool_"
 
 
 def _show(v) -> str:
@@ -261,7 +266,7 @@ def cross_check(file: str, a, v: dict, sources: dict) -> list[Diagnostic]:
                                           f"max_rows, --max-rows) if you need such a long table"))
     h = (end - start) / steps
     scale = max(abs(start), abs(end))
-    ulp = np.spacing(scale) if scale > 0 else 0.0
+    ulp = math.ulp(scale) if scale > 0 else 0.0
     if not h > GRID_ULPS * ulp or end - start < GRID_ULPS * ulp:
         _, line, who = blame("steps", "start", "end")
         out.append(Diagnostic(file, line, f"{who}: the time step {h:.3g} s is below what double "
