@@ -180,34 +180,30 @@ class DirectoryWriter:
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
-        value) and the plots, and put the directory in place; returns the summary. An
-        interruption while plotting keeps the complete tables (status interrupted) and is
-        raised again once the directory is in place."""
+        value) and the plots, and put the directory in place; returns the summary.
+
+        An interruption while the tables close or the plots are drawn keeps the complete
+        tables (status interrupted, some plots missing) and is raised again once the directory
+        is in place; one that arrives while the summary is written and the directory moved
+        waits until it is in place."""
         pending = None
         drawn: list = []
+        data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
+            else None
         try:
-            data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
-                else None
-            sent = False
-            if data is not None and self.background:
-                # the CLI's plot server (if it started one) draws while the tables close
-                from .output import plotworker
-                sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
-                                         self.animate, self.x)
-            with held_signals():
-                closed, busy = self._close_tables()
-            wall = None if started is None else time.perf_counter() - started
-            info.timings["write"] = busy
-            summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
-                                    closed.get("points.csv", (None,))[0], wall)
-            for d in self.derived:
-                stats, extra = closed[d.filename]
-                summary["columns"][d.filename] = stats.as_dict()
-                if d.section is not None and extra is not None:
-                    summary[d.section] = extra
-            files = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
-                     for name in self.sinks}
-            if data is not None:
+            try:
+                with held_signals():
+                    sent = False
+                    if data is not None and self.background:
+                        # the CLI's plot server (if it started one) draws while the tables close
+                        from .output import plotworker
+                        sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
+                                                 self.animate, self.x)
+                    closed, busy = self._close_tables()
+                    summary = self._summary(info, closed, busy, started)
+            except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
+                pending = e
+            if data is not None and pending is None:
                 t0 = time.perf_counter()
                 try:
                     drawn = [p.name for p in self._plots(info, data, sent)]
@@ -216,28 +212,45 @@ class DirectoryWriter:
                                                 f"plots failed: {type(e).__name__}: {e}"})
                 except (KeyboardInterrupt, Interrupted) as e:
                     pending = e
-                    info.interrupted = _signal_name(e)
-                    summary.update(_interrupted_status(info, "while plotting: the tables are "
-                                                             "complete, some plots are missing"))
-                    if sent:           # nothing may still be drawing into the directory
-                        from .output import plotworker
-                        with held_signals():
-                            plotworker.stop()
                 summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
-            summary["files"] = files
+            if pending is not None:
+                info.interrupted = _signal_name(pending)
+                summary.update(_interrupted_status(info, "while the results were closed: the "
+                                                         "tables are complete, plots may be "
+                                                         "missing"))
+                if data is not None and sent:     # nothing may still draw into the directory
+                    from .output import plotworker
+                    with held_signals():
+                        plotworker.stop()
             # what is there, whoever drew it, in figure order (the plot server, this process,
             # a room; an interrupted drawing may have left some)
-            there = {p.name for p in self.out.iterdir()} - set(files) - {"summary.json"}
+            there = {p.name for p in self.out.iterdir()} - set(summary["files"]) - \
+                {"summary.json"}
             summary["plots"] = [n for n in drawn if n in there] + sorted(there - set(drawn))
             with held_signals():
                 write_json(self.out / "summary.json", summary)
                 self.dir.commit()
                 self.committed = True
         except BaseException:
-            self.abort()
+            if not self.committed:
+                self.abort()
             raise
         if pending is not None:
             raise pending
+        return summary
+
+    def _summary(self, info: RunInfo, closed: dict, busy: float, started) -> dict:
+        wall = None if started is None else time.perf_counter() - started
+        info.timings["write"] = busy
+        summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
+                                closed.get("points.csv", (None,))[0], wall)
+        for d in self.derived:
+            stats, extra = closed[d.filename]
+            summary["columns"][d.filename] = stats.as_dict()
+            if d.section is not None and extra is not None:
+                summary[d.section] = extra
+        summary["files"] = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
+                            for name in self.sinks}
         return summary
 
     def _plots(self, info: RunInfo, data, sent: bool) -> list:
@@ -247,15 +260,14 @@ class DirectoryWriter:
         files = plotworker.collect() if sent else None
         if files is not None:
             return files                # the server drew the rooms' figures too
-        if files is None:
-            from .output import plots as plotting   # matplotlib only when plotting
-            files = []
-            if self.plots:
-                files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots,
-                                              x=self.x)
-            if self.animate:
-                opts = self.animate if isinstance(self.animate, dict) else {}
-                files.append(plotting.write_animation(self.cm, data, self.out, **opts))
+        from .output import plots as plotting       # matplotlib only when plotting
+        files = []
+        if self.plots:
+            files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots,
+                                          x=self.x)
+        if self.animate:
+            opts = self.animate if isinstance(self.animate, dict) else {}
+            files.append(plotting.write_animation(self.cm, data, self.out, **opts))
         if self.plots:
             for d in self.derived:
                 if d.plot is not None:
