@@ -67,6 +67,24 @@ class CompiledModel:
         return f"{self.body_names[col // 3]}.{('x', 'y', 'phi')[col % 3]}"
 
 
+def placed_params(el: ElementSpec, poses: dict) -> tuple[dict, float | None]:
+    """The element's parameters (user units) with an `at:` placement resolved into body-frame
+    vectors at the given poses (body name -> (x, y, phi)), and the constant the placement gives
+    (a distance's c), or None."""
+    params = dict(el.params)
+    if el.at is None:
+        return params, None
+    given = dict(params)
+    if el.axis is not None:
+        given["axis"] = el.axis
+    if el.target is not None:
+        given["c"] = el.target
+    placed = KINDS[el.kind].place(el.at, [poses[b] for b in el.bodies], given)
+    c = placed.pop("c", None)
+    params.update(placed)
+    return params, c
+
+
 def _characteristic_length(spec: ModelSpec) -> float:
     """Largest length in the model, rounded to a power of two (exact scaling)."""
     sizes = [0.0]
@@ -115,18 +133,7 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
     row = 0
     for e_idx, el in enumerate(spec.elements):
         kind = KINDS[el.kind]
-        params = dict(el.params)
-        if el.at is not None:
-            given = dict(params)
-            if el.axis is not None:
-                given["axis"] = el.axis
-            if el.target is not None:
-                given["c"] = el.target
-            placed = kind.place(el.at, [poses[b] for b in el.bodies], given)
-            target_from_at = placed.pop("c", None)
-            params.update(placed)
-        else:
-            target_from_at = None
+        params, target_from_at = placed_params(el, poses)
         # internal units
         arrays = {}
         for p in kind.params:

@@ -366,6 +366,7 @@ def derived_yaml(spec) -> str:
     resolved), points in body frames. Numbers are written with repr (round-trip exact)."""
     from ..elements import KINDS
     from ..elements.revolute import to_body
+    from .compile import placed_params
     af = math.pi / 180.0 if spec.angle_unit == "deg" else 1.0
     poses = {b.name: (b.q[0], b.q[1], b.q[2] * af) for b in spec.bodies}
     poses["ground"] = (0.0, 0.0, 0.0)
@@ -386,18 +387,9 @@ def derived_yaml(spec) -> str:
         out.append(f"{section}:")
         for el in els:
             kind = KINDS[el.kind]
-            params = dict(el.params)
-            if el.at is not None:
-                given = dict(params)
-                if el.axis is not None:
-                    given["axis"] = el.axis
-                if el.target is not None:
-                    given["c"] = el.target
-                placed = kind.place(el.at, [poses[b] for b in el.bodies], given)
-                c = placed.pop("c", None)
-                params.update(placed)
-                if el.target is None and c is not None:
-                    params[kind.target] = c
+            params, c = placed_params(el, poses)
+            if el.at is not None and el.target is None and c is not None:
+                params[kind.target] = c
             items = [f"type: {el.kind}"] + ([f"name: {el.name}"] if el.name else [])
             names = ("i", "j", "k")
             items += [f"{names[n]}: {b}" for n, b in enumerate(el.bodies)]
