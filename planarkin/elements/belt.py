@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param
+from .base import Param
+from .gear import Gear
 
 
-class Belt(Kind):
+class Belt(Gear):
+    """The gear relation (g, grad, gamma of `Gear`) with the sign of rj set by `crossed`."""
+
     name = "belt"
     nbody = 3
     params = (
@@ -30,26 +33,9 @@ class Belt(Kind):
                  "the given body angles)")
 
     @staticmethod
-    def _rj(G):
-        """The signed ratio term: -rj for an open belt, +rj for a crossed one."""
-        return np.where(G.params["crossed"] > 0.5, 1.0, -1.0) * G.params["rj"]
-
-    def g(self, G, F):
-        bi, bj, bk = G.bodies[:, 0], G.bodies[:, 1], G.bodies[:, 2]
-        ri, rj = G.params["ri"], self._rj(G)
-        pk = F.q[:, 3 * bk + 2]
-        return (ri * (F.q[:, 3 * bi + 2] - pk) + rj * (F.q[:, 3 * bj + 2] - pk))[..., None]
-
-    def grad(self, G, F):
-        ri, rj = G.params["ri"], self._rj(G)
-        out = np.zeros((F.q.shape[0], len(G), 1, 9))
-        out[..., 0, 2] = ri
-        out[..., 0, 5] = rj
-        out[..., 0, 8] = -(ri + rj)
-        return out
-
-    def gamma(self, G, F):
-        return np.zeros((F.q.shape[0], len(G), 1))
+    def _radii(G):
+        """The gear relation's coefficients: -rj for an open belt, +rj for a crossed one."""
+        return G.params["ri"], np.where(G.params["crossed"] > 0.5, 1.0, -1.0) * G.params["rj"]
 
     def prepare(self, arrays, poses):
         pi_, pj, pk = (p[2] for p in poses)

@@ -23,14 +23,19 @@ class Gear(Kind):
                "ri (phi_i - phi_k) + rj (phi_j - phi_k) = c (1 equation)")
     equations = "ri (phi_i - phi_k) + rj (phi_j - phi_k) - c0 = 0 (c0 from the given body angles)"
 
+    @staticmethod
+    def _radii(G):
+        """The coefficients of phi_i and phi_j (a belt changes the sign of rj)."""
+        return G.params["ri"], G.params["rj"]
+
     def g(self, G, F):
         bi, bj, bk = G.bodies[:, 0], G.bodies[:, 1], G.bodies[:, 2]
-        ri, rj = G.params["ri"], G.params["rj"]
+        ri, rj = self._radii(G)
         pk = F.q[:, 3 * bk + 2]
         return (ri * (F.q[:, 3 * bi + 2] - pk) + rj * (F.q[:, 3 * bj + 2] - pk))[..., None]
 
     def grad(self, G, F):
-        ri, rj = G.params["ri"], G.params["rj"]
+        ri, rj = self._radii(G)
         out = np.zeros((F.q.shape[0], len(G), 1, 9))
         out[..., 0, 2] = ri
         out[..., 0, 5] = rj
