@@ -125,30 +125,89 @@ NOTE = ("limit positions from the grid, refined by one Taylor step from the exac
         "acceleration; time ratio for a constant-speed angle driver")
 
 
-def format_cycle(section: dict | None) -> list[str]:
-    """The cycle figures of summary.json as report lines (`planarkin run --report cycle`)."""
-    if not section:
-        return ["         cycle: no measures (add a measures: block)"]
-    out = []
-    drv = section.get("driver")
-    for name, rec in section["measures"].items():
-        if rec is None:
-            out.append(f"         {name}: no finite values")
-            continue
-        u = rec["unit"]
+class CoordinateFigures(CycleFigures):
+    """The cycle figures of every position column of bodies.csv (``<b>.x``, ``<b>.y``,
+    ``<b>.phi``) or points.csv (``<p>.x``, ``<p>.y``), refined from their exact velocity and
+    acceleration columns when the run writes them. as_dict(): {body or point: {coordinate:
+    figures}}; each figure says whether the coordinate moves (a stroke above 1e-9 of the
+    table's length scale, or of a turn for an angle)."""
 
-        def lim(x):
-            r = x.get("refined", x)
-            at = f" at t = {r['t']:.6g} s"
-            if "driver" in r:
-                at += f" (driver {r['driver']:.6g})"
-            return f"{r['value']:.6g} {u}{at}"
-        line = (f"         {name}: min {lim(rec['min'])}, max {lim(rec['max'])}, stroke "
-                f"{rec['stroke']:.6g} {u}")
-        if "time_ratio" in rec:
-            line += (f", advance {rec['advance_time']:.6g} s / return {rec['return_time']:.6g} s,"
-                     f" time ratio {rec['time_ratio']:.6g}")
-        out.append(line)
-    if drv:
-        out.append(f"         (driver: {drv})")
+    RATES = {"x": ("vx", "ax"), "y": ("vy", "ay"), "phi": ("omega", "alpha")}
+
+    def __init__(self, cm, header: list[str], opts):
+        names = [h.split(" [", 1)[0] for h in header]
+        at = {n: k for k, n in enumerate(names)}
+        trip = []
+        for k, n in enumerate(names):
+            owner, _, q = n.rpartition(".")
+            if k > 0 and q in self.RATES:
+                r, a = (at.get(f"{owner}.{d}") for d in self.RATES[q])
+                trip.append((k, r, a))
+        super().__init__(cm, header, opts, trip)
+        self.full_turn = 360.0 if cm.spec.angle_unit == "deg" else 2 * math.pi
+
+    def as_dict(self) -> dict:
+        recs = []
+        for c, k in enumerate(self.value_cols):
+            owner, _, q = self.names[k].rpartition(".")
+            recs.append((owner, q, self.figure(c)))
+        # the length scale: the largest coordinate magnitude or stroke of the table
+        size = max([abs(r[m]["value"]) for _, q, r in recs if r and q != "phi"
+                    for m in ("min", "max")] + [1e-300])
+        out: dict = {}
+        for owner, q, r in recs:
+            if r is not None:
+                r["moves"] = bool(r["stroke"] > 1e-9 * (self.full_turn if q == "phi" else size))
+            out.setdefault(owner, {})[q] = r
+        return {"driver": self.driver_label, "period": self.period, "coordinates": out}
+
+
+def cycle_section(bodies: dict, points: dict | None, measures: dict | None) -> dict:
+    """summary.json's ``cycle``: the driver and its period, the figures of every body and point
+    coordinate (``coordinates.bodies``, ``coordinates.points``) and of every measure."""
+    out = {"driver": bodies["driver"], "period": bodies["period"],
+           "coordinates": {"bodies": bodies["coordinates"],
+                           "points": points["coordinates"] if points else {}}}
+    if measures:
+        out["measures"] = measures["measures"]
+    out["note"] = NOTE
+    return out
+
+
+def _line(name: str, rec: dict | None) -> str:
+    if rec is None:
+        return f"         {name}: no finite values"
+    u = rec["unit"]
+
+    def lim(x):
+        r = x.get("refined", x)
+        at = f" at t = {r['t']:.6g} s"
+        if "driver" in r:
+            at += f" (driver {r['driver']:.6g})"
+        return f"{r['value']:.6g} {u}{at}"
+    line = (f"         {name}: min {lim(rec['min'])}, max {lim(rec['max'])}, stroke "
+            f"{rec['stroke']:.6g} {u}")
+    if "time_ratio" in rec:
+        line += (f", advance {rec['advance_time']:.6g} s / return {rec['return_time']:.6g} s,"
+                 f" time ratio {rec['time_ratio']:.6g}")
+    return line
+
+
+def format_cycle(section: dict | None) -> list[str]:
+    """The cycle figures of summary.json as report lines (`planarkin run --report cycle`): the
+    coordinates that move, body by body and point by point, then the measures."""
+    if not section:
+        return ["         cycle: no figures (no rows were written)"]
+    out = []
+    coords = section.get("coordinates", {})
+    for group in ("bodies", "points"):
+        lines = [_line(f"{owner}.{q}", rec) for owner, recs in coords.get(group, {}).items()
+                 for q, rec in recs.items() if rec is not None and rec.get("moves")]
+        if lines:
+            out += [f"         {group} (coordinates that move):"] + lines
+    if section.get("measures"):
+        out.append("         measures:")
+        out += [_line(name, rec) for name, rec in section["measures"].items()]
+    if section.get("driver"):
+        out.append(f"         (driver: {section['driver']})")
     return out
