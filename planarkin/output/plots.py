@@ -699,14 +699,14 @@ class _Scene:
         """[(body, (N, 2) path)]: the fixed centrode (instant centre relative to ground, from the
         exact velocities: planarkin.centres) of every body whose centre moves -- not a body
         pinned to ground (a fixed point) nor a slider (at infinity) -- cut where it leaves the
-        drawing widened by a quarter of its span: near a parallel position it runs to infinity,
-        and following it there would shrink the mechanism to a dot. nan breaks the line."""
+        drawing's bounds: near a parallel position it runs to infinity, and following it even
+        part of the way would shrink the mechanism. nan breaks the line."""
         if getattr(data, "qd", None) is None or len(self.t) < 2:
             return []
         from ..centres import compute, pairs
         X = compute(cm, data)
         x0, x1, y0, y1 = self.bounds
-        m = 0.25 * self.span
+        m = 0.0                # the drawing keeps the size it has without them
         out = []
         for k, (i, j) in enumerate(pairs(cm)):
             if i != cm.nb:
