@@ -111,3 +111,16 @@ def test_report_prints_moving_coordinates_grouped(tmp_path):
     assert "time ratio 1" in sl
     assert not any(x.startswith(("slider.y:", "crank.x:", "slider.phi:")) for x in lines)
     assert any(x.startswith("P.x:") for x in lines)
+
+
+def test_a_failing_figure_does_not_cost_the_table(tmp_path, monkeypatch):
+    from planarkin.measures import cycle
+
+    def broken(self, X):
+        raise RuntimeError("boom")
+    monkeypatch.setattr(cycle.CycleFigures, "add", broken)
+    res = planarkin.solve(planarkin.load("m.yaml", text=R.slider_crank_yaml()), steps=20)
+    s = res.write(tmp_path / "out", plots=None)
+    assert s["status"] == "ok" and s["files"]["bodies.csv"]["rows"] == 21
+    assert s["cycle"]["error"].startswith("cycle figures not computed: RuntimeError: boom")
+    assert (tmp_path / "out" / "bodies.csv").read_text().count("\n") == 22

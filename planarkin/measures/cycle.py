@@ -145,8 +145,20 @@ class CoordinateFigures(CycleFigures):
                 trip.append((k, r, a))
         super().__init__(cm, header, opts, trip)
         self.full_turn = 360.0 if cm.spec.angle_unit == "deg" else 2 * math.pi
+        self.error = None
+
+    def add(self, X: np.ndarray) -> None:
+        # runs in the process that writes bodies.csv: a failure here must not cost the table
+        if self.error is None:
+            try:
+                super().add(X)
+            except Exception as e:  # noqa: BLE001
+                self.error = f"{type(e).__name__}: {e}"
 
     def as_dict(self) -> dict:
+        if self.error is not None:
+            return {"driver": self.driver_label, "period": self.period, "coordinates": {},
+                    "error": f"cycle figures not computed: {self.error} (please report)"}
         recs = []
         for c, k in enumerate(self.value_cols):
             owner, _, q = self.names[k].rpartition(".")
@@ -168,6 +180,9 @@ def cycle_section(bodies: dict, points: dict | None, measures: dict | None) -> d
     out = {"driver": bodies["driver"], "period": bodies["period"],
            "coordinates": {"bodies": bodies["coordinates"],
                            "points": points["coordinates"] if points else {}}}
+    for part in (bodies, points):
+        if part and "error" in part:
+            out["error"] = part["error"]
     if measures:
         out["measures"] = measures["measures"]
     out["note"] = NOTE
@@ -198,7 +213,7 @@ def format_cycle(section: dict | None) -> list[str]:
     coordinates that move, body by body and point by point, then the measures."""
     if not section:
         return ["         cycle: no figures (no rows were written)"]
-    out = []
+    out = [f"         {section['error']}"] if section.get("error") else []
     coords = section.get("coordinates", {})
     for group in ("bodies", "points"):
         lines = [_line(f"{owner}.{q}", rec) for owner, recs in coords.get(group, {}).items()
