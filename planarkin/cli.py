@@ -167,8 +167,8 @@ def _analysis_options(f):
               help="Abscissa of bodies and points plots: time, or driver (the first driver's "
                    "coordinate, e.g. the crank angle). Default: output: x of the model, or time.")
 @click.option("--report", "report_what", type=click.Choice(("cycle",)),
-              help="Also print the cycle figures of the measures (limit positions, stroke, time "
-                   "ratio).")
+              help="Also print the cycle figures of the coordinates that move and of the measures "
+                   "(limit positions, stroke, time ratio).")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @_set_option
 @click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,

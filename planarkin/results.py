@@ -135,9 +135,13 @@ class DirectoryWriter:
                 path = self.out / name
                 self.sinks[name] = ProcessSink(ctx, path, header, accumulator) if ctx else \
                     TableSink(path, header, accumulator)
-            sink("bodies.csv", self.layout.body_header)
+            from .measures.cycle import CoordinateFigures
+
+            def figures(header):
+                return lambda: CoordinateFigures(cm, header, opts)
+            sink("bodies.csv", self.layout.body_header, figures(self.layout.body_header))
             if self.layout.points:
-                sink("points.csv", self.layout.point_header)
+                sink("points.csv", self.layout.point_header, figures(self.layout.point_header))
             self.derived = derived_tables(cm, opts)
             for d in self.derived:
                 sink(d.filename, d.header, d.accumulator)
@@ -249,6 +253,10 @@ class DirectoryWriter:
             summary["columns"][d.filename] = stats.as_dict()
             if d.section is not None and extra is not None:
                 summary[d.section] = extra
+        from .measures.cycle import cycle_section
+        summary["cycle"] = cycle_section(closed["bodies.csv"][1],
+                                         closed.get("points.csv", (None, None))[1],
+                                         summary.get("cycle"))
         summary["files"] = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
                             for name in self.sinks}
         return summary

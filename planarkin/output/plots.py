@@ -552,6 +552,7 @@ class _Scene:
         self._slides(slides)
         self._traces(data, joint_pts)
         self._bounds()
+        self.centrodes = self._centrodes(cm, data) if cm.spec.output.centres else []
 
     def _elements(self, cm):
         """Walk the elements: attachment points per body (body frame, user units), joint points
@@ -693,6 +694,33 @@ class _Scene:
         allp = np.concatenate(parts)
         lo, hi = np.nanmin(allp, axis=0) - 0.6 * size, np.nanmax(allp, axis=0) + 0.6 * size
         self.bounds = (lo[0], hi[0], lo[1], hi[1])
+
+    def _centrodes(self, cm, data) -> list:
+        """[(body, (N, 2) path)]: the fixed centrode (instant centre relative to ground, from the
+        exact velocities: planarkin.centres) of every body whose centre moves -- not a body
+        pinned to ground (a fixed point) nor a slider (at infinity) -- cut where it leaves the
+        drawing's bounds: near a parallel position it runs to infinity, and following it even
+        part of the way would shrink the mechanism. nan breaks the line."""
+        if getattr(data, "qd", None) is None or len(self.t) < 2:
+            return []
+        from ..centres import compute, pairs
+        X = compute(cm, data)
+        x0, x1, y0, y1 = self.bounds
+        m = 0.0                # the drawing keeps the size it has without them
+        out = []
+        for k, (i, j) in enumerate(pairs(cm)):
+            if i != cm.nb:
+                continue
+            xy = X[:, 1 + 3 * k:3 + 3 * k].copy()
+            fin = np.isfinite(xy).all(axis=1)
+            if fin.sum() < 2 or np.ptp(xy[fin], axis=0).max() <= 1e-9 * self.span:
+                continue
+            far = ~((xy[:, 0] >= x0 - m) & (xy[:, 0] <= x1 + m) & (xy[:, 1] >= y0 - m)
+                    & (xy[:, 1] <= y1 + m))
+            xy[far] = np.nan
+            if np.isfinite(xy).all(axis=1).sum() >= 2:
+                out.append((j, xy))
+        return out
 
     def instants(self, n: int) -> np.ndarray:
         """Up to n rows evenly spread over the run, the first and (unless the run is a full
@@ -952,7 +980,9 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
     if len(rows) > 1:
         times[0] += " (named)"
     alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
-    labels = times + [s[0] for s in scene.trace_styles]
+    # a centrode's label on two lines: a long one would narrow the drawing
+    labels = times + [s[0] for s in scene.trace_styles] + \
+        [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")]
     fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
     handles, seen = [], set()
     for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
@@ -962,6 +992,12 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
             seen.add(label)
             line.set_label(label)
             handles.append(line)
+    # output: centres: each floating body's fixed centrode, light, in the body's colour
+    for j, xy in scene.centrodes:
+        line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.2, alpha=0.55,
+                        ls=(0, (1, 1.5)), zorder=4,
+                        label=f"fixed centrode\nof {scene.names[j]}")
+        handles.append(line)
     # later instants below the first, fainter the later they are
     for k in range(len(rows) - 1, -1, -1):
         _Drawing(ax, scene, rows[k], body_colors=True, alpha=alphas[k],
