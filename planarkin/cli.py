@@ -299,7 +299,13 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.failed(path, info.message, detail)
     if cycle:
         from .measures.cycle import format_cycle
-        for line in format_cycle(summary.get("cycle")):
+        try:
+            lines = format_cycle(summary.get("cycle"))
+        except Exception as e:  # noqa: BLE001 - the results are written; only the report failed
+            report.warning(path, f"the cycle figures could not be printed: {type(e).__name__}: "
+                                 f"{e} (please report); they are in {outdir}/summary.json")
+            lines = []
+        for line in lines:
             click.echo(line)
 
 
