@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .model.compile import CompiledModel
-from .output.directory import (Interrupted, ProcessSink, ResultDirectory, TableSink,
+from .output.directory import (SINKS, Interrupted, ProcessSink, ResultDirectory,
                                fork_context, held_signals)
 from .output.summary import ColumnStats, StepStats, error_estimates, write_json
 from .output.tables import Layout
@@ -111,7 +111,8 @@ class DirectoryWriter:
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False, background: bool = False, x: str | None = None):
+                 animate: bool = False, background: bool = False, x: str | None = None,
+                 table_format: str | None = None):
         self.cm = cm
         self.final = Path(out)
         self.dir = ResultDirectory(self.final)
@@ -131,10 +132,17 @@ class DirectoryWriter:
             ctx = fork_context() if background else None
             self.background = ctx is not None
 
+            # table_format: "csv" or "parquet" (default: the model's output: table_format);
+            # sinks and summary.json are keyed by the file names written (bodies.parquet ...)
+            fmt = table_format or cm.spec.output.table_format
+            kind = SINKS[fmt]
+            self.names = {}             # CSV name (the rooms' and summary's key) -> file name
+
             def sink(name, header, accumulator=None):
-                path = self.out / name
-                self.sinks[name] = ProcessSink(ctx, path, header, accumulator) if ctx else \
-                    TableSink(path, header, accumulator)
+                fname = self.names[name] = name[:-len(".csv")] + "." + fmt
+                path = self.out / fname
+                self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) if ctx \
+                    else kind(path, header, accumulator)
             sink("bodies.csv", self.layout.body_header)
             if self.layout.points:
                 sink("points.csv", self.layout.point_header)
@@ -198,6 +206,7 @@ class DirectoryWriter:
                 closed, busy = self._close_tables()
             wall = None if started is None else time.perf_counter() - started
             info.timings["write"] = busy
+            closed = {csv: closed[f] for csv, f in self.names.items()}
             summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
                                     closed.get("points.csv", (None,))[0], wall)
             for d in self.derived:
@@ -205,8 +214,9 @@ class DirectoryWriter:
                 summary["columns"][d.filename] = stats.as_dict()
                 if d.section is not None and extra is not None:
                     summary[d.section] = extra
-            files = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
-                     for name in self.sinks}
+            summary["columns"] = {self.names[k]: v for k, v in summary["columns"].items()}
+            files = {f: {"rows": self.rows, "columns": len(closed[csv][0].header)}
+                     for csv, f in self.names.items()}
             if data is not None:
                 t0 = time.perf_counter()
                 try:
@@ -437,12 +447,13 @@ class Result:
         return out
 
     def write(self, out: str | Path, plots: str | None = "png", animate: bool = False,
-              x: str | None = None) -> dict:
+              x: str | None = None, table_format: str | None = None) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out, under the
         same output contract as `planarkin run` (raises planarkin.InputError when out is
         being written by another run, is not a planarkin result directory, or cannot be
         written); returns the summary. x: abscissa of the time-history plots, "time" or
-        "driver" (default: the model's output: x)."""
+        "driver" (default: the model's output: x). table_format: "csv" or "parquet" (bodies.parquet
+        ...; needs pyarrow; default: the model's output: table_format)."""
         from .diagnostics import Diagnostic, InputError
         from .output.directory import OutputError
         if x is not None:
@@ -451,9 +462,14 @@ class Result:
                        else x_axis_problem(x, self.model.spec, "x"))
             if problem:
                 raise InputError([Diagnostic(self.model.spec.file, None, problem)])
+        if table_format is not None:
+            from .model.spec import table_format_problem
+            problem = table_format_problem(table_format, "table_format")
+            if problem:
+                raise InputError([Diagnostic(self.model.spec.file, None, problem)])
         try:
             w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
-                                animate=animate, x=x)
+                                animate=animate, x=x, table_format=table_format)
         except OutputError as e:
             raise InputError([Diagnostic(self.model.spec.file, None, f"write(): {e}")]) from None
         w.add(self._chunk)
