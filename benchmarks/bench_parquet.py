@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """CSV against Parquet tables of one long run (a script, not a test).
 
-    python benchmarks/bench_parquet.py [--steps 2000000]
+    python benchmarks/bench_parquet.py [--steps 2000000] [--whole]
 
 Solves the plain slider-crank (tests/clitools.py) over --steps intervals (2,000,001 rows) once,
 and feeds every chunk, as `planarkin run` does, to both table writers in this process, one after
@@ -9,7 +9,9 @@ the other: TableSink (CSV through planarkin/output/fastcsv.py) and ParquetSink (
 group per chunk). Prints, for bodies and points, each writer's busy time (formatting, encoding
 and writing, with the column statistics both compute) and file size, as ratios Parquet / CSV
 measured in this one run, and checks that the Parquet files read back bit for bit (a SHA-256 of
-the row-major float64 bytes sent against the one read back).
+the row-major float64 bytes sent against the one read back). With --whole, also times the whole
+`planarkin run --no-plots --table-format csv|parquet` of the same model (start-up, solve,
+writer processes), one after the other, and prints the ratio.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -59,6 +62,7 @@ class BothSinks:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", type=int, default=2_000_000)
+    ap.add_argument("--whole", action="store_true", help="also time whole planarkin runs")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="bench-parquet-") as tmp:
         d = Path(tmp)
@@ -96,6 +100,22 @@ def main(argv=None):
         (tc, sc), (tp, sp) = total["csv"], total["parquet"]
         print(f"  both tables: Parquet/CSV size {sp / sc:.3f}, write time {tp / tc:.3f} "
               f"(CSV {sc / 1e6:.0f} MB in {tc:.1f} s, Parquet {sp / 1e6:.0f} MB in {tp:.1f} s)")
+        for p in d.glob("*.*"):
+            if p.suffix in (".csv", ".parquet"):
+                p.unlink()
+        if args.whole:
+            env = dict(os.environ, PYTHONPATH=str(HERE.parent))
+            wall = {}
+            for fmt in ("csv", "parquet"):
+                t0 = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "planarkin", "run", str(d / "sc.yaml"),
+                                "--out", str(d / fmt), "--no-plots", "-q", "--steps",
+                                str(args.steps), "--max-rows", str(args.steps + 1),
+                                "--table-format", fmt], check=True, env=env,
+                               stdout=subprocess.DEVNULL)
+                wall[fmt] = time.perf_counter() - t0
+            print(f"  whole planarkin run --no-plots: CSV {wall['csv']:.1f} s, Parquet "
+                  f"{wall['parquet']:.1f} s; Parquet/CSV {wall['parquet'] / wall['csv']:.3f}")
 
 
 if __name__ == "__main__":
