@@ -184,3 +184,26 @@ def test_jobs_pass_the_table_format_on(tmp_path):
     for n in ("m1", "m2"):
         assert sorted(p.name for p in (tmp_path / "o" / n).iterdir()) == \
             ["bodies.parquet", "points.parquet", "summary.json"]
+
+
+def test_full_disk_leaves_the_previous_parquet_results(tmp_path):
+    import resource
+    from test_contract import _env, no_leftovers
+    model = tmp_path / "sc.yaml"
+    model.write_text(PLAIN_SLIDER_CRANK)
+    out = tmp_path / "out"
+    assert run_cli("run", model, "--out", out, "--no-plots", "--steps", "10",
+                   "--table-format", "parquet").returncode == 0
+    before = (out / "sc" / "bodies.parquet").read_bytes()
+
+    def small_files():                # every file the run writes is cut at 100 kB
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
+    r = subprocess.run(command() + ["run", str(model), "--out", str(out), "--no-plots",
+                                    "--steps", "20000", "--table-format", "parquet"],
+                       capture_output=True, text=True, timeout=120, env=_env(),
+                       preexec_fn=small_files)
+    assert r.returncode == 1, r.stderr
+    assert "Traceback" not in r.stderr and "File too large" in r.stderr
+    assert "is left as it was" in r.stderr
+    assert (out / "sc" / "bodies.parquet").read_bytes() == before
+    no_leftovers(out)
