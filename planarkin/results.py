@@ -7,6 +7,7 @@ consume the same `Analysis.chunks()` and write through the same `DirectoryWriter
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -133,22 +134,25 @@ class DirectoryWriter:
             self.background = ctx is not None
 
             # table_format: "csv" or "parquet" (default: the model's output: table_format);
-            # sinks and summary.json are keyed by the file names written (bodies.parquet ...)
+            # the sinks, and summary.json's files and columns, go by the names of the files
+            # written (bodies.parquet ...)
             fmt = table_format or cm.spec.output.table_format
             kind = SINKS[fmt]
-            self.names = {}             # CSV name (the rooms' and summary's key) -> file name
+            self.names = {}             # a table's CSV name -> the name of its file
 
             def sink(name, header, accumulator=None):
                 fname = self.names[name] = name[:-len(".csv")] + "." + fmt
                 path = self.out / fname
                 self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) if ctx \
                     else kind(path, header, accumulator)
+                return fname
             sink("bodies.csv", self.layout.body_header)
             if self.layout.points:
                 sink("points.csv", self.layout.point_header)
-            self.derived = derived_tables(cm, opts)
-            for d in self.derived:
-                sink(d.filename, d.header, d.accumulator)
+            # the rooms' tables under the names of the files written (forces.parquet ...)
+            self.derived = [dataclasses.replace(d, filename=sink(d.filename, d.header,
+                                                                 d.accumulator))
+                            for d in derived_tables(cm, opts)]
         except BaseException:
             self.abort()
             raise
@@ -182,8 +186,11 @@ class DirectoryWriter:
         closed, busy = {}, 0.0
         for name, s in self.sinks.items():
             stats, extra, b = s.close()
+            stats.table = name         # build_summary keys the columns by the file's name
             closed[name] = (stats, extra)
             busy = max(busy, b) if self.background else busy + b
+        for csv, name in self.names.items():     # bodies.csv, points.csv: found by those names
+            closed.setdefault(csv, closed[name])
         return closed, busy
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
@@ -206,7 +213,6 @@ class DirectoryWriter:
                 closed, busy = self._close_tables()
             wall = None if started is None else time.perf_counter() - started
             info.timings["write"] = busy
-            closed = {csv: closed[f] for csv, f in self.names.items()}
             summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
                                     closed.get("points.csv", (None,))[0], wall)
             for d in self.derived:
@@ -214,9 +220,8 @@ class DirectoryWriter:
                 summary["columns"][d.filename] = stats.as_dict()
                 if d.section is not None and extra is not None:
                     summary[d.section] = extra
-            summary["columns"] = {self.names[k]: v for k, v in summary["columns"].items()}
-            files = {f: {"rows": self.rows, "columns": len(closed[csv][0].header)}
-                     for csv, f in self.names.items()}
+            files = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
+                     for name in self.sinks}
             if data is not None:
                 t0 = time.perf_counter()
                 try:
@@ -341,13 +346,13 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
                      for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
         "breakpoints": info.breakpoints,
-        "columns": {"bodies.csv": body_stats.as_dict()},
+        "columns": {getattr(body_stats, "table", "bodies.csv"): body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
     }
     if spec.overrides:
         out["overrides"] = dict(spec.overrides)
     if point_stats is not None:
-        out["columns"]["points.csv"] = point_stats.as_dict()
+        out["columns"][getattr(point_stats, "table", "points.csv")] = point_stats.as_dict()
     if wall is not None:
         out["wall_time"]["total"] = round(wall, 6)
     return out
