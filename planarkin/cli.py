@@ -15,7 +15,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .model.spec import X_AXES, x_axis_problem
+from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem, x_axis_problem
 from .options import OPTIONS
 from .report import Report
 
@@ -166,6 +166,10 @@ def _analysis_options(f):
 @click.option("--x", "x_axis", type=click.Choice(X_AXES),
               help="Abscissa of bodies and points plots: time, or driver (the first driver's "
                    "coordinate, e.g. the crank angle). Default: output: x of the model, or time.")
+@click.option("--table-format", "table_format", type=click.Choice(TABLE_FORMATS),
+              help="File format of the tables: csv, or parquet (bodies.parquet ...; needs "
+                   "pip install 'planarkin[parquet]'). Default: output: table_format of the "
+                   "model, or csv.")
 @click.option("--report", "report_what", type=click.Choice(("cycle",)),
               help="Also print the cycle figures of the coordinates that move and of the measures "
                    "(limit positions, stroke, time ratio).")
@@ -174,8 +178,13 @@ def _analysis_options(f):
 @click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
               help="Models analysed at once in local processes.")
 def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis, quiet,
-        overrides, jobs, report_what=None, **analysis):
+        overrides, jobs, report_what=None, table_format=None, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
+    if table_format is not None:
+        problem = table_format_problem(table_format, "--table-format")
+        if problem:
+            raise click.BadParameter(problem.partition(": ")[2] or problem,
+                                     param_hint="'--table-format'")
     if animate_fps or animate_width:
         animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
     from .output.directory import (Interrupted, check_writable, held_signals, interruptible,
@@ -196,14 +205,14 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
             if jobs > 1 and len(models) > 1:
                 from .studies.execute import run_models
                 run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
-                           animate, jobs)
+                           animate, jobs, table_format)
                 models = ()
             for path, outdir in zip(models, dirs):
                 model = _load(path, report, overrides)
                 if model is not None:
                     _run_one(path, model, outdir, report, dict(analysis),
                              None if no_plots else fmt, animate, x_axis,
-                             cycle=report_what == "cycle")
+                             cycle=report_what == "cycle", table_format=table_format)
         except (KeyboardInterrupt, Interrupted) as e:
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, _signame(e), "nothing more was written")
@@ -226,7 +235,7 @@ def _signame(e: BaseException) -> str:
 
 
 def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
-             x_axis=None, cycle=False):
+             x_axis=None, cycle=False, table_format=None):
     """One model: options, preparation, then the directory. Invalid input (options, budget,
     assembly, a busy or foreign directory) is reported before anything is written; an
     interruption keeps the complete rows (status interrupted) and is raised again to stop the
@@ -253,7 +262,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         return
     try:
         writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
-                                 background=True, x=x_axis)
+                                 background=True, x=x_axis, table_format=table_format)
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return

@@ -7,6 +7,7 @@ consume the same `Analysis.chunks()` and write through the same `DirectoryWriter
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .model.compile import CompiledModel
-from .output.directory import (Interrupted, ProcessSink, ResultDirectory, TableSink,
+from .output.directory import (SINKS, Interrupted, ProcessSink, ResultDirectory,
                                fork_context, held_signals)
 from .output.summary import ColumnStats, StepStats, error_estimates, write_json
 from .output.tables import Layout
@@ -111,7 +112,8 @@ class DirectoryWriter:
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False, background: bool = False, x: str | None = None):
+                 animate: bool = False, background: bool = False, x: str | None = None,
+                 table_format: str | None = None):
         self.cm = cm
         self.final = Path(out)
         self.dir = ResultDirectory(self.final)
@@ -131,10 +133,19 @@ class DirectoryWriter:
             ctx = fork_context() if background else None
             self.background = ctx is not None
 
+            # table_format: "csv" or "parquet" (default: the model's output: table_format);
+            # the sinks, and summary.json's files and columns, go by the names of the files
+            # written (bodies.parquet ...)
+            fmt = table_format or cm.spec.output.table_format
+            kind = SINKS[fmt]
+            self.names = {}             # a table's CSV name -> the name of its file
+
             def sink(name, header, accumulator=None):
-                path = self.out / name
-                self.sinks[name] = ProcessSink(ctx, path, header, accumulator) if ctx else \
-                    TableSink(path, header, accumulator)
+                fname = self.names[name] = name[:-len(".csv")] + "." + fmt
+                path = self.out / fname
+                self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) if ctx \
+                    else kind(path, header, accumulator)
+                return fname
             from .measures.cycle import CoordinateFigures
 
             def figures(header):
@@ -142,9 +153,10 @@ class DirectoryWriter:
             sink("bodies.csv", self.layout.body_header, figures(self.layout.body_header))
             if self.layout.points:
                 sink("points.csv", self.layout.point_header, figures(self.layout.point_header))
-            self.derived = derived_tables(cm, opts)
-            for d in self.derived:
-                sink(d.filename, d.header, d.accumulator)
+            # the rooms' tables under the names of the files written (forces.parquet ...)
+            self.derived = [dataclasses.replace(d, filename=sink(d.filename, d.header,
+                                                                 d.accumulator))
+                            for d in derived_tables(cm, opts)]
         except BaseException:
             self.abort()
             raise
@@ -178,8 +190,11 @@ class DirectoryWriter:
         closed, busy = {}, 0.0
         for name, s in self.sinks.items():
             stats, extra, b = s.close()
+            stats.table = name         # build_summary keys the columns by the file's name
             closed[name] = (stats, extra)
             busy = max(busy, b) if self.background else busy + b
+        for csv, name in self.names.items():     # bodies.csv, points.csv: found by those names
+            closed.setdefault(csv, closed[name])
         return closed, busy
 
     def finish(self, info: RunInfo, started: float | None = None) -> dict:
@@ -351,13 +366,13 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
                      for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
         "event": info.event.as_dict() if info.event is not None else None,
         "breakpoints": info.breakpoints,
-        "columns": {"bodies.csv": body_stats.as_dict()},
+        "columns": {getattr(body_stats, "table", "bodies.csv"): body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
     }
     if spec.overrides:
         out["overrides"] = dict(spec.overrides)
     if point_stats is not None:
-        out["columns"]["points.csv"] = point_stats.as_dict()
+        out["columns"][getattr(point_stats, "table", "points.csv")] = point_stats.as_dict()
     if wall is not None:
         out["wall_time"]["total"] = round(wall, 6)
     return out
@@ -457,12 +472,13 @@ class Result:
         return out
 
     def write(self, out: str | Path, plots: str | None = "png", animate: bool = False,
-              x: str | None = None) -> dict:
+              x: str | None = None, table_format: str | None = None) -> dict:
         """Write bodies.csv, points.csv, summary.json (and plots) into directory out, under the
         same output contract as `planarkin run` (raises planarkin.InputError when out is
         being written by another run, is not a planarkin result directory, or cannot be
         written); returns the summary. x: abscissa of the time-history plots, "time" or
-        "driver" (default: the model's output: x)."""
+        "driver" (default: the model's output: x). table_format: "csv" or "parquet" (bodies.parquet
+        ...; needs pyarrow; default: the model's output: table_format)."""
         from .diagnostics import Diagnostic, InputError
         from .output.directory import OutputError
         if x is not None:
@@ -471,9 +487,14 @@ class Result:
                        else x_axis_problem(x, self.model.spec, "x"))
             if problem:
                 raise InputError([Diagnostic(self.model.spec.file, None, problem)])
+        if table_format is not None:
+            from .model.spec import table_format_problem
+            problem = table_format_problem(table_format, "table_format")
+            if problem:
+                raise InputError([Diagnostic(self.model.spec.file, None, problem)])
         try:
             w = DirectoryWriter(self.model, Path(out), self.info.options, plots=plots,
-                                animate=animate, x=x)
+                                animate=animate, x=x, table_format=table_format)
         except OutputError as e:
             raise InputError([Diagnostic(self.model.spec.file, None, f"write(): {e}")]) from None
         w.add(self._chunk)

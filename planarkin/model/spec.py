@@ -84,6 +84,7 @@ class OutputSpec:
     order: int = 2                           # 0 positions, 1 + velocities, 2 + accelerations
     centres: bool = False                    # centres.csv: instant centres of every body pair
     x: str = "time"                          # abscissa of the time-history plots (X_AXES)
+    table_format: str = "csv"                # the run tables' file format (TABLE_FORMATS)
 
 
 # The abscissa of bodies.<fmt> and points.<fmt>: `output: {x: ...}` and `planarkin run --x`.
@@ -97,6 +98,32 @@ def x_axis_problem(x: str, spec, what: str) -> str | None:
     if x == "driver" and not spec_drivers(spec):
         return f"{what}: driver needs a driver, and this model has none; use time"
     return None
+
+
+# The file format of the run tables: `output: {table_format: ...}`, `planarkin run --table-format`
+# and Result.write(table_format=...). parquet needs pyarrow (the extra planarkin[parquet]).
+TABLE_FORMATS = ("csv", "parquet")
+
+
+def table_format_problem(fmt, what: str) -> str | None:
+    """Why table format fmt cannot be written here (None: it can); what names the option in
+    the message (``output: table_format``, ``--table-format``). Shared by the YAML validator,
+    the command line and Result.write."""
+    if fmt not in TABLE_FORMATS:
+        return f"{what} must be one of {', '.join(TABLE_FORMATS)}, not {fmt!r}"
+    if fmt == "parquet" and not pyarrow_available():
+        return (f"{what}: parquet needs pyarrow, which is not installed: pip install "
+                f"'planarkin[parquet]', or use csv")
+    return None
+
+
+def pyarrow_available() -> bool:
+    """pyarrow can be imported (looked up without importing it: start-up time)."""
+    import importlib.util
+    try:
+        return importlib.util.find_spec("pyarrow") is not None
+    except (ImportError, ValueError):
+        return False
 
 
 def spec_drivers(spec) -> list:

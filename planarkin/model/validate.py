@@ -18,6 +18,7 @@ from ..expr import ExprError, TimeFunction, evaluate_constant, function_names
 from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
 from .spec import (X_AXES, AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec,
                    x_axis_problem)
+from .spec import TABLE_FORMATS, table_format_problem
 from .yamlread import Node
 from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
@@ -907,7 +908,8 @@ class _Validator:
             self.C.items.append(d)
 
     def output(self, node: Node | None, points: list[PointSpec], drivers=()) -> OutputSpec:
-        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres", "x"),
+        if node is None or not self.keys(node, ("bodies", "points", "up_to", "centres", "x",
+                                                 "table_format"),
                                          "output"):
             return OutputSpec()
         v = node.value
@@ -946,6 +948,13 @@ class _Validator:
                 self.err(v["x"], problem)
             elif c is not None:
                 vals["x"] = c
+        if "table_format" in v:
+            c = self.choice(v["table_format"], "output: table_format", TABLE_FORMATS)
+            problem = c and table_format_problem(c, "output: table_format")
+            if problem:
+                self.err(v["table_format"], problem)
+            elif c is not None:
+                vals["table_format"] = c
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):

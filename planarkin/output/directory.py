@@ -289,7 +289,52 @@ class TableSink:
             self.csv.close()
 
 
-def _writer_main(path, header, accumulator, inbox, outbox) -> None:
+class ParquetSink:
+    """One Parquet table (pyarrow, imported here only) with its column statistics (and a room's
+    accumulator), fed block by block, in this process: the TableSink interface. Every block is
+    one row group, so a file closed after an interruption holds complete rows only. Columns are
+    float64 named by the CSV header (units in the names); doubles are stored as they are, so
+    they read back bit for bit."""
+
+    def __init__(self, path: Path, header: list[str], accumulator=None):
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        self.pa = pa
+        self.schema = pa.schema([(h, pa.float64()) for h in header])
+        # dictionary encoding would not pay for doubles that rarely repeat
+        self.writer = pq.ParquetWriter(path, self.schema, use_dictionary=False)
+        self.stats = ColumnStats(header)
+        self.extra = accumulator() if accumulator is not None else None
+        self.rows = 0
+        self.busy = 0.0
+
+    def add(self, X: np.ndarray) -> None:
+        t0 = time.perf_counter()
+        if len(X):
+            cols = [self.pa.array(np.ascontiguousarray(X[:, k])) for k in range(X.shape[1])]
+            self.writer.write_table(self.pa.Table.from_arrays(cols, schema=self.schema))
+        self.stats.add(X)
+        if self.extra is not None:
+            self.extra.add(X)
+        self.rows += len(X)
+        self.busy += time.perf_counter() - t0
+
+    def close(self):
+        """(column statistics, the accumulator's dict or None, seconds busy)"""
+        t0 = time.perf_counter()
+        self.writer.close()
+        self.busy += time.perf_counter() - t0
+        return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
+
+    def kill(self) -> None:
+        with contextlib.suppress(Exception):
+            self.writer.close()
+
+
+SINKS = {"csv": TableSink, "parquet": ParquetSink}     # by table format (spec.TABLE_FORMATS)
+
+
+def _writer_main(path, header, accumulator, inbox, outbox, kind=TableSink) -> None:
     """Body of a writer process: blocks of rows in (a header of rows and columns, then the
     float64 data; an empty message ends the table), statistics out."""
     for s in _SIGNALS:
@@ -297,7 +342,7 @@ def _writer_main(path, header, accumulator, inbox, outbox) -> None:
     with contextlib.suppress(AttributeError, ValueError, OSError):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)   # forked with them held
     try:
-        sink = TableSink(path, header, accumulator)
+        sink = kind(path, header, accumulator)
         while True:
             try:
                 msg = inbox.recv_bytes()
@@ -320,17 +365,18 @@ class WriteError(Exception):
 
 
 class ProcessSink:
-    """A TableSink in a forked process: add() sends the block through a pipe (large enough to
-    hold a few chunks) and returns, so formatting runs in parallel with the solver."""
+    """A TableSink (or another sink class `kind`, e.g. ParquetSink) in a forked process: add()
+    sends the block through a pipe (large enough to hold a few chunks) and returns, so
+    formatting runs in parallel with the solver."""
 
-    def __init__(self, ctx, path: Path, header: list[str], accumulator=None):
+    def __init__(self, ctx, path: Path, header: list[str], accumulator=None, kind=TableSink):
         self.name = Path(path).name
         r, self.inbox = ctx.Pipe(duplex=False)
         self.outbox, w = ctx.Pipe(duplex=False)
         _grow_pipe(self.inbox)
         with held_signals():
             self.proc = ctx.Process(target=_writer_main, daemon=True,
-                                    args=(path, header, accumulator, r, w))
+                                    args=(path, header, accumulator, r, w, kind))
             self.proc.start()
         r.close()
         w.close()

@@ -66,7 +66,10 @@ def read_table(path: Path) -> tuple[list[str], np.ndarray, dict]:
 
     An empty cell reads as NaN. A column with a cell that is not a number is a text column
     (sweep.csv's status and message): texts maps its index to (its cells, the file line of its
-    first non-number). Unusable when the file cannot be read or a row has the wrong length."""
+    first non-number). Unusable when the file cannot be read or a row has the wrong length.
+    A .parquet table (planarkin run --table-format parquet) is read through pyarrow."""
+    if path.suffix == ".parquet":
+        return _read_parquet(path)
     try:
         with open(path, newline="") as f:
             rows = list(csv.reader(f))
@@ -93,6 +96,25 @@ def read_table(path: Path) -> tuple[list[str], np.ndarray, dict]:
     for c in texts:
         texts[c] = ([r[c] for r in rows[1:]], texts[c][1])
     return header, data, texts
+
+
+def _read_parquet(path: Path) -> tuple[list[str], np.ndarray, dict]:
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise Unusable(f"{path}: reading Parquet needs pyarrow: pip install "
+                       f"'planarkin[parquet]'") from None
+    try:
+        t = pq.read_table(path)
+        header = list(t.column_names)
+        data = np.column_stack([t.column(k).to_numpy().astype(np.float64) for k in
+                                range(t.num_columns)]) if t.num_columns else np.empty((0, 0))
+    except Exception as e:  # noqa: BLE001 - any damage makes the table unusable
+        raise Unusable(f"{path}: cannot read: {e}") from None
+    if len(set(header)) != len(header):
+        dup = sorted({h for h in header if header.count(h) > 1})
+        raise Unusable(f"{path}: repeated column name {', '.join(repr(d) for d in dup)}")
+    return header, data.reshape(t.num_rows, len(header)), {}
 
 
 def _is_float(v: str) -> bool:
@@ -181,8 +203,8 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
         for d, what in ((new, "new"), (golden, "golden")):
             if not d.is_dir():
                 raise Unusable(f"{d}: no such directory (the {what} results)")
-        tn = {p.name for p in new.glob("*.csv")}
-        tg = {p.name for p in golden.glob("*.csv")}
+        tn = {p.name for p in new.iterdir() if p.suffix in (".csv", ".parquet")}
+        tg = {p.name for p in golden.iterdir() if p.suffix in (".csv", ".parquet")}
         if tn != tg:
             parts = []
             if tg - tn:
@@ -191,7 +213,7 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
                 parts.append(f"missing in {golden}: {', '.join(sorted(tn - tg))}")
             raise Unusable("different tables (" + "; ".join(parts) + ")")
         if not tn:
-            raise Unusable(f"{golden}: no CSV tables to compare")
+            raise Unusable(f"{golden}: no CSV or Parquet tables to compare")
         sn, sg = _status(new), _status(golden)
         if (sn is None) != (sg is None):
             raise Unusable(f"{new if sn is None else golden}/summary.json is missing")

@@ -86,17 +86,19 @@ def _run_model(args):
     import io
     from ..cli import _load, _run_one
     from ..report import Report
-    path, outdir, quiet, overrides, analysis, plots, animate = args
+    path, outdir, quiet, overrides, analysis, plots, animate, table_format = args
     out, err = io.StringIO(), io.StringIO()
     rep = Report(quiet)
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         model = _load(path, rep, overrides)
         if model is not None:
-            _run_one(path, model, outdir, rep, dict(analysis), plots, animate)
+            _run_one(path, model, outdir, rep, dict(analysis), plots, animate,
+                     table_format=table_format)
     return out.getvalue(), err.getvalue(), rep.counts
 
 
-def run_models(models, dirs, report, overrides, analysis, plots, animate, jobs: int) -> None:
+def run_models(models, dirs, report, overrides, analysis, plots, animate, jobs: int,
+               table_format: str | None = None) -> None:
     """`planarkin run --jobs N` (dirs: one output directory per model, in order): the models in
     N local processes (each still writes its tables
     in its own writer process); the terminal lines in model order, the counts into report."""
@@ -104,7 +106,7 @@ def run_models(models, dirs, report, overrides, analysis, plots, animate, jobs: 
     import sys
     from concurrent.futures import ProcessPoolExecutor
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    tasks = [(m, d, report.quiet, overrides, analysis, plots, animate)
+    tasks = [(m, d, report.quiet, overrides, analysis, plots, animate, table_format)
              for m, d in zip(models, dirs)]
     with ProcessPoolExecutor(min(jobs, len(models)), mp_context=ctx) as pool:
         for out, err, counts in pool.map(_run_model, tasks):
