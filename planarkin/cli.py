@@ -243,7 +243,8 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     from .diagnostics import Diagnostic, InputError
     from .options import resolve
     from .output.directory import Interrupted, OutputError, WriteError
-    from .results import DirectoryWriter, prepare, run_info, stream
+    from .output.writer import DirectoryWriter
+    from .results import prepare, run_info, stream
     t0 = time.perf_counter()
     try:
         opts = resolve(model, analysis, source="cli")

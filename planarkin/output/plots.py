@@ -1,6 +1,6 @@
 """Plots of a run: time histories, point paths, the mechanism at several instants, an animation.
 
-Called by `results.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
+Called by `output.writer.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
 few thousand rows, user units). matplotlib is imported inside the functions only, and only through
 its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
 switch, no windows, no global state (rcParams only inside rc_context: the axes style while a

@@ -1,0 +1,348 @@
+"""The directory writer: streams a run's chunks into the tables of one result directory, then
+writes summary.json and the plots and puts the directory in place, under the output contract of
+`planarkin.output.directory` (the only code that touches the directory itself). It only reads
+results (chunks, `planarkin.results.RunInfo`); it computes nothing of the analysis.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..derived import derived_tables
+from ..solver import Chunk, Options
+from .directory import SINKS, Interrupted, ProcessSink, ResultDirectory, fork_context, held_signals
+from .summary import ColumnStats, StepStats, error_estimates, write_json
+from .tables import Layout
+
+if TYPE_CHECKING:                     # annotations only: results imports this module
+    from ..model.compile import CompiledModel
+    from ..results import RunInfo
+
+PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
+
+
+def _take(ch: Chunk, sel) -> Chunk:
+    g = lambda a: None if a is None else a[sel]
+    return Chunk(ch.t[sel], ch.q[sel], g(ch.qd), g(ch.qdd), ch.p[sel], g(ch.pd), g(ch.pdd),
+                 ch.iterations[sel], ch.cond[sel], ch.residual[sel])
+
+
+def _concat(parts: list[Chunk]) -> Chunk:
+    def cat(name):
+        arrays = [getattr(p, name) for p in parts]
+        return None if arrays[0] is None else np.concatenate(arrays)
+    return Chunk(*(cat(f) for f in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond",
+                                    "residual")))
+
+
+class PlotBuffer:
+    """Every k-th row of the run (and the last), enough for plots of any run length."""
+
+    def __init__(self, total_rows: int):
+        self.stride = max(1, math.ceil(total_rows / PLOT_ROWS))
+        self.seen = 0
+        self.parts: list[Chunk] = []
+        self.last: Chunk | None = None
+
+    def add(self, ch: Chunk) -> None:
+        n = len(ch.t)
+        first = (-self.seen) % self.stride
+        sel = np.arange(first, n, self.stride)
+        self.parts.append(_take(ch, sel))
+        self.last = _take(ch, np.array([n - 1])) if n else self.last
+        self.seen += n
+
+    def chunk(self) -> Chunk | None:
+        parts = self.parts
+        if self.last is not None and (not parts or not len(parts[-1].t)
+                                      or parts[-1].t[-1] != self.last.t[0]):
+            parts = parts + [self.last]
+        parts = [p for p in parts if len(p.t)]
+        return _concat(parts) if parts else None
+
+
+class DirectoryWriter:
+    """Streams chunks into the tables of one result directory (bodies.csv, points.csv and the
+    derived tables), then writes summary.json and the plots and puts the directory in place
+    (the output contract: planarkin.output.directory).
+
+    With background=True (where fork exists), each table is formatted and written by its own
+    forked process while this one solves the next chunk: CSV formatting costs about as much per
+    step as solving, so on two cores the writing hides behind the solve. Threads would not help:
+    both sides spend much of their time in the interpreter, under the GIL. Every table gets the
+    same blocks in the same order, so the files are identical either way, and stop at the same
+    row whenever the run stops. Raises OutputError (busy, not ours, not writable); add() and
+    finish() raise WriteError (disk full ...) after abandoning the new directory.
+    """
+
+    def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
+                 animate: bool = False, background: bool = False, x: str | None = None,
+                 table_format: str | None = None):
+        self.cm = cm
+        self.final = Path(out)
+        self.dir = ResultDirectory(self.final)
+        self.out = self.dir.tmp            # files are written here until commit()
+        self.sinks: dict = {}
+        self.rows = 0
+        self.committed = False             # the directory is in place
+        try:
+            spec = cm.spec.output
+            self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
+            self.steps = StepStats()
+            self.plots = plots
+            self.animate = animate
+            self.x = x or cm.spec.output.x          # abscissa of the time histories
+            self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
+            self.t_write = 0.0
+            ctx = fork_context() if background else None
+            self.background = ctx is not None
+
+            # table_format: "csv" or "parquet" (default: the model's output: table_format);
+            # the sinks, and summary.json's files and columns, go by the names of the files
+            # written (bodies.parquet ...)
+            fmt = table_format or cm.spec.output.table_format
+            kind = SINKS[fmt]
+            self.names = {}             # a table's CSV name -> the name of its file
+
+            def sink(name, header, accumulator=None):
+                fname = self.names[name] = name[:-len(".csv")] + "." + fmt
+                path = self.out / fname
+                self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) if ctx \
+                    else kind(path, header, accumulator)
+                return fname
+            from ..measures.cycle import CoordinateFigures
+
+            def figures(header):
+                return lambda: CoordinateFigures(cm, header, opts)
+            sink("bodies.csv", self.layout.body_header, figures(self.layout.body_header))
+            if self.layout.points:
+                sink("points.csv", self.layout.point_header, figures(self.layout.point_header))
+            # the rooms' tables under the names of the files written (forces.parquet ...)
+            self.derived = [dataclasses.replace(d, filename=sink(d.filename, d.header,
+                                                                 d.accumulator))
+                            for d in derived_tables(cm, opts)]
+        except BaseException:
+            self.abort()
+            raise
+
+    def _tables(self, ch: Chunk) -> list:
+        out = [self.layout.body_table(ch)]
+        if self.layout.points:
+            out.append(self.layout.point_table(ch))
+        out += [d.compute(ch) for d in self.derived]
+        for X in out:
+            X += 0.0          # -0.0 + 0.0 is +0.0: no "-0.0" cells in the tables
+        return out
+
+    def add(self, ch: Chunk) -> None:
+        t0 = time.perf_counter()
+        tables = self._tables(ch)          # all computed before any is sent: equal rows
+        with held_signals():               # an interruption waits until every table has them
+            try:
+                for s, X in zip(self.sinks.values(), tables):
+                    s.add(X)
+            except Exception:
+                self.abort()
+                raise
+            self.rows += len(ch.t)
+            self.steps.add(ch)
+            if self.buffer is not None:
+                self.buffer.add(ch)
+        self.t_write += time.perf_counter() - t0
+
+    def _close_tables(self):
+        closed, busy = {}, 0.0
+        for name, s in self.sinks.items():
+            stats, extra, b = s.close()
+            stats.table = name         # build_summary keys the columns by the file's name
+            closed[name] = (stats, extra)
+            busy = max(busy, b) if self.background else busy + b
+        for csv, name in self.names.items():     # bodies.csv, points.csv: found by those names
+            closed.setdefault(csv, closed[name])
+        return closed, busy
+
+    def finish(self, info: RunInfo, started: float | None = None) -> dict:
+        """Close the tables, write summary.json (wall time since `started`, a perf_counter
+        value) and the plots, and put the directory in place; returns the summary.
+
+        An interruption while the tables close or the plots are drawn keeps the complete
+        tables (status interrupted, some plots missing) and is raised again once the directory
+        is in place; one that arrives while the summary is written and the directory moved
+        waits until it is in place."""
+        pending = None
+        drawn: list = []
+        data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
+            else None
+        try:
+            try:
+                with held_signals():
+                    sent = False
+                    if data is not None and self.background:
+                        # the CLI's plot server (if it started one) draws while the tables close
+                        from . import plotworker
+                        sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
+                                                 self.animate, self.x)
+                    closed, busy = self._close_tables()
+                    summary = self._summary(info, closed, busy, started)
+            except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
+                pending = e
+            if data is not None and pending is None:
+                t0 = time.perf_counter()
+                try:
+                    drawn = [p.name for p in self._plots(info, data, sent)]
+                except Exception as e:  # noqa: BLE001 - a figure must not cost the tables
+                    summary["warnings"].append({"kind": "plots", "message": f"drawing the "
+                                                f"plots failed: {type(e).__name__}: {e}"})
+                except (KeyboardInterrupt, Interrupted) as e:
+                    pending = e
+                summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
+            if pending is not None:
+                info.interrupted = _signal_name(pending)
+                summary.update(_interrupted_status(info, "while the results were closed: the "
+                                                         "tables are complete, plots may be "
+                                                         "missing"))
+                if data is not None and sent:     # nothing may still draw into the directory
+                    from . import plotworker
+                    with held_signals():
+                        plotworker.stop()
+            # what is there, whoever drew it, in figure order (the plot server, this process,
+            # a room; an interrupted drawing may have left some)
+            there = {p.name for p in self.out.iterdir()} - set(summary["files"]) - \
+                {"summary.json"}
+            summary["plots"] = [n for n in drawn if n in there] + sorted(there - set(drawn))
+            with held_signals():
+                write_json(self.out / "summary.json", summary)
+                self.dir.commit()
+                self.committed = True
+        except BaseException:
+            if not self.committed:
+                self.abort()
+            raise
+        if pending is not None:
+            raise pending
+        return summary
+
+    def _summary(self, info: RunInfo, closed: dict, busy: float, started) -> dict:
+        wall = None if started is None else time.perf_counter() - started
+        info.timings["write"] = busy
+        summary = build_summary(self.cm, info, self.steps, closed["bodies.csv"][0],
+                                closed.get("points.csv", (None,))[0], wall)
+        for d in self.derived:
+            stats, extra = closed[d.filename]
+            summary["columns"][d.filename] = stats.as_dict()
+            if d.section is not None and extra is not None:
+                summary[d.section] = extra
+        from ..measures.cycle import cycle_section
+        summary["cycle"] = cycle_section(closed["bodies.csv"][1],
+                                         closed.get("points.csv", (None, None))[1],
+                                         summary.get("cycle"))
+        summary["files"] = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
+                            for name in self.sinks}
+        return summary
+
+    def _plots(self, info: RunInfo, data, sent: bool) -> list:
+        """Collect the plot server's files (the model's and the rooms' figures), or draw them all
+        here (no server, or it died). Returns the files in figure order."""
+        from . import plotworker
+        files = plotworker.collect() if sent else None
+        if files is not None:
+            return files                # the server drew the rooms' figures too
+        from . import plots as plotting       # matplotlib only when plotting
+        files = []
+        if self.plots:
+            files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots,
+                                          x=self.x)
+        if self.animate:
+            opts = self.animate if isinstance(self.animate, dict) else {}
+            files.append(plotting.write_animation(self.cm, data, self.out, **opts))
+        if self.plots:
+            for d in self.derived:
+                if d.plot is not None:
+                    files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
+        return files
+
+    def abort(self) -> None:
+        """Stop every writer and remove the new files; the previous directory stays."""
+        with held_signals():
+            for s in self.sinks.values():
+                s.kill()
+            self.dir.abandon()
+
+
+def _signal_name(e: BaseException) -> str:
+    return "SIGTERM" if isinstance(e, Interrupted) else "SIGINT"
+
+
+def _interrupted_status(info: RunInfo, how: str) -> dict:
+    code = 143 if info.interrupted == "SIGTERM" else 130
+    return {"status": "interrupted", "exit_code": code,
+            "message": f"interrupted by {info.interrupted} {how}"}
+
+
+def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats: ColumnStats,
+                  point_stats: ColumnStats | None, wall: float | None) -> dict:
+    from .. import __version__
+    o = info.options
+    spec = cm.spec
+    grid_rows = o.steps + 1
+    out = {
+        "planarkin": __version__,
+        "model": spec.name,
+        "file": spec.file,
+        "status": "ok" if info.status == 0 else "failed",
+        "exit_code": info.status,
+        "message": info.message,
+        **(_interrupted_status(info, f"at t = {steps.t_last:.10g} s (the rows up to then are "
+                                     f"complete)" if steps.rows else "before any row was "
+                                     "written") if info.interrupted else {}),
+        "units": {"length": spec.length_unit, "angle": spec.angle_unit, "time": "s"},
+        "time": {"start": o.start, "end": o.end, "steps": o.steps, "rows_planned": grid_rows,
+                 "rows_written": steps.rows,
+                 "last_t": steps.t_last if steps.rows else None,
+                 "stopped_at": info.event.t if info.event is not None else None},
+        "dof": cm.n - cm.m_joint if not info.assembly["redundant"] else None,
+        "bodies": list(cm.body_names),
+        "points": list(cm.point_names),
+        "equations": {"joints": cm.m_joint, "drivers": len(cm.driver_rows),
+                      "coordinates": cm.n},
+        "characteristic_length": cm.L,
+        "settings": {"tol": o.tol, "newton": o.newton, "iterations": o.iterations,
+                     "path_tol": o.path_tol, "max_step": o.max_step,
+                     "interpolate": o.interpolate, "bifurcation": o.bifurcation,
+                     "order": ("position", "velocity", "acceleration")[o.order]},
+        "assembly": info.assembly,
+        "solver": {
+            "internal_steps": info.internal_steps,
+            "rejected_steps": info.rejected_steps,
+            "grid_fallbacks": info.fallbacks,
+            "newton_iterations": {
+                "min": steps.iter_min, "max": steps.iter_max,
+                "mean": steps.iter_sum / steps.rows if steps.rows else None},
+        },
+        "residual": {"max": steps.res_max, "t": steps.res_tmax,
+                     "note": "max |Phi| over all equations, relative to the characteristic length"},
+        "condition": {"min": steps.cond_min if steps.rows else None,
+                      "max": steps.cond_max if steps.rows else None, "t_max": steps.cond_tmax},
+        "error_estimate": error_estimates(steps),
+        "warnings": [{"kind": "model" if d in spec.warnings and "is not consistent with" not in
+                      d.message else "moved" if "is not consistent with" in d.message else
+                      "redundant", "line": d.line, "message": d.message}
+                     for d in info.diagnostics] + [w.as_dict() for w in info.warnings],
+        "event": info.event.as_dict() if info.event is not None else None,
+        "breakpoints": info.breakpoints,
+        "columns": {getattr(body_stats, "table", "bodies.csv"): body_stats.as_dict()},
+        "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
+    }
+    if spec.overrides:
+        out["overrides"] = dict(spec.overrides)
+    if point_stats is not None:
+        out["columns"][getattr(point_stats, "table", "points.csv")] = point_stats.as_dict()
+    if wall is not None:
+        out["wall_time"]["total"] = round(wall, 6)
+    return out
