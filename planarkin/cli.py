@@ -472,6 +472,27 @@ def _study(model_path, report, overrides, analysis, metrics, varied):
     return study
 
 
+def _study_options(unit: str, writes: str, plot: str):
+    """The options sweep and tolerance share: output, grid (checked by planarkin.options), plots,
+    quiet, --set and the executor."""
+    def deco(f):
+        opts = [
+            click.option("--out", "out", type=click.Path(file_okay=False), default="out",
+                         show_default=True, help=f"Writes DIR/<file stem>/{writes}."),
+            click.option("--steps", type=_OptionType(OPTIONS["steps"]),
+                         help=f"Grid intervals of every {unit}."),
+            click.option("--end", type=_OptionType(OPTIONS["end"]), help="End time, s."),
+            click.option("--no-plots", is_flag=True, help=f"Skip {plot}."),
+            click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")),
+                         default="png", show_default=True, help="Plot file format."),
+            click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line."),
+            _set_option, _jobs_option]
+        for o in reversed(opts):
+            f = o(f)
+        return f
+    return deco
+
+
 @main.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--vary", "vary", multiple=True, required=True, metavar="NAME=LO:HI:N",
@@ -485,16 +506,7 @@ def _study(model_path, report, overrides, analysis, metrics, varied):
               help="max, min, stroke or absmax of a column of bodies.csv, points.csv or a "
                    "derived table, e.g. max:slider.ax, or dev:POINT, the largest distance of a "
                    "point's path from nominal (repeatable).")
-@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
-              help="Writes DIR/<file stem>/sweep.csv (+ .parquet, + plot).")
-@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals of every variant.")
-@click.option("--end", type=_OptionType(OPTIONS["end"]), help="End time, s.")
-@click.option("--no-plots", is_flag=True, help="Skip sweep.png.")
-@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
-              show_default=True, help="Plot file format.")
-@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-@_set_option
-@_jobs_option
+@_study_options("variant", "sweep.csv (+ .parquet, + plot)", "sweep.png")
 def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, fmt, quiet,
           overrides, jobs, scheduler):
     """Run variants of MODEL over parameter ranges; one row per variant in sweep.csv with the
@@ -553,16 +565,7 @@ def _sigmas(texts) -> dict:
 @click.option("--metric", "metrics", multiple=True, metavar="KIND:COLUMN",
               help="Outputs: max, min, stroke, absmax of a column (as for sweep) or dev:POINT, the "
                    "largest distance of a point's path from nominal (default: dev of every point).")
-@click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
-              help="Writes DIR/<file stem>/tolerance.csv, samples.csv, sensitivities.csv.")
-@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals of every sample.")
-@click.option("--end", type=_OptionType(OPTIONS["end"]), help="End time, s.")
-@click.option("--no-plots", is_flag=True, help="Skip tolerance.png.")
-@click.option("--format", "fmt", type=click.Choice(("png", "svg", "pdf")), default="png",
-              show_default=True, help="Plot file format.")
-@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
-@_set_option
-@_jobs_option
+@_study_options("sample", "tolerance.csv, samples.csv, sensitivities.csv", "tolerance.png")
 def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, no_plots, fmt,
               quiet, overrides, jobs, scheduler):
     """Monte-Carlo tolerance analysis of MODEL: the distribution of the outputs under random

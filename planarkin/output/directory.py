@@ -259,12 +259,12 @@ def check_writable(out: Path) -> str | None:
 
 # -- table writers ----------------------------------------------------------------------------
 
-class TableSink:
-    """One CSV table with its column statistics (and a room's accumulator), fed block by block,
-    in this process."""
+class _Sink:
+    """A table fed block by block in this process, with its column statistics (and a room's
+    accumulator): subclasses say how a block is written (_write) and the file closed
+    (_close)."""
 
-    def __init__(self, path: Path, header: list[str], accumulator=None):
-        self.csv = CsvWriter(path, header)
+    def __init__(self, header: list[str], accumulator=None):
         self.stats = ColumnStats(header)
         self.extra = accumulator() if accumulator is not None else None
         self.rows = 0
@@ -272,7 +272,7 @@ class TableSink:
 
     def add(self, X: np.ndarray) -> None:
         t0 = time.perf_counter()
-        self.csv.write(X)
+        self._write(X)
         self.stats.add(X)
         if self.extra is not None:
             self.extra.add(X)
@@ -281,54 +281,52 @@ class TableSink:
 
     def close(self):
         """(column statistics, the accumulator's dict or None, seconds busy)"""
-        self.csv.close()
+        t0 = time.perf_counter()
+        self._close()
+        self.busy += time.perf_counter() - t0
         return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
 
     def kill(self) -> None:
-        with contextlib.suppress(OSError):
-            self.csv.close()
+        with contextlib.suppress(Exception):
+            self._close()
 
 
-class ParquetSink:
-    """One Parquet table (pyarrow, imported here only) with its column statistics (and a room's
-    accumulator), fed block by block, in this process: the TableSink interface. Every block is
-    one row group, so a file closed after an interruption holds complete rows only. Columns are
-    float64 named by the CSV header (units in the names); doubles are stored as they are, so
-    they read back bit for bit."""
+class TableSink(_Sink):
+    """One CSV table."""
 
     def __init__(self, path: Path, header: list[str], accumulator=None):
+        super().__init__(header, accumulator)
+        self.csv = CsvWriter(path, header)
+
+    def _write(self, X: np.ndarray) -> None:
+        self.csv.write(X)
+
+    def _close(self) -> None:
+        self.csv.close()
+
+
+class ParquetSink(_Sink):
+    """One Parquet table (pyarrow, imported here only). Every block is one row group, so a file
+    closed after an interruption holds complete rows only. Columns are float64 named by the CSV
+    header (units in the names); doubles are stored as they are, so they read back bit for
+    bit."""
+
+    def __init__(self, path: Path, header: list[str], accumulator=None):
+        super().__init__(header, accumulator)
         import pyarrow as pa
         import pyarrow.parquet as pq
         self.pa = pa
         self.schema = pa.schema([(h, pa.float64()) for h in header])
         # dictionary encoding would not pay for doubles that rarely repeat
         self.writer = pq.ParquetWriter(path, self.schema, use_dictionary=False)
-        self.stats = ColumnStats(header)
-        self.extra = accumulator() if accumulator is not None else None
-        self.rows = 0
-        self.busy = 0.0
 
-    def add(self, X: np.ndarray) -> None:
-        t0 = time.perf_counter()
+    def _write(self, X: np.ndarray) -> None:
         if len(X):
             cols = [self.pa.array(np.ascontiguousarray(X[:, k])) for k in range(X.shape[1])]
             self.writer.write_table(self.pa.Table.from_arrays(cols, schema=self.schema))
-        self.stats.add(X)
-        if self.extra is not None:
-            self.extra.add(X)
-        self.rows += len(X)
-        self.busy += time.perf_counter() - t0
 
-    def close(self):
-        """(column statistics, the accumulator's dict or None, seconds busy)"""
-        t0 = time.perf_counter()
+    def _close(self) -> None:
         self.writer.close()
-        self.busy += time.perf_counter() - t0
-        return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
-
-    def kill(self) -> None:
-        with contextlib.suppress(Exception):
-            self.writer.close()
 
 
 SINKS = {"csv": TableSink, "parquet": ParquetSink}     # by table format (spec.TABLE_FORMATS)
