@@ -281,3 +281,50 @@ def test_two_real_runs_into_one_directory(tmp_path):
     s = assert_contract(tmp_path / "slider-crank")
     assert s["time"]["rows_written"] == 200001
     no_leftovers(tmp_path)
+
+
+# A writer process must never outlive its parent: it holds the parent's stdout and stderr
+# (a CI job waiting for the pipes to close then hangs) and, forked after another writer, that
+# writer's pipe. Both faults are asserted directly, without depending on a signal's timing.
+ORPHANS = """
+import os, sys
+from pathlib import Path
+from planarkin.output.directory import ProcessSink, fork_context
+ctx = fork_context()
+out = Path(sys.argv[1])
+sinks = [ProcessSink(ctx, out / f"t{k}.csv", ["t", "x"]) for k in range(3)]
+print("pids", *[s.proc.pid for s in sinks], flush=True)
+os._exit(0)                  # the parent dies without closing anything
+"""
+
+
+def test_writers_end_when_their_parent_dies(tmp_path):
+    p = subprocess.Popen([sys.executable, "-c", ORPHANS, str(tmp_path)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    try:
+        stdout, _ = p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        os.system("pkill -9 -f 'planarkin.output.directory import ProcessSink'")
+        pytest.fail("a writer process kept the parent's stdout open after the parent died")
+    pids = [int(x) for x in stdout.split()[1:]]
+    deadline = time.time() + 10
+    while any(Path(f"/proc/{pid}").exists() for pid in pids) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not any(Path(f"/proc/{pid}").exists() for pid in pids), "writers left behind"
+
+
+def test_killed_run_leaves_no_writer_behind(tmp_path):
+    p = subprocess.Popen(ENTRY + ["run", str(SLIDER), "--out", str(tmp_path), "--no-plots",
+                                  "--steps", "400000"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    deadline = time.time() + 60
+    while not list(tmp_path.glob(".slider-crank.tmp-*/bodies.csv")) and time.time() < deadline:
+        time.sleep(0.01)
+    p.send_signal(signal.SIGKILL)
+    try:
+        p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the writers of a killed run kept its stdout open")
+    assert run_cli("run", SLIDER, "--out", tmp_path, "--no-plots", "--steps", "5").returncode == 0
+    no_leftovers(tmp_path)

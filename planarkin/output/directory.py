@@ -14,8 +14,10 @@ untouched. How:
   replaced;
 - tables are formatted by writer processes (`ProcessSink`) fed through pipes with SIGINT and
   SIGTERM held back while a block is sent, so every table holds the same complete rows whenever
-  the run stops; the writers ignore those signals (the parent stops them in order) and exit on
-  end of file if the parent dies; they are always joined (`close`, `kill`).
+  the run stops; the writers ignore those signals (the parent stops them in order), close every
+  descriptor they inherit (`close_inherited`: no writer holds another's pipe or the parent's
+  stdout) and so exit on end of file if the parent dies; they are always joined (`close`,
+  `kill`).
 """
 
 from __future__ import annotations
@@ -332,6 +334,26 @@ class ParquetSink(_Sink):
 SINKS = {"csv": TableSink, "parquet": ParquetSink}     # by table format (spec.TABLE_FORMATS)
 
 
+def close_inherited(keep, keep_stderr: bool = False) -> None:
+    """In a forked child: close every descriptor inherited from the parent except `keep`, and
+    point stdin and stdout (and stderr unless keep_stderr) at /dev/null. A child holding the
+    write end of its own pipe, or of a sibling's, never sees end of file when the parent dies,
+    and one holding the parent's stdout keeps whoever reads it (a CI job, a shell pipe)
+    waiting after the parent has exited."""
+    keep = {int(fd) for fd in keep} | {0, 1, 2}
+    null = os.open(os.devnull, os.O_RDWR)
+    for fd in (0, 1) if keep_stderr else (0, 1, 2):
+        os.dup2(null, fd)
+    try:
+        fds = [int(n) for n in os.listdir("/proc/self/fd")]
+    except OSError:
+        fds = range(3, min(os.sysconf("SC_OPEN_MAX"), 65536))
+    for fd in fds:
+        if fd not in keep:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
 def _writer_main(path, header, accumulator, inbox, outbox, kind=TableSink) -> None:
     """Body of a writer process: blocks of rows in (a header of rows and columns, then the
     float64 data; an empty message ends the table), statistics out."""
@@ -339,6 +361,7 @@ def _writer_main(path, header, accumulator, inbox, outbox, kind=TableSink) -> No
         signal.signal(s, signal.SIG_IGN)       # the parent stops us in order
     with contextlib.suppress(AttributeError, ValueError, OSError):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)   # forked with them held
+    close_inherited((inbox.fileno(), outbox.fileno()))   # end of file when the parent dies
     try:
         sink = kind(path, header, accumulator)
         while True:
@@ -372,13 +395,13 @@ class ProcessSink:
         r, self.inbox = ctx.Pipe(duplex=False)
         self.outbox, w = ctx.Pipe(duplex=False)
         _grow_pipe(self.inbox)
-        with held_signals():
+        self.rows = 0
+        with held_signals():      # the caller holds them too, until the sink is registered
             self.proc = ctx.Process(target=_writer_main, daemon=True,
                                     args=(path, header, accumulator, r, w, kind))
             self.proc.start()
-        r.close()
-        w.close()
-        self.rows = 0
+            r.close()
+            w.close()
 
     def add(self, X: np.ndarray) -> None:
         X = np.ascontiguousarray(X, dtype=np.float64)

@@ -128,6 +128,8 @@ def _serve(conn, parent_end) -> None:
     parent_end.close()
     # a Ctrl-C is the parent's to handle; the server ends when the parent closes the pipe
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from .directory import close_inherited
+    close_inherited((conn.fileno(),), keep_stderr=True)
     _warm_up()
     while True:
         try:

@@ -113,8 +113,9 @@ class DirectoryWriter:
             def sink(name, header, accumulator=None):
                 fname = self.names[name] = name[:-len(".csv")] + "." + fmt
                 path = self.out / fname
-                self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) if ctx \
-                    else kind(path, header, accumulator)
+                with held_signals():    # a signal is raised once the sink is registered
+                    self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) \
+                        if ctx else kind(path, header, accumulator)
                 return fname
             from ..measures.cycle import CoordinateFigures
 
