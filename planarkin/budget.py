@@ -18,6 +18,9 @@ NODE_BYTES = 512 * 2**20     # memory the internal path nodes may take
 UNIT_PER_STEP = 1.0          # internal units of driver motion per path step (an upper bound)
 _SAMPLES = 4097              # first sampling of each driver over the time range
 _MAX_SAMPLES = 2_000_000     # adaptive refinement stops here (then the estimate is a lower bound)
+# a driver value whose unit in the last place passes this many times the Newton tolerance is
+# refused (at 1 the slider-crank's crank 2*pi*t already fails to converge near t = 3e4 s)
+PRECISION_FACTOR = 10.0
 
 
 def node_limit(cm, opts) -> int:
@@ -25,6 +28,17 @@ def node_limit(cm, opts) -> int:
     NODE_BYTES (q, q', q'' of n + 3 coordinates per node plus Python's overhead)."""
     per_node = 3 * 8 * (cm.n + 3) + 600
     return int(max(16, min(opts.max_nodes, NODE_BYTES // per_node)))
+
+
+def check_preflight(cm, opts) -> None:
+    """preflight as an input error at the driver's line (InputError), for run and check alike."""
+    reason = preflight(cm, opts)
+    if reason is None:
+        return
+    from .diagnostics import Diagnostic, InputError
+    row = next((r for r in cm.driver_rows if reason.startswith(cm.row_label[r])), None)
+    line = cm.element_of_row(int(row)).line if row is not None else None
+    raise InputError([Diagnostic(cm.spec.file, line, reason)])
 
 
 def preflight(cm, opts) -> str | None:
@@ -55,7 +69,25 @@ def preflight(cm, opts) -> str | None:
                 vm = sc * np.asarray(f(mid), dtype=float)
                 t = np.insert(t, np.nonzero(split)[0] + 1, mid)
                 v = np.insert(v, np.nonzero(split)[0] + 1, vm)
+            if (reason := _too_large(cm, label, v, t)) is not None:
+                return reason
     return None
+
+
+def _too_large(cm, label, v, t) -> str | None:
+    """A driver value so large that double precision cannot resolve it to the solver's
+    tolerance (a crank 2*pi*t at t = 1e5 s is 6.3e5 rad, resolved to 1.2e-10 rad): Newton could
+    not converge, or an assembly would be reported as violated, for a reason that is neither."""
+    from .solver import NODE_TOL
+    i = int(np.argmax(np.abs(v)))
+    ulp = float(np.spacing(abs(v[i])))
+    if ulp <= PRECISION_FACTOR * NODE_TOL:
+        return None
+    return (f"{label}: f reaches {v[i]:.4g} internal units at t = {t[i]:.10g} s (radians, or "
+            f"lengths divided by the model's size {cm.L:g} {cm.spec.length_unit}), which double "
+            f"precision resolves only to {ulp:.2g}, coarser than the solver's tolerance "
+            f"{NODE_TOL:g}: shift the time origin towards 0 (start the run near t = 0) or take "
+            f"the large constant out of f")
 
 
 def _too_fast(cm, label, total, limit, opts, t, d, h_min) -> str:

@@ -329,13 +329,16 @@ def check(models, quiet, derived, overrides):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
     from .assembly import assemble
+    from .budget import check_preflight
     from .diagnostics import InputError
+    from .options import resolve
     report = Report(quiet)
     for path in models:
         model = _load(path, report, overrides)
         if model is None:
             continue
         try:
+            check_preflight(model, resolve(model))    # what `run` would refuse before assembly
             A = assemble(model)
         except InputError as e:
             report.invalid(path, e.diagnostics)

@@ -193,7 +193,7 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
     Invalid input (the budget, a model that cannot be assembled) raises InputError, so nothing
     has been written yet when it does."""
     from .assembly import assemble
-    from .budget import preflight
+    from .budget import check_preflight
     from .diagnostics import Diagnostic, InputError
     a = cm.spec.analysis
     if (opts.start, opts.end) != (a.start, a.end):
@@ -203,11 +203,7 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
                     for msg in el.f.problems(opts.start, opts.end)]
         if problems:
             raise InputError(problems)
-    reason = preflight(cm, opts)
-    if reason is not None:
-        row = next((r for r in cm.driver_rows if reason.startswith(cm.row_label[r])), None)
-        line = cm.element_of_row(int(row)).line if row is not None else None
-        raise InputError([Diagnostic(cm.spec.file, line, reason)])
+    check_preflight(cm, opts)
     t0 = time.perf_counter()
     A = assemble(cm, opts.start)
     an = Analysis(cm, A, opts)

@@ -4,6 +4,7 @@ driver; and the node budget holds during the path too."""
 
 import time
 
+import numpy as np
 import pytest
 
 import planarkin
@@ -50,3 +51,31 @@ def test_budget_can_be_raised_and_is_honoured_on_the_path(tmp_path):
 def test_ordinary_drivers_pass_the_preflight(tmp_path):
     for f in ("2*pi*t", "0.3 + 0.2*sin(2*pi*t)", "2*pi*t**3", "100*t"):
         assert planarkin.solve(planarkin.load(_model(tmp_path, f)), steps=20).status == 0
+
+
+@pytest.mark.parametrize("start, refused", [(0.0, False), (1e4, False), (3e4, True),
+                                            (1e5, True), (1e8, True)])
+def test_driver_values_beyond_double_precision_are_refused(tmp_path, start, refused):
+    """2*pi*t at t = 1e5 s is 6.3e5 rad, resolved only to 1.2e-10 rad: Newton cannot meet its
+    1e-12 tolerance there, and the run used to fail as 'singular Jacobian at the assembly pose'
+    (1e6) or as a violated joint (1e8). Refused up front, naming the driver and the fix, by the
+    API, `run` and `check` alike; up to 1e4 s the run is exact."""
+    m = planarkin.load(_model(tmp_path, "2*pi*t"))
+    if not refused:
+        res = planarkin.solve(m, start=start, end=start + 1, steps=36)
+        assert res.info.status == 0
+        # the crank angle itself: its error is the driver value's own rounding (ulp 7e-12 rad)
+        assert abs(res.body("crank")["phi"][-1] - 2 * np.pi * (start + 1)) < 1e-11
+        return
+    with pytest.raises(InputError) as e:
+        planarkin.solve(m, start=start, end=start + 1, steps=36)
+    msg = str(e.value)
+    assert "driver 1 (angle ground-crank): f reaches" in msg and "which double precision " \
+        "resolves only to" in msg and "shift the time origin towards 0" in msg, msg
+    p = _model(tmp_path, "2*pi*t", name="late")
+    p.write_text(p.read_text().replace("start: 0, end: 1,", f"start: {start}, end: {start + 1},"))
+    for cmd in ("run", "check"):
+        r = run_cli(cmd, p, "--out", tmp_path, "--no-plots") if cmd == "run" \
+            else run_cli(cmd, p)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert "double precision resolves only to" in r.stderr
