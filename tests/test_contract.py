@@ -328,3 +328,48 @@ def test_killed_run_leaves_no_writer_behind(tmp_path):
         pytest.fail("the writers of a killed run kept its stdout open")
     assert run_cli("run", SLIDER, "--out", tmp_path, "--no-plots", "--steps", "5").returncode == 0
     no_leftovers(tmp_path)
+
+
+@pytest.mark.parametrize("sig, group", [(signal.SIGINT, True), (signal.SIGTERM, False)],
+                         ids=["SIGINT-to-the-group", "SIGTERM-to-the-parent"])
+def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group):
+    """`run --jobs 2` stopped by a Ctrl-C (every process of the group gets it) or by a signal
+    to the parent alone (a CI runner's SIGTERM): the workers stop in order, the models not
+    started are not started, every model's line is printed and counted, and each directory on
+    disk is complete or says it was interrupted."""
+    models = []
+    for k in range(6):
+        m = tmp_path / f"m{k}.yaml"
+        m.write_text(SLIDER.read_text())
+        models.append(str(m))
+    out = tmp_path / "out"
+    p = subprocess.Popen(ENTRY + ["run", *models, "--jobs", "2", "--out", str(out), "--no-plots",
+                                  "--steps", "400000"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                         start_new_session=True)
+    deadline = time.time() + 60
+    while not list(out.glob(".m*.tmp-*/bodies.csv")) and time.time() < deadline:
+        time.sleep(0.01)
+    time.sleep(0.3)
+    if group:
+        os.killpg(p.pid, sig)
+    else:
+        p.send_signal(sig)
+    try:
+        stdout, stderr = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        pytest.fail("planarkin run --jobs hung after the signal")
+    assert "Traceback" not in stderr, stderr
+    assert p.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], (stdout, stderr)
+    done = [d for d in out.iterdir() if d.is_dir() and not d.name.startswith(".")]
+    assert done, stdout
+    statuses = [assert_contract(d, ("ok", "interrupted"))["status"] for d in done]
+    assert "interrupted" in statuses
+    assert len(done) < 6                                   # the later models never started
+    last = stdout.strip().splitlines()[-1]
+    n_ok = statuses.count("ok")
+    assert f"{n_ok} ok" in last and f"interrupted by {sig.name}" in last, stdout
+    for d in done:                                         # every model on disk has its line
+        assert f"m{d.name[1:]}.yaml" in stdout, (d, stdout)
+    no_leftovers(out)
