@@ -384,13 +384,13 @@ def test_hostile_input_fails_fast():
         "(lambda: 1)()", "[x for x in range(10**9)]", "'a'*10**9", "f'{1}'" * 10,
         "sin(" + "t, " * 300 + "t)", "atan2(" + ", ".join(["1"] * 300) + ")",
     ]
-    start = time.perf_counter()
+    start = time.process_time()
     for text in cases:
         with pytest.raises(ExprError):
             TimeFunction(text, {"x": 1.0})
         with pytest.raises(ExprError):
             evaluate_constant(text, {"x": 1.0})
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     assert elapsed < 0.5, elapsed
 
 

@@ -171,11 +171,11 @@ def test_periodic_repetition_breakpoints():
 
 
 def test_breakpoint_cost_is_bounded():
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     f = tf("harmonic(mod(t, 0.01)/0.008)")     # 1000 periods, two knots each
     bps = f.breakpoints(0.0, 10.0)
     assert len(bps) == 2001
-    assert time.perf_counter() - t0 < 5.0
+    assert time.process_time() - t0 < 5.0
     with pytest.raises(ExprError, match="switches more than 10000 times between t = 0 and 10"):
         tf("mod(t, 1e-4)").breakpoints(0.0, 10.0)
     assert "switches more than" in tf("mod(t, 1e-4)").problems(0.0, 10.0)[0]
@@ -190,7 +190,7 @@ def test_pickle_and_third_derivative():
 
 
 def test_hostile_piecewise_expressions_are_refused_quickly():
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     assert tf("abs(sin(1e6*t))").problems(0.0, 1.0) == [
         "f = abs(sin(1e6*t)) switches too fast to be followed near t = 0 (more than 200000 "
         "samples would be needed to find its switches)"]
@@ -200,6 +200,6 @@ def test_hostile_piecewise_expressions_are_refused_quickly():
         tf("min(" * 40 + "t" + ", 1)" * 40)   # each level repeats its argument
     f = tf("min(" + ", ".join(f"t*{k}" for k in range(1, 60)) + ")")  # balanced: 6 deep
     assert f(2.0) == 2.0 and f(-1.0) == -59.0
-    assert time.perf_counter() - t0 < 5.0
+    assert time.process_time() - t0 < 5.0
     assert tf("mod(t, -0.3)").problems(0.0, 1.0) == [
         f"f jumps by -0.3 at t = {x}: a driver position must be continuous" for x in (0.3, 0.6, 0.9)]
