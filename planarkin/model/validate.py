@@ -24,7 +24,8 @@ from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output", "gravity", "loads", "links", "ground", "sliders", "slots",
-            "measures")
+            "measures",
+            "lengths")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
