@@ -469,7 +469,8 @@ def moved_points(cm, Q) -> list:
     """Warnings for the points placed by global coordinates (sketch pins, ``at:`` points) that
     the assembly moved: the sketch did not satisfy every joint and driver at t = start (e.g. a
     driver's f(start) differs from the sketched crank angle). Q: (n + 3,) assembled coordinates
-    with the ground's, internal units. One warning per moved point, at its line."""
+    with the ground's, internal units. One warning per point moved by more than the model's
+    `assembly: sketch_tolerance` (default 1e-9 of the model's length scale), at its line."""
     from ..diagnostics import Diagnostic
     from ..solver import point_kinematics
     spec = cm.spec
@@ -479,7 +480,8 @@ def moved_points(cm, Q) -> list:
         if pt.at is None:
             continue
         d = math.hypot(p[0, k, 0] * cm.L - pt.at[0], p[0, k, 1] * cm.L - pt.at[1])
-        if d > 1e-9 * cm.L:
+        tol = spec.sketch_tolerance if spec.sketch_tolerance is not None else 1e-9 * cm.L
+        if d > tol:
             out.append(Diagnostic(spec.file, pt.line, f"point '{pt.name}': the sketched position "
                                   f"[{pt.at[0]:.10g}, {pt.at[1]:.10g}] is not consistent with the "
                                   f"joints and drivers at t = start; assembled {d:.3g} "

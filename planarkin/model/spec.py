@@ -152,6 +152,7 @@ class ModelSpec:
     forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
     measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
     overrides: dict[str, float] = field(default_factory=dict)      # --set NAME=VALUE, evaluated
+    sketch_tolerance: float | None = None  # assembly: warn of sketch pins moved by more
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

@@ -62,6 +62,7 @@ class _Validator:
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
         self.sketch = None           # planarkin.model.sketch.Sketch (pins and links)
+        self.sketch_tolerance = None  # assembly: sketch_tolerance (user length unit)
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
@@ -205,6 +206,7 @@ class _Validator:
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
+                         sketch_tolerance=self.sketch_tolerance,
                          section_lines=dict(root.key_lines or {}), forces=forces, measures=measures,
                          overrides={k: self.params[k] for k in self.overrides
                                     if k in self.params},
@@ -959,8 +961,16 @@ class _Validator:
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):
-        if node is None or not self.keys(node, ("branch",), "assembly"):
+        if node is None or not self.keys(node, ("branch", "sketch_tolerance"), "assembly"):
             return {}, {}
+        if "sketch_tolerance" in node.value:
+            tn = node.value["sketch_tolerance"]
+            x = self.number(tn, "assembly: sketch_tolerance")
+            if x is not None and not x >= 0:
+                self.err(tn, f"assembly: sketch_tolerance must be a length >= 0 (pins moved by "
+                             f"more are warned about), not {x:g}")
+            elif x is not None:
+                self.sketch_tolerance = x
         b = node.value.get("branch")
         if b is None:
             return {}, {}
