@@ -85,6 +85,7 @@ class OutputSpec:
     centres: bool = False                    # centres.csv: instant centres of every body pair
     x: str = "time"                          # abscissa of the time-history plots (X_AXES)
     table_format: str = "csv"                # the run tables' file format (TABLE_FORMATS)
+    moving_centrodes: bool = False           # centres: moving: mechanism.<fmt> also draws them
 
 
 # The abscissa of bodies.<fmt> and points.<fmt>: `output: {x: ...}` and `planarkin run --x`.

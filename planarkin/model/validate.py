@@ -938,8 +938,13 @@ class _Validator:
             n = v["centres"]
             if n.kind == "scalar" and isinstance(n.value, bool):
                 vals["centres"] = n.value
+            elif n.kind == "scalar" and n.value in ("fixed", "moving"):
+                vals["centres"] = True
+                vals["moving_centrodes"] = n.value == "moving"
             else:
-                self.err(n, f"output: centres must be true or false, not {_type_name(n)}")
+                self.err(n, f"output: centres must be true, false, fixed or moving (moving: "
+                            f"mechanism.png also draws the moving centrodes), not "
+                            f"{_type_name(n)}")
         if "up_to" in v:
             c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
