@@ -999,7 +999,7 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
             handles.append(line)
     # output: centres: each floating body's fixed centrode, light, in the body's colour
     for j, xy in scene.centrodes:
-        line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.2, alpha=0.55,
+        line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.5, alpha=0.8,
                         ls=(0, (1, 1.5)), zorder=4,
                         label=f"fixed centrode\nof {scene.names[j]}")
         handles.append(line)
