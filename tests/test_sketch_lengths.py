@@ -180,3 +180,67 @@ def test_six_bar_sketch_is_the_six_bar_example():
     for k in ("x", "y", "vx", "vy", "ax", "ay"):
         scale = np.max(np.abs(b.point("F")[k]))
         assert np.max(np.abs(a.point("F")[k] - b.point("F")[k])) <= 1e-14 * scale, k
+
+
+JANSEN_ROUGH = {"A": (-8.7, -7.6), "X": (-31.5, 29.6), "E": (-75.1, 4.2), "F": (-4.9, -52.5),
+                "G": (-59.5, -15.0), "H": (-25.6, -86.5)}
+
+
+def _jansen_rough():
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parent.parent / "mechanisms" /
+            "jansen-holy-numbers.yaml").read_text()
+    for p, (x, y) in JANSEN_ROUGH.items():
+        text = re.sub(rf"  {p}: {{at: \[[^\]]*\]}}", f"  {p}: {{at: [{x}, {y}]}}", text)
+    return _load(text.replace("sketch_tolerance: 0.1", "sketch_tolerance: 100"))
+
+
+def test_a_very_rough_sketch_is_assembled_on_the_branches_it_draws(monkeypatch):
+    # Jansen's leg drawn up to 20 mm off (the crank even drawn at 221 deg, driven at 30 deg):
+    # from there Levenberg-Marquardt closes two loops the other way; the sketch draws F below
+    # the line B-A and the knee G on the published side of E-F, and that is what is kept
+    import linkages as L
+    from planarkin.model import sketch
+    exact = L.jansen(math.radians(30))
+    m = _jansen_rough()
+    A = assemble(m)
+    assert [md.sign for md in A.modes] == [1, -1, 1]
+    r = planarkin.solve(m, steps=2)
+    for p, xy in exact.items():
+        assert math.dist((r.point(p)["x"][0], r.point(p)["y"][0]), xy) < 1e-12, p
+    # without keeping the drawn branches the same sketch lands on others
+    monkeypatch.setattr(sketch, "keep_drawn_branches", lambda cm, A: None)
+    assert [md.sign for md in assemble(_jansen_rough()).modes] != [1, -1, 1]
+
+
+def test_a_four_bar_drawn_crossed_is_assembled_crossed():
+    # C drawn below the ground line, roughly: the crossed four-bar, C mirrored in the line B-D
+    text = _rough((0.0, 0.0, 0.0), p=False, lengths="{A-B: 0.04, B-C: 0.12, C-D: 0.1}")
+    text = text.replace(f"  C: {{at: [{CX!r}, {CY!r}]}}", "  C: {at: [0.105, -0.09]}")
+    r = planarkin.solve(_load(text), steps=2)
+    B, C = r.point("B"), r.point("C")
+    b, c = (B["x"][0], B["y"][0]), (C["x"][0], C["y"][0])
+    assert abs(math.dist(b, c) - 0.12) < 1e-15 and abs(math.dist(c, (0.1, 0.0)) - 0.1) < 1e-15
+    # C right of the line B -> D (the open four-bar has it on the left)
+    assert (0.1 - b[0]) * (c[1] - b[1]) - (0.0 - b[1]) * (c[0] - b[0]) < 0
+
+
+def test_a_drawn_branch_that_cannot_be_reached_is_an_input_error_at_the_link(monkeypatch):
+    # every dyad closes both ways when it closes at all, so the refusal is forced here: the
+    # branch search reports no assembly with the drawn sign
+    from planarkin import assembly
+    from planarkin.diagnostics import Diagnostic
+
+    def refuse(cm, A):
+        if not cm.spec.branch:          # the call for assembly: branch: in the file (none)
+            return
+        raise InputError([Diagnostic(cm.spec.file, None, "assembly: branch: no assembly with "
+                                     "sign - found for the loop lower+rocker (only +)")])
+    monkeypatch.setattr(assembly, "_apply_branch_hints", refuse)
+    with pytest.raises(InputError) as e:
+        assemble(_jansen_rough())
+    assert [d.format() for d in e.value.diagnostics] == [
+        "m.yaml:21: error: the sketch draws the loop lower+rocker on branch -, but with its "
+        "lengths and drivers it closes at t = 0 only the other way; redraw it (assembly: "
+        "branch: no assembly with sign - found for the loop lower+rocker (only +))"]
