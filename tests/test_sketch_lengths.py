@@ -244,3 +244,20 @@ def test_a_drawn_branch_that_cannot_be_reached_is_an_input_error_at_the_link(mon
         "m.yaml:21: error: the sketch draws the loop lower+rocker on branch -, but with its "
         "lengths and drivers it closes at t = 0 only the other way; redraw it (assembly: "
         "branch: no assembly with sign - found for the loop lower+rocker (only +))"]
+
+
+def test_check_derived_of_a_sketch_with_lengths_is_the_same_mechanism():
+    from clitools import run_cli
+    r = run_cli("check", "--derived", "mechanisms/six-bar-sketch.yaml")
+    assert r.returncode == 0, r.stderr
+    text = r.stdout.split("\nok ")[0]
+    assert "lengths:" not in text
+    derived = planarkin.load("derived.yaml", text=text)
+    a = planarkin.solve(derived, steps=24)
+    from pathlib import Path
+    b = planarkin.solve(Path(__file__).resolve().parent.parent / "mechanisms" /
+                        "six-bar-sketch.yaml", steps=24)
+    for p in b.model.point_names:
+        for k in ("x", "y", "vx", "vy", "ax", "ay"):
+            scale = max(np.max(np.abs(b.point(p)[k])), 1e-3)
+            assert np.max(np.abs(a.point(p)[k] - b.point(p)[k])) <= 1e-14 * scale, (p, k)
