@@ -401,6 +401,34 @@ class Sketch:
         return ElementSpec(role="joint", index=idx, kind="pin-slot", bodies=(link, carriers[0]),
                            params={}, line=line, name=key, target=0.0, at=pc, axis=axis)
 
+    def check_placements(self, joints, points, forces) -> None:
+        """Refuse a global placement (`at:`) on a link with given lengths: it would be read
+        against the link's sketched pose, which is only rough there. joints: the file's joints
+        (the sketch's own are placed from the shape); points: the file's body points; forces:
+        the ForcesSpec or None."""
+        if not self.shaped:
+            return
+        fix = ("give it in the link's frame instead (s:, si:/sj:; the frame has its origin at "
+               "the link's first point and its x axis towards the second) or make it a point of "
+               "the link")
+        for el in joints:
+            for b in el.bodies:
+                if el.at is not None and b in self.shaped:
+                    self.v.err(el.line, f"{el.label}: at: is read against the sketched pose of "
+                                        f"link '{b}', which has given lengths and is only rough; "
+                                        f"{fix}")
+                    break
+        for p in points:
+            if p.at is not None and p.body in self.shaped:
+                self.v.err(p.line, f"point '{p.name}': at: is read against the sketched pose of "
+                                   f"link '{p.body}', which has given lengths and is only rough; "
+                                   f"{fix}")
+        for ld in (forces.loads if forces is not None else ()):
+            if ld.at is not None and ld.bodies and ld.bodies[0] in self.shaped:
+                self.v.err(ld.line, f"{ld.label}: at: is read against the "
+                                    f"sketched pose of link '{ld.bodies[0]}', which has given "
+                                    f"lengths and is only rough; {fix}")
+
     # -- drivers ---------------------------------------------------------------------------------
     def between(self, node, what: str):
         """A distance driver's `between: [C, D]`: (bodies, si, sj) or None after an error."""

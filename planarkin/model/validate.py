@@ -186,10 +186,12 @@ class _Validator:
             self.err(root.value["links"], "links is empty: a mechanism needs at least one "
                                           "moving link, e.g. crank: [O, A]")
         joints = self.elements(root.value.get("joints"), "joint")
+        file_joints = list(joints)
         joints += sk.joints(len(joints) + 1)
         drivers = self.elements(root.value.get("drivers"), "driver")
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
+        file_points = list(points)
         names = {p.name for p in points}
         points += [p for p in sk.points() if p.name not in names]
         from ..measures import read_measures
@@ -201,6 +203,7 @@ class _Validator:
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
         forces = validate_forces(self, root)
+        sk.check_placements(file_joints, file_points, forces)
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
