@@ -197,7 +197,7 @@ def _jansen_rough():
 
 
 def test_a_very_rough_sketch_is_assembled_on_the_branches_it_draws(monkeypatch):
-    # Jansen's leg drawn up to 20 mm off (the crank even drawn at 221 deg, driven at 30 deg):
+    # Jansen's leg drawn up to 26 mm off (the crank even drawn at 221 deg, driven at 30 deg):
     # from there Levenberg-Marquardt closes two loops the other way; the sketch draws F below
     # the line B-A and the knee G on the published side of E-F, and that is what is kept
     import linkages as L
