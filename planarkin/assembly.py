@@ -270,7 +270,8 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
     _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
     if sketched:
-        from .model.sketch import moved_points
+        from .model.sketch import keep_drawn_branches, moved_points
+        keep_drawn_branches(cm, A)
         A.warnings += moved_points(cm, S.ext(A.q[None, :])[0])
     return A
 

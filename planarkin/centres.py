@@ -15,7 +15,10 @@ the velocities whatever drives them.
 
 centres.png draws, for each body whose centre relative to ground moves, its fixed centrode (the
 path of I in the ground frame) and its moving centrode (the same points in the body's frame,
-drawn at the body's pose at t = start, where the two touch).
+drawn at the body's pose at t = start, where the two touch). With ``output: {centres: moving}``
+mechanism.png draws the moving centrode of each floating body too, at the body's pose at every
+instant drawn (`moving_centrodes`, `draw_moving`): the curve fixed to the body that rolls
+without slipping on the fixed centrode, touching it at that instant's centre.
 """
 
 from __future__ import annotations
@@ -173,3 +176,51 @@ def _plot(cm, X, ch, out, fmt):
     plt.close(fig)
     return [path]
 
+
+
+# -- moving centrodes in the mechanism plot --------------------------------------------------------
+
+def moving_centrodes(cm, data, bodies) -> list:
+    """[(body, (N, 2) curve in the body's frame, user length unit)]: the instant centre of the
+    body relative to ground (the ground's centre relative to the body: the same point) at every
+    plot row, expressed in the body's frame at that row -- a curve fixed to the body. nan where
+    the centre is at infinity or undefined. bodies: the body indices to give (those whose fixed
+    centrode is drawn)."""
+    if not bodies or getattr(data, "qd", None) is None:
+        return []
+    X = compute(cm, data)
+    k_of = {j: k for k, (i, j) in enumerate(pairs(cm)) if i == cm.nb}
+    out = []
+    for j in bodies:
+        k = k_of[j]
+        x, y = X[:, 1 + 3 * k], X[:, 2 + 3 * k]
+        px, py = data.q[:, 3 * j], data.q[:, 3 * j + 1]
+        phi = data.q[:, 3 * j + 2] * cm.angle_factor
+        c, s = np.cos(phi), np.sin(phi)
+        out.append((j, np.c_[c * (x - px) + s * (y - py), -s * (x - px) + c * (y - py)]))
+    return out
+
+
+def draw_moving(ax, scene, row) -> list:
+    """Draw each moving centrode of scene.moving at the body's pose at `row` (the mechanism
+    plot's first, named instant: drawn at every instant the curves would hide the linkage), cut
+    at the drawing's bounds (near a parallel position the centre runs to infinity), with a dot
+    where it touches the fixed centrode: the instant centre at that row. Returns the legend
+    handles."""
+    x0, x1, y0, y1 = scene.bounds
+    handles = []
+    for j, local in scene.moving:
+        c, s = scene.c[row, j], scene.s[row, j]
+        gx = scene.x[row, j] + c * local[:, 0] - s * local[:, 1]
+        gy = scene.y[row, j] + s * local[:, 0] + c * local[:, 1]
+        far = ~((gx >= x0) & (gx <= x1) & (gy >= y0) & (gy <= y1))
+        gx, gy = np.where(far, np.nan, gx), np.where(far, np.nan, gy)
+        line, = ax.plot(gx, gy, color=scene.colors[j], lw=1.4, alpha=0.85, ls=(0, (6, 2)),
+                        zorder=4, label=f"moving centrode\nof {scene.names[j]}")
+        handles.append(line)
+        if np.isfinite(gx[row]) and np.isfinite(gy[row]):
+            dot, = ax.plot(gx[row], gy[row], "o", mfc=scene.colors[j], mec="k", mew=0.8, ms=6,
+                           zorder=40, ls="none",
+                           label=f"instant centre\nof {scene.names[j]}")
+            handles.append(dot)
+    return handles

@@ -12,7 +12,12 @@ into the body/joint form the rest of planarkin reads (frozen specs, user units):
 - ``sliders: {NAME: {link: L, on: G, along: [P, Q]}}``: a translational joint, L sliding on G
   (default ground) parallel to the line P-Q; ``slots: {NAME: {link: L, pin: C, along: [P, Q]}}``:
   pin C (carried by another link) runs in a slot of L along the line P-Q, which passes through C;
-- drivers may name ``link:`` instead of ``body:``, and a distance driver ``between: [C, D]``.
+- drivers may name ``link:`` instead of ``body:``, and a distance driver ``between: [C, D]``;
+- ``lengths: {A-B: 0.12, B-E: 0.05}``: link lengths given separately from a rough sketch. A link
+  with a given length takes its shape from the lengths (its second pin at the given distance
+  along its x axis, each further pin by its distances to the first two, given or as sketched,
+  on the sketched side); the sketch then only seeds the assembly, which moves the pins to the
+  consistent pose the sketch is nearest to (the branch it draws) and warns per moved pin.
 
 Every sketch pin is reported in points.csv once, on its first carrier (ground pins on ground).
 The validator (`planarkin.model.validate`) calls `Sketch` with its typed readers, so every
@@ -53,6 +58,8 @@ class Sketch:
         self.poses: dict[str, tuple[float, float, float]] = {}   # link -> x, y, phi (radians)
         self.line_refs: set[str] = set()              # pins used only to define a slide line
         self.mentioned: set[str] = set()              # pins listed by any link, broken or not
+        self.shaped: dict[str, dict[str, tuple[float, float]]] = {}   # link -> pin -> local,
+        #                                                 for links with a given length
         self.top = top
         ground_list = self._ground_list(top.get("ground"))
         node = top.get("points")
@@ -103,7 +110,105 @@ class Sketch:
             c = (["ground"] if pin.ground else []) + [k for k, pts in self.links.items()
                                                       if name in pts]
             self.carriers[name] = c
+        self._read_lengths()
 
+    def _pair(self, key: str) -> tuple[str, str] | None:
+        """`A-B` -> (A, B); names may contain '-', so every split into two known pins is
+        tried."""
+        splits = {(key[:k].strip(), key[k + 1:].strip()) for k, ch in enumerate(key) if ch == "-"}
+        found = [ab for ab in splits if ab[0] in self.pins and ab[1] in self.pins]
+        return found[0] if len(found) == 1 else None
+
+    def _read_lengths(self) -> None:
+        """The `lengths:` block: given distances between two pins of one link (user length
+        unit), turned into the body-frame coordinates of every link they concern."""
+        v = self.v
+        node = self.top.get("lengths")
+        if node is None:
+            return
+        if node.kind != "map":
+            v.err(node, f"lengths must be a mapping of point pairs to lengths, e.g. "
+                        f"lengths: {{A-B: 0.12}}, not {_type(node)}")
+            return
+        given: dict[str, dict[frozenset, tuple[float, int, str]]] = {}
+        for key, val in node.value.items():
+            line = node.key_lines[key]
+            what = f"lengths: {key}"
+            ab = self._pair(str(key))
+            if ab is None:
+                v.err(line, f"{what}: name two points as A-B (points: "
+                            f"{', '.join(list(self.pins)[:8])}{', ...' if len(self.pins) > 8 else ''})")
+                continue
+            a, b = ab
+            if a == b:
+                v.err(line, f"{what}: the two points are the same")
+                continue
+            x = v.number(val, what)
+            if x is None:
+                continue
+            if not x > 0:
+                v.err(val, f"{what} must be a positive length, not {x:g}")
+                continue
+            links = [k for k, pts in self.links.items() if a in pts and b in pts]
+            if not links:
+                both_ground = self.pins[a].ground and self.pins[b].ground
+                v.err(line, f"{what}: no link carries both {a} and {b}" +
+                      (" (ground points stay where they are drawn)" if both_ground else
+                       "; a length belongs to two points of one link"))
+                continue
+            for k in links:
+                pts = self.links[k]
+                i, j = sorted((pts.index(a), pts.index(b)))
+                if i >= 2:
+                    v.err(line, f"{what}: link '{k}' places {pts[i]} and {pts[j]} by their "
+                                f"distances to its first two points {pts[0]} and {pts[1]}; give "
+                                f"those ({pts[0]}-{pts[j]}, {pts[1]}-{pts[j]})")
+                    continue
+                given.setdefault(k, {})[frozenset((a, b))] = (x, line, key)
+        for k, g in given.items():
+            shape = self._shape(k, g)
+            if shape is not None:
+                self.shaped[k] = shape
+
+    def _shape(self, link: str, given: dict) -> dict | None:
+        """Body-frame coordinates of the pins of `link` from its given lengths (user length
+        unit); the distances not given are taken from the sketch."""
+        pts = self.links[link]
+        at = {p: self.pins[p].at for p in pts}
+
+        def length(a, b):
+            g = given.get(frozenset((a, b)))
+            return g[0] if g is not None else math.dist(at[a], at[b])
+
+        p0 = pts[0]
+        out = {p0: (0.0, 0.0)}
+        if len(pts) == 1:
+            return out
+        p1 = pts[1]
+        l01 = length(p0, p1)
+        out[p1] = (l01, 0.0)
+        ux, uy = at[p1][0] - at[p0][0], at[p1][1] - at[p0][1]
+        for p in pts[2:]:
+            if frozenset((p0, p)) not in given and frozenset((p1, p)) not in given:
+                out[p] = self._sketched_local(p, link)
+                continue
+            l0p, l1p = length(p0, p), length(p1, p)
+            # law of cosines in the link's frame: p0 at the origin, p1 at (l01, 0)
+            x = (l01 * l01 + l0p * l0p - l1p * l1p) / (2 * l01)
+            y2 = l0p * l0p - x * x
+            if y2 < -1e-12 * l0p * l0p:
+                names = [f"{a}-{b} {length(a, b):.6g}" +
+                         ("" if frozenset((a, b)) in given else " (as sketched)")
+                         for a, b in ((p0, p1), (p0, p), (p1, p))]
+                line = min(g[1] for g in given.values())
+                self.v.err(line, f"link '{link}': the lengths {', '.join(names)} cannot form "
+                                 f"a triangle (each side must be at most the sum of the other "
+                                 f"two)")
+                return None
+            cross = ux * (at[p][1] - at[p0][1]) - uy * (at[p][0] - at[p0][0])
+            y = math.sqrt(max(y2, 0.0))
+            out[p] = (x, y if cross >= 0 else -y)
+        return out
     def _read_links(self) -> None:
         v = self.v
         node = self.top.get("links")
@@ -185,9 +290,17 @@ class Sketch:
             c = self.carriers.get(name, [])
             for n, other in enumerate(c[1:], start=1):
                 jname = name if n == 1 else f"{name}-{n}"
-                out.append(ElementSpec(role="joint", index=idx, kind="revolute",
-                                       bodies=(c[0], other), params={}, line=pin.line,
-                                       name=jname, at=pin.at))
+                if c[0] in self.shaped or other in self.shaped:
+                    # a link shaped by its lengths: the joint's vectors come from the shape,
+                    # not from the (rough) sketched position
+                    params = {"si": self.local(name, c[0]), "sj": self.local(name, other)}
+                    out.append(ElementSpec(role="joint", index=idx, kind="revolute",
+                                           bodies=(c[0], other), params=params, line=pin.line,
+                                           name=jname))
+                else:
+                    out.append(ElementSpec(role="joint", index=idx, kind="revolute",
+                                           bodies=(c[0], other), params={}, line=pin.line,
+                                           name=jname, at=pin.at))
                 idx += 1
         for section in ("sliders", "slots"):
             node = self.top.get(section)
@@ -245,6 +358,12 @@ class Sketch:
             return None
         link = self._link_ref(val["link"], f"{what}: link")
         on = self._link_ref(val["on"], f"{what}: on") if "on" in val else "ground"
+        for b in (link, on):
+            if b in self.shaped:
+                v.err(node, f"{what}: link '{b}' has given lengths; a {section[:-1]} is placed "
+                            f"by the sketch, so its links must be drawn exactly (give the "
+                            f"lengths of other links only)")
+                return None
         a = val["along"]
         if a.kind != "seq" or len(a.value) != 2:
             v.err(a, f"{what}: along must be two point names [P, Q] (the line)")
@@ -282,6 +401,34 @@ class Sketch:
         return ElementSpec(role="joint", index=idx, kind="pin-slot", bodies=(link, carriers[0]),
                            params={}, line=line, name=key, target=0.0, at=pc, axis=axis)
 
+    def check_placements(self, joints, points, forces) -> None:
+        """Refuse a global placement (`at:`) on a link with given lengths: it would be read
+        against the link's sketched pose, which is only rough there. joints: the file's joints
+        (the sketch's own are placed from the shape); points: the file's body points; forces:
+        the ForcesSpec or None."""
+        if not self.shaped:
+            return
+        fix = ("give it in the link's frame instead (s:, si:/sj:; the frame has its origin at "
+               "the link's first point and its x axis towards the second) or make it a point of "
+               "the link")
+        for el in joints:
+            for b in el.bodies:
+                if el.at is not None and b in self.shaped:
+                    self.v.err(el.line, f"{el.label}: at: is read against the sketched pose of "
+                                        f"link '{b}', which has given lengths and is only rough; "
+                                        f"{fix}")
+                    break
+        for p in points:
+            if p.at is not None and p.body in self.shaped:
+                self.v.err(p.line, f"point '{p.name}': at: is read against the sketched pose of "
+                                   f"link '{p.body}', which has given lengths and is only rough; "
+                                   f"{fix}")
+        for ld in (forces.loads if forces is not None else ()):
+            if ld.at is not None and ld.bodies and ld.bodies[0] in self.shaped:
+                self.v.err(ld.line, f"{ld.label}: at: is read against the "
+                                    f"sketched pose of link '{ld.bodies[0]}', which has given "
+                                    f"lengths and is only rough; {fix}")
+
     # -- drivers ---------------------------------------------------------------------------------
     def between(self, node, what: str):
         """A distance driver's `between: [C, D]`: (bodies, si, sj) or None after an error."""
@@ -308,7 +455,14 @@ class Sketch:
         return tuple(bodies), local[0], local[1]
 
     def local(self, pin: str, body: str) -> tuple[float, float]:
-        """Body-frame coordinates of a pin on one of its carriers (user length unit)."""
+        """Body-frame coordinates of a pin on one of its carriers (user length unit): from the
+        link's given lengths if it has any, else as sketched."""
+        shape = self.shaped.get(body)
+        if shape is not None:
+            return shape[pin]
+        return self._sketched_local(pin, body)
+
+    def _sketched_local(self, pin: str, body: str) -> tuple[float, float]:
         x, y, phi = self.poses.get(body, (0.0, 0.0, 0.0))
         px, py = self.pins[pin].at
         c, s = math.cos(phi), math.sin(phi)
@@ -321,7 +475,9 @@ class Sketch:
         for name, pin in self.pins.items():
             c = self.carriers.get(name)
             if c:
-                out.append(PointSpec(name, c[0], None, pin.at, pin.line))
+                # at: the sketched position, which the assembly warnings compare against
+                s = self.shaped[c[0]][name] if c[0] in self.shaped else None
+                out.append(PointSpec(name, c[0], s, pin.at, pin.line))
         return out
 
 
@@ -337,11 +493,13 @@ def _is_body_point(points_node, name: str) -> bool:
     return val.kind == "map" and "body" in val.value
 
 
-def moved_points(cm, Q) -> list:
+def moved_points(cm, Q, tol: float | None = None) -> list:
     """Warnings for the points placed by global coordinates (sketch pins, ``at:`` points) that
     the assembly moved: the sketch did not satisfy every joint and driver at t = start (e.g. a
     driver's f(start) differs from the sketched crank angle). Q: (n + 3,) assembled coordinates
-    with the ground's, internal units. One warning per moved point, at its line."""
+    with the ground's, internal units. One warning per point moved by more than the model's
+    `assembly: sketch_tolerance` (default 1e-9 of the model's length scale; tol, when given, in
+    its place), at its line."""
     from ..diagnostics import Diagnostic
     from ..solver import point_kinematics
     spec = cm.spec
@@ -351,13 +509,54 @@ def moved_points(cm, Q) -> list:
         if pt.at is None:
             continue
         d = math.hypot(p[0, k, 0] * cm.L - pt.at[0], p[0, k, 1] * cm.L - pt.at[1])
-        if d > 1e-9 * cm.L:
+        if d > (tol if tol is not None else spec.sketch_tolerance
+                if spec.sketch_tolerance is not None else 1e-9 * cm.L):
             out.append(Diagnostic(spec.file, pt.line, f"point '{pt.name}': the sketched position "
                                   f"[{pt.at[0]:.10g}, {pt.at[1]:.10g}] is not consistent with the "
                                   f"joints and drivers at t = start; assembled {d:.3g} "
                                   f"{spec.length_unit} away, at [{p[0, k, 0] * cm.L:.10g}, "
                                   f"{p[0, k, 1] * cm.L:.10g}]", "warning"))
     return out
+
+
+def keep_drawn_branches(cm, A) -> None:
+    """A rough sketch is assembled on the branches it draws. When the assembly moved a sketched
+    point, every loop with two assemblies (a diagonal block's determinant sign, as
+    `assembly: branch:` reads it) is compared with its sign at the sketch's own poses (cm.q0:
+    each link's frame at its drawn pins); a loop that the assembly closed the other way is
+    re-assembled the drawn way, unless `assembly: branch:` names it. Raises InputError, at the
+    loop's first link, when the lengths and drivers cannot close it the drawn way at t = start.
+    A: the Assembly, updated in place (q, residual, modes)."""
+    from dataclasses import replace
+
+    from ..assembly import _apply_branch_hints, block_modes
+    from ..diagnostics import Diagnostic, InputError
+    spec = cm.spec
+    Q = A.system.ext(A.q[None, :])[0]
+    if not moved_points(cm, Q, 1e-9 * cm.L):
+        return                       # the sketch is the pose: its branches are the drawn ones
+    drawn = {md.block: md for md in block_modes(cm, A.system, cm.q0)}
+    asked = {md.block for md in A.modes if set(md.bodies) & set(spec.branch)}
+    hints = {md.key: drawn[md.block].sign for md in A.modes
+             if md.block in drawn and md.block not in asked and md.sign != drawn[md.block].sign}
+    if not hints:
+        return
+    lines = {b.name: b.line for b in spec.bodies}
+    cm2 = replace(cm, spec=replace(spec, branch={**hints, **spec.branch},
+                                   branch_lines={**{k: lines.get(k) for k in hints},
+                                                 **spec.branch_lines}))
+    try:
+        _apply_branch_hints(cm2, A)
+    except InputError as e:
+        key = next(iter(hints))
+        loop = next(md for md in A.modes if md.key == key)
+        raise InputError([Diagnostic(spec.file, lines.get(key),
+                                     f"the sketch draws the loop {'+'.join(loop.bodies)} on "
+                                     f"branch {'+' if hints[key] > 0 else '-'}, but with its "
+                                     f"lengths and drivers it closes at t = "
+                                     f"{spec.analysis.start:g} only the other way; redraw it "
+                                     f"({e.diagnostics[0].message})")]) from None
+    A.modes = block_modes(cm, A.system, A.q)
 
 
 def derived_yaml(spec) -> str:

@@ -85,6 +85,7 @@ class OutputSpec:
     centres: bool = False                    # centres.csv: instant centres of every body pair
     x: str = "time"                          # abscissa of the time-history plots (X_AXES)
     table_format: str = "csv"                # the run tables' file format (TABLE_FORMATS)
+    moving_centrodes: bool = False           # centres: moving: mechanism.<fmt> also draws them
 
 
 # The abscissa of bodies.<fmt> and points.<fmt>: `output: {x: ...}` and `planarkin run --x`.
@@ -152,6 +153,7 @@ class ModelSpec:
     forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
     measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
     overrides: dict[str, float] = field(default_factory=dict)      # --set NAME=VALUE, evaluated
+    sketch_tolerance: float | None = None  # assembly: warn of sketch pins moved by more
 
     @property
     def elements(self) -> tuple[ElementSpec, ...]:

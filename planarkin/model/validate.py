@@ -24,7 +24,8 @@ from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output", "gravity", "loads", "links", "ground", "sliders", "slots",
-            "measures")
+            "measures",
+            "lengths")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
@@ -61,6 +62,7 @@ class _Validator:
         self.body_set: set[str] = set()
         self.bodies_ok = True        # False when the bodies section itself is broken
         self.sketch = None           # planarkin.model.sketch.Sketch (pins and links)
+        self.sketch_tolerance = None  # assembly: sketch_tolerance (user length unit)
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
@@ -184,10 +186,12 @@ class _Validator:
             self.err(root.value["links"], "links is empty: a mechanism needs at least one "
                                           "moving link, e.g. crank: [O, A]")
         joints = self.elements(root.value.get("joints"), "joint")
+        file_joints = list(joints)
         joints += sk.joints(len(joints) + 1)
         drivers = self.elements(root.value.get("drivers"), "driver")
         self.unique_names(joints + drivers)
         points = self.points(root.value.get("points"))
+        file_points = list(points)
         names = {p.name for p in points}
         points += [p for p in sk.points() if p.name not in names]
         from ..measures import read_measures
@@ -199,11 +203,13 @@ class _Validator:
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
         forces = validate_forces(self, root)
+        sk.check_placements(file_joints, file_points, forces)
         self.C.raise_if_any()
         return ModelSpec(name=name, file=self.file, length_unit=length_unit, angle_unit=angle_unit,
                          parameters=dict(self.params), bodies=tuple(bodies), joints=tuple(joints),
                          drivers=tuple(drivers), points=tuple(points), analysis=analysis,
                          output=output, branch=branch, branch_lines=branch_lines,
+                         sketch_tolerance=self.sketch_tolerance,
                          section_lines=dict(root.key_lines or {}), forces=forces, measures=measures,
                          overrides={k: self.params[k] for k in self.overrides
                                     if k in self.params},
@@ -935,8 +941,13 @@ class _Validator:
             n = v["centres"]
             if n.kind == "scalar" and isinstance(n.value, bool):
                 vals["centres"] = n.value
+            elif n.kind == "scalar" and n.value in ("fixed", "moving"):
+                vals["centres"] = True
+                vals["moving_centrodes"] = n.value == "moving"
             else:
-                self.err(n, f"output: centres must be true or false, not {_type_name(n)}")
+                self.err(n, f"output: centres must be true, false, fixed or moving (moving: "
+                            f"mechanism.png also draws the moving centrodes), not "
+                            f"{_type_name(n)}")
         if "up_to" in v:
             c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
@@ -958,8 +969,16 @@ class _Validator:
         return OutputSpec(**vals)
 
     def assembly(self, node: Node | None):
-        if node is None or not self.keys(node, ("branch",), "assembly"):
+        if node is None or not self.keys(node, ("branch", "sketch_tolerance"), "assembly"):
             return {}, {}
+        if "sketch_tolerance" in node.value:
+            tn = node.value["sketch_tolerance"]
+            x = self.number(tn, "assembly: sketch_tolerance")
+            if x is not None and not x >= 0:
+                self.err(tn, f"assembly: sketch_tolerance must be a length >= 0 (pins moved by "
+                             f"more are warned about), not {x:g}")
+            elif x is not None:
+                self.sketch_tolerance = x
         b = node.value.get("branch")
         if b is None:
             return {}, {}

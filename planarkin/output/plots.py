@@ -553,6 +553,10 @@ class _Scene:
         self._traces(data, joint_pts)
         self._bounds()
         self.centrodes = self._centrodes(cm, data) if cm.spec.output.centres else []
+        # output: {centres: moving}: planarkin.centres draws them at every instant
+        from ..centres import moving_centrodes
+        self.moving = moving_centrodes(cm, data, [j for j, _ in self.centrodes]) \
+            if cm.spec.output.moving_centrodes else []
 
     def _elements(self, cm):
         """Walk the elements: attachment points per body (body frame, user units), joint points
@@ -982,7 +986,8 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
     alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
     # a centrode's label on two lines: a long one would narrow the drawing
     labels = times + [s[0] for s in scene.trace_styles] + \
-        [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")]
+        [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")] + \
+        [w for j, _ in scene.moving for w in ("moving centrode", f"of {scene.names[j]}")]
     fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
     handles, seen = [], set()
     for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
@@ -994,10 +999,13 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
             handles.append(line)
     # output: centres: each floating body's fixed centrode, light, in the body's colour
     for j, xy in scene.centrodes:
-        line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.2, alpha=0.55,
+        line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.5, alpha=0.8,
                         ls=(0, (1, 1.5)), zorder=4,
                         label=f"fixed centrode\nof {scene.names[j]}")
         handles.append(line)
+    if scene.moving:
+        from ..centres import draw_moving
+        handles += draw_moving(ax, scene, rows[0])
     # later instants below the first, fainter the later they are
     for k in range(len(rows) - 1, -1, -1):
         _Drawing(ax, scene, rows[k], body_colors=True, alpha=alphas[k],
