@@ -174,6 +174,7 @@ class _Validator:
         if "name" in root.value:
             name = self.text(root.value["name"], "name") or name
         length_unit, angle_unit = self.units(root.value.get("units"))
+        self.angle_unit = angle_unit
         self.parameters(root.value.get("parameters"))
         from .sketch import Sketch
         sk = self.sketch = Sketch(self, root.value)
@@ -523,6 +524,11 @@ class _Validator:
                     self.err(v[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
                                      f"pulley's pitch radius; for a crossed belt write crossed: "
                                      f"true)")
+        if kind.name == "curve-slot" and hasattr(params.get("curve"), "segments") and \
+                params.get("closed") and not params["curve"].closed:
+            self.err(v["closed"], f"{what}: closed: true, but the curve's last segment does not "
+                                  f"end where its first starts (a circle or a chain of segments "
+                                  f"is closed by its geometry; drop closed)")
         if kind.name in ("gear-mesh", "roll-disc") and params.get("ri") is not None \
                 and params.get("rj") is not None and params["ri"] + params["rj"] == 0:
             self.err(v["rj"], f"{what}: ri + rj must not be zero (the centre distance |ri + rj| "
@@ -570,8 +576,13 @@ class _Validator:
     def curve_points(self, node: Node, what: str):
         """A table of at least 6 distinct successive points [[x, y], ...] (a closed curve may
         repeat its first point at the end: it is dropped)."""
+        if node.kind == "map":
+            from .curves import curve_form
+            return curve_form(self, node, what)
         if node.kind != "seq":
-            self.err(node, f"{what} must be a list of points [[x, y], ...], not {_type_name(node)}")
+            self.err(node, f"{what} must be a list of points [[x, y], ...] or one of {{circle: "
+                           f"...}}, {{segments: [...]}}, {{table: FILE.csv}}, not "
+                           f"{_type_name(node)}")
             return None
         pts = [self.vector(item, what) for item in node.value]
         if any(p is None for p in pts):
