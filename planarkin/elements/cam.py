@@ -73,6 +73,54 @@ class Law:
         return f"Law({self.text!r})"
 
 
+class FunctionLaw(Law):
+    """A law given as data: a ``motion:`` profile of segments over cam angle or a table of
+    (cam angle, value), held as the planarkin.expr TimeFunction of the driver forms with theta
+    (user angle units) in the place of t. Derivatives are the exact ones of that function (the
+    laws' closed forms, the spline's polynomials), up to the third. Outside `domain` (a table
+    that does not wrap: its angle range, user units) the law is NaN, so that a cam turned past
+    its table stops the run instead of extrapolating.
+
+    fn: the TimeFunction; text: what messages show; span: the cam angle the data covers (user
+    units); periodic: whether the law repeats every turn; a, b as for Law."""
+
+    def __init__(self, fn, text: str, span: float, periodic: bool, a: float = 1.0,
+                 b: float = 1.0):
+        self.fn, self.text, self.span, self.periodic = fn, text, float(span), bool(periodic)
+        self.values = {}
+        self.a, self.b = a, b
+
+    def scaled(self, out_per_user: float, angle_factor: float) -> "FunctionLaw":
+        return FunctionLaw(self.fn, self.text, self.span, self.periodic, 1.0 / angle_factor,
+                           out_per_user)
+
+    def __call__(self, theta, orders=(0, 1, 2)):
+        """As Law.__call__, with order 3 (the third derivative) available too; the tuple has
+        max(3, largest order + 1) entries."""
+        theta = np.asarray(theta, dtype=float)
+        x = self.a * theta
+        out = [None] * max(3, max(orders) + 1)
+        if any(o < 3 for o in orders):
+            d = self.fn.derivatives(x)
+            for o in orders:
+                if o < 3:
+                    out[o] = (self.b * self.a ** o) * np.broadcast_to(np.asarray(d[o], float),
+                                                                    theta.shape)
+        if 3 in orders:
+            out[3] = (self.b * self.a ** 3) * np.broadcast_to(np.asarray(self.fn.third(x), float),
+                                                            theta.shape)
+        dom = getattr(self.fn, "domain", None)
+        if dom is not None:
+            outside = (x < dom[0]) | (x > dom[1])
+            if outside.any():
+                for o in orders:
+                    out[o] = np.where(outside, np.nan, out[o])
+        return tuple(out)
+
+    def __repr__(self) -> str:
+        return f"FunctionLaw({self.text!r})"
+
+
 def _laws(G, name, theta, order):
     """d^order s / dtheta^order (N, K) of every instance's law at its own theta (N, K)."""
     out = np.empty(theta.shape)

@@ -1,0 +1,177 @@
+"""A cam's law as data: chained motion segments over cam angle, or a table of (angle, lift)
+(planarkin/model/camlaws.py, elements/cam.py FunctionLaw).
+
+Closed forms derived by hand: a radial roller follower rides at y = rb + rr + s(theta), so its
+velocity is s'(theta) theta' and its acceleration s'' theta'^2 + s' theta'' with the law's own
+closed form s (cycloidal and 3-4-5 pieces, a quintic polynomial for the table). Tolerance 1e-12
+relative to each quantity's largest value over the run (issue 8, "Done when").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import planarkin
+
+TOL = 1e-12
+
+
+def run(text: str, path=None):
+    model = planarkin.load(path) if path else planarkin.load("cam.yaml", text=text)
+    res = planarkin.solve(model)
+    assert res.status == 0, res.message
+    return res
+
+
+def rel(got, want, scale=None) -> float:
+    got, want = np.asarray(got, float), np.asarray(want, float)
+    s = scale if scale is not None else np.max(np.abs(want))
+    return float(np.max(np.abs(got - want)) / s)
+
+
+CAM = """
+units: {{length: m, angle: deg}}
+bodies:
+  cam:      {{q: [0, 0, 0]}}
+  follower: {{q: [0, 0.05, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: cam, at: [0, 0]}}
+  - {{type: translational, i: ground, j: follower, at: [0, 0.05], axis: [0, 1]}}
+  - {{name: lift, type: cam, i: cam, j: follower, sk: [0, 0], vk: [0, 1], sj: [0, 0],
+     base: 0.04, roller: 0.01, s: {law}{extra}}}
+drivers:
+  - {{type: angle, body: cam, f: "{drive}"}}
+analysis: {{end: {end}, steps: {steps}}}
+"""
+
+RDR = ("{motion: {segments: [{rise: 0.02, in: 120, law: cycloidal}, {dwell: 60}, "
+       "{return: 0.02, in: 120, law: 3-4-5}, {dwell: 60}]}}")
+
+
+def rise_dwell_return(th):
+    """s, ds/dtheta, d2s/dtheta2 (m, m/deg, m/deg^2) of RDR at cam angles th (deg), by hand:
+    cycloidal rise s = h (u - sin(2 pi u)/(2 pi)), u = th/120; dwell h; 3-4-5 return
+    s = h (1 - (10 v^3 - 15 v^4 + 6 v^5)), v = (th - 180)/120; dwell 0. Every turn the same."""
+    h, b = 0.02, 120.0
+    th = np.mod(th, 360.0)
+    s, s1, s2 = (np.zeros_like(th) for _ in range(3))
+    r = th < 120
+    u = th[r] / b
+    s[r] = h * (u - np.sin(2 * math.pi * u) / (2 * math.pi))
+    s1[r] = h / b * (1 - np.cos(2 * math.pi * u))
+    s2[r] = h / b**2 * 2 * math.pi * np.sin(2 * math.pi * u)
+    d = (th >= 120) & (th < 180)
+    s[d] = h
+    ret = (th >= 180) & (th < 300)
+    v = (th[ret] - 180) / b
+    s[ret] = h * (1 - (10 * v**3 - 15 * v**4 + 6 * v**5))
+    s1[ret] = -h / b * (30 * v**2 - 60 * v**3 + 30 * v**4)
+    s2[ret] = -h / b**2 * (60 * v - 180 * v**2 + 120 * v**3)
+    return s, s1, s2
+
+
+def check_follower(res, law, th, thd, thdd):
+    s, s1, s2 = law(th)
+    b = res.body("follower")
+    assert rel(b["y"], 0.05 + s) < TOL
+    assert rel(b["vy"], s1 * thd) < TOL
+    assert rel(b["ay"], s2 * thd**2 + s1 * thdd) < TOL
+
+
+@pytest.mark.parametrize("drive", ["360*t", "360*t + 20*sin(2*pi*t)"])
+def test_rise_dwell_return_segments_over_cam_angle(drive):
+    """The chained rise-dwell-return profile over a full turn (repeat implied), run over 1.3
+    turns so that the second turn repeats the first; a varying cam speed checks the s' theta''
+    term."""
+    res = run(CAM.format(law=RDR, extra="", drive=drive, end=1.3, steps=156))
+    t = res.t
+    if drive == "360*t":
+        th, thd, thdd = 360 * t, 360 + 0 * t, 0 * t
+    else:
+        w = 2 * math.pi
+        th = 360 * t + 20 * np.sin(w * t)
+        thd = 360 + 20 * w * np.cos(w * t)
+        thdd = -20 * w * w * np.sin(w * t)
+    check_follower(res, rise_dwell_return, th, thd, thdd)
+
+
+def test_table_law_reproduces_the_polynomial_it_was_sampled_from(tmp_path):
+    """A lift table of 13 rows sampled from a quintic polynomial over [0, 120] deg (the quintic
+    spline reproduces polynomials of degree <= 5): the follower moves as the polynomial does."""
+    c = np.array([0.0, 1e-5, 3e-6, -4e-8, 2e-10, -3e-13])      # s = sum c_k th^k, m
+
+    def poly(th):
+        k = np.arange(6)
+        s = sum(c[i] * th**i for i in k)
+        s1 = sum(i * c[i] * th ** max(i - 1, 0) for i in k[1:])
+        s2 = sum(i * (i - 1) * c[i] * th ** max(i - 2, 0) for i in k[2:])
+        return s, s1, s2
+
+    th = np.linspace(0.0, 120.0, 13)
+    rows = "\n".join(f"{float(a)!r}, {float(poly(a)[0])!r}" for a in th)
+    (tmp_path / "lift.csv").write_text(f"# lift over cam angle\ntheta [deg], s [m]\n{rows}\n")
+    text = CAM.format(law="{table: {file: lift.csv, angle: 'theta [deg]', value: 's [m]'}}",
+                      extra=", range: [0, 120]", drive="360*t", end=1 / 3, steps=60)
+    (tmp_path / "cam.yaml").write_text(text)
+    res = run(None, tmp_path / "cam.yaml")
+    t = res.t
+    check_follower(res, poly, 360 * t, 360 + 0 * t, 0 * t)
+
+
+def test_periodic_table_law_equals_the_segment_law(tmp_path):
+    """A full-turn table (0 to 360 deg, 1 deg apart, periodic implied) sampled from the
+    rise-dwell-return law: the follower follows the law to the spline's interpolation error."""
+    th = np.linspace(0.0, 360.0, 361)
+    rows = "\n".join(f"{float(a)!r},{float(s)!r}" for a, s in zip(th, rise_dwell_return(th)[0]))
+    (tmp_path / "lift.csv").write_text(rows + "\n")
+    (tmp_path / "cam.yaml").write_text(CAM.format(law="{table: lift.csv}", extra="",
+                                                  drive="360*t", end=1.2, steps=144))
+    res = run(None, tmp_path / "cam.yaml")
+    t = res.t
+    s, s1, s2 = rise_dwell_return(360 * t)
+    b = res.body("follower")
+    assert rel(b["y"], 0.05 + s, 0.02) < 1e-6
+    assert rel(b["vy"], 360 * s1) < 1e-3
+
+
+# -- errors ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("law, extra, csv, message", [
+    ("{motion: {segments: [{rise: 0.02, in: 100, law: cycloidal}, {dwell: 100}]}}", "", None,
+     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: without range the motion "
+     "must repeat a whole number of times per turn (360 deg); its segments cover 200 deg; give "
+     "range: [from, to] for the part of the turn it describes"),
+    ("{motion: {segments: [{rise: 0.02, in: 180, law: constant_velocity}, "
+     "{return: 0.02, in: 180, law: cycloidal}]}}", "", None,
+     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: the law's first derivative "
+     "jumps by 0.0001111 at theta = 0 deg (a kink in the profile: the follower's acceleration "
+     "would be infinite there); join the segments with laws that start and end at rest "
+     "(cycloidal, 3-4-5, ...)"),
+    ("{motion: {segments: [{rise: 0.02, law: cycloidal}, {dwell: -3}]}}", "", None,
+     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: motion: segment 1: "
+     "missing in (the cam angle of the rise, deg)"),
+    ("{table: lift.csv}", "", "0,0\n90,0.01\n180,0.02\n270,0.01\n",
+     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: without range the table "
+     "must cover one full turn (360 deg) and be periodic; it covers 0 to 270 deg; give range: "
+     "[from, to] for the part of the turn it describes"),
+    ("{table: lift.csv}", ", range: [0, 200]", "0,0\n30,0.01\n60,0.02\n90,0.01\n120,0\n",
+     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: the table covers 0 to 120 "
+     "deg, not all of range [0, 200]"),
+    ("{table: lift.csv}", "", "0,0\n90,0.01\n180,0.02\n90,0.01\n360,0\n",
+     "lift.csv:4: error: cam angles must increase strictly: 90 follows 180 (line 3) (the law of "
+     "joint 'lift' (cam cam-follower-ground))"),
+    ("{table: lift.csv}", "", "0,0\n90,0.01\n180,0.02\n270,0.01\n360,0.001\n",
+     "lift.csv:5: error: a periodic table must end with the value it starts with: 0.001 here, 0 "
+     "at line 1 (the law of joint 'lift' (cam cam-follower-ground))"),
+])
+def test_bad_data_laws_are_file_line_errors(tmp_path, law, extra, csv, message):
+    if csv is not None:
+        (tmp_path / "lift.csv").write_text(csv)
+    path = tmp_path / "cam.yaml"
+    path.write_text(CAM.format(law=law, extra=extra, drive="360*t", end=1, steps=10))
+    with pytest.raises(planarkin.InputError) as exc:
+        planarkin.load(path)
+    assert message in str(exc.value).replace(str(tmp_path) + "/", ""), str(exc.value)
