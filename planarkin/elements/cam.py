@@ -232,13 +232,19 @@ class CamRocker(Kind):
         Param("pk", "point", "the rocker's pivot on frame k, in its frame"),
         Param("pj", "point", "the rocker's pivot on j, in its frame", required=False,
               default=(0.0, 0.0)),
-        Param("sj", "point", "the follower's roller centre (or knife tip) on j, in its frame"),
+        Param("sj", "point", "the follower's roller centre (or knife tip, or a point of the "
+              "flat face) on j, in its frame"),
         Param("psi", "angle-law", "rocker angle from its drawn rest: an expression of the cam "
               "angle theta = phi_i - phi_k"),
-    ) + _COMMON
+    ) + _COMMON + (
+        Param("flat", "flag", "true: a flat-faced rocker, its face the line through sj along "
+              "face", required=False, default=False),
+        Param("face", "vector", "direction of the flat face on j, in its frame (default: along "
+              "sj - pj, a face through the pivot)", required=False, default=None),
+    )
     derived = _REST
-    summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge or "
-               "roller) by the law psi(theta); writes cam-<name>.csv (1 equation)")
+    summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge, roller "
+               "or flat face) by the law psi(theta); writes cam-<name>.csv (1 equation)")
     equations = "phi_j - phi_k - psi(phi_i - phi_k) - psi0 = 0 (psi0 as drawn)"
 
     def g(self, G, F):
@@ -326,6 +332,8 @@ def profile(kind: str, par: dict, theta) -> dict:
         sx, sy = _rot(c, sn, fx, fy)
         rho_s = d + s2
         pressure = np.zeros_like(theta)
+    elif kind == "cam-rocker" and par.get("flat", 0.0) > 0.5:
+        sx, sy, rho_s, pressure = _flat_rocker(par, theta, ang, p1, p2, D)
     else:
         nxc, nyc = _rot(c, sn, Nx, Ny)
         sx, sy = px - roller * nxc, py - roller * nyc
@@ -334,6 +342,41 @@ def profile(kind: str, par: dict, theta) -> dict:
         pressure = np.arctan2(np.abs(mx * Ny - my * Nx), dot)
     return {"value": value, "pitch_x": px, "pitch_y": py, "surface_x": sx, "surface_y": sy,
             "rho_pitch": rho, "rho_surface": rho_s, "pressure": pressure}
+
+
+def _flat_rocker(par, theta, ang, p1, p2, D):
+    """Surface point (cam frame), its radius of curvature and the pressure angle of a flat-faced
+    rocker. In frame k, about the cam centre, the face is the line m^T x = h with m = R e the
+    normal of the face's direction e = A(beta) f' (beta = the rocker's angle ang, f' the face
+    on j) and h = m^T D + f0 (f0 = (R f')^T (sj - pj), the face's offset from the pivot). Seen
+    from the cam the normal has the angle g = beta + beta0 + pi/2 - theta, so g' = psi' - 1,
+    g'' = psi''. The working surface is the envelope of these lines: y = h n + (dh/dg) R n,
+    radius of curvature sigma (h + d2h/dg2), sigma = sign(h) (the cam centre on the face's inner
+    side: a convex cam has h > 0 along its normal). Pressure angle: between the contact normal and
+    the direction the rocker moves its contact point, R (Y - D) for the contact Y in frame k."""
+    a = np.asarray(par["sj"], float) - np.asarray(par["pj"], float)
+    f = np.asarray(par["face"], float)
+    f = a / np.hypot(*a) if not np.isfinite(f).all() else f / np.hypot(*f)
+    f0 = -f[1] * a[0] + f[0] * a[1]                       # (R f')^T (sj - pj)
+    beta = ang + math.atan2(f[1], f[0])
+    mx, my = -np.sin(beta), np.cos(beta)                  # R e, frame k
+    h = mx * D[0] + my * D[1] + f0
+    hb = -(np.cos(beta) * D[0] + np.sin(beta) * D[1])     # dh/dbeta
+    hbb = -(h - f0)                                       # d2h/dbeta2
+    h1 = p1 * hb                                          # dh/dtheta
+    h2 = p2 * hb + p1 * p1 * hbb
+    g1 = p1 - 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hg = h1 / g1
+        hgg = (h2 * g1 - h1 * p2) / g1**3
+    sigma = np.sign(h)
+    Yx, Yy = h * mx - hg * my, h * my + hg * mx           # contact point, frame k
+    c, sn = np.cos(-theta), np.sin(-theta)
+    sx, sy = _rot(c, sn, Yx, Yy)
+    rho_s = sigma * (h + hgg)
+    vx, vy = -(Yy - D[1]), Yx - D[0]                      # R (Y - D)
+    pressure = np.arctan2(np.abs(vx * my - vy * mx), np.abs(vx * mx + vy * my))
+    return sx, sy, rho_s, pressure
 
 
 def instance(G, k: int) -> dict:
@@ -375,7 +418,9 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
     P = profile(kind, par, th)
     flat = kind == "cam" and par["flat"] > 0.5
     roller = float(par.get("roller", 0.0))
-    if flat:
+    if kind == "cam-rocker" and par.get("flat", 0.0) > 0.5:
+        msgs += _check_flat_rocker(par, P, th, deg, unit)
+    elif flat:
         bad = ~(P["rho_surface"] > 0)
         if bad.any():
             k = int(np.argmin(np.where(np.isfinite(P["rho_surface"]), P["rho_surface"], -np.inf)))
@@ -401,6 +446,28 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
             msgs.append(f"the pressure angle reaches {deg(P['pressure'][k])} at theta = "
                         f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; use a larger base "
                         f"circle, spread the rise over a larger cam angle or raise pressure_limit")
+    return msgs
+
+
+def _check_flat_rocker(par, P, th, deg, unit) -> list[str]:
+    """A flat-faced rocker's undercut (the envelope's radius of curvature not positive: the face
+    cannot touch the cam there) and pressure angle."""
+    msgs = []
+    rho = P["rho_surface"]
+    bad = ~(rho > 0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[np.argmin(np.where(np.isfinite(rho[bad]), rho[bad], -np.inf))])
+        msgs.append(f"the profile undercuts at theta = {deg(th[k])}: the working surface's radius "
+                    f"of curvature {unit(rho[k])} is not positive (the flat face cannot touch "
+                    f"the cam there); use a gentler law (a smaller psi'' or a larger swing "
+                    f"angle), or move the pivot or the face further from the cam centre")
+    lim = par["pressure_limit"]
+    lim = DEFAULT_LIMIT["cam-rocker"] if not np.isfinite(lim) else float(lim)
+    k = int(np.argmax(P["pressure"]))
+    if P["pressure"][k] > lim:
+        msgs.append(f"the pressure angle reaches {deg(P['pressure'][k])} at theta = "
+                    f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; move the pivot, spread "
+                    f"the swing over a larger cam angle or raise pressure_limit")
     return msgs
 
 

@@ -8,8 +8,8 @@ product on a line, an angle on an arc). A pin in a circular slot then moves exac
 a link to the circle's centre (to rounding), where the best spline of a circle is off by its
 interpolation error in curvature (see the README, "Curves for curve-slot").
 
-`PathCurve` has the interface of `curve.Curve` that `curve.CurveSlot` uses: eval, project,
-scaled, closed, a0, a1; the parameter alpha is the arc length from the first segment's start.
+`PathCurve` has the interface of `curve.Curve` that `curve.CurveSlot` uses: eval, third,
+project, scaled, closed, a0, a1; the parameter alpha is the arc length from the first segment's start.
 Where a line meets an arc the curvature jumps (so does the pin's acceleration, as in the real
 slot); tangents must agree at every joint (checked when the curve is built from YAML).
 """
@@ -151,6 +151,10 @@ class PathCurve:
             for o, v in enumerate(self.segments[k].eval(a[sel] - self.starts[k], order)):
                 out[o][sel] = v
         return tuple(out)
+
+    def third(self, a):
+        """The third derivative c'(3) at parameters a (n,): (n, 2) (the jerk of a pin)."""
+        return self.eval(a, 3)[3]
 
     def project(self, p):
         """Closest points of p (n, 2), as curve.Curve.project: (alpha (n,), c, c', c'' (n, 2),
