@@ -175,3 +175,49 @@ def test_bad_data_laws_are_file_line_errors(tmp_path, law, extra, csv, message):
     with pytest.raises(planarkin.InputError) as exc:
         planarkin.load(path)
     assert message in str(exc.value).replace(str(tmp_path) + "/", ""), str(exc.value)
+
+
+def test_data_laws_third_derivative_against_differences(tmp_path):
+    """The FunctionLaw's s''' (for the jerk) against central differences of its s'', for the
+    segment law (cycloidal and 3-4-5 pieces) and a table law (the spline's pieces)."""
+    th = np.linspace(0.0, 360.0, 181)
+    rows = "\n".join(f"{float(a)!r},{float(s)!r}" for a, s in zip(th, rise_dwell_return(th)[0]))
+    (tmp_path / "lift.csv").write_text(rows + "\n")
+    for law, extra in ((RDR, ""), ("{table: lift.csv}", "")):
+        (tmp_path / "cam.yaml").write_text(CAM.format(law=law, extra=extra, drive="360*t",
+                                                      end=1, steps=10))
+        cm = planarkin.load(tmp_path / "cam.yaml")
+        G = next(g for g in cm.groups if g.kind.name == "cam")
+        f = G.params["s"][0]
+        x = np.radians(np.array([10.0, 50.0, 100.0, 200.0, 250.0, 290.0]))
+        h = 1e-6
+        fd = (f(x + h, (2,))[2] - f(x - h, (2,))[2]) / (2 * h)
+        s3 = f(x, (3,))[3]
+        assert np.allclose(s3, fd, rtol=1e-6, atol=1e-9 * np.abs(s3).max())
+        assert np.abs(s3).max() > 0
+
+
+def test_data_law_cam_jerk_against_a_third_difference_in_time():
+    """jerk_g of a cam whose law is data (segments), against the third difference of g along
+    q + s q' + s^2/2 q'' + s^3/6 q''' at random states. The cam's jerk comes with the jerk work
+    on the kinds (another branch): until that is merged this test skips."""
+    from planarkin.elements.base import Frame, make_frame
+    cm = planarkin.load("cam.yaml", text=CAM.format(law=RDR, extra="", drive="360*t", end=1,
+                                                    steps=10))
+    G = next(g for g in cm.groups if g.kind.name == "cam")
+    rng = np.random.default_rng(5)
+    n = 3 * cm.nb
+    for _ in range(10):
+        q, qd, qdd, qddd = (np.r_[rng.normal(size=n), 0, 0, 0][None, :] for _ in range(4))
+        phi = q[:, 2::3]
+        try:
+            jerk = G.kind.jerk(G, Frame(q, np.cos(phi), np.sin(phi), qd, qdd))
+        except (NotImplementedError, AttributeError):
+            pytest.skip("cam has no jerk in this branch yet")
+        path = lambda s: q + s * qd + s * s / 2 * qdd + s**3 / 6 * qddd   # noqa: E731
+        g = lambda s: G.g(make_frame(path(s)))                           # noqa: E731
+        h = 2e-3
+        d3 = (g(2 * h) - 2 * g(h) + 2 * g(-h) - g(-2 * h)) / (2 * h**3)
+        J = G.grad(make_frame(q))
+        lin = np.einsum("nkec,nkc->nke", J, qddd[:, G.cols])
+        np.testing.assert_allclose(lin - d3, jerk, rtol=1e-4, atol=1e-4 * np.abs(d3).max())
