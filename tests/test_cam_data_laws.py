@@ -51,11 +51,11 @@ RDR = ("{motion: {segments: [{rise: 0.02, in: 120, law: cycloidal}, {dwell: 60},
        "{return: 0.02, in: 120, law: 3-4-5}, {dwell: 60}]}}")
 
 
-def rise_dwell_return(th):
+def rise_dwell_return(th, h=0.02):
     """s, ds/dtheta, d2s/dtheta2 (m, m/deg, m/deg^2) of RDR at cam angles th (deg), by hand:
     cycloidal rise s = h (u - sin(2 pi u)/(2 pi)), u = th/120; dwell h; 3-4-5 return
     s = h (1 - (10 v^3 - 15 v^4 + 6 v^5)), v = (th - 180)/120; dwell 0. Every turn the same."""
-    h, b = 0.02, 120.0
+    b = 120.0
     th = np.mod(th, 360.0)
     s, s1, s2 = (np.zeros_like(th) for _ in range(3))
     r = th < 120
@@ -73,10 +73,10 @@ def rise_dwell_return(th):
     return s, s1, s2
 
 
-def check_follower(res, law, th, thd, thdd):
+def check_follower(res, law, th, thd, thdd, rest=0.05):
     s, s1, s2 = law(th)
-    b = res.body("follower")
-    assert rel(b["y"], 0.05 + s) < TOL
+    b = res.body("follower" if rest == 0.05 else "stem")
+    assert rel(b["y"], rest + s) < TOL
     assert rel(b["vy"], s1 * thd) < TOL
     assert rel(b["ay"], s2 * thd**2 + s1 * thdd) < TOL
 
@@ -221,3 +221,15 @@ def test_data_law_cam_jerk_against_a_third_difference_in_time():
         J = G.grad(make_frame(q))
         lin = np.einsum("nkec,nkc->nke", J, qddd[:, G.cols])
         np.testing.assert_allclose(lin - d3, jerk, rtol=1e-4, atol=1e-4 * np.abs(d3).max())
+
+
+def test_valve_cam_example_follows_its_segments():
+    """mechanisms/valve-cam.yaml (mm): the stem at rb + rr + s(theta), theta = 360 t, with the
+    closed form of its rise (8 mm cycloidal), dwell, 3-4-5 return and dwell."""
+    from pathlib import Path
+    res = run(None, Path(__file__).resolve().parent.parent / "mechanisms" / "valve-cam.yaml")
+    th = 360 * res.t
+    check_follower(res, lambda x: rise_dwell_return(x, 8.0), th, 360 + 0 * th, 0 * th,
+                   rest=36.0)
+    b = res.body("stem")
+    assert abs(b["y"].max() - 44.0) < 1e-12 and abs(b["y"].min() - 36.0) < 1e-12
