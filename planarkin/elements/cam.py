@@ -221,7 +221,8 @@ class Cam(Kind):
         else:
             rp, e = float(arrays["base"] + arrays["roller"]), float(arrays["offset"])
             s0 = math.sqrt(max(rp * rp - e * e, 0.0))
-        return {"rest": np.float64(s0)}, [s0]
+        # theta0 (the drawn cam angle) is not a Group parameter: only `diagnose` reads it
+        return {"rest": np.float64(s0), "theta0": poses[0][2] - poses[2][2]}, [s0]
 
 
 class CamRocker(Kind):
@@ -271,7 +272,7 @@ class CamRocker(Kind):
     def prepare(self, arrays, poses):
         th0 = poses[0][2] - poses[2][2]
         psi0 = (poses[1][2] - poses[2][2]) - float(arrays["psi"](np.array([th0]))[0][0])
-        return {"rest": np.float64(psi0)}, [psi0]
+        return {"rest": np.float64(psi0), "theta0": th0}, [psi0]
 
 
 # -- the profile, by kinematic inversion ---------------------------------------------------------
@@ -394,6 +395,12 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
         return [f"the follower axis' offset {abs(par['offset']) * L:.4g} {lu} must be smaller "
                 f"than base + roller = {(par['base'] + par['roller']) * L:.4g} {lu} (the follower "
                 f"would miss the cam)"]
+    law = par["s" if kind == "cam" else "psi"]
+    dom = getattr(getattr(law, "fn", None), "domain", None)
+    if dom is not None and "theta0" in par and not dom[0] <= law.a * par["theta0"] <= dom[1]:
+        return [f"the cam is drawn at theta = {law.a * par['theta0']:.6g} {au}, outside the "
+                f"angles of its law's table ({dom[0]:g} to {dom[1]:g} {au}); draw the cam (its "
+                f"q angle) within them"]
     lo, hi = par["range"]
     full = not np.isfinite(lo)
     if full:
