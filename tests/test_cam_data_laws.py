@@ -161,7 +161,7 @@ def test_periodic_table_law_equals_the_segment_law(tmp_path):
      "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): s: the table covers 0 to 120 "
      "deg, not all of range [0, 200]"),
     ("{table: lift.csv}", ", range: [30, 120]", "30,0\n60,0.01\n90,0.02\n120,0.01\n",
-     "cam.yaml:10: error: joint 'lift' (cam cam-follower-ground): the cam is drawn at theta = 0 "
+     "cam.yaml:9: error: joint 'lift' (cam cam-follower-ground): the cam is drawn at theta = 0 "
      "deg, outside the angles of its law's table (30 to 120 deg); draw the cam (its q angle) "
      "within them"),
     ("{table: lift.csv}", "", "0,0\n90,0.01\n180,0.02\n90,0.01\n360,0\n",
