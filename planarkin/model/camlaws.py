@@ -70,7 +70,7 @@ def _motion(V, node, what: str):
     cycles = turn / total
     periodic = repeat and abs(cycles - round(cycles)) <= TOL * cycles and round(cycles) >= 1
     law = FunctionLaw(fn, fn.text, total, periodic)
-    law.line = node.line
+    law.line, law.repeat = node.line, repeat
     return law
 
 
@@ -167,8 +167,9 @@ def check_law(V, params: dict, v: dict, what: str) -> None:
             else:
                 V.err(line, f"{what}: {name}: without range the motion must repeat a whole number "
                             f"of times per turn ({turn:g} {unit}); its segments cover "
-                            f"{law.span:g} {unit}; give range: [from, to] for the part of the "
-                            f"turn it describes")
+                            f"{law.span:g} {unit}"
+                            + ("" if getattr(law, "repeat", True) else " and repeat is false")
+                            + "; give range: [from, to] for the part of the turn it describes")
             continue
         lo, hi = (0.0, turn) if rng is None else rng
         if table and not law.periodic and not (law.angles[0] <= lo and hi <= law.angles[1]):
