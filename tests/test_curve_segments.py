@@ -159,6 +159,16 @@ def test_stadium_track_lines_and_arcs():
     assert rel(b["ay"], ydd, np.max(np.abs(xdd))) < TOL
 
 
+def test_an_arc_too_small_for_the_model_is_refused():
+    """An arc of radius 1e-300 in a model of size 0.5 m would overflow its curvature terms."""
+    with pytest.raises(planarkin.InputError) as exc:
+        planarkin.load("tiny.yaml", text=CIRCLE_SLOT.format(curve="{circle: {centre: [0, 0], "
+                                                                 "radius: 1e-300}}"))
+    assert str(exc.value) == ("tiny.yaml:7: error: joint 2 (curve-slot ground-block): curve: "
+                              "circle: the arc's radius 1e-300 m is too small for a model of size "
+                              "0.5 m (at least 1e-9 of it)")
+
+
 # -- curve tables from files ---------------------------------------------------------------------
 
 def test_curve_table_from_a_file_equals_the_inline_table(tmp_path):

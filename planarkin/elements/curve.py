@@ -143,6 +143,10 @@ class CurveSlot(Kind):
                "arcs, or a table of points interpolated by a quintic spline (1 equation)")
     equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"
 
+    def diagnose(self, arrays, L, af, lu, au):
+        cv = arrays["curve"]
+        return cv.problems(L, lu) if hasattr(cv, "problems") else []
+
     def g(self, G, F):
         return _geometry(G, F)[0][..., None]
 

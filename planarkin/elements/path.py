@@ -134,6 +134,17 @@ class PathCurve:
         internal: factor = 1/L, angle = radians per user angle unit)."""
         return PathCurve([s.scaled(factor, angle) for s in self.segments], self.closed)
 
+    def problems(self, L: float, unit: str) -> list[str]:
+        """Arcs too small for the model's scale L (this curve in internal units): their
+        curvature derivatives 1/r^m would overflow or swamp everything else."""
+        out = []
+        for k, seg in enumerate(self.segments, start=1):
+            if isinstance(seg, Arc) and not seg.r > 1e-9:
+                what = "circle" if len(self.segments) == 1 and self.closed else f"segment {k}"
+                out.append(f"curve: {what}: the arc's radius {seg.r * L:.3g} {unit} is too "
+                           f"small for a model of size {L:.3g} {unit} (at least 1e-9 of it)")
+        return out
+
     def _locate(self, a):
         a = np.asarray(a, dtype=float)
         if self.closed:
