@@ -237,3 +237,51 @@ def test_valve_cam_example_follows_its_segments():
                    rest=36.0)
     b = res.body("stem")
     assert abs(b["y"].max() - 44.0) < 1e-12 and abs(b["y"].min() - 36.0) < 1e-12
+
+
+def test_cam_kinds_with_data_laws_pass_reference_10(tmp_path):
+    """Reference §10 (Phi_q against central differences, gamma three ways) for cam and
+    cam-rocker whose laws are data: the compiled segment law of RDR and a periodic table law,
+    at random states (the theta of a random state lands anywhere on the turn)."""
+    from planarkin.elements import KINDS
+    from planarkin.elements.base import Group, make_frame
+    import test_elements as TE
+    th = np.linspace(0.0, 360.0, 73)
+    rows = "\n".join(f"{float(a)!r},{float(s)!r}" for a, s in zip(th, rise_dwell_return(th)[0]))
+    (tmp_path / "lift.csv").write_text(rows + "\n")
+    laws = []
+    for law in (RDR, "{table: lift.csv}"):
+        (tmp_path / "cam.yaml").write_text(CAM.format(law=law, extra="", drive="360*t", end=1,
+                                                      steps=10))
+        cm = planarkin.load(tmp_path / "cam.yaml")
+        laws.append(next(g for g in cm.groups if g.kind.name == "cam").params["s"][0])
+    rng = np.random.default_rng(7)
+    for name, pname in (("cam", "s"), ("cam-rocker", "psi")):
+        kind = KINDS[name]
+        for _ in range(4):
+            G = TE.random_instances(kind, rng)
+            arr = np.empty(TE.K, dtype=object)
+            for k in range(TE.K):
+                arr[k] = laws[k % 2]
+            G = Group(G.kind, G.bodies, G.cols, {**G.params, pname: arr}, G.rows)
+            q, qd, qdd = TE.state(rng)
+            J = G.grad(make_frame(q))
+            for c in range(3 * TE.NB):
+                dq = np.zeros_like(q)
+                dq[0, c] = 1e-6
+                fd = (TE.g_at(G, q + dq) - TE.g_at(G, q - dq)) / 2e-6
+                an = np.zeros_like(fd)
+                for loc in range(G.cols.shape[1]):
+                    hit = G.cols[:, loc] == c
+                    an[:, hit, :] += J[..., loc][:, hit, :]
+                np.testing.assert_allclose(an, fd, rtol=1e-7, atol=1e-7)
+            gam = G.gamma(make_frame(q, qd))
+            e = 1e-5
+            b1 = -(TE.directional(G, q + e * qd, qd) - TE.directional(G, q - e * qd, qd)) / (2 * e)
+            np.testing.assert_allclose(gam, b1, rtol=1e-6, atol=1e-6)
+            e2 = 1e-4
+            d2 = (TE.g_at(G, q + e2 * qd) - 2 * TE.g_at(G, q) + TE.g_at(G, q - e2 * qd)) / e2**2
+            np.testing.assert_allclose(gam, -d2, rtol=2e-5, atol=2e-5)
+            path = lambda s: q + s * qd + 0.5 * s * s * qdd        # noqa: E731
+            d2p = (TE.g_at(G, path(e2)) - 2 * TE.g_at(G, path(0.0)) + TE.g_at(G, path(-e2))) / e2**2
+            np.testing.assert_allclose(TE.directional(G, q, qdd) - gam, d2p, rtol=2e-5, atol=2e-5)
