@@ -157,7 +157,7 @@ class Cam(Kind):
         Param("sj", "point", "the follower's point on j: roller centre, knife tip or the flat "
               "face's point on its axis"),
         Param("s", "law", "follower displacement above the base circle: an expression of the cam "
-              "angle theta = phi_i - phi_k"),
+              "angle theta = phi_i - phi_k, or {motion: {segments: [...]}} or {table: FILE}"),
         Param("base", "length", "base circle radius (the working surface's smallest radius)"),
         Param("offset", "length", "offset of the follower axis from the cam centre along R vk",
               required=False, default=0.0),
@@ -236,7 +236,7 @@ class CamRocker(Kind):
         Param("sj", "point", "the follower's roller centre (or knife tip, or a point of the "
               "flat face) on j, in its frame"),
         Param("psi", "angle-law", "rocker angle from its drawn rest: an expression of the cam "
-              "angle theta = phi_i - phi_k"),
+              "angle theta = phi_i - phi_k, or {motion: {segments: [...]}} or {table: FILE}"),
     ) + _COMMON + (
         Param("flat", "flag", "true: a flat-faced rocker, its face the line through sj along "
               "face", required=False, default=False),
