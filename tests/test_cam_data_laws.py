@@ -285,3 +285,19 @@ def test_cam_kinds_with_data_laws_pass_reference_10(tmp_path):
             path = lambda s: q + s * qd + 0.5 * s * s * qdd        # noqa: E731
             d2p = (TE.g_at(G, path(e2)) - 2 * TE.g_at(G, path(0.0)) + TE.g_at(G, path(-e2))) / e2**2
             np.testing.assert_allclose(TE.directional(G, q, qdd) - gam, d2p, rtol=2e-5, atol=2e-5)
+
+
+def test_cam_turned_past_its_table_stops_the_run(tmp_path):
+    """A table law over [0, 120] deg with range: the cam turning past 120 deg (at t = 1/3 s) is
+    an analysis failure with the rows up to there kept, never an extrapolated lift."""
+    th = np.linspace(0.0, 120.0, 13)
+    (tmp_path / "lift.csv").write_text("\n".join(f"{float(a)!r},{0.02 * float(a / 120) ** 2!r}"
+                                                 for a in th))
+    (tmp_path / "cam.yaml").write_text(CAM.format(law="{table: lift.csv}", extra=", range: [0, 120]",
+                                                  drive="360*t", end=0.5, steps=30))
+    res = planarkin.solve(planarkin.load(tmp_path / "cam.yaml"))
+    assert res.status == 1
+    assert 0.3 <= res.t[-1] <= 1 / 3 + 1e-12
+    assert res.message.startswith("joint 'lift' (cam cam-follower-ground) is not defined just "
+                                  "after t = 0.3")
+    assert np.isfinite(res.q).all()
