@@ -20,7 +20,7 @@ import numpy as np
 from .expr import Expr, TimeFunction, _bin, _Num, _pw, _sugar
 from .piecewise import Piece, Piecewise
 
-__all__ = ["TableError", "read_table", "spline", "table_function"]
+__all__ = ["TableError", "read_columns", "read_table", "spline", "table_function"]
 
 MAX_ROWS = 1_000_000
 MAX_BYTES = 64 * 2**20
@@ -51,6 +51,15 @@ def read_table(path: Path, time=None, value=None):
     """(t, y, t_lines) from a CSV file: comma separated (or whitespace when a line has no comma),
     an optional header line naming the columns, '#' comments and blank lines skipped. time and
     value: a header name or a 1-based column number (default: columns 1 and 2)."""
+    (t, y), lines = read_columns(path, [(time, 0, "time"), (value, 1, "value")])
+    return t, y, lines
+
+
+def read_columns(path: Path, columns, increasing: bool = True, min_rows: int = 4):
+    """The columns of a CSV table, read as `read_table` reads a motion table: ([arrays (n,)],
+    data line numbers). columns: (wanted: a header name, a 1-based number or None, default
+    0-based index, what: its name in messages) per column; increasing: the first column must
+    increase strictly (times, cam angles); min_rows: the fewest data rows accepted."""
     try:
         size = path.stat().st_size
         if size > MAX_BYTES:
@@ -63,55 +72,56 @@ def read_table(path: Path, time=None, value=None):
     except OSError as exc:
         raise TableError([(None, f"cannot read the table: {exc.strerror or exc}")]) from None
     rows, header, problems = [], None, []
-    ti = vi = None
+    idx = None
+    first = columns[0][2]
     for n, raw in enumerate(text.splitlines(), start=1):
         s = raw.strip()
         if not s or s.startswith("#"):
             continue
         fields = [x.strip() for x in (s.split(",") if "," in s else s.split())]
-        if header is None and not rows and ti is None:
+        if header is None and not rows and idx is None:
             try:
                 [float(x) for x in fields]
             except ValueError:
                 header = fields
-                ti = _column(header, time, 0, "time", n)
-                vi = _column(header, value, 1, "value", n)
+                idx = [_column(header, want, d, what, n) for want, d, what in columns]
                 continue
-        if ti is None:
-            ti = _column(None, time, 0, "time", n)
-            vi = _column(None, value, 1, "value", n)
-        if max(ti, vi) >= len(fields):
-            problems.append((n, f"expected at least {max(ti, vi) + 1} columns, found "
+        if idx is None:
+            idx = [_column(None, want, d, what, n) for want, d, what in columns]
+        if max(idx) >= len(fields):
+            problems.append((n, f"expected at least {max(idx) + 1} columns, found "
                                 f"{len(fields)}"))
             continue
         try:
-            tv, yv = float(fields[ti]), float(fields[vi])
+            vals = [float(fields[i]) for i in idx]
         except ValueError:
-            bad = next(x for x in (fields[ti], fields[vi]) if not _is_number(x))
+            bad = next(fields[i] for i in idx if not _is_number(fields[i]))
             problems.append((n, f"'{bad[:40]}' is not a number"))
             continue
-        if not (math.isfinite(tv) and math.isfinite(yv)):
+        if not all(math.isfinite(v) for v in vals):
             problems.append((n, "values must be finite numbers"))
             continue
-        if max(abs(tv), abs(yv)) > MAX_MAGNITUDE:
-            problems.append((n, f"{max(abs(tv), abs(yv)):.3g} is too large (numbers up to "
+        big = max(abs(v) for v in vals)
+        if big > MAX_MAGNITUDE:
+            problems.append((n, f"{big:.3g} is too large (numbers up to "
                                 f"{MAX_MAGNITUDE:g} in magnitude are accepted)"))
             continue
-        if rows and not tv > rows[-1][0]:
-            problems.append((n, f"times must increase strictly: {tv:g} follows {rows[-1][0]:g} "
-                                f"(line {rows[-1][2]})"))
+        if increasing and rows and not vals[0] > rows[-1][0][0]:
+            problems.append((n, f"{first}s must increase strictly: {vals[0]:g} follows "
+                                f"{rows[-1][0][0]:g} (line {rows[-1][1]})"))
             continue
-        rows.append((tv, yv, n))
+        rows.append((vals, n))
         if len(rows) > MAX_ROWS:
             raise TableError([(n, f"the table has more than {MAX_ROWS} rows")])
         if len(problems) > 20:
             break
     if problems:
         raise TableError(problems)
-    if len(rows) < 4:
-        raise TableError([(None, f"the table needs at least 4 rows of numbers, found {len(rows)}")])
-    arr = np.array([(a, b) for a, b, _ in rows])
-    return arr[:, 0], arr[:, 1], [r[2] for r in rows]
+    if len(rows) < min_rows:
+        raise TableError([(None, f"the table needs at least {min_rows} rows of numbers, found "
+                                 f"{len(rows)}")])
+    arr = np.array([r[0] for r in rows])
+    return [arr[:, k] for k in range(len(columns))], [r[1] for r in rows]
 
 
 def _is_number(x: str) -> bool:

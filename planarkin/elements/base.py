@@ -47,6 +47,7 @@ class Frame:
     c: np.ndarray
     s: np.ndarray
     qd: np.ndarray | None = None
+    qdd: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

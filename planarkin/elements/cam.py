@@ -73,6 +73,54 @@ class Law:
         return f"Law({self.text!r})"
 
 
+class FunctionLaw(Law):
+    """A law given as data: a ``motion:`` profile of segments over cam angle or a table of
+    (cam angle, value), held as the planarkin.expr TimeFunction of the driver forms with theta
+    (user angle units) in the place of t. Derivatives are the exact ones of that function (the
+    laws' closed forms, the spline's polynomials), up to the third. Outside `domain` (a table
+    that does not wrap: its angle range, user units) the law is NaN, so that a cam turned past
+    its table stops the run instead of extrapolating.
+
+    fn: the TimeFunction; text: what messages show; span: the cam angle the data covers (user
+    units); periodic: whether the law repeats every turn; a, b as for Law."""
+
+    def __init__(self, fn, text: str, span: float, periodic: bool, a: float = 1.0,
+                 b: float = 1.0):
+        self.fn, self.text, self.span, self.periodic = fn, text, float(span), bool(periodic)
+        self.values = {}
+        self.a, self.b = a, b
+
+    def scaled(self, out_per_user: float, angle_factor: float) -> "FunctionLaw":
+        return FunctionLaw(self.fn, self.text, self.span, self.periodic, 1.0 / angle_factor,
+                           out_per_user)
+
+    def __call__(self, theta, orders=(0, 1, 2)):
+        """As Law.__call__, with order 3 (the third derivative) available too; the tuple has
+        max(3, largest order + 1) entries."""
+        theta = np.asarray(theta, dtype=float)
+        x = self.a * theta
+        out = [None] * max(3, max(orders) + 1)
+        if any(o < 3 for o in orders):
+            d = self.fn.derivatives(x)
+            for o in orders:
+                if o < 3:
+                    out[o] = (self.b * self.a ** o) * np.broadcast_to(np.asarray(d[o], float),
+                                                                    theta.shape)
+        if 3 in orders:
+            out[3] = (self.b * self.a ** 3) * np.broadcast_to(np.asarray(self.fn.third(x), float),
+                                                            theta.shape)
+        dom = getattr(self.fn, "domain", None)
+        if dom is not None:
+            outside = (x < dom[0]) | (x > dom[1])
+            if outside.any():
+                for o in orders:
+                    out[o] = np.where(outside, np.nan, out[o])
+        return tuple(out)
+
+    def __repr__(self) -> str:
+        return f"FunctionLaw({self.text!r})"
+
+
 def _laws(G, name, theta, order):
     """d^order s / dtheta^order (N, K) of every instance's law at its own theta (N, K)."""
     out = np.empty(theta.shape)
@@ -109,7 +157,7 @@ class Cam(Kind):
         Param("sj", "point", "the follower's point on j: roller centre, knife tip or the flat "
               "face's point on its axis"),
         Param("s", "law", "follower displacement above the base circle: an expression of the cam "
-              "angle theta = phi_i - phi_k"),
+              "angle theta = phi_i - phi_k, or {motion: {segments: [...]}} or {table: FILE}"),
         Param("base", "length", "base circle radius (the working surface's smallest radius)"),
         Param("offset", "length", "offset of the follower axis from the cam centre along R vk",
               required=False, default=0.0),
@@ -173,7 +221,8 @@ class Cam(Kind):
         else:
             rp, e = float(arrays["base"] + arrays["roller"]), float(arrays["offset"])
             s0 = math.sqrt(max(rp * rp - e * e, 0.0))
-        return {"rest": np.float64(s0)}, [s0]
+        # theta0 (the drawn cam angle) is not a Group parameter: only `diagnose` reads it
+        return {"rest": np.float64(s0), "theta0": poses[0][2] - poses[2][2]}, [s0]
 
 
 class CamRocker(Kind):
@@ -184,13 +233,19 @@ class CamRocker(Kind):
         Param("pk", "point", "the rocker's pivot on frame k, in its frame"),
         Param("pj", "point", "the rocker's pivot on j, in its frame", required=False,
               default=(0.0, 0.0)),
-        Param("sj", "point", "the follower's roller centre (or knife tip) on j, in its frame"),
+        Param("sj", "point", "the follower's roller centre (or knife tip, or a point of the "
+              "flat face) on j, in its frame"),
         Param("psi", "angle-law", "rocker angle from its drawn rest: an expression of the cam "
-              "angle theta = phi_i - phi_k"),
-    ) + _COMMON
+              "angle theta = phi_i - phi_k, or {motion: {segments: [...]}} or {table: FILE}"),
+    ) + _COMMON + (
+        Param("flat", "flag", "true: a flat-faced rocker, its face the line through sj along "
+              "face", required=False, default=False),
+        Param("face", "vector", "direction of the flat face on j, in its frame (default: along "
+              "sj - pj, a face through the pivot)", required=False, default=None),
+    )
     derived = _REST
-    summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge or "
-               "roller) by the law psi(theta); writes cam-<name>.csv (1 equation)")
+    summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge, roller "
+               "or flat face) by the law psi(theta); writes cam-<name>.csv (1 equation)")
     equations = "phi_j - phi_k - psi(phi_i - phi_k) - psi0 = 0 (psi0 as drawn)"
 
     def g(self, G, F):
@@ -217,7 +272,7 @@ class CamRocker(Kind):
     def prepare(self, arrays, poses):
         th0 = poses[0][2] - poses[2][2]
         psi0 = (poses[1][2] - poses[2][2]) - float(arrays["psi"](np.array([th0]))[0][0])
-        return {"rest": np.float64(psi0)}, [psi0]
+        return {"rest": np.float64(psi0), "theta0": th0}, [psi0]
 
 
 # -- the profile, by kinematic inversion ---------------------------------------------------------
@@ -278,6 +333,8 @@ def profile(kind: str, par: dict, theta) -> dict:
         sx, sy = _rot(c, sn, fx, fy)
         rho_s = d + s2
         pressure = np.zeros_like(theta)
+    elif kind == "cam-rocker" and par.get("flat", 0.0) > 0.5:
+        sx, sy, rho_s, pressure = _flat_rocker(par, theta, ang, p1, p2, D)
     else:
         nxc, nyc = _rot(c, sn, Nx, Ny)
         sx, sy = px - roller * nxc, py - roller * nyc
@@ -286,6 +343,41 @@ def profile(kind: str, par: dict, theta) -> dict:
         pressure = np.arctan2(np.abs(mx * Ny - my * Nx), dot)
     return {"value": value, "pitch_x": px, "pitch_y": py, "surface_x": sx, "surface_y": sy,
             "rho_pitch": rho, "rho_surface": rho_s, "pressure": pressure}
+
+
+def _flat_rocker(par, theta, ang, p1, p2, D):
+    """Surface point (cam frame), its radius of curvature and the pressure angle of a flat-faced
+    rocker. In frame k, about the cam centre, the face is the line m^T x = h with m = R e the
+    normal of the face's direction e = A(beta) f' (beta = the rocker's angle ang, f' the face
+    on j) and h = m^T D + f0 (f0 = (R f')^T (sj - pj), the face's offset from the pivot). Seen
+    from the cam the normal has the angle g = beta + beta0 + pi/2 - theta, so g' = psi' - 1,
+    g'' = psi''. The working surface is the envelope of these lines: y = h n + (dh/dg) R n,
+    radius of curvature sigma (h + d2h/dg2), sigma = sign(h) (the cam centre on the face's inner
+    side: a convex cam has h > 0 along its normal). Pressure angle: between the contact normal and
+    the direction the rocker moves its contact point, R (Y - D) for the contact Y in frame k."""
+    a = np.asarray(par["sj"], float) - np.asarray(par["pj"], float)
+    f = np.asarray(par["face"], float)
+    f = a / np.hypot(*a) if not np.isfinite(f).all() else f / np.hypot(*f)
+    f0 = -f[1] * a[0] + f[0] * a[1]                       # (R f')^T (sj - pj)
+    beta = ang + math.atan2(f[1], f[0])
+    mx, my = -np.sin(beta), np.cos(beta)                  # R e, frame k
+    h = mx * D[0] + my * D[1] + f0
+    hb = -(np.cos(beta) * D[0] + np.sin(beta) * D[1])     # dh/dbeta
+    hbb = -(h - f0)                                       # d2h/dbeta2
+    h1 = p1 * hb                                          # dh/dtheta
+    h2 = p2 * hb + p1 * p1 * hbb
+    g1 = p1 - 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hg = h1 / g1
+        hgg = (h2 * g1 - h1 * p2) / g1**3
+    sigma = np.sign(h)
+    Yx, Yy = h * mx - hg * my, h * my + hg * mx           # contact point, frame k
+    c, sn = np.cos(-theta), np.sin(-theta)
+    sx, sy = _rot(c, sn, Yx, Yy)
+    rho_s = sigma * (h + hgg)
+    vx, vy = -(Yy - D[1]), Yx - D[0]                      # R (Y - D)
+    pressure = np.arctan2(np.abs(vx * my - vy * mx), np.abs(vx * mx + vy * my))
+    return sx, sy, rho_s, pressure
 
 
 def instance(G, k: int) -> dict:
@@ -303,6 +395,12 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
         return [f"the follower axis' offset {abs(par['offset']) * L:.4g} {lu} must be smaller "
                 f"than base + roller = {(par['base'] + par['roller']) * L:.4g} {lu} (the follower "
                 f"would miss the cam)"]
+    law = par["s" if kind == "cam" else "psi"]
+    dom = getattr(getattr(law, "fn", None), "domain", None)
+    if dom is not None and "theta0" in par and not dom[0] <= law.a * par["theta0"] <= dom[1]:
+        return [f"the cam is drawn at theta = {law.a * par['theta0']:.6g} {au}, outside the "
+                f"angles of its law's table ({dom[0]:g} to {dom[1]:g} {au}); draw the cam (its "
+                f"q angle) within them"]
     lo, hi = par["range"]
     full = not np.isfinite(lo)
     if full:
@@ -327,7 +425,9 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
     P = profile(kind, par, th)
     flat = kind == "cam" and par["flat"] > 0.5
     roller = float(par.get("roller", 0.0))
-    if flat:
+    if kind == "cam-rocker" and par.get("flat", 0.0) > 0.5:
+        msgs += _check_flat_rocker(par, P, th, deg, unit)
+    elif flat:
         bad = ~(P["rho_surface"] > 0)
         if bad.any():
             k = int(np.argmin(np.where(np.isfinite(P["rho_surface"]), P["rho_surface"], -np.inf)))
@@ -353,6 +453,28 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
             msgs.append(f"the pressure angle reaches {deg(P['pressure'][k])} at theta = "
                         f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; use a larger base "
                         f"circle, spread the rise over a larger cam angle or raise pressure_limit")
+    return msgs
+
+
+def _check_flat_rocker(par, P, th, deg, unit) -> list[str]:
+    """A flat-faced rocker's undercut (the envelope's radius of curvature not positive: the face
+    cannot touch the cam there) and pressure angle."""
+    msgs = []
+    rho = P["rho_surface"]
+    bad = ~(rho > 0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[np.argmin(np.where(np.isfinite(rho[bad]), rho[bad], -np.inf))])
+        msgs.append(f"the profile undercuts at theta = {deg(th[k])}: the working surface's radius "
+                    f"of curvature {unit(rho[k])} is not positive (the flat face cannot touch "
+                    f"the cam there); use a gentler law (a smaller psi'' or a larger swing "
+                    f"angle), or move the pivot or the face further from the cam centre")
+    lim = par["pressure_limit"]
+    lim = DEFAULT_LIMIT["cam-rocker"] if not np.isfinite(lim) else float(lim)
+    k = int(np.argmax(P["pressure"]))
+    if P["pressure"][k] > lim:
+        msgs.append(f"the pressure angle reaches {deg(P['pressure'][k])} at theta = "
+                    f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; move the pivot, spread "
+                    f"the swing over a larger cam angle or raise pressure_limit")
     return msgs
 
 

@@ -133,13 +133,19 @@ class CurveSlot(Kind):
     params = (
         Param("sj", "point", "the pin on body j in its frame"),
         Param("curve", "curve", "the curve in the frame of body i: a list of points [[x, y], ...] "
-              "(at least 6; a closed curve does not repeat its first point)"),
-        Param("closed", "flag", "true: a closed curve (a periodic spline)", required=False,
-              default=False),
+              "(at least 6; a closed curve does not repeat its first point), {table: FILE.csv} "
+              "(x, y columns), or exact: {circle: {centre, radius}} or {segments: [{line: {from, "
+              "to}}, {arc: {centre, radius, from, to}}, ...]} joined tangentially"),
+        Param("closed", "flag", "true: a closed table curve (a periodic spline); a circle or a "
+              "chain of segments is closed by its geometry", required=False, default=False),
     )
-    summary = ("pin sj of j follows a curve of body i given as a table of points (a curved slot, "
-               "a track), interpolated by a quintic spline (1 equation)")
+    summary = ("pin sj of j follows a curve of body i (a curved slot, a track): exact lines and "
+               "arcs, or a table of points interpolated by a quintic spline (1 equation)")
     equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"
+
+    def diagnose(self, arrays, L, af, lu, au):
+        cv = arrays["curve"]
+        return cv.problems(L, lu) if hasattr(cv, "problems") else []
 
     def g(self, G, F):
         return _geometry(G, F)[0][..., None]

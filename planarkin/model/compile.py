@@ -141,9 +141,11 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
                 v = params[p.name]
             elif p.unit == "curve":
                 from ..elements.curve import Curve
-                v = Curve(np.asarray(params[p.name], dtype=float) / L, bool(params.get("closed")))
+                raw = params[p.name]
+                v = raw.scaled(1.0 / L) if hasattr(raw, "segments") else \
+                    Curve(np.asarray(raw, dtype=float) / L, bool(params.get("closed")))
             elif params[p.name] is None:            # an optional key without a default value
-                v = np.full(2 if p.unit == "range" else (), np.nan)
+                v = np.full(2 if p.unit in ("range", "vector") else (), np.nan)
             else:
                 v = np.asarray(params[p.name], dtype=float)
             if p.unit in ("point", "length"):

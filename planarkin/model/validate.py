@@ -176,6 +176,7 @@ class _Validator:
         if "name" in root.value:
             name = self.text(root.value["name"], "name") or name
         length_unit, angle_unit = self.units(root.value.get("units"))
+        self.angle_unit = angle_unit
         self.parameters(root.value.get("parameters"))
         from .sketch import Sketch
         sk = self.sketch = Sketch(self, root.value)
@@ -450,6 +451,7 @@ class _Validator:
             if "sj" in pnames:
                 allowed.append("s")
         self.keys(node, allowed, what)
+        self.cam_keys = v                 # a cam's data law reads whether range is given
         params: dict[str, Any] = {}
         lines: dict[str, int] = {}
         at = axis = None
@@ -529,6 +531,14 @@ class _Validator:
                     self.err(v[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
                                      f"pulley's pitch radius; for a crossed belt write crossed: "
                                      f"true)")
+        if kind.name in ("cam", "cam-rocker"):
+            from .camlaws import check_law
+            check_law(self, params, v, what)
+        if kind.name == "curve-slot" and hasattr(params.get("curve"), "segments") and \
+                params.get("closed") and not params["curve"].closed:
+            self.err(v["closed"], f"{what}: closed: true, but the curve's last segment does not "
+                                  f"end where its first starts (a circle or a chain of segments "
+                                  f"is closed by its geometry; drop closed)")
         if kind.name in ("gear-mesh", "roll-disc") and params.get("ri") is not None \
                 and params.get("rj") is not None and params["ri"] + params["rj"] == 0:
             self.err(v["rj"], f"{what}: ri + rj must not be zero (the centre distance |ri + rj| "
@@ -537,9 +547,12 @@ class _Validator:
     def param(self, node: Node, p, what: str):
         if p.unit in ("law", "angle-law"):
             from ..elements.cam import Law
+            if node.kind == "map":
+                from .camlaws import cam_law_form
+                return cam_law_form(self, node, p, what)
             if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
-                self.err(node, f"{what}: {p.name} must be an expression of the cam angle theta, "
-                               f"not {_type_name(node)}")
+                self.err(node, f"{what}: {p.name} must be an expression of the cam angle theta "
+                               f"(or {{motion: ...}} or {{table: FILE}}), not {_type_name(node)}")
                 return None
             try:
                 return Law(node.value if isinstance(node.value, str) else float(node.value),
@@ -576,8 +589,13 @@ class _Validator:
     def curve_points(self, node: Node, what: str):
         """A table of at least 6 distinct successive points [[x, y], ...] (a closed curve may
         repeat its first point at the end: it is dropped)."""
+        if node.kind == "map":
+            from .curves import curve_form
+            return curve_form(self, node, what)
         if node.kind != "seq":
-            self.err(node, f"{what} must be a list of points [[x, y], ...], not {_type_name(node)}")
+            self.err(node, f"{what} must be a list of points [[x, y], ...] or one of {{circle: "
+                           f"...}}, {{segments: [...]}}, {{table: FILE.csv}}, not "
+                           f"{_type_name(node)}")
             return None
         pts = [self.vector(item, what) for item in node.value]
         if any(p is None for p in pts):
@@ -648,16 +666,21 @@ class _Validator:
             return self.table(v[key], what)
         return self.function(v[key], what)
 
-    def motion(self, node: Node, what: str):
+    def motion(self, node: Node, what: str, over: str | None = None):
+        """The TimeFunction of a motion: profile, or None. over: None for a driver (segments
+        over time); for a cam's law the unit of its cam angles (then the result is
+        (segments, initial, t0, repeat or None when not given), built by the cam's reader)."""
         from ..laws import ALIASES, LAWS, law
         from ..motion import Segment, profile
         what = f"{what}: motion"
+        noun, unit = ("duration", "s") if over is None else ("cam angle", over)
+        span, T_ = f"{noun} ({unit})", "T" if over is None else "ANGLE"
         if not self.keys(node, ("segments", "initial", "t0", "repeat"), what):
             return None
         v = node.value
         initial = self.number(v["initial"], f"{what}: initial") if "initial" in v else 0.0
         t0 = self.number(v["t0"], f"{what}: t0") if "t0" in v else 0.0
-        repeat = False
+        repeat = False if over is None else None
         if "repeat" in v:
             n = v["repeat"]
             if n.kind == "scalar" and isinstance(n.value, bool):
@@ -695,12 +718,12 @@ class _Validator:
             if kind == "dwell":
                 for extra in ("in", "law"):
                     if extra in sv:
-                        self.err(sv[extra], f"{sw}: a dwell takes its duration as dwell: T, "
-                                            f"without {extra}")
+                        self.err(sv[extra], f"{sw}: a dwell takes its {noun} as "
+                                            f"dwell: {T_}, without {extra}")
                         ok = False
                 T = self.number(sv["dwell"], f"{sw}: dwell")
                 if T is not None and not T > 0:
-                    self.err(sv["dwell"], f"{sw}: dwell must be a positive duration (s), not {T:g}")
+                    self.err(sv["dwell"], f"{sw}: dwell must be a positive {span}, not {T:g}")
                     T = None
                 if T is None:
                     ok = False
@@ -715,11 +738,11 @@ class _Validator:
                 h = None
             T = None
             if "in" not in sv:
-                self.err(seg, f"{sw}: missing in (the duration of the {kind}, s)")
+                self.err(seg, f"{sw}: missing in (the {noun} of the {kind}, {unit})")
             else:
                 T = self.number(sv["in"], f"{sw}: in")
                 if T is not None and not T > 0:
-                    self.err(sv["in"], f"{sw}: in must be a positive duration (s), not {T:g}")
+                    self.err(sv["in"], f"{sw}: in must be a positive {span}, not {T:g}")
                     T = None
             name = None
             if "law" not in sv:
@@ -736,6 +759,8 @@ class _Validator:
             out.append(Segment(kind, -h if kind == "return" else h, T, name))
         if not ok:
             return None
+        if over is not None:
+            return out, initial, t0, repeat
         try:
             return profile(out, initial, t0, repeat)
         except ExprError as e:
