@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import jerk as J
 from .base import Frame, Group, Kind, Param, empty, omega, rotate
 
 
@@ -53,6 +54,13 @@ class Revolute(Kind):
         out = empty(F, len(G), 2)
         out[..., 0] = wi2 * six - wj2 * sjx
         out[..., 1] = wi2 * siy - wj2 * sjy
+        return out
+
+    def jerk(self, G, F):
+        bi, bj, si, sj = self._s(G, F)
+        h = J.pair(F, bj, sj, bi, si)                  # g = r_i + s_i - r_j - s_j
+        out = empty(F, len(G), 2)
+        out[..., 0], out[..., 1] = -h[3][0], -h[3][1]
         return out
 
     def place(self, at, poses, given):
