@@ -233,6 +233,8 @@ def resolve(cm, overrides: dict | None = None, source: str = "api") -> Options:
     if errors:
         raise InputError(errors)
     errors = cross_check(file, a, vals, sources)
+    if vals["up_to"] == "jerk":
+        errors += jerk_problems(cm)
     if errors:
         raise InputError(errors)
     order = ORDERS.index(vals.pop("up_to"))
@@ -285,6 +287,41 @@ def cross_check(file: str, a, v: dict, sources: dict) -> list[Diagnostic]:
         _, line, who = blame("max_step")
         out.append(Diagnostic(file, line, f"{who}: max_step {v['max_step']:.3g} s is below what "
                                           f"double precision resolves near t = {scale:.3g} s"))
+    return out
+
+
+def jerk_problems(cm) -> list[Diagnostic]:
+    """Drivers and cam laws whose exact third derivative cannot be formed (up_to: jerk needs
+    it), one error at each element's line. Every form the expression language builds (laws,
+    motion segments, tables, piecewise functions) differentiates exactly to any order, so this
+    only refuses what the symbolic differentiation itself refuses."""
+    import numpy as np
+
+    from .expr import ExprError
+    out = []
+    seen = set()
+    for r, f in zip(cm.driver_rows, cm.driver_funcs):
+        el = cm.element_of_row(int(r))
+        try:
+            f.third(0.0)
+        except ExprError as exc:
+            if id(el) not in seen:
+                seen.add(id(el))
+                out.append(Diagnostic(cm.spec.file, el.line, f"{el.label}: up_to: jerk needs "
+                                      f"the third derivative of f, and {exc}"))
+    for G in cm.groups:
+        for name in ("s", "psi"):
+            for k, law in enumerate(G.params.get(name, ()) if G.kind.name.startswith("cam")
+                                    else ()):
+                try:
+                    law(np.zeros(1), (3,))
+                except ExprError as exc:
+                    el = cm.element_of_row(int(G.rows[k, 0]))
+                    if id(el) not in seen:
+                        seen.add(id(el))
+                        out.append(Diagnostic(cm.spec.file, el.line, f"{el.label}: up_to: jerk "
+                                              f"needs the third derivative of the law, and "
+                                              f"{exc}"))
     return out
 
 

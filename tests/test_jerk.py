@@ -82,3 +82,198 @@ def test_a_wrong_jerk_is_detected():
     right = KINDS["revolute"].jerk(G, F)
     assert np.abs(np.moveaxis(broken, 0, -1) - right).max() > 1e-2
     assert J is not None
+
+
+# -- runs with up_to: jerk against closed forms ------------------------------------------------
+
+import planarkin  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+TWO_PI = 2 * math.pi
+
+
+def run(model, **opts):
+    res = planarkin.solve(model, up_to="jerk", **opts)
+    assert res.status == 0, res.message
+    return res
+
+
+def load(text):
+    return planarkin.load("model.yaml", text=text)
+
+
+def rel(got, want) -> float:
+    got, want = np.asarray(got, float), np.asarray(want, float)
+    return float(np.max(np.abs(got - want)) / np.max(np.abs(want)))
+
+
+def test_slider_crank_slider_jerk_closed_form():
+    """x(theta) = a cos theta + D, D = sqrt(b^2 - a^2 sin^2 theta), differentiated by hand:
+    with u = a^2 sin theta cos theta, D' = -u/D, D'' = -u'/D - u^2/D^3,
+    D''' = -u''/D - 3 u u'/D^3 - 3 u^3/D^5, so x''' = a sin theta + D''' (theta' = 2 pi)."""
+    res = run(ROOT / "mechanisms" / "slider-crank.yaml", steps=360)
+    a, b, w = 0.1, 0.3, TWO_PI
+    th = w * res.t
+    S = np.sin(th)
+    D = np.sqrt(b * b - a * a * S * S)
+    u = a * a * S * np.cos(th)
+    u1, u2 = a * a * np.cos(2 * th), -2 * a * a * np.sin(2 * th)
+    x3 = w ** 3 * (a * S - u2 / D - 3 * u * u1 / D ** 3 - 3 * u ** 3 / D ** 5)
+    assert rel(res.body("slider")["jx"], x3) < 1e-12
+    assert rel(res.point("B")["jx"], x3) < 1e-12           # the wrist pin moves with the slider
+    assert np.abs(res.body("slider")["jy"]).max() < 1e-12
+    assert np.abs(res.body("crank")["jphi"]).max() < 1e-9   # constant speed: zero jerk
+    # the crank pin's jerk: a point at radius a turning at w: -w^3 R s, magnitude a w^3
+    A = res.body("rod")
+    assert set(("jx", "jy", "jphi")) <= set(A)
+
+
+def test_cam_cycloidal_rise_follower_jerk_is_the_law_scaled():
+    """s = h (u - sin(2 pi u)/(2 pi)), u = theta/beta: s''' = (h / beta^3) 4 pi^2 cos(2 pi u)
+    (C_j = 4 pi^2), and at constant cam speed w the follower's jerk is s''' w^3."""
+    res = run(ROOT / "mechanisms" / "cam-roller.yaml")
+    h, beta, w = 0.02, 120.0, 360.0                     # m, deg, deg/s
+    u = w * res.t / beta
+    want = h / beta ** 3 * 4 * math.pi ** 2 * np.cos(TWO_PI * u) * w ** 3
+    assert rel(res.body("follower")["jy"], want) < 1e-12
+    assert abs(np.max(np.abs(res.body("follower")["jy"])) / (h / beta ** 3 * w ** 3)
+               - 4 * math.pi ** 2) < 1e-9
+
+
+RACK = """
+units: {length: m, angle: rad}
+parameters: {R: 0.02}
+bodies:
+  pinion: {q: [0, 0, 0]}
+  rack: {q: [0, 0.02, 0]}
+joints:
+  - {type: revolute, i: ground, j: pinion, at: [0, 0]}
+  - {type: translational, i: ground, j: rack, at: [0, R], axis: [1, 0]}
+  - {type: rack-pinion, i: rack, j: pinion, si: [0, 0], vi: [1, 0], sj: [0, 0], r: R}
+drivers:
+  - {type: angle, body: pinion, f: "0.5*sin(3*t) + 0.2*t**3"}
+points:
+  tooth: {body: pinion, s: [0.02, 0]}
+analysis: {end: 2, steps: 200}
+"""
+
+
+def test_rack_and_pinion_rack_jerk_is_minus_r_phi_triple_dot():
+    """The rack above the pinion moves by -R phi (reference §3.3 sign check), so its jerk is
+    -R phi''' = -R (-13.5 cos 3t + 1.2); a point on the pitch circle has the jerk of §0."""
+    res = run(load(RACK))
+    t = res.t
+    phi3 = -0.5 * 27 * np.cos(3 * t) + 1.2
+    assert rel(res.body("rack")["jx"], -0.02 * phi3) < 1e-12
+    assert rel(res.body("pinion")["jphi"], phi3) < 1e-12
+    phi = 0.5 * np.sin(3 * t) + 0.2 * t ** 3
+    w = 1.5 * np.cos(3 * t) + 0.6 * t ** 2
+    al = -4.5 * np.sin(3 * t) + 1.2 * t
+    # s''' = phi''' R s - 3 w alpha s - w^3 R s for s = R (cos phi, sin phi)
+    sx, sy = 0.02 * np.cos(phi), 0.02 * np.sin(phi)
+    jx = (phi3 - w ** 3) * -sy - 3 * w * al * sx
+    jy = (phi3 - w ** 3) * sx - 3 * w * al * sy
+    assert rel(res.point("tooth")["jx"], jx) < 1e-12
+    assert rel(res.point("tooth")["jy"], jy) < 1e-12
+
+
+SERVO = """
+units: {length: mm, angle: deg}
+bodies:
+  carriage: {q: [0, 0, 0]}
+joints:
+  - {type: translational, i: ground, j: carriage, at: [0, 0], axis: [1, 0]}
+drivers:
+  - type: slide
+    i: ground
+    j: carriage
+    si: [0, 0]
+    vi: [1, 0]
+    sj: [0, 0]
+    motion:
+      segments:
+        - {rise: 80, in: 0.5, law: cycloidal}
+        - {dwell: 0.25}
+        - {return: 80, in: 0.5, law: 3-4-5}
+analysis: {end: 1.25, steps: 250}
+"""
+
+
+def test_servo_axis_jerk_is_the_profile_third_derivative():
+    """Cycloidal rise of h = 80 mm in T = 0.5 s: x''' = h 4 pi^2 cos(2 pi t/T) / T^3; dwell: 0;
+    3-4-5 return, s = h (1 - (10 u^3 - 15 u^4 + 6 u^5)): x''' = -h (60 - 360 u + 360 u^2)/T^3.
+    Rows at the segment joints take the right-hand limit (the 3-4-5 jerk jumps there)."""
+    res = run(load(SERVO))
+    t = res.t
+    h, T = 80.0, 0.5
+    want = np.where(t < 0.5, h * 4 * math.pi ** 2 * np.cos(TWO_PI * t / T) / T ** 3, 0.0)
+    u = (t - 0.75) / T
+    ret = -h * (60 - 360 * u + 360 * u * u) / T ** 3
+    want = np.where((t >= 0.75) & (t < 1.25), ret, want)
+    want[-1] = ret[-1]                                  # the end row: the left-hand limit
+    got = res.body("carriage")["jx"]
+    assert np.max(np.abs(got - want)) / np.max(np.abs(want)) < 1e-12
+
+
+FOUR_BAR = ROOT / "mechanisms" / "four-bar.yaml"
+
+
+def test_four_bar_rocker_jerk_is_the_derivative_of_its_exact_acceleration():
+    """The rocker's alpha column is exact; its derivative by a sixth-order difference over the
+    grid must match the jerk column (interior rows, h = 1e-3 of the period)."""
+    res = run(FOUR_BAR, steps=1000)
+    t = res.t
+    h = t[1] - t[0]
+    for body in res.model.body_names:
+        cols = res.body(body)
+        for acc, jk in (("alpha", "jphi"), ("ax", "jx"), ("ay", "jy")):
+            a = cols[acc]
+            fd = (a[6:] - 9 * a[5:-1] + 45 * a[4:-2] - 45 * a[2:-4] + 9 * a[1:-5]
+                  - a[:-6]) / (60 * h)
+            got = cols[jk][3:-3]
+            scale = np.abs(cols[jk]).max()
+            if scale > 0:
+                assert np.abs(got - fd).max() / scale < 1e-8, (body, jk)
+
+
+def test_integrated_jerk_is_the_acceleration_difference():
+    """Velocity / acceleration / jerk consistency: Simpson's rule of the jerk over each pair of
+    grid intervals equals the change of the (exact) acceleration (error ~ h^4 jerk'''')."""
+    res = run(ROOT / "mechanisms" / "slider-crank.yaml", steps=2000)
+    h = res.t[1] - res.t[0]
+    for b in res.model.body_names:
+        cols = res.body(b)
+        for acc, jk in (("ax", "jx"), ("ay", "jy"), ("alpha", "jphi")):
+            j, a = cols[jk], cols[acc]
+            simpson = h / 3 * (j[:-2:2] + 4 * j[1:-1:2] + j[2::2])
+            da = a[2::2] - a[:-2:2]
+            scale = max(np.abs(a).max(), 1e-300)
+            assert np.abs(simpson - da).max() / scale < 1e-9, (b, jk)
+
+
+def test_jerk_columns_in_the_tables(tmp_path):
+    """bodies.csv and points.csv gain .jx .jy .jphi [unit/s^3] after the acceleration columns,
+    equal to the API's arrays; runs that do not ask for jerk keep their columns."""
+    from clitools import run_cli
+    r = run_cli("run", str(ROOT / "mechanisms" / "slider-crank.yaml"), "--out", str(tmp_path),
+                "--up-to", "jerk", "--no-plots", "--steps", "20")
+    assert r.returncode == 0, r.stderr
+    header = (tmp_path / "slider-crank" / "bodies.csv").read_text().splitlines()[0].split(",")
+    assert header[10:13] == ["crank.jx [m/s^3]", "crank.jy [m/s^3]", "crank.jphi [rad/s^3]"]
+    pts = (tmp_path / "slider-crank" / "points.csv").read_text().splitlines()[0].split(",")
+    assert pts[1:] == ["B.x [m]", "B.y [m]", "B.vx [m/s]", "B.vy [m/s]", "B.ax [m/s^2]",
+                       "B.ay [m/s^2]", "B.jx [m/s^3]", "B.jy [m/s^3]"]
+    X = np.loadtxt(tmp_path / "slider-crank" / "bodies.csv", delimiter=",", skiprows=1)
+    res = run(ROOT / "mechanisms" / "slider-crank.yaml", steps=20)
+    np.testing.assert_array_equal(X[:, header.index("slider.jx [m/s^3]")],
+                                  res.body("slider")["jx"])
+    plain = planarkin.solve(ROOT / "mechanisms" / "slider-crank.yaml", steps=20)
+    assert plain.qddd is None and "jx" not in plain.body("slider")
+
+
+def test_jerk_refused_with_interpolated_rows():
+    with pytest.raises(planarkin.InputError) as e:
+        planarkin.solve(ROOT / "mechanisms" / "slider-crank.yaml", up_to="jerk",
+                        interpolate=True)
+    assert ("solve(): up_to: jerk needs the exact solve at every grid row, and interpolate: "
+            "true interpolates the rows") in str(e.value)
