@@ -277,3 +277,24 @@ def test_jerk_refused_with_interpolated_rows():
                         interpolate=True)
     assert ("solve(): up_to: jerk needs the exact solve at every grid row, and interpolate: "
             "true interpolates the rows") in str(e.value)
+
+
+def test_jerk_of_a_row_solved_by_path_following():
+    """A grid row that falls back to path following gets its jerk from the same exact solve
+    (Analysis._jerk_at), here at internal path nodes of the slider-crank, against x'''."""
+    from planarkin.options import resolve
+    from planarkin.results import prepare
+    cm = planarkin.load(ROOT / "mechanisms" / "slider-crank.yaml")
+    an = prepare(cm, resolve(cm, {"up_to": "jerk"}))
+    slider = list(cm.body_names).index("slider")
+    a, b, w = 0.1, 0.3, TWO_PI
+    for k in range(1, len(an.Tn), 5):
+        t = float(an.Tn[k])
+        third = an.S_all.driver_third(np.array([t]))[0]
+        j = an._jerk_at(int(an.seg[k]), t, an.Qn[k], an.Qdn[k], an.Qddn[k], third)
+        th = w * t
+        S = math.sin(th)
+        D = math.sqrt(b * b - a * a * S * S)
+        u, u1, u2 = a * a * S * math.cos(th), a * a * math.cos(2 * th), -2 * a * a * math.sin(2 * th)
+        x3 = w ** 3 * (a * S - u2 / D - 3 * u * u1 / D ** 3 - 3 * u ** 3 / D ** 5)
+        assert abs(j[3 * slider] * cm.L - x3) < 1e-12 * (a * w ** 3) * 10
