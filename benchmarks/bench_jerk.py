@@ -6,7 +6,9 @@ asking for jerk did not get slower.
     python benchmarks/bench_jerk.py [--steps 200000] [--rounds 5] [--baseline DIR]
 
 Each timing is one `planarkin.solve` in a fresh worker process importing the checkout named (a
-warm-up solve first, so imports and first-call costs are left out); the worker prints seconds.
+warm-up solve first, so imports and first-call costs are left out; one BLAS thread); the worker
+prints its wall and CPU seconds. On a shared machine the CPU time is the figure to compare: wall
+time there is mostly time spent waiting for a core.
 """
 
 from __future__ import annotations
@@ -27,21 +29,23 @@ import planarkin
 steps, up_to, path = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 m = planarkin.load(path)
 planarkin.solve(m, steps=200, up_to=up_to)
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 r = planarkin.solve(m, steps=steps, up_to=up_to)
-dt = time.perf_counter() - t0
+dt, dc = time.perf_counter() - t0, time.process_time() - c0
 assert r.status == 0, r.message
-print(json.dumps({"seconds": dt, "rows": len(r.t)}))
+print(json.dumps({"seconds": dt, "cpu": dc, "rows": len(r.t)}))
 """
 
 
-def timed(checkout: Path, steps: int, up_to: str, model: Path) -> float:
-    env = dict(os.environ, PYTHONPATH=str(checkout))
+def timed(checkout: Path, steps: int, up_to: str, model: Path) -> tuple[float, float]:
+    """(wall, CPU) seconds of one solve."""
+    env = dict(os.environ, PYTHONPATH=str(checkout), OPENBLAS_NUM_THREADS="1")
     p = subprocess.run([sys.executable, "-c", WORKER, str(steps), up_to, str(model)],
                        capture_output=True, text=True, env=env, cwd=str(checkout), timeout=3600)
     if p.returncode != 0:
         raise RuntimeError(p.stderr)
-    return json.loads(p.stdout.strip().splitlines()[-1])["seconds"]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    return out["seconds"], out["cpu"]
 
 
 def main(argv=None):
@@ -59,18 +63,21 @@ def main(argv=None):
     if a.baseline:
         cases.insert(0, ("baseline, up_to: acceleration", Path(a.baseline).resolve(),
                          "acceleration"))
-    best = {c[0]: float("inf") for c in cases}
+    wall = {c[0]: float("inf") for c in cases}
+    cpu = dict(wall)
     try:
         for _ in range(a.rounds):
             for name, checkout, up_to in cases:
-                best[name] = min(best[name], timed(checkout, a.steps, up_to, model))
+                w, c = timed(checkout, a.steps, up_to, model)
+                wall[name], cpu[name] = min(wall[name], w), min(cpu[name], c)
     finally:
         model.unlink(missing_ok=True)
-    print(f"\n{a.steps} steps, best of {a.rounds} alternating rounds:")
-    ref = best["this checkout, up_to: acceleration"]
+    print(f"\n{a.steps} steps, best of {a.rounds} alternating rounds (ratios to this checkout's "
+          f"acceleration run):")
+    ref = "this checkout, up_to: acceleration"
     for name, _, _ in cases:
-        print(f"  {name:38s} {best[name]:8.3f} s   ratio to this checkout's acceleration run "
-              f"{best[name] / ref:.3f}")
+        print(f"  {name:38s} CPU {cpu[name]:7.3f} s  ratio {cpu[name] / cpu[ref]:.3f}   "
+              f"wall {wall[name]:7.3f} s  ratio {wall[name] / wall[ref]:.3f}")
     la = os.getloadavg()
     print(f"load avg   {la[0]:.2f} {la[1]:.2f} {la[2]:.2f} at end")
 

@@ -27,8 +27,17 @@ def turning(s, w, a):
     body-fixed vector (w, a of its body) or a unit vector at a moving angle (theta', theta'')."""
     sx, sy = s
     rx, ry = -sy, sx                                   # R s
-    return ((sx, sy), (w * rx, w * ry), (a * rx - w * w * sx, a * ry - w * w * sy),
-            (-3.0 * w * a * sx - w ** 3 * rx, -3.0 * w * a * sy - w ** 3 * ry))
+    w2 = w * w
+    k, m = -3.0 * w * a, -w2 * w
+    return ((sx, sy), (w * rx, w * ry), (a * rx - w2 * sx, a * ry - w2 * sy),
+            (k * sx + m * rx, k * sy + m * ry))
+
+
+def third(F: Frame, b, s):
+    """v3 alone of the body-fixed vector s of bodies b: -3 omega alpha s - omega^3 R s."""
+    w = F.qd[:, 3 * b + 2]
+    k, m = -3.0 * w * alpha(F, b), -w * w * w
+    return k * s[0] - m * s[1], k * s[1] + m * s[0]
 
 
 def fixed(F: Frame, b, s):
@@ -39,9 +48,8 @@ def fixed(F: Frame, b, s):
 def origin(F: Frame, b):
     """Chain of the origins r_b of bodies b (r''' is all q''': v3 = 0)."""
     q, qd, qdd = F.q, F.qd, F.qdd
-    z = 0.0 * q[:, 3 * b]
     return ((q[:, 3 * b], q[:, 3 * b + 1]), (qd[:, 3 * b], qd[:, 3 * b + 1]),
-            (qdd[:, 3 * b], qdd[:, 3 * b + 1]), (z, z))
+            (qdd[:, 3 * b], qdd[:, 3 * b + 1]), (0.0, 0.0))
 
 
 def point(F: Frame, b, s):

@@ -57,10 +57,12 @@ class Revolute(Kind):
         return out
 
     def jerk(self, G, F):
+        # g = r_i + s_i - r_j - s_j: jerk_g = -(s3_i - s3_j) (the origins' third derivatives
+        # are all in g_q q-triple-dot)
         bi, bj, si, sj = self._s(G, F)
-        h = J.pair(F, bj, sj, bi, si)                  # g = r_i + s_i - r_j - s_j
+        ai, aj = J.third(F, bi, si), J.third(F, bj, sj)
         out = empty(F, len(G), 2)
-        out[..., 0], out[..., 1] = -h[3][0], -h[3][1]
+        out[..., 0], out[..., 1] = aj[0] - ai[0], aj[1] - ai[1]
         return out
 
     def place(self, at, poses, given):

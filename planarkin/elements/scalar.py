@@ -87,7 +87,11 @@ class _Component(Kind):
         return (wj2 * s[2 + self.axis] - wi2 * s[self.axis])[..., None]
 
     def jerk(self, G, F):
-        return -_pair_chain(G, F)[3][self.axis][..., None]
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        pi_, pj = G.params["si"], G.params["sj"]
+        ai = J.third(F, bi, rotate(F, bi, pi_[:, 0], pi_[:, 1]))
+        aj = J.third(F, bj, rotate(F, bj, pj[:, 0], pj[:, 1]))
+        return (ai[self.axis] - aj[self.axis])[..., None]
 
 
 class XDistance(_Component):
