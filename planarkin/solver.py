@@ -851,8 +851,8 @@ class Analysis:
                 T[at], NU[at], FDD[at] = T1, NU1, FDD1
         rows = self.cm.driver_rows
         if self.opts.order >= 3:
-            # the third derivative one-sided everywhere: at a knot of a law or a table where only it jumps
-            # (no breakpoint of the path) the row takes the same side as at a breakpoint
+            # f''' one-sided at every row: at a knot of a law or a table where only f''' jumps
+            # (no breakpoint of the path) a row takes the side rows at a breakpoint take
             end = t == self.opts.end
             self.third = S.driver_third(t, side=+1)
             if end.any():

@@ -199,7 +199,8 @@ class CurveSlot(Kind):
         lin = lambda *terms: (sum(c * v[0] for c, v in terms), sum(c * v[1] for c, v in terms))
         W1 = lin((1.0, D[1]), (-wi, R(D[0])))
         W2 = lin((1.0, D[2]), (-ai, R(D[0])), (-2.0 * wi, R(D[1])), (-wi * wi, D[0]))
-        # W3 without q''': W2' - w R W2, with Delta''' -> its part s3_j and phi_i''' R Delta left out
+        # W3 without q''': W2' - w R W2, with Delta''' -> its part s3_j, and phi_i'''
+        # R Delta left out
         W3 = lin((1.0, D[3]), (-3.0 * ai, R(D[1])), (-2.0 * wi, R(D[2])), (-2.0 * wi * ai, D[0]),
                  (-wi * wi, D[1]), (-wi, R(W2)))
         tdot = lambda v: tx * v[0] + ty * v[1]                  # noqa: E731
@@ -211,7 +212,8 @@ class CurveSlot(Kind):
         tW2 = tdot(W2)
         u1 = kap * beta * d1 + tW2
         beta1 = (u1 * m + u * (ks * beta * d + kap * d1)) / (m * m)
-        d3 = ndot(W3) - kap * beta * tW2 - (ks * beta * beta * u + kap * beta1 * u + kap * beta * u1)
+        d3 = (ndot(W3) - kap * beta * tW2
+              - (ks * beta * beta * u + kap * beta1 * u + kap * beta * u1))
         return -d3[..., None]
 
 
