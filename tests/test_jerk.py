@@ -307,3 +307,20 @@ def test_jerk_of_a_row_solved_by_path_following():
         u1, u2 = a * a * math.cos(2 * th), -2 * a * a * math.sin(2 * th)
         x3 = w ** 3 * (a * S - u2 / D - 3 * u * u1 / D ** 3 - 3 * u ** 3 / D ** 5)
         assert abs(j[3 * slider] * cm.L - x3) < 1e-12 * (a * w ** 3) * 10
+
+
+def test_block_solve_satisfies_the_whole_jerk_system():
+    """The block-by-block jerks satisfy the dense system Phi_q q''' = jerk_g + f''' of every
+    row (System.jacobian, System.jerk), here on the six-bar (two loops, several blocks)."""
+    from planarkin.options import resolve
+    from planarkin.results import prepare
+    from planarkin.system import System
+    cm = planarkin.load(ROOT / "mechanisms" / "six-bar.yaml")
+    an = prepare(cm, resolve(cm, {"up_to": "jerk", "steps": 40}))
+    ch = next(an.chunks())
+    unit = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+    S = System(cm)
+    Q, Qd, Qdd, Q3 = (S.ext(a / unit) for a in (ch.q, ch.qd, ch.qdd, ch.qddd))
+    lhs = np.einsum("nmc,nc->nm", S.jacobian(Q), Q3[:, :cm.n])
+    rhs = S.jerk(Q, Qd, Qdd, ch.t)
+    assert np.abs(lhs - rhs).max() < 1e-9 * max(1.0, np.abs(rhs).max())

@@ -95,7 +95,8 @@ class Group:
 
 
 class Kind:
-    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma.
+    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma and
+    jerk (the third-derivative right-hand side, for up_to: jerk; planarkin.elements.jerk).
 
     name: YAML ``type``; neq: equations per instance; nbody: bodies per instance (i, j[, k]);
     joint/driver: whether the kind may appear under ``joints:`` / ``drivers:``;
