@@ -324,3 +324,24 @@ def test_block_solve_satisfies_the_whole_jerk_system():
     lhs = np.einsum("nmc,nc->nm", S.jacobian(Q), Q3[:, :cm.n])
     rhs = S.jerk(Q, Qd, Qdd, ch.t)
     assert np.abs(lhs - rhs).max() < 1e-9 * max(1.0, np.abs(rhs).max())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", sorted((ROOT / "mechanisms").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_every_example_runs_with_jerk(path):
+    """Every example (every kind they use: gears, belts, racks, cams, tables, motion
+    profiles...) runs with up_to: jerk, and its jerk integrates to its acceleration changes: the
+    trapezoid rule over each interval of the example's own grid, within 1e-3 of the
+    acceleration's range plus h |change of the jerk| (where the jerk steps, at the joints of a
+    motion profile, a row holds one one-sided value, and the rule is off by about h/2 times the
+    step). A gross check, which catches a missing or mis-signed term of any kind."""
+    res = run(path)
+    h = np.diff(res.t)[:, None]
+    acc = np.hstack([res.qdd, res.pdd.reshape(len(res.t), -1)])
+    jerk = np.hstack([res.qddd, res.pddd.reshape(len(res.t), -1)])
+    assert np.isfinite(jerk).all()
+    trap = 0.5 * h * (jerk[1:] + jerk[:-1])
+    scale = np.maximum(np.ptp(acc, axis=0), 1e-9 * (1 + np.abs(acc).max()))
+    allowed = 1e-3 * scale + h * np.abs(np.diff(jerk, axis=0))
+    assert (np.abs(trap - np.diff(acc, axis=0)) <= allowed).all()
