@@ -345,3 +345,28 @@ def test_every_example_runs_with_jerk(path):
     scale = np.maximum(np.ptp(acc, axis=0), 1e-9 * (1 + np.abs(acc).max()))
     allowed = 1e-3 * scale + h * np.abs(np.diff(jerk, axis=0))
     assert (np.abs(trap - np.diff(acc, axis=0)) <= allowed).all()
+
+
+@pytest.mark.parametrize("source", ["expression", "piecewise", "law", "motion", "table"])
+def test_every_driver_form_has_an_exact_third_derivative(source):
+    """f''' of every driver form (TimeFunction.third) against a central difference of its exact
+    f'' at points away from the knots (the difference is the test's only approximation)."""
+    from planarkin.expr import TimeFunction
+    if source == "motion":
+        f = planarkin.load(ROOT / "mechanisms" / "servo-press.yaml").driver_funcs[0]
+    elif source == "table":
+        f = planarkin.load(ROOT / "mechanisms" / "table-input.yaml").driver_funcs[0]
+    else:
+        text = {"expression": "0.3*sin(2*t) + exp(-t)*t**4 + sqrt(1 + t*t)",
+                "piecewise": "where(t < 0.37, t**4, 0.37**4 + 4*0.37**3*(t - 0.37)) + "
+                             "max(t**2, 0.5*t) + mod(t**3, 0.7) + clip(t**5, 0.1, 0.9)",
+                "law": "cycloidal(t/0.8) + poly345(t) + modified_sine(t/1.3)"}[source]
+        f = TimeFunction(text, {})
+    rng = np.random.default_rng(21)
+    t = np.sort(rng.uniform(0.05, 0.95, 40))
+    e = 1e-5
+    fd = (f.derivatives(t + e)[2] - f.derivatives(t - e)[2]) / (2 * e)
+    got = np.asarray(f.third(t), float)
+    scale = max(np.abs(fd).max(), 1.0)
+    # a knot inside (t - e, t + e) would spoil the difference: none of these random t is one
+    assert np.abs(got - fd).max() / scale < 1e-6
