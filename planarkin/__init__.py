@@ -41,8 +41,8 @@ def solve(model, **options):
     """Analyse a model (a path or the result of load). Options override the model's analysis:
     block, with the names and rules of the command line (planarkin.options.OPTIONS): start,
     end, steps, tol, newton ('reuse'|'full'|'fixed'), iterations, path_tol, max_step,
-    interpolate, bifurcation ('stop'|'continue'), up_to ('position'|'velocity'|'acceleration'),
-    max_rows, max_nodes. Returns a planarkin.results.Result (status 0 ok, 1 analysis failure);
+    interpolate, bifurcation ('stop'|'continue'),
+    up_to ('position'|'velocity'|'acceleration'|'jerk'), max_rows, max_nodes. Returns a planarkin.results.Result (status 0 ok, 1 analysis failure);
     invalid models and invalid or unknown options raise InputError."""
     from .options import resolve
     from .results import analyse

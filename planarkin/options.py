@@ -16,7 +16,7 @@ from typing import Any
 
 from .diagnostics import Diagnostic, InputError, did_you_mean, one_of
 
-ORDERS = ("position", "velocity", "acceleration")
+ORDERS = ("position", "velocity", "acceleration", "jerk")
 NEWTON = ("reuse", "full", "fixed")
 BIFURCATION = ("stop", "continue")
 MAX_STEPS = 10**9            # hard limit of analysis: steps
@@ -113,8 +113,8 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "the exact internal nodes instead of a Newton solve at every grid point"),
     Option("bifurcation", "choice", "stop", "at a bifurcation: stop, or continue on the smooth "
            "branch with a warning", choices=BIFURCATION),
-    Option("up_to", "choice", "acceleration", "compute and write up to this derivative",
-           choices=ORDERS),
+    Option("up_to", "choice", "acceleration", "compute and write up to this derivative (jerk: "
+           "the third, from its own exact linear system)", choices=ORDERS),
     Option("max_rows", "int", DEFAULT_MAX_ROWS, "largest number of grid rows (steps + 1) a run "
            "may write; raise it for longer tables", lo=1),
     Option("max_nodes", "int", DEFAULT_MAX_NODES, "largest number of internal path steps; a "
@@ -126,7 +126,8 @@ ANALYSIS_KEYS = tuple(k for k in OPTIONS if k != "up_to")   # up_to is written u
 @dataclass(frozen=True)
 class Options:
     """Resolved analysis settings (the model's analysis: block, overridden by the command line or
-    API keywords). order: 0 positions, 1 + velocities, 2 + accelerations (from up_to)."""
+    API keywords). order: 0 positions, 1 + velocities, 2 + accelerations, 3 + jerks (from
+    up_to)."""
 
     start: float
     end: float
@@ -212,7 +213,8 @@ def resolve(cm, overrides: dict | None = None, source: str = "api") -> Options:
     for key, value in (overrides or {}).items():
         if key == "order" and source == "api":
             errors.append(Diagnostic(file, None, "solve(): unknown option 'order'; did you mean "
-                                     "'up_to'? (up_to='position', 'velocity' or 'acceleration')"))
+                                     "'up_to'? (up_to='position', 'velocity', 'acceleration' or "
+                                     "'jerk')"))
             continue
         if key not in OPTIONS:
             hint = did_you_mean(key, OPTIONS) or f" (options: {', '.join(OPTIONS)})"
@@ -231,6 +233,8 @@ def resolve(cm, overrides: dict | None = None, source: str = "api") -> Options:
     if errors:
         raise InputError(errors)
     errors = cross_check(file, a, vals, sources)
+    if vals["up_to"] == "jerk":
+        errors += jerk_problems(cm)
     if errors:
         raise InputError(errors)
     order = ORDERS.index(vals.pop("up_to"))
@@ -273,10 +277,51 @@ def cross_check(file: str, a, v: dict, sources: dict) -> list[Diagnostic]:
                                           f"precision resolves near t = {scale:.3g} s (one unit "
                                           f"in the last place is {ulp:.3g} s): shift the time "
                                           f"origin towards 0 or use fewer steps"))
+    if v.get("up_to") == "jerk" and v["interpolate"]:
+        _, line, who = blame("interpolate", "up_to")
+        out.append(Diagnostic(file, line, f"{who}: up_to: jerk needs the exact solve at every "
+                                          f"grid row, and interpolate: true interpolates the "
+                                          f"rows: set interpolate: false or stop at "
+                                          f"acceleration"))
     if v["max_step"] is not None and v["max_step"] < GRID_ULPS * ulp:
         _, line, who = blame("max_step")
         out.append(Diagnostic(file, line, f"{who}: max_step {v['max_step']:.3g} s is below what "
                                           f"double precision resolves near t = {scale:.3g} s"))
+    return out
+
+
+def jerk_problems(cm) -> list[Diagnostic]:
+    """Drivers and cam laws whose exact third derivative cannot be formed (up_to: jerk needs
+    it), one error at each element's line. Every form the expression language builds (laws,
+    motion segments, tables, piecewise functions) differentiates exactly to any order, so this
+    only refuses what the symbolic differentiation itself refuses."""
+    import numpy as np
+
+    from .expr import ExprError
+    out = []
+    seen = set()
+    for r, f in zip(cm.driver_rows, cm.driver_funcs):
+        el = cm.element_of_row(int(r))
+        try:
+            f.third(0.0)
+        except ExprError as exc:
+            if id(el) not in seen:
+                seen.add(id(el))
+                out.append(Diagnostic(cm.spec.file, el.line, f"{el.label}: up_to: jerk needs "
+                                      f"the third derivative of f, and {exc}"))
+    for G in cm.groups:
+        for name in ("s", "psi"):
+            for k, law in enumerate(G.params.get(name, ()) if G.kind.name.startswith("cam")
+                                    else ()):
+                try:
+                    law(np.zeros(1), (3,))
+                except ExprError as exc:
+                    el = cm.element_of_row(int(G.rows[k, 0]))
+                    if id(el) not in seen:
+                        seen.add(id(el))
+                        out.append(Diagnostic(cm.spec.file, el.line, f"{el.label}: up_to: jerk "
+                                              f"needs the third derivative of the law, and "
+                                              f"{exc}"))
     return out
 
 

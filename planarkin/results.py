@@ -69,7 +69,8 @@ class Result:
     """What `planarkin.solve` returns: arrays on the grid (user units) and the run's diagnostics.
 
     t: (N,) s. q, qd, qdd: (N, 3 nb) per body x, y, phi and derivatives (None above the
-    computed order). p, pd, pdd: (N, P, 2) points. iterations, cond, residual: (N,) per step.
+    computed order); qddd: their jerks (up_to: jerk; else None). p, pd, pdd (pddd): (N, P, 2)
+    points. iterations, cond, residual: (N,) per step.
     status: 0 ok, 1 analysis failure (arrays hold the results up to the failure); message;
     event (why it stopped), warnings (near-singular passages, redundancies), info (RunInfo).
     """
@@ -87,29 +88,34 @@ class Result:
             chunk = Chunk(z(), z(n), z(n), z(n), z(P, 2), z(P, 2), z(P, 2),
                           np.zeros(0, int), z(), z())
         self._chunk = chunk
-        for name in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond", "residual"):
+        for name in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond", "residual",
+                     "qddd", "pddd"):
             setattr(self, name, getattr(chunk, name))
+        if info.options.order >= 3 and self.qddd is None:      # no row: empty jerk arrays
+            self.qddd, self.pddd = np.zeros_like(self.q), np.zeros_like(self.p)
 
     @property
     def success(self) -> bool:
         return self.status == 0
 
     def body(self, name: str) -> dict:
-        """Columns of one body: x, y, phi, vx, vy, omega, ax, ay, alpha (user units)."""
+        """Columns of one body: x, y, phi, vx, vy, omega, ax, ay, alpha (and with up_to: jerk
+        jx, jy, jphi) (user units)."""
         b = _index(self.model.body_names, name, "body")
         out = {}
         for arr, keys in ((self.q, ("x", "y", "phi")), (self.qd, ("vx", "vy", "omega")),
-                          (self.qdd, ("ax", "ay", "alpha"))):
+                          (self.qdd, ("ax", "ay", "alpha")), (self.qddd, ("jx", "jy", "jphi"))):
             if arr is not None:
                 for k, key in enumerate(keys):
                     out[key] = arr[:, 3 * b + k]
         return out
 
     def point(self, name: str) -> dict:
-        """Columns of one point: x, y, vx, vy, ax, ay (user units)."""
+        """Columns of one point: x, y, vx, vy, ax, ay (and jx, jy) (user units)."""
         k = _index(self.model.point_names, name, "point")
         out = {}
-        for arr, keys in ((self.p, ("x", "y")), (self.pd, ("vx", "vy")), (self.pdd, ("ax", "ay"))):
+        for arr, keys in ((self.p, ("x", "y")), (self.pd, ("vx", "vy")), (self.pdd, ("ax", "ay")),
+                          (self.pddd, ("jx", "jy"))):
             if arr is not None:
                 out[keys[0]], out[keys[1]] = arr[:, k, 0], arr[:, k, 1]
         return out
@@ -255,11 +261,11 @@ def refuse(an: Analysis, ch: Chunk) -> Chunk:
     """Results are refused rather than written when they are not what they claim: the chunk is
     cut before the first row with a non-finite time or value, or a residual above
     residual_limit, and the run stops there (an event of kind 'non-finite' or 'residual')."""
-    arrays = [a for a in (ch.q, ch.qd, ch.qdd) if a is not None]
+    arrays = [a for a in (ch.q, ch.qd, ch.qdd, ch.qddd) if a is not None]
     bad = ~np.isfinite(ch.t) | ~np.isfinite(ch.residual)
     for a in arrays:
         bad |= ~np.isfinite(a).all(axis=1)
-    for a in (ch.p, ch.pd, ch.pdd):
+    for a in (ch.p, ch.pd, ch.pdd, ch.pddd):
         if a is not None and a.size:
             bad |= ~np.isfinite(a).all(axis=(1, 2))
     limit = residual_limit(an.opts)

@@ -184,6 +184,13 @@ def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
         H4 = -12 * s2 + 28 * s3 - 15 * s4
         H5 = 1.5 * s2 - 4 * s3 + 2.5 * s4
         return (H0 * (y0 - y1)) / h + H1 * d0 + H2 * h * a0 + H4 * d1 + H5 * h * a1
+    if deriv == 3:          # only rows the solver cannot solve (inside a bifurcation crossing)
+        H0 = -60 + 360 * s - 360 * s2
+        H1 = -36 + 192 * s - 180 * s2
+        H2 = -9 + 36 * s - 30 * s2
+        H4 = -24 + 168 * s - 180 * s2
+        H5 = 3 - 24 * s + 30 * s2
+        return (H0 * (y0 - y1)) / h ** 3 + (H1 * d0 + H4 * d1) / (h * h) + (H2 * a0 + H5 * a1) / h
     H0 = -60 * s + 180 * s2 - 120 * s3
     H1 = -36 * s + 96 * s2 - 60 * s3
     H2 = 1 - 9 * s + 18 * s2 - 10 * s3
@@ -711,6 +718,7 @@ class Chunk:
     None above the requested order); p, pd, pdd: (N, P, 2) point positions, velocities and
     accelerations; iterations: (N,) Newton iterations; cond: (N,) condition estimate;
     residual: (N,) max |Phi| over all equations, internal units (relative to the model length L).
+    qddd (N, n), pddd (N, P, 2): jerks (length/s^3, angle/s^3), None unless up_to: jerk.
     """
 
     t: np.ndarray
@@ -723,6 +731,8 @@ class Chunk:
     iterations: np.ndarray
     cond: np.ndarray
     residual: np.ndarray
+    qddd: np.ndarray | None = None
+    pddd: np.ndarray | None = None
 
 
 class Analysis:
@@ -739,6 +749,8 @@ class Analysis:
         self.t_stop = opts.end
         self.fallbacks = 0
         self.timings: dict[str, float] = {}
+        self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
+        self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
@@ -838,10 +850,18 @@ class Analysis:
                 T1, NU1, FDD1 = S.driver_values(t[at], side=side)
                 T[at], NU[at], FDD[at] = T1, NU1, FDD1
         rows = self.cm.driver_rows
+        if self.opts.order >= 3:
+            # f''' one-sided at every row: at a knot of a law or a table where only f''' jumps
+            # (no breakpoint of the path) a row takes the side rows at a breakpoint take
+            end = t == self.opts.end
+            self.third = S.driver_third(t, side=+1)
+            if end.any():
+                self.third[end] = S.driver_third(t[end], side=-1)
         if not len(rows):
             return drivers, None
         used = [T[:, rows]] + ([NU[:, rows]] if self.opts.order >= 1 else []) \
-            + ([FDD[:, rows]] if self.opts.order >= 2 else [])
+            + ([FDD[:, rows]] if self.opts.order >= 2 else []) \
+            + ([self.third[:, rows]] if self.opts.order >= 3 else [])
         good = np.logical_and.reduce([np.isfinite(u).all(axis=1) for u in used])
         bad = np.nonzero(~good)[0]
         return drivers, (int(bad[0]) if len(bad) else None)
@@ -870,6 +890,12 @@ class Analysis:
             else:
                 Qd = np.zeros_like(Q)
                 Qdd = np.zeros_like(Q)
+        # jerks: solved at every solved row; rows kept interpolated inside a bifurcation
+        # crossing (bifurcation: continue) take the interpolant's, like their velocities
+        Qddd = None
+        if opts.order >= 3:
+            Qddd = hermite5(*args, deriv=3) if K > 1 and self.crossing[idx].any() \
+                else np.zeros_like(Q)
         iters = np.zeros(N, dtype=np.int64)
         cond = np.maximum(Cn[idx], Cn[np.minimum(idx + 1, K - 1)])
         segs = self.seg[idx]
@@ -877,8 +903,8 @@ class Analysis:
         if bad is not None:
             i = bad
             rows = self.cm.driver_rows
-            which = next(r for r in rows if not all(np.isfinite(d[i, r]) for d in drivers[:1 + min(
-                opts.order, 2)]))
+            which = next(r for r in rows if not all(np.isfinite(d[i, r]) for d in (
+                drivers[:1 + min(opts.order, 2)] + ((self.third,) if opts.order >= 3 else ()))))
             el = self.cm.element_of_row(int(which))
             self.event = Event("driver", float(t[i]),
                                f"{el.label}: f = {el.f.text} or its derivatives are not finite at "
@@ -891,7 +917,10 @@ class Analysis:
                 segs[:i]
             iters = iters[:i]
             drivers = tuple(d[:i] for d in drivers)
+            if Qddd is not None:
+                Qddd, self.third = Qddd[:i], self.third[:i]
             N = i
+        self._Qddd = Qddd
         if opts.interpolate:
             return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
@@ -902,9 +931,13 @@ class Analysis:
             whole = len(sel) == N
             tq = t if whole else t[sel]
             Qs, Qds, Qdds = (Q, Qd, Qdd) if whole else (Q[sel], Qd[sel], Qdd[sel])
+            Qddds = third = None
+            if Qddd is not None:
+                Qddds, third = (Qddd, self.third) if whole else (Qddd[sel], self.third[sel])
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
-                order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers))
+                order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
+                Qddd=Qddds, third=third)
             ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
@@ -912,6 +945,8 @@ class Analysis:
                 ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
+                if Qddd is not None:
+                    Qddd[sel] = Qddds
             iters[sel] = info.iterations
             cond[sel] = _cond(info)
             for i in sel[~ok]:
@@ -922,11 +957,26 @@ class Analysis:
                                        f"a grid point at t = {t[i]:.10g} could not be solved on "
                                        f"the branch followed so far")
                     keep = t < t[i]
+                    if Qddd is not None:
+                        self._Qddd = Qddd[keep]
                     return self._chunk(t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep],
                                        cond[keep], segs[keep], drivers[0][keep]) \
                         if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
+                if Qddd is not None:
+                    Qddd[i] = self._jerk_at(u, t[i], Q[i], Qd[i], Qdd[i], self.third[i])
         return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
+
+    def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
+        """The jerk at a row solved by path following (a fallback): the jerk system of its
+        segment's equations at the converged q, qd, qdd (only the jerk solve is new: the
+        position, velocity and acceleration solves repeat the converged values)."""
+        Q, Qd, Qdd = q[None].copy(), qd[None].copy(), qdd[None].copy()
+        Qddd = np.zeros_like(Q)
+        self.follower.systems[u][0].solve_batch(np.array([t]), Q, Qd, Qdd, policy="full",
+                                                tol=NODE_TOL, maxit=2, order=3,
+                                                Qddd=Qddd, third=third[None])
+        return Qddd[0]
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
@@ -972,6 +1022,8 @@ class Analysis:
                 t, Q, Qd, Qdd, iters, cond, residual = (
                     t[keep], Q[keep], Qd[keep], Qdd[keep], iters[keep], cond[keep],
                     residual[keep])
+                if self._Qddd is not None:
+                    self._Qddd = self._Qddd[keep]
         order = self.opts.order
         L, af = cm.L, cm.angle_factor
         unit = np.tile([L, L, 1.0 / af], cm.nb)
@@ -980,8 +1032,13 @@ class Analysis:
         qdd = Qdd[:, :n] * unit if order >= 2 else None
         p, pd, pdd = point_kinematics(cm, Q, Qd if order >= 1 else None,
                                       Qdd if order >= 2 else None)
+        qddd = pddd = None
+        if order >= 3:
+            Qddd = self._Qddd
+            qddd = Qddd[:, :n] * unit
+            pddd = point_jerk(cm, Q, Qd, Qdd, Qddd) * L
         return Chunk(t, q, qd, qdd, p * L, None if pd is None else pd * L,
-                     None if pdd is None else pdd * L, iters, cond, residual)
+                     None if pdd is None else pdd * L, iters, cond, residual, qddd, pddd)
 
 
 def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):
@@ -1005,3 +1062,20 @@ def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):
             pdd = np.stack([Qdd[:, 3 * b] - a * sy - w * w * sx,
                             Qdd[:, 3 * b + 1] + a * sx - w * w * sy], axis=-1)
     return p, pd, pdd
+
+
+def point_jerk(cm: CompiledModel, Q, Qd, Qdd, Qddd):
+    """Jerks of the model's points (internal units), (N, P, 2): with s = A s' (reference §0),
+    j_P = r^(3) + phi^(3) R s - 3 omega alpha s - omega^3 R s."""
+    b = cm.point_body
+    if len(b) == 0:
+        return np.zeros((Q.shape[0], 0, 2))
+    phi = Q[:, 3 * b + 2]
+    c, s = np.cos(phi), np.sin(phi)
+    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
+    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
+    w, a, j = Qd[:, 3 * b + 2], Qdd[:, 3 * b + 2], Qddd[:, 3 * b + 2]
+    k = j - w ** 3                      # coefficient of R s
+    m = -3.0 * w * a                    # coefficient of s
+    return np.stack([Qddd[:, 3 * b] - k * sy + m * sx, Qddd[:, 3 * b + 1] + k * sx + m * sy],
+                    axis=-1)

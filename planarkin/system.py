@@ -120,6 +120,17 @@ class System:
                 FDD[:, r] = sc * np.broadcast_to(d2, (N,))
         return T, NU, FDD
 
+    def driver_third(self, t: np.ndarray, side: int = 0) -> np.ndarray:
+        """f''' for every row (N, m), internal units (zero for joints): the exact symbolic third
+        derivative of every driver function, side as in driver_values."""
+        cm = self.cm
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.zeros((t.shape[0], cm.m))
+        with np.errstate(all="ignore"):
+            for r, f, sc in zip(cm.driver_rows, cm.driver_funcs, cm.driver_scale):
+                out[:, r] = sc * np.broadcast_to(f.third(t, side), t.shape)
+        return out
+
     # -- dense whole-system view -----------------------------------------------------------------
     def residual(self, Q: np.ndarray, t, T: np.ndarray | None = None) -> np.ndarray:
         """Phi for all m rows: (N, m). Q extended (N, n + 3); T: the targets at t when already
@@ -151,6 +162,14 @@ class System:
         for G in self.cm.groups:
             out[:, G.rows.ravel()] = G.gamma(F).reshape(Q.shape[0], -1)
         return out + FDD
+
+    def jerk(self, Q: np.ndarray, Qd: np.ndarray, Qdd: np.ndarray, t) -> np.ndarray:
+        """The jerk right-hand side of all m rows (N, m): jerk_g + f'''."""
+        F = Frame(Q, np.cos(Q[:, 2::3]), np.sin(Q[:, 2::3]), Qd, Qdd)
+        out = np.empty((Q.shape[0], self.cm.m))
+        for G in self.cm.groups:
+            out[:, G.rows.ravel()] = G.jerk(F).reshape(Q.shape[0], -1)
+        return out + self.driver_third(np.broadcast_to(t, (Q.shape[0],)))
 
     # -- block structure -----------------------------------------------------------------------
     def build_blocks(self) -> Blocks:
@@ -373,24 +392,31 @@ class System:
         N = F.q.shape[0]
         return self._gather(B, N, [p.group.gamma(F).reshape(N, -1) for p in B.parts])
 
+    def block_jerk(self, B: Block, F: Frame) -> np.ndarray:
+        N = F.q.shape[0]
+        return self._gather(B, N, [p.group.jerk(F).reshape(N, -1) for p in B.parts])
+
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None):
-        """Positions, velocities and accelerations at times t, block by block.
+                    drivers=None, Qddd=None, third=None):
+        """Positions, velocities and accelerations (and jerks) at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
         with the solution. policy: 'reuse' (Jacobian factored once, at the prediction), 'full'
         (refactored every iteration) or 'fixed' (exactly maxit iterations, reused Jacobian).
-        order: 0 positions only, 1 with velocities, 2 with accelerations. drivers: the
-        (T, NU, FDD) of driver_values(t) when the caller already has them.
+        order: 0 positions only, 1 with velocities, 2 with accelerations, 3 with jerks (into
+        Qddd, (N, n + 3), ground columns zero). drivers: the (T, NU, FDD) of driver_values(t)
+        when the caller already has them; third: the drivers' f''' (driver_third) likewise.
         Returns BatchInfo.
         """
+        args = (t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd, third)
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
-            return self._solve_batch(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
+            return self._solve_batch(*args)
         with one_blas_thread():
-            return self._solve_batch(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
+            return self._solve_batch(*args)
 
-    def _solve_batch(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
+    def _solve_batch(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd=None,
+                     third=None):
         N = Q.shape[0]
         nblk = len(self.blocks)
         T, NU, FDD = self.driver_values(t) if drivers is None else drivers
@@ -461,6 +487,13 @@ class System:
                     continue
                 rhs = self.block_gamma(B, Frame(Q, c, s, Qd)) + FDD[:, B.rows]
                 self._direct(B, grads, Minv, one, rhs, Qdd)
+                if order < 3:
+                    continue
+                # jerks: the same factorised block, the right-hand side jerk_g + f'''
+                if third is None:
+                    third = self.driver_third(t)
+                rhs = self.block_jerk(B, Frame(Q, c, s, Qd, Qdd)) + third[:, B.rows]
+                self._direct(B, grads, Minv, one, rhs, Qddd)
         return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
 
     def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:

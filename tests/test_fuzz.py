@@ -404,7 +404,7 @@ def mut_semantic(rng, d):
                                     {"branch": {bodies[0]: 2}}, {"mode": 1}])
         return d
     if what == "output":
-        d["output"] = rng.choice([{"bodies": [_unknown_name(rng, d)]}, {"up_to": "jerk"},
+        d["output"] = rng.choice([{"bodies": [_unknown_name(rng, d)]}, {"up_to": "snap"},
                                   {"points": ["nowhere"]}, {"bodies": bodies[0]},
                                   {"format": "csv"}])
         return d

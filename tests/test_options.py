@@ -69,7 +69,7 @@ def test_api_cli_and_yaml_refuse_alike(model, tmp_path, name, api, cli, words):
 @pytest.mark.parametrize("name, value, words", [
     ("newton", "bogus", "newton must be 'reuse', 'full' or 'fixed', not 'bogus'"),
     ("bifurcation", "go", "bifurcation must be 'stop' or 'continue', not 'go'"),
-    ("up_to", 7, "up_to must be 'position', 'velocity' or 'acceleration', not 7"),
+    ("up_to", 7, "up_to must be 'position', 'velocity', 'acceleration' or 'jerk', not 7"),
     ("up_to", "velocty", "did you mean 'velocity'?"),
     ("interpolate", "no", "interpolate must be true or false, not 'no'"),
     ("interpolate", 1, "interpolate must be true or false, not 1"),

@@ -41,6 +41,8 @@ class Frame:
     q: (N, 3*nb + 3) coordinates, ground last (always zero); internal units.
     c, s: (N, nb + 1) cos and sin of every body angle (ground last: 1, 0).
     qd: (N, 3*nb + 3) velocities (ground zero) or None when only positions are needed.
+    qdd: (N, 3*nb + 3) accelerations (ground zero, same shape as qd) or None; only the jerk
+        right-hand side reads them.
     """
 
     q: np.ndarray
@@ -87,9 +89,14 @@ class Group:
         """(N, K, neq) gamma_g, using F.qd."""
         return self.kind.gamma(self, F)
 
+    def jerk(self, F: Frame) -> np.ndarray:
+        """(N, K, neq) jerk_g, using F.qd and F.qdd."""
+        return self.kind.jerk(self, F)
+
 
 class Kind:
-    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma.
+    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma and
+    jerk (the third-derivative right-hand side, for up_to: jerk; planarkin.elements.jerk).
 
     name: YAML ``type``; neq: equations per instance; nbody: bodies per instance (i, j[, k]);
     joint/driver: whether the kind may appear under ``joints:`` / ``drivers:``;
@@ -125,6 +132,12 @@ class Kind:
         raise NotImplementedError
 
     def gamma(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def jerk(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
+        """(N, K, neq) jerk_g at (F.q, F.qd, F.qdd). With g this kind's function,
+        g_q q''' = jerk_g + f''' (f''' = 0 for joints): jerk_g = -(d^3 g/dt^3 - g_q q'''),
+        minus every term of the third time derivative of g that does not contain q'''."""
         raise NotImplementedError
 
     def place(self, at, poses, given):  # pragma: no cover - overridden where at_form is set
@@ -208,10 +221,11 @@ def empty(F: Frame, K: int, *shape) -> np.ndarray:
     return np.empty((F.q.shape[0], K) + shape)
 
 
-def make_frame(q: np.ndarray, qd: np.ndarray | None = None) -> Frame:
+def make_frame(q: np.ndarray, qd: np.ndarray | None = None,
+               qdd: np.ndarray | None = None) -> Frame:
     """Frame from extended coordinates q (N, 3*nb + 3) (ground last, zero)."""
     phi = q[:, 2::3]
-    return Frame(q, np.cos(phi), np.sin(phi), qd)
+    return Frame(q, np.cos(phi), np.sin(phi), qd, qdd)
 
 
 def group(kind: Kind, bodies, params, rows=None) -> Group:

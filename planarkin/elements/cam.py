@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from ..expr import parse
+from . import jerk as J
 from .base import Kind, Param, omega, relative_velocity, rotate
 
 VAR = "theta"
@@ -59,11 +60,13 @@ class Law:
 
     def __call__(self, theta, orders=(0, 1, 2)):
         """(value, d/dtheta, d2/dtheta2) at theta; only the given orders are computed (the
-        others are None)."""
+        others are None). orders may include 3 (the jerk's d3/dtheta3, then a 4-tuple)."""
         theta = np.asarray(theta, dtype=float)
         env = dict(self.values)
         env[VAR] = self.a * theta
-        out = [None, None, None]
+        if 3 in orders and len(self.exprs) == 3:          # only runs asking for jerk need it
+            self.exprs = self.exprs + (self.exprs[2].diff(VAR),)
+        out = [None] * (4 if 3 in orders else 3)
         for o in orders:
             f = np.broadcast_to(np.asarray(self.exprs[o].evaluate(env), float), theta.shape)
             out[o] = (self.b * self.a ** o) * f
@@ -136,6 +139,12 @@ def _cam_angle(G, F):
     th = F.q[:, 3 * bi + 2] - F.q[:, 3 * bk + 2]
     thd = None if F.qd is None else omega(F, bi) - omega(F, bk)
     return th, thd
+
+
+def _cam_rates(G, F):
+    """Cam angle, its rate and its acceleration (N, K)."""
+    th, thd = _cam_angle(G, F)
+    return th, thd, J.alpha(F, G.bodies[:, 0]) - J.alpha(F, G.bodies[:, 2])
 
 
 _COMMON = (
@@ -212,6 +221,15 @@ class Cam(Kind):
                + ux * kx + uy * ky + s2 * thd * thd)
         return out[..., None]
 
+    def jerk(self, G, F):
+        ux, uy, skx, sky, sjx, sjy, hx, hy = self._h(G, F)
+        bj, bk = G.bodies[:, 1], G.bodies[:, 2]
+        u = J.fixed(F, bk, (ux, uy))
+        h = J.pair(F, bk, (skx, sky), bj, (sjx, sjy))
+        th, thd, thdd = _cam_rates(G, F)
+        s3 = J.chain_rule3(_laws(G, "s", th, 2), _laws(G, "s", th, 3), thd, thdd)
+        return (s3 - J.dot(u, h))[..., None]
+
     def diagnose(self, arrays, L, af, lu, au):
         return check(self.name, arrays, L, af, lu, au)
 
@@ -265,6 +283,11 @@ class CamRocker(Kind):
     def gamma(self, G, F):
         th, thd = _cam_angle(G, F)
         return (_laws(G, "psi", th, 2) * thd * thd)[..., None]
+
+    def jerk(self, G, F):
+        th, thd, thdd = _cam_rates(G, F)
+        return J.chain_rule3(_laws(G, "psi", th, 2), _laws(G, "psi", th, 3), thd,
+                             thdd)[..., None]
 
     def diagnose(self, arrays, L, af, lu, au):
         return check(self.name, arrays, L, af, lu, au)

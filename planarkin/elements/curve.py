@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import jerk as J
 from .base import Kind, Param, body_velocity, omega, rotate
 
 
@@ -68,6 +69,17 @@ class Curve:
         c1 = (((5 * C[5] * h + 4 * C[4]) * h + 3 * C[3]) * h + 2 * C[2]) * h + C[1]
         c2 = ((20 * C[5] * h + 12 * C[4]) * h + 6 * C[3]) * h + 2 * C[2]
         return c0, c1, c2
+
+    def third(self, a):
+        """c''' at parameters a (n,): (n, 2) (the jerk of a pin on the curve needs the
+        derivative of its curvature)."""
+        a = np.asarray(a, dtype=float)
+        if self.closed:
+            a = np.mod(a, self.a1)
+        m = np.clip(np.searchsorted(self.breaks, a, side="right") - 1, 0, len(self.breaks) - 2)
+        h = (a - self.breaks[m])[:, None]
+        C = self.coef[:, m, :]
+        return (60 * C[5] * h + 24 * C[4]) * h + 6 * C[3]
 
     def project(self, p):
         """Closest points of p (n, 2): (alpha (n,), c, c', c'' (n, 2), off (n,) bool: beyond an
@@ -176,3 +188,62 @@ class CurveSlot(Kind):
                + ny * (2 * wi * ddx + wi * wi * Dy + wj * wj * sjy))
         rel = tx * (ddx + wi * Dy) + ty * (ddy - wi * Dx)
         return (lin + kap / (1.0 - kap * d) * rel * rel)[..., None]
+
+    def jerk(self, G, F):
+        # Along the motion, the pin's closest point moves at the arc-length rate
+        # beta = u / (1 - kappa d) with u = t^T W1 (from (p' - c)^T c' = 0), and
+        #   d'   = n^T W1,   d'' = n^T W2 - kappa beta u,
+        #   d''' = n^T W3 - kappa beta t^T W2 - (kappa_s beta^2 u + kappa beta' u + kappa beta u')
+        # with u' = kappa beta d' + t^T W2, kappa_s = dkappa/ds, and W1, W2, W3 the body-i-frame
+        # derivatives of Delta seen globally: W1 = Delta' - w_i R Delta, W(k+1) = Wk' - w_i R Wk.
+        d, tx, ty, nx, ny, kap, sjx, sjy, Dx, Dy = _geometry(G, F)
+        ks = _curvature_rate(G, F)
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        D = J.add(J.point(F, bj, (sjx, sjy)), J.origin(F, bi), -1.0)
+        wi, ai = omega(F, bi), J.alpha(F, bi)
+        R = lambda v: (-v[1], v[0])                              # noqa: E731
+        lin = lambda *terms: (sum(c * v[0] for c, v in terms), sum(c * v[1] for c, v in terms))
+        W1 = lin((1.0, D[1]), (-wi, R(D[0])))
+        W2 = lin((1.0, D[2]), (-ai, R(D[0])), (-2.0 * wi, R(D[1])), (-wi * wi, D[0]))
+        # W3 without q''': W2' - w R W2, with Delta''' -> its part s3_j, and phi_i'''
+        # R Delta left out
+        W3 = lin((1.0, D[3]), (-3.0 * ai, R(D[1])), (-2.0 * wi, R(D[2])), (-2.0 * wi * ai, D[0]),
+                 (-wi * wi, D[1]), (-wi, R(W2)))
+        tdot = lambda v: tx * v[0] + ty * v[1]                  # noqa: E731
+        ndot = lambda v: nx * v[0] + ny * v[1]                  # noqa: E731
+        u = tdot(W1)
+        d1 = ndot(W1)
+        m = 1.0 - kap * d
+        beta = u / m
+        tW2 = tdot(W2)
+        u1 = kap * beta * d1 + tW2
+        beta1 = (u1 * m + u * (ks * beta * d + kap * d1)) / (m * m)
+        d3 = (ndot(W3) - kap * beta * tW2
+              - (ks * beta * beta * u + kap * beta1 * u + kap * beta * u1))
+        return -d3[..., None]
+
+
+def _curvature_rate(G, F):
+    """(N, K) dkappa/ds at every pin's closest point: (c' x c''') / sigma^4 - 3 (c' x c'')
+    (c' . c'') / sigma^6, sigma = |c'|."""
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    sj = G.params["sj"]
+    sjx, sjy = rotate(F, bj, sj[:, 0], sj[:, 1])
+    Dx = F.q[:, 3 * bj] + sjx - F.q[:, 3 * bi]
+    Dy = F.q[:, 3 * bj + 1] + sjy - F.q[:, 3 * bi + 1]
+    ci, si = F.c[:, bi], F.s[:, bi]
+    px, py = ci * Dx + si * Dy, -si * Dx + ci * Dy
+    N, K = px.shape
+    out = np.empty((N, K))
+    curves = G.params["curve"]
+    for cv in {id(x): x for x in curves}.values():
+        cols = [k for k, x in enumerate(curves) if x is cv]
+        P = np.stack([px[:, cols], py[:, cols]], axis=-1).reshape(-1, 2)
+        a, _, c1, c2, _ = cv.project(P)
+        c3 = cv.third(a)
+        sp2 = (c1 * c1).sum(axis=1)
+        x2 = c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]
+        x3 = c1[:, 0] * c3[:, 1] - c1[:, 1] * c3[:, 0]
+        dot = (c1 * c2).sum(axis=1)
+        out[:, cols] = (x3 / sp2 ** 2 - 3.0 * x2 * dot / sp2 ** 3).reshape(N, len(cols))
+    return out

@@ -44,3 +44,6 @@ class Gear(Kind):
 
     def gamma(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
+
+    def jerk(self, G, F):
+        return np.zeros((F.q.shape[0], len(G), 1))

@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from . import jerk as J
 from .base import Kind, Param, relative_point, relative_velocity, omega
 
 _PARAMS = (
@@ -39,6 +40,17 @@ def _theta(G, F):
     th = (ri * F.q[:, 3 * bi + 2] + rj * F.q[:, 3 * bj + 2] + G.params["phase"]) / S
     thd = None if F.qd is None else (ri * omega(F, bi) + rj * omega(F, bj)) / S
     return th, thd, S
+
+
+def _chains(G, F):
+    """Chains (planarkin.elements.jerk) of e(theta*) and of the line of centres d, and S: e
+    turns at theta*' = (ri omega_i + rj omega_j) / S, theta*'' likewise from the alphas."""
+    th, thd, S = _theta(G, F)
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    thdd = (G.params["ri"] * J.alpha(F, bi) + G.params["rj"] * J.alpha(F, bj)) / S
+    six, siy, sjx, sjy, _, _ = relative_point(G, F)
+    e = J.turning((np.cos(th), np.sin(th)), thd, thdd)
+    return e, J.pair(F, bi, (six, siy), bj, (sjx, sjy)), S
 
 
 def _phase(arrays, poses):
@@ -94,6 +106,11 @@ class GearMesh(Kind):
         out = thd * thd * (px * hx + py * hy) + 2.0 * thd * (ex * hdx + ey * hdy) + px * kx + py * ky
         return out[..., None]
 
+    def jerk(self, G, F):
+        e, d, _ = _chains(G, F)
+        perp = tuple((-v[1], v[0]) for v in e)          # e_perp = R e, R constant
+        return -J.dot(perp, d)[..., None]
+
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0]
 
@@ -137,6 +154,10 @@ class RollDisc(Kind):
         c = S * thd * thd
         return np.stack([wj2 * sjx - wi2 * six - c * np.cos(th),
                          wj2 * sjy - wi2 * siy - c * np.sin(th)], axis=-1)
+
+    def jerk(self, G, F):
+        e, d, S = _chains(G, F)
+        return -np.stack([d[3][0] - S * e[3][0], d[3][1] - S * e[3][1]], axis=-1)
 
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0, 0.0]

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Kind, Param, relative_velocity
-from .translational import _line, _normal_gamma, _normal_row
+from .translational import _along_jerk, _line, _normal_gamma, _normal_jerk, _normal_row
 
 
 def _along(G, F):
@@ -94,6 +94,9 @@ class RackPinion(Kind):
     def gamma(self, G, F):
         return _along_gamma(G, F)[..., None]
 
+    def jerk(self, G, F):
+        return _along_jerk(G, F)[..., None]
+
     def prepare(self, arrays, poses):
         side, un, _ = _estimate(arrays, poses)
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
@@ -122,6 +125,9 @@ class RollLine(Kind):
 
     def gamma(self, G, F):
         return np.stack([_normal_gamma(G, F), _along_gamma(G, F)], axis=-1)
+
+    def jerk(self, G, F):
+        return np.stack([_normal_jerk(G, F), _along_jerk(G, F)], axis=-1)
 
     def prepare(self, arrays, poses):
         side, un, _ = _estimate(arrays, poses)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import jerk as J
 from .base import Frame, Group, Kind, Param, empty, omega, rotate
 
 
@@ -53,6 +54,15 @@ class Revolute(Kind):
         out = empty(F, len(G), 2)
         out[..., 0] = wi2 * six - wj2 * sjx
         out[..., 1] = wi2 * siy - wj2 * sjy
+        return out
+
+    def jerk(self, G, F):
+        # g = r_i + s_i - r_j - s_j: jerk_g = -(s3_i - s3_j) (the origins' third derivatives
+        # are all in g_q q-triple-dot)
+        bi, bj, si, sj = self._s(G, F)
+        ai, aj = J.third(F, bi, si), J.third(F, bj, sj)
+        out = empty(F, len(G), 2)
+        out[..., 0], out[..., 1] = aj[0] - ai[0], aj[1] - ai[1]
         return out
 
     def place(self, at, poses, given):

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param, relative_point, relative_velocity, omega
+from . import jerk as J
+from .base import Kind, Param, relative_point, relative_velocity, omega, rotate
 
 _POINTS = (
     Param("si", "point", "point on body i in its frame"),
@@ -38,6 +39,17 @@ class Angle(Kind):
 
     def gamma(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
+
+    def jerk(self, G, F):
+        return np.zeros((F.q.shape[0], len(G), 1))
+
+
+def _pair_chain(G, F):
+    """Chain (jerk.pair) of h = P_j - P_i of the instances' points si, sj."""
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    pi_, pj = G.params["si"], G.params["sj"]
+    return J.pair(F, bi, rotate(F, bi, pi_[:, 0], pi_[:, 1]), bj,
+                  rotate(F, bj, pj[:, 0], pj[:, 1]))
 
 
 class _Component(Kind):
@@ -73,6 +85,13 @@ class _Component(Kind):
         wi2 = omega(F, G.bodies[:, 0]) ** 2
         wj2 = omega(F, G.bodies[:, 1]) ** 2
         return (wj2 * s[2 + self.axis] - wi2 * s[self.axis])[..., None]
+
+    def jerk(self, G, F):
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        pi_, pj = G.params["si"], G.params["sj"]
+        ai = J.third(F, bi, rotate(F, bi, pi_[:, 0], pi_[:, 1]))
+        aj = J.third(F, bj, rotate(F, bj, pj[:, 0], pj[:, 1]))
+        return (ai[self.axis] - aj[self.axis])[..., None]
 
 
 class XDistance(_Component):
@@ -133,6 +152,18 @@ class Distance(Kind):
         ehd = ex * hdx + ey * hdy
         out = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
         return out[..., None]
+
+    def jerk(self, G, F):
+        # |h|''' = e^T h''' + 3 h'^T H h'' + T[h', h', h'] with H = (I - e e^T) / d the Hessian
+        # of |h| and T[v, v, v] = -3 (e^T v)(v^T v - (e^T v)^2) / d^2 its third derivative
+        h, h1, h2, h3 = _pair_chain(G, F)
+        d = np.hypot(*h)
+        ex, ey = h[0] / d, h[1] / d
+        e1 = ex * h1[0] + ey * h1[1]
+        e2 = ex * h2[0] + ey * h2[1]
+        hess = (h1[0] * h2[0] + h1[1] * h2[1] - e1 * e2) / d
+        third = -3.0 * e1 * (h1[0] ** 2 + h1[1] ** 2 - e1 * e1) / (d * d)
+        return -(ex * h3[0] + ey * h3[1] + 3.0 * hess + third)[..., None]
 
     def place(self, at, poses, given):
         from .revolute import to_body

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import jerk as J
 from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, rotate
 from .revolute import dir_to_body, to_body
 
@@ -40,6 +41,25 @@ def _normal_gamma(G: Group, F: Frame):
     ky = wj * wj * sjy - wi * wi * siy
     return (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
             + nx * kx + ny * ky)
+
+
+def _line_chains(G: Group, F: Frame):
+    """Chains (planarkin.elements.jerk) of u_i, n_i and h of the slide line."""
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+    return (J.fixed(F, bi, (ux, uy)), J.fixed(F, bi, (nx, ny)),
+            J.pair(F, bi, (six, siy), bj, (sjx, sjy)))
+
+
+def _normal_jerk(G: Group, F: Frame):
+    _, n, h = _line_chains(G, F)
+    return -J.dot(n, h)
+
+
+def _along_jerk(G: Group, F: Frame):
+    """jerk_g of u_i^T h (the slide; a rolling constraint adds only a linear angle term)."""
+    u, _, h = _line_chains(G, F)
+    return -J.dot(u, h)
 
 
 def _normal_g(G: Group, F: Frame):
@@ -79,6 +99,11 @@ class Translational(Kind):
         out[..., 1] = _normal_gamma(G, F)
         return out
 
+    def jerk(self, G, F):
+        out = np.zeros((F.q.shape[0], len(G), 2))
+        out[..., 1] = _normal_jerk(G, F)
+        return out
+
     def place(self, at, poses, given):
         axis = given["axis"]
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
@@ -109,6 +134,9 @@ class PinSlot(Kind):
 
     def gamma(self, G, F):
         return _normal_gamma(G, F)[..., None]
+
+    def jerk(self, G, F):
+        return _normal_jerk(G, F)[..., None]
 
     def place(self, at, poses, given):
         axis = given["axis"]
@@ -155,3 +183,6 @@ class Slide(Kind):
         ky = wj * wj * sjy - wi * wi * siy
         return (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
                 + ux * kx + uy * ky)[..., None]
+
+    def jerk(self, G, F):
+        return _along_jerk(G, F)[..., None]

@@ -344,7 +344,9 @@ def unit_of(cm, m: MeasureSpec, units: dict) -> str:
 
 def _orders(m: MeasureSpec, order: int) -> tuple[int, ...]:
     """The derivative orders of m that can be written with q up to `order` (a ratio of rates
-    needs q' for its value and q'' for its rate, and has no acceleration)."""
+    needs q' for its value and q'' for its rate, and has no acceleration). Measures stop at the
+    acceleration: up_to: jerk adds jerk columns to bodies and points only."""
+    order = min(order, 2)
     if m.kind in ("ratio", "advantage"):
         return tuple(k for k in (0, 1) if k + 1 <= order)
     return tuple(range(order + 1))

@@ -201,6 +201,10 @@ class _Validator:
         analysis = self.analysis(root.value.get("analysis"))
         self.check_drivers(drivers, analysis)
         output = self.output(root.value.get("output"), points, drivers)
+        if output.order >= 3 and analysis.interpolate:
+            self.err(root.value["output"].value["up_to"], "output: up_to: jerk needs the exact "
+                     "solve at every grid row, and analysis: interpolate: true interpolates the "
+                     "rows: set interpolate: false or stop at acceleration")
         branch, branch_lines = self.assembly(root.value.get("assembly"))
         self.angle_units(bodies, angle_unit, root)
         forces = validate_forces(self, root)

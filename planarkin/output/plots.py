@@ -41,7 +41,7 @@ FONT = 9                       # legends, annotations (ticks and labels use matp
 STYLE = {"axes.grid": True, "grid.color": "0.88", "grid.linewidth": 0.6,
          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
-ROW_NAMES = ("position", "velocity", "acceleration")
+ROW_NAMES = ("position", "velocity", "acceleration", "jerk")
 
 
 def _styled(fn):
@@ -182,7 +182,7 @@ def _bodies_figure(cm, data, info, x: str = "time"):
     Curves constant over the run (a frame pinned to ground) or identical to one already drawn
     are left out and named, with their value, in a note under the legend (an axes whose curves
     are all constant keeps them)."""
-    series = [a for a in (data.q, data.qd, data.qdd) if a is not None]
+    series = [a for a in (data.q, data.qd, data.qdd, data.qddd) if a is not None]
     colors = _palette(cm.nb)
     xa = _XAxis(cm, x)
     X = xa(data.t)
@@ -219,7 +219,7 @@ def _bodies_figure(cm, data, info, x: str = "time"):
 def _points_figure(cm, data, info, x: str = "time"):
     """One column: x, y of every point (and their derivatives) against time; constant and
     repeated curves left out as in bodies.<fmt>."""
-    series = [a for a in (data.p, data.pd, data.pdd) if a is not None]
+    series = [a for a in (data.p, data.pd, data.pdd, data.pddd) if a is not None]
     colors = _point_palette(len(cm.point_names))
     xa = _XAxis(cm, x)
     X = xa(data.t)
@@ -506,7 +506,7 @@ def _title(cm, what, info=None) -> str:
 
 
 def _pretty(unit: str) -> str:
-    return unit.replace("^2", "\u00b2")
+    return unit.replace("^2", "\u00b2").replace("^3", "\u00b3")
 
 
 # -- the mechanism in the plane ------------------------------------------------------------------

@@ -1,8 +1,9 @@
 """Result tables: column names with units, and streaming CSV writers.
 
 bodies.csv: ``t [s]``, then per body (file order) ``<b>.x <b>.y <b>.phi <b>.vx <b>.vy <b>.omega
-<b>.ax <b>.ay <b>.alpha`` with units in brackets; points.csv: ``t [s]``, then per point ``<p>.x
-<p>.y <p>.vx <p>.vy <p>.ax <p>.ay``. Values are written in full double precision (shortest text
+<b>.ax <b>.ay <b>.alpha`` (and with up_to: jerk ``<b>.jx <b>.jy <b>.jphi``) with units in
+brackets; points.csv: ``t [s]``, then per point ``<p>.x <p>.y <p>.vx <p>.vy <p>.ax <p>.ay`` (and
+``<p>.jx <p>.jy``). Values are written in full double precision (shortest text
 that reads back to the same double), so identical input gives byte-identical files.
 """
 
@@ -14,13 +15,14 @@ import numpy as np
 
 from .fastcsv import write_table
 
-BODY_QUANTITIES = (("x", "y", "phi"), ("vx", "vy", "omega"), ("ax", "ay", "alpha"))
-POINT_QUANTITIES = (("x", "y"), ("vx", "vy"), ("ax", "ay"))
+BODY_QUANTITIES = (("x", "y", "phi"), ("vx", "vy", "omega"), ("ax", "ay", "alpha"),
+                   ("jx", "jy", "jphi"))
+POINT_QUANTITIES = (("x", "y"), ("vx", "vy"), ("ax", "ay"), ("jx", "jy"))
 
 
 def units(length: str, angle: str, order: int, time: str = "s"):
-    """Unit labels of (translation, rotation) for derivative order 0, 1, 2."""
-    suffix = ("", f"/{time}", f"/{time}^2")[order]
+    """Unit labels of (translation, rotation) for derivative order 0, 1, 2, 3."""
+    suffix = ("", f"/{time}", f"/{time}^2", f"/{time}^3")[order]
     return length + suffix, angle + suffix
 
 
@@ -62,7 +64,7 @@ class Layout:
         per = 3 * (self.order + 1)
         out = np.empty((N, 1 + per * len(self.bodies)))
         out[:, 0] = ch.t
-        arrays = (ch.q, ch.qd, ch.qdd)
+        arrays = (ch.q, ch.qd, ch.qdd, ch.qddd)
         for k, b in enumerate(self.bodies):
             base = 1 + per * k
             for o in range(self.order + 1):
@@ -74,7 +76,7 @@ class Layout:
         per = 2 * (self.order + 1)
         out = np.empty((N, 1 + per * len(self.points)))
         out[:, 0] = ch.t
-        arrays = (ch.p, ch.pd, ch.pdd)
+        arrays = (ch.p, ch.pd, ch.pdd, ch.pddd)
         for k, p in enumerate(self.points):
             base = 1 + per * k
             for o in range(self.order + 1):

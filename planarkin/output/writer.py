@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..derived import derived_tables
+from ..options import ORDERS
 from ..solver import Chunk, Options
 from .directory import SINKS, Interrupted, ProcessSink, ResultDirectory, fork_context, held_signals
 from .summary import ColumnStats, StepStats, error_estimates, write_json
@@ -30,7 +31,7 @@ PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
 def _take(ch: Chunk, sel) -> Chunk:
     g = lambda a: None if a is None else a[sel]
     return Chunk(ch.t[sel], ch.q[sel], g(ch.qd), g(ch.qdd), ch.p[sel], g(ch.pd), g(ch.pdd),
-                 ch.iterations[sel], ch.cond[sel], ch.residual[sel])
+                 ch.iterations[sel], ch.cond[sel], ch.residual[sel], g(ch.qddd), g(ch.pddd))
 
 
 def _concat(parts: list[Chunk]) -> Chunk:
@@ -38,7 +39,7 @@ def _concat(parts: list[Chunk]) -> Chunk:
         arrays = [getattr(p, name) for p in parts]
         return None if arrays[0] is None else np.concatenate(arrays)
     return Chunk(*(cat(f) for f in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond",
-                                    "residual")))
+                                    "residual", "qddd", "pddd")))
 
 
 class PlotBuffer:
@@ -316,7 +317,7 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "settings": {"tol": o.tol, "newton": o.newton, "iterations": o.iterations,
                      "path_tol": o.path_tol, "max_step": o.max_step,
                      "interpolate": o.interpolate, "bifurcation": o.bifurcation,
-                     "order": ("position", "velocity", "acceleration")[o.order]},
+                     "order": ORDERS[o.order]},
         "assembly": info.assembly,
         "solver": {
             "internal_steps": info.internal_steps,
