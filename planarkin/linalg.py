@@ -23,19 +23,39 @@ _SMALL_BATCH = 48
 _GJ_MAX_K = 5
 
 
-def inv_batched(J: np.ndarray):
+def inv_batched(J: np.ndarray, want_sign: bool = True):
     """Invert a stack of matrices.
 
     J: (N, k, k). Returns (Jinv (N, k, k), detsign (N,) in {-1, 0, +1}, ok (N,) bool).
     Where a matrix is numerically singular (a zero pivot), ok is False, detsign is 0 and that
-    Jinv holds nan; the other matrices are unaffected.
+    Jinv holds nan; the other matrices are unaffected. want_sign False: detsign is not computed
+    (zeros) where that costs a second factorisation (numpy's LAPACK route: slogdet is a quarter
+    of inv + slogdet from k = 6 to 80, benchmarks/bench_blocks.py --medium).
     """
     N, k, _ = J.shape
     if N == 0:
         return np.empty_like(J), np.zeros(0), np.zeros(0, bool)
     if N < _SMALL_BATCH or k > _GJ_MAX_K:
-        return _inv_lapack(J)
+        return _inv_lapack(J) if want_sign else _inv_only(J)
     return _inv_gauss_jordan(J)
+
+
+def _inv_only(J):
+    """_inv_lapack without the determinant: numpy's stacked inverse, which refuses the whole
+    stack when one matrix is exactly singular (then matrix by matrix)."""
+    N = J.shape[0]
+    if np.isfinite(J).all():
+        try:
+            out = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            pass
+        else:
+            ok = np.isfinite(out).all(axis=(1, 2))
+            if not ok.all():
+                out[~ok] = np.nan
+            return out, np.zeros(N), ok
+    out, _, ok = _inv_lapack(J)
+    return out, np.zeros(N), ok
 
 
 def _inv_lapack(J):

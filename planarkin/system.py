@@ -419,7 +419,7 @@ class System:
                             J, sg, sm = None, Minv.sign, Minv.smin
                         else:
                             J = self.block_matrix(B, grads0)
-                            Minv, sg, sm = _invert(J, one)
+                            Minv, sg, sm = _invert(J, one, want=it == 0)
                         if it == 0:
                             sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
                             smin[:, b] = sm
@@ -455,7 +455,7 @@ class System:
                     if large:
                         Minv = self.block_lu(B, grads, want=False)
                     else:
-                        Minv, _, _ = _invert(self.block_matrix(B, grads), one)
+                        Minv, _, _ = _invert(self.block_matrix(B, grads), one, want=False)
                 self._direct(B, grads, Minv, one, NU[:, B.rows], Qd)
                 if order < 2:
                     continue
@@ -509,11 +509,15 @@ def _apply(Minv, r: np.ndarray, one: bool) -> np.ndarray:
     return matvec(Minv, r)
 
 
-def _invert(J: np.ndarray, one: bool):
+def _invert(J: np.ndarray, one: bool, want: bool = True):
     """(inverse, det sign, sigma_min lower bound) of a batch of diagonal blocks; for 1x1 blocks
-    the inverse is returned as an (N, 1) array."""
+    the inverse is returned as an (N, 1) array. want False (the velocity and acceleration
+    systems, whose sign and sigma_min nobody reads): sign and bound are None, and the dense
+    route skips its second factorisation (slogdet) and the norms."""
     if one:
         j = J[:, 0, :]
         return 1.0 / j, np.sign(j[:, 0]), np.abs(j[:, 0])
-    Minv, sg, ok = inv_batched(J)
+    Minv, sg, ok = inv_batched(J, want_sign=want)
+    if not want:
+        return Minv, None, None
     return Minv, sg, np.where(ok, sigma_min_lower(Minv), 0.0)

@@ -197,6 +197,27 @@ def test_sparse_lu_singular_and_nonfinite_points():
     assert np.allclose(x[0], 1.0) and np.isnan(x[1:]).all()
 
 
+@pytest.mark.parametrize("k", [3, 9, 40])
+def test_dense_inverse_without_sign_matches_and_flags_singular(k):
+    """inv_batched(want_sign=False), the velocity systems' route: the same inverses as with the
+    sign, an exactly singular or non-finite matrix flagged (nan) without spoiling the others."""
+    rng = np.random.default_rng(k)
+    J = rng.normal(size=(60, k, k)) + 3 * np.eye(k)
+    J[7, :, 1] = J[7, :, 0]                     # two equal columns: exactly singular
+    J[11, 2, 2] = np.nan
+    with np.errstate(all="ignore"):
+        ref, sign, ok = linalg.inv_batched(J)
+        out, _, ok2 = linalg.inv_batched(J, want_sign=False)
+    good = np.ones(60, bool)
+    good[[7, 11]] = False
+    assert ok2[good].all() and not ok2[11]
+    assert np.abs(out[good] - ref[good]).max() < 1e-9 * np.abs(ref[good]).max()
+    assert (ok2 == ok).all() and np.isnan(out[~ok2]).all()
+    eye = np.einsum("nij,njk->nik", J[good], out[good])
+    assert np.abs(eye - np.eye(k)).max() < 1e-9
+    assert (sign[good] == np.sign(np.linalg.det(J[good]))).all()
+
+
 @pytest.mark.parametrize("p", [[0, 1, 2, 3], [1, 0, 2, 3], [1, 2, 0, 3], [3, 2, 1, 0],
                                [1, 2, 3, 0]])
 def test_permutation_sign(p):
