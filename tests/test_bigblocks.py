@@ -283,3 +283,47 @@ def test_coincident_distance_points_at_the_estimates_are_named(limit, monkeypatc
         assembly.assemble(cm)
     assert "coincide at the body estimates q" in str(e.value)
     assert "coincident.yaml:7:" in str(e.value)
+
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_block_assembly_gives_what_the_dense_checks_give(name, monkeypatch):
+    """From SPARSE_ASSEMBLY coordinates a square model is assembled block by block: the same
+    pose (to rounding), degrees of freedom, rows, assembly modes and warnings as the dense
+    checks, and no dense Jacobian is built."""
+    text = MODELS[name][0]()
+    dense = assembly.assemble(planarkin.load(f"{name}.yaml", text=text))
+    monkeypatch.setattr(assembly, "SPARSE_ASSEMBLY", 10)
+
+    def refuse(self, Q):
+        raise AssertionError("dense Jacobian built")
+    monkeypatch.setattr(system.System, "jacobian", refuse)
+    blocks = assembly.assemble(planarkin.load(f"{name}.yaml", text=text))
+    assert np.abs(blocks.q - dense.q).max() < 1e-12 and blocks.residual < 1e-12
+    assert (blocks.dof, blocks.redundant_rows) == (dense.dof, dense.redundant_rows)
+    assert (blocks.active_rows == dense.active_rows).all()
+    assert [(m.bodies, m.sign) for m in blocks.modes] == [(m.bodies, m.sign) for m in dense.modes]
+    assert [d.message for d in blocks.warnings] == [d.message for d in dense.warnings]
+
+
+def test_block_assembly_leaves_unclear_models_to_the_dense_checks(monkeypatch):
+    """A clear square model skips Levenberg-Marquardt; one whose blocks do not settle it (a
+    driver repeated in place of the last one: square, but the arch's block singular) is
+    refused by the dense checks with their named problem, as below SPARSE_ASSEMBLY."""
+    monkeypatch.setattr(assembly, "SPARSE_ASSEMBLY", 2)
+    calls = []
+    real = assembly._levenberg_marquardt
+
+    def spy(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+    monkeypatch.setattr(assembly, "_levenberg_marquardt", spy)
+    text = MODELS["arch"][0]()
+    A = assembly.assemble(planarkin.load("arch.yaml", text=text))
+    assert not calls and A.residual < 1e-12
+    lines = text.splitlines()
+    last = max(i for i, ln in enumerate(lines) if "type: angle" in ln)
+    lines[last] = lines[last - 1]
+    with pytest.raises(planarkin.InputError) as e:
+        assembly.assemble(planarkin.load("arch.yaml", text="\n".join(lines) + "\n"))
+    assert calls and "driver" in str(e.value)
