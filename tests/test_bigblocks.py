@@ -237,6 +237,33 @@ def test_grid_chunks_are_bounded_by_the_working_set(monkeypatch):
     assert sum(sizes) == 201 and max(sizes) <= 40
 
 
+def test_many_small_blocks_get_larger_chunks_within_their_bound(monkeypatch):
+    """A model of many solve blocks gets chunks of CHUNK_MIN_POINTS points (each block's
+    per-call overhead is paid per chunk) as long as they stay under CHUNK_BYTES_MANY; the
+    results are those of the small chunks."""
+    cm = planarkin.load("scissor.yaml", text=bigmodels.scissor_yaml(8, 200))
+    A = assembly.assemble(cm)
+    nblocks = len(A.system.blocks)
+    per_point = A.system.point_bytes()
+    monkeypatch.setattr(solver, "CHUNK_BYTES", 20 * per_point)
+    runs = {}
+    for many, bound in ((10 ** 9, 10 ** 12), (nblocks, 60 * per_point), (nblocks, 10 ** 12)):
+        monkeypatch.setattr(solver, "CHUNK_MANY_BLOCKS", many)
+        monkeypatch.setattr(solver, "CHUNK_MIN_POINTS", 100)
+        monkeypatch.setattr(solver, "CHUNK_BYTES_MANY", bound)
+        an = solver.Analysis(cm, A, solver.Options.from_model(cm))
+        an.follow()
+        chunks = list(an.chunks())
+        runs[(many, bound)] = chunks
+        assert sum(len(ch.t) for ch in chunks) == 201
+    assert [len(ch.t) for ch in runs[(10 ** 9, 10 ** 12)]][:2] == [20, 20]
+    assert [len(ch.t) for ch in runs[(nblocks, 60 * per_point)]][:2] == [60, 60]
+    assert [len(ch.t) for ch in runs[(nblocks, 10 ** 12)]][:2] == [100, 100]
+    ref = np.concatenate([ch.q for ch in runs[(10 ** 9, 10 ** 12)]])
+    for chunks in runs.values():
+        assert np.abs(np.concatenate([ch.q for ch in chunks]) - ref).max() < 1e-12
+
+
 def test_one_blas_thread_pins_and_restores():
     controls = linalg._blas_controls()
     if not controls:
