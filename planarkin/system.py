@@ -38,6 +38,9 @@ SPARSE_BLOCK = 80
 # 360-step four-bar run's 50 calls, so small systems (which never reach BLAS's threaded
 # sizes) are left alone.
 PIN_BLAS_FROM = 32
+# Models with at least this many drivers evaluate them all in one expression pass
+# (System._driver_values_joint); below, each driver's own TimeFunction.derivatives.
+JOINT_DRIVERS = 16
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,8 @@ class System:
         drivers' derivative rules as written, -1 / +1 their limits from the left / right (they
         differ only at a driver's breakpoint, see TimeFunction.breakpoints)."""
         cm = self.cm
+        if len(cm.driver_funcs) >= JOINT_DRIVERS:
+            return self._driver_values_joint(t, side)
         t = np.atleast_1d(np.asarray(t, dtype=float))
         N = t.shape[0]
         T = np.empty((N, cm.m))
@@ -118,6 +123,30 @@ class System:
                 T[:, r] = T[:, r] + sc * np.broadcast_to(v, (N,))
                 NU[:, r] = sc * np.broadcast_to(d1, (N,))
                 FDD[:, r] = sc * np.broadcast_to(d2, (N,))
+        return T, NU, FDD
+
+    def _driver_values_joint(self, t: np.ndarray, side: int = 0):
+        """driver_values for a model of many drivers (the arch's 98): every driver's f, f' and
+        f'' in one evaluation of all their expression trees, which shares the set-up and the
+        common subexpressions (sin(2 pi t) once, not 98 times): 9-10 ms -> 2-2.6 ms per call at
+        130 points. Values identical to the drivers' own derivatives(t, side): at a switch the
+        side-0 average re-evaluates every tree from the left, and (a + a) / 2 is a."""
+        from .expr import _evaluate
+        cm = self.cm
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        N = t.shape[0]
+        T = np.empty((N, cm.m))
+        T[:] = cm.targets
+        NU = np.zeros((N, cm.m))
+        FDD = np.zeros((N, cm.m))
+        funcs = cm.driver_funcs
+        with np.errstate(all="ignore"):
+            out = _evaluate(tuple(e for f in funcs for e in (f.expr, f.first, f.second)),
+                            {"t": t}, side)
+            for i, (r, sc) in enumerate(zip(cm.driver_rows, cm.driver_scale)):
+                T[:, r] = T[:, r] + sc * np.broadcast_to(out[3 * i], (N,))
+                NU[:, r] = sc * np.broadcast_to(out[3 * i + 1], (N,))
+                FDD[:, r] = sc * np.broadcast_to(out[3 * i + 2], (N,))
         return T, NU, FDD
 
     # -- dense whole-system view -----------------------------------------------------------------

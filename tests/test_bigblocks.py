@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import bigmodels  # noqa: E402
 import planarkin  # noqa: E402
@@ -354,3 +355,42 @@ def test_block_assembly_leaves_unclear_models_to_the_dense_checks(monkeypatch):
     with pytest.raises(planarkin.InputError) as e:
         assembly.assemble(planarkin.load("arch.yaml", text="\n".join(lines) + "\n"))
     assert calls and "driver" in str(e.value)
+
+
+CRANKS = ["0.2*sin(2*pi*t)", "abs(t - 0.5)", "abs(t - 0.25)**2", "min(t, 0.4)",
+          "clip(2*t - 0.5, 0, 1)", "where(t < 0.3, t, 0.6 - t)", "0.1 + 0.2*sin(2*pi*t)",
+          "max(0.5*t, t - 0.5)"]
+
+
+def _cranks_yaml():
+    out = ["name: cranks", "units: {length: m, angle: rad}", "bodies:"]
+    out += [f"  c{k}: {{q: [0, 0, 0]}}" for k in range(len(CRANKS))]
+    out += ["joints:"] + [f"  - {{type: revolute, i: ground, j: c{k}, si: [{k}, 0], sj: [0, 0]}}"
+                          for k in range(len(CRANKS))]
+    out += ["drivers:"] + [f"  - {{type: angle, body: c{k}, f: \"{f}\"}}"
+                           for k, f in enumerate(CRANKS)]
+    return "\n".join(out + ["analysis: {start: 0, end: 1, steps: 20}"]) + "\n"
+
+
+@pytest.mark.parametrize("name", ["cranks", "servo-press", "table-input"])
+def test_joint_driver_evaluation_is_the_drivers_own(name, monkeypatch):
+    """Many drivers are evaluated in one expression pass (system.JOINT_DRIVERS): bit for bit the
+    values of each driver's own derivatives, at its breakpoints too (kinks of abs, min, clip,
+    where; a motion law's knots; a table's), from either side and averaged."""
+    cm = (planarkin.load("cranks.yaml", text=_cranks_yaml()) if name == "cranks" else
+          planarkin.load(str(ROOT / "mechanisms" / f"{name}.yaml")))
+    S = system.System(cm)
+    a, b = cm.spec.analysis.start, cm.spec.analysis.end
+    t = [np.linspace(a, b, 97)]
+    for f in cm.driver_funcs:
+        t.append(np.array([bp.t for bp in f.breakpoints(a, b)], dtype=float))
+    t = np.concatenate(t)
+    if name == "cranks":
+        assert len(t) > 97 + 5                   # the kinks are among the times
+    for side in (0, -1, 1):
+        monkeypatch.setattr(system, "JOINT_DRIVERS", 10 ** 9)
+        own = S.driver_values(t, side)
+        monkeypatch.setattr(system, "JOINT_DRIVERS", 1)
+        joint = S.driver_values(t, side)
+        for x, y in zip(own, joint):
+            assert np.array_equal(x, y, equal_nan=True)
