@@ -394,3 +394,34 @@ def test_joint_driver_evaluation_is_the_drivers_own(name, monkeypatch):
         joint = S.driver_values(t, side)
         for x, y in zip(own, joint):
             assert np.array_equal(x, y, equal_nan=True)
+
+
+def _four_bar_loops_brute(cm):
+    """The definition, by brute force: every pair of grounded bodies p < r and every body c
+    pinned to both (the enumeration planarkin.measures.grashof replaced)."""
+    pins = {}
+    for g in cm.groups:
+        if g.kind.name == "revolute":
+            for a, b in g.bodies[:, :2].tolist():
+                pins[(a, b)] = pins[(b, a)] = True
+    G = cm.nb
+    grounded = sorted({b for (a, b) in pins if a == G})
+    return [(p, c, r) for ip, p in enumerate(grounded) for r in grounded[ip + 1:]
+            for c in range(cm.nb) if c not in (p, r) and (p, c) in pins and (c, r) in pins]
+
+
+@pytest.mark.parametrize("name", ["four-bar", "six-bar", "jansen-leg", "klann-leg",
+                                  "peaucellier", "chain"])
+def test_four_bar_loops_found_from_the_pin_graph(name):
+    """`planarkin check` lists the same four-bar loops, in the same order, as the brute-force
+    enumeration (which never finished for the 18,003-coordinate chain)."""
+    from planarkin.measures.grashof import four_bar_loops
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import models
+    cm = (planarkin.load("chain.yaml", text=models.chain_yaml(7)) if name == "chain" else
+          planarkin.load(str(ROOT / "mechanisms" / f"{name}.yaml")))
+    index = {n: k for k, n in enumerate(cm.body_names)}
+    got = [tuple(index[b] for b in loop.links[1:]) for loop in four_bar_loops(cm)]
+    assert got == _four_bar_loops_brute(cm)
+    if name == "chain":
+        assert len(got) == 7
