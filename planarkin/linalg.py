@@ -23,19 +23,39 @@ _SMALL_BATCH = 48
 _GJ_MAX_K = 5
 
 
-def inv_batched(J: np.ndarray):
+def inv_batched(J: np.ndarray, want_sign: bool = True):
     """Invert a stack of matrices.
 
     J: (N, k, k). Returns (Jinv (N, k, k), detsign (N,) in {-1, 0, +1}, ok (N,) bool).
     Where a matrix is numerically singular (a zero pivot), ok is False, detsign is 0 and that
-    Jinv holds nan; the other matrices are unaffected.
+    Jinv holds nan; the other matrices are unaffected. want_sign False: detsign is not computed
+    (zeros) where that costs a second factorisation (numpy's LAPACK route: slogdet is a quarter
+    of inv + slogdet from k = 6 to 80, benchmarks/bench_blocks.py --medium).
     """
     N, k, _ = J.shape
     if N == 0:
         return np.empty_like(J), np.zeros(0), np.zeros(0, bool)
     if N < _SMALL_BATCH or k > _GJ_MAX_K:
-        return _inv_lapack(J)
+        return _inv_lapack(J) if want_sign else _inv_only(J)
     return _inv_gauss_jordan(J)
+
+
+def _inv_only(J):
+    """_inv_lapack without the determinant: numpy's stacked inverse, which refuses the whole
+    stack when one matrix is exactly singular (then matrix by matrix)."""
+    N = J.shape[0]
+    if np.isfinite(J).all():
+        try:
+            out = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            pass
+        else:
+            ok = np.isfinite(out).all(axis=(1, 2))
+            if not ok.all():
+                out[~ok] = np.nan
+            return out, np.zeros(N), ok
+    out, _, ok = _inv_lapack(J)
+    return out, np.zeros(N), ok
 
 
 def _inv_lapack(J):
@@ -211,10 +231,16 @@ def _inv_norm1_estimate(lu, k: int, maxit: int = 3) -> float:
     factors: a few solves with A and A^T, a lower bound of the true norm that is exact in most
     cases."""
     x = np.full(k, 1.0 / k)
+    # Higham's alternative vector guards against the estimator's known bad cases; it is solved
+    # with the first iterate, in one call (a two-column solve costs about one: SuperLU's
+    # per-call overhead dominates at these sizes)
+    b = np.where(np.arange(k) % 2, -1.0, 1.0) * (1.0 + np.arange(k) / max(k - 1, 1))
+    yb = lu.solve(np.stack([x, b], axis=1))
+    alt = 2.0 * np.abs(yb[:, 1]).sum() / (3.0 * k)
     est = 0.0
     j_old = -1
     for it in range(maxit):
-        y = lu.solve(x)
+        y = yb[:, 0] if it == 0 else lu.solve(x)
         est_new = np.abs(y).sum()
         if not np.isfinite(est_new):
             return np.inf
@@ -228,9 +254,6 @@ def _inv_norm1_estimate(lu, k: int, maxit: int = 3) -> float:
         x = np.zeros(k)
         x[j] = 1.0
         j_old = j
-    # Higham's alternative vector guards against the estimator's known bad cases
-    b = np.where(np.arange(k) % 2, -1.0, 1.0) * (1.0 + np.arange(k) / max(k - 1, 1))
-    alt = 2.0 * np.abs(lu.solve(b)).sum() / (3.0 * k)
     return max(est, alt)
 
 

@@ -55,6 +55,14 @@ PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and 
 # numpy, scipy and the path nodes: measured 205-222 MB for the 300-coordinate arch at 1,000 and
 # 3,000 steps (128 MB gave 385-397 MB)
 CHUNK_BYTES = 64 << 20
+# A model of many small solve blocks (the N-four-bar chain: 5,003) pays every block's per-call
+# Python overhead once per chunk, ~250 us a block, against ~0.7 us of work per block and point:
+# 58-point chunks (64 MB at 6,003 coordinates) made its grid pass 2.5x slower than 232-point
+# ones. Such a model (CHUNK_MANY_BLOCKS solve blocks or more) gets chunks of at least
+# CHUNK_MIN_POINTS points while their estimated working set stays under CHUNK_BYTES_MANY.
+CHUNK_MANY_BLOCKS = 64
+CHUNK_MIN_POINTS = 256
+CHUNK_BYTES_MANY = 256 << 20
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -801,10 +809,14 @@ class Analysis:
         """Grid times chunk by chunk, up to the stopping time; the grid itself is never held
         whole (a 10^9-step grid is 8 GB). A chunk's working set is kept under CHUNK_BYTES
         (System.point_bytes: coordinates and the largest block's factorisation), so memory does
-        not grow with the number of steps: the 6,003-coordinate chain solves 58 points per
-        chunk, the 300-coordinate arch 130, the slider-crank the default 8192."""
+        not grow with the number of steps: the 300-coordinate arch solves 130 points per chunk,
+        the slider-crank the default 8192; a model of many solve blocks up to CHUNK_MIN_POINTS
+        within CHUNK_BYTES_MANY (the 6,003-coordinate chain 232)."""
         per_point = max(S.point_bytes() for S, _ in self.follower.systems)
-        size = max(16, min(self.opts.chunk, CHUNK_BYTES // per_point))
+        size = CHUNK_BYTES // per_point
+        if max(len(S.blocks) for S, _ in self.follower.systems) >= CHUNK_MANY_BLOCKS:
+            size = max(size, min(CHUNK_MIN_POINTS, CHUNK_BYTES_MANY // per_point))
+        size = max(16, min(self.opts.chunk, size))
         for a in range(0, self.opts.rows, size):
             g = self.opts.times(a, a + size)
             if self.event is not None:

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import bigmodels  # noqa: E402
 import planarkin  # noqa: E402
@@ -197,6 +198,27 @@ def test_sparse_lu_singular_and_nonfinite_points():
     assert np.allclose(x[0], 1.0) and np.isnan(x[1:]).all()
 
 
+@pytest.mark.parametrize("k", [3, 9, 40])
+def test_dense_inverse_without_sign_matches_and_flags_singular(k):
+    """inv_batched(want_sign=False), the velocity systems' route: the same inverses as with the
+    sign, an exactly singular or non-finite matrix flagged (nan) without spoiling the others."""
+    rng = np.random.default_rng(k)
+    J = rng.normal(size=(60, k, k)) + 3 * np.eye(k)
+    J[7, :, 1] = J[7, :, 0]                     # two equal columns: exactly singular
+    J[11, 2, 2] = np.nan
+    with np.errstate(all="ignore"):
+        ref, sign, ok = linalg.inv_batched(J)
+        out, _, ok2 = linalg.inv_batched(J, want_sign=False)
+    good = np.ones(60, bool)
+    good[[7, 11]] = False
+    assert ok2[good].all() and not ok2[11]
+    assert np.abs(out[good] - ref[good]).max() < 1e-9 * np.abs(ref[good]).max()
+    assert (ok2 == ok).all() and np.isnan(out[~ok2]).all()
+    eye = np.einsum("nij,njk->nik", J[good], out[good])
+    assert np.abs(eye - np.eye(k)).max() < 1e-9
+    assert (sign[good] == np.sign(np.linalg.det(J[good]))).all()
+
+
 @pytest.mark.parametrize("p", [[0, 1, 2, 3], [1, 0, 2, 3], [1, 2, 0, 3], [3, 2, 1, 0],
                                [1, 2, 3, 0]])
 def test_permutation_sign(p):
@@ -214,6 +236,33 @@ def test_grid_chunks_are_bounded_by_the_working_set(monkeypatch):
     an.follow()
     sizes = [len(ch.t) for ch in an.chunks()]
     assert sum(sizes) == 201 and max(sizes) <= 40
+
+
+def test_many_small_blocks_get_larger_chunks_within_their_bound(monkeypatch):
+    """A model of many solve blocks gets chunks of CHUNK_MIN_POINTS points (each block's
+    per-call overhead is paid per chunk) as long as they stay under CHUNK_BYTES_MANY; the
+    results are those of the small chunks."""
+    cm = planarkin.load("scissor.yaml", text=bigmodels.scissor_yaml(8, 200))
+    A = assembly.assemble(cm)
+    nblocks = len(A.system.blocks)
+    per_point = A.system.point_bytes()
+    monkeypatch.setattr(solver, "CHUNK_BYTES", 20 * per_point)
+    runs = {}
+    for many, bound in ((10 ** 9, 10 ** 12), (nblocks, 60 * per_point), (nblocks, 10 ** 12)):
+        monkeypatch.setattr(solver, "CHUNK_MANY_BLOCKS", many)
+        monkeypatch.setattr(solver, "CHUNK_MIN_POINTS", 100)
+        monkeypatch.setattr(solver, "CHUNK_BYTES_MANY", bound)
+        an = solver.Analysis(cm, A, solver.Options.from_model(cm))
+        an.follow()
+        chunks = list(an.chunks())
+        runs[(many, bound)] = chunks
+        assert sum(len(ch.t) for ch in chunks) == 201
+    assert [len(ch.t) for ch in runs[(10 ** 9, 10 ** 12)]][:2] == [20, 20]
+    assert [len(ch.t) for ch in runs[(nblocks, 60 * per_point)]][:2] == [60, 60]
+    assert [len(ch.t) for ch in runs[(nblocks, 10 ** 12)]][:2] == [100, 100]
+    ref = np.concatenate([ch.q for ch in runs[(10 ** 9, 10 ** 12)]])
+    for chunks in runs.values():
+        assert np.abs(np.concatenate([ch.q for ch in chunks]) - ref).max() < 1e-12
 
 
 def test_one_blas_thread_pins_and_restores():
@@ -262,3 +311,117 @@ def test_coincident_distance_points_at_the_estimates_are_named(limit, monkeypatc
         assembly.assemble(cm)
     assert "coincide at the body estimates q" in str(e.value)
     assert "coincident.yaml:7:" in str(e.value)
+
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_block_assembly_gives_what_the_dense_checks_give(name, monkeypatch):
+    """From SPARSE_ASSEMBLY coordinates a square model is assembled block by block: the same
+    pose (to rounding), degrees of freedom, rows, assembly modes and warnings as the dense
+    checks, and no dense Jacobian is built."""
+    text = MODELS[name][0]()
+    dense = assembly.assemble(planarkin.load(f"{name}.yaml", text=text))
+    monkeypatch.setattr(assembly, "SPARSE_ASSEMBLY", 10)
+
+    def refuse(self, Q):
+        raise AssertionError("dense Jacobian built")
+    monkeypatch.setattr(system.System, "jacobian", refuse)
+    blocks = assembly.assemble(planarkin.load(f"{name}.yaml", text=text))
+    assert np.abs(blocks.q - dense.q).max() < 1e-12 and blocks.residual < 1e-12
+    assert (blocks.dof, blocks.redundant_rows) == (dense.dof, dense.redundant_rows)
+    assert (blocks.active_rows == dense.active_rows).all()
+    assert [(m.bodies, m.sign) for m in blocks.modes] == [(m.bodies, m.sign) for m in dense.modes]
+    assert [d.message for d in blocks.warnings] == [d.message for d in dense.warnings]
+
+
+def test_block_assembly_leaves_unclear_models_to_the_dense_checks(monkeypatch):
+    """A clear square model skips Levenberg-Marquardt; one whose blocks do not settle it (a
+    driver repeated in place of the last one: square, but the arch's block singular) is
+    refused by the dense checks with their named problem, as below SPARSE_ASSEMBLY."""
+    monkeypatch.setattr(assembly, "SPARSE_ASSEMBLY", 2)
+    calls = []
+    real = assembly._levenberg_marquardt
+
+    def spy(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+    monkeypatch.setattr(assembly, "_levenberg_marquardt", spy)
+    text = MODELS["arch"][0]()
+    A = assembly.assemble(planarkin.load("arch.yaml", text=text))
+    assert not calls and A.residual < 1e-12
+    lines = text.splitlines()
+    last = max(i for i, ln in enumerate(lines) if "type: angle" in ln)
+    lines[last] = lines[last - 1]
+    with pytest.raises(planarkin.InputError) as e:
+        assembly.assemble(planarkin.load("arch.yaml", text="\n".join(lines) + "\n"))
+    assert calls and "driver" in str(e.value)
+
+
+CRANKS = ["0.2*sin(2*pi*t)", "abs(t - 0.5)", "abs(t - 0.25)**2", "min(t, 0.4)",
+          "clip(2*t - 0.5, 0, 1)", "where(t < 0.3, t, 0.6 - t)", "0.1 + 0.2*sin(2*pi*t)",
+          "max(0.5*t, t - 0.5)"]
+
+
+def _cranks_yaml():
+    out = ["name: cranks", "units: {length: m, angle: rad}", "bodies:"]
+    out += [f"  c{k}: {{q: [0, 0, 0]}}" for k in range(len(CRANKS))]
+    out += ["joints:"] + [f"  - {{type: revolute, i: ground, j: c{k}, si: [{k}, 0], sj: [0, 0]}}"
+                          for k in range(len(CRANKS))]
+    out += ["drivers:"] + [f"  - {{type: angle, body: c{k}, f: \"{f}\"}}"
+                           for k, f in enumerate(CRANKS)]
+    return "\n".join(out + ["analysis: {start: 0, end: 1, steps: 20}"]) + "\n"
+
+
+@pytest.mark.parametrize("name", ["cranks", "servo-press", "table-input"])
+def test_joint_driver_evaluation_is_the_drivers_own(name, monkeypatch):
+    """Many drivers are evaluated in one expression pass (system.JOINT_DRIVERS): bit for bit the
+    values of each driver's own derivatives, at its breakpoints too (kinks of abs, min, clip,
+    where; a motion law's knots; a table's), from either side and averaged."""
+    cm = (planarkin.load("cranks.yaml", text=_cranks_yaml()) if name == "cranks" else
+          planarkin.load(str(ROOT / "mechanisms" / f"{name}.yaml")))
+    S = system.System(cm)
+    a, b = cm.spec.analysis.start, cm.spec.analysis.end
+    t = [np.linspace(a, b, 97)]
+    for f in cm.driver_funcs:
+        t.append(np.array([bp.t for bp in f.breakpoints(a, b)], dtype=float))
+    t = np.concatenate(t)
+    if name == "cranks":
+        assert len(t) > 97 + 5                   # the kinks are among the times
+    for side in (0, -1, 1):
+        monkeypatch.setattr(system, "JOINT_DRIVERS", 10 ** 9)
+        own = S.driver_values(t, side)
+        monkeypatch.setattr(system, "JOINT_DRIVERS", 1)
+        joint = S.driver_values(t, side)
+        for x, y in zip(own, joint):
+            assert np.array_equal(x, y, equal_nan=True)
+
+
+def _four_bar_loops_brute(cm):
+    """The definition, by brute force: every pair of grounded bodies p < r and every body c
+    pinned to both (the enumeration planarkin.measures.grashof replaced)."""
+    pins = {}
+    for g in cm.groups:
+        if g.kind.name == "revolute":
+            for a, b in g.bodies[:, :2].tolist():
+                pins[(a, b)] = pins[(b, a)] = True
+    G = cm.nb
+    grounded = sorted({b for (a, b) in pins if a == G})
+    return [(p, c, r) for ip, p in enumerate(grounded) for r in grounded[ip + 1:]
+            for c in range(cm.nb) if c not in (p, r) and (p, c) in pins and (c, r) in pins]
+
+
+@pytest.mark.parametrize("name", ["four-bar", "six-bar", "jansen-leg", "klann-leg",
+                                  "peaucellier", "chain"])
+def test_four_bar_loops_found_from_the_pin_graph(name):
+    """`planarkin check` lists the same four-bar loops, in the same order, as the brute-force
+    enumeration (which never finished for the 18,003-coordinate chain)."""
+    from planarkin.measures.grashof import four_bar_loops
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import models
+    cm = (planarkin.load("chain.yaml", text=models.chain_yaml(7)) if name == "chain" else
+          planarkin.load(str(ROOT / "mechanisms" / f"{name}.yaml")))
+    index = {n: k for k, n in enumerate(cm.body_names)}
+    got = [tuple(index[b] for b in loop.links[1:]) for loop in four_bar_loops(cm)]
+    assert got == _four_bar_loops_brute(cm)
+    if name == "chain":
+        assert len(got) == 7

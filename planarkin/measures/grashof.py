@@ -53,20 +53,26 @@ def four_bar_loops(cm) -> list[Loop]:
     G = cm.nb
     name = lambda b: "ground" if b == G else cm.body_names[b]
     grounded = sorted({b for (a, b) in pins if a == G})
+    # couplers from the pin graph's neighbours: looping over every pair of grounded bodies and
+    # every body (as written first) never finished for the 18,003-coordinate N-four-bar chain
+    # (6,000 grounded bodies); the loops come out in the same order
+    rank = {b: i for i, b in enumerate(grounded)}
+    nbrs: dict[int, list] = {}
+    for a, b in pins:
+        nbrs.setdefault(a, []).append(b)
     out = []
     for ip, p in enumerate(grounded):
-        for r in grounded[ip + 1:]:
-            for c in range(cm.nb):
-                if c in (p, r) or (p, c) not in pins or (c, r) not in pins:
-                    continue
-                gp, pg = pins[(G, p)][0]         # ground's pivot of p, p's end there
-                gr, rg = pins[(G, r)][0]
-                pc, cp = pins[(p, c)][0]
-                cr, rc = pins[(c, r)][0]
-                L = cm.L
-                lengths = (math.dist(gp, gr) * L, math.dist(pg, pc) * L,
-                           math.dist(cp, cr) * L, math.dist(rc, rg) * L)
-                out.append(_classify((name(G), name(p), name(c), name(r)), lengths))
+        found = sorted((rank[r], c, r) for c in nbrs.get(p, ()) if c not in (G, p)
+                       for r in nbrs.get(c, ()) if rank.get(r, -1) > ip and r != c)
+        for _, c, r in found:
+            gp, pg = pins[(G, p)][0]         # ground's pivot of p, p's end there
+            gr, rg = pins[(G, r)][0]
+            pc, cp = pins[(p, c)][0]
+            cr, rc = pins[(c, r)][0]
+            L = cm.L
+            lengths = (math.dist(gp, gr) * L, math.dist(pg, pc) * L,
+                       math.dist(cp, cr) * L, math.dist(rc, rg) * L)
+            out.append(_classify((name(G), name(p), name(c), name(r)), lengths))
     return out
 
 
