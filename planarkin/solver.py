@@ -55,6 +55,10 @@ PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and 
 # numpy, scipy and the path nodes: measured 205-222 MB for the 300-coordinate arch at 1,000 and
 # 3,000 steps (128 MB gave 385-397 MB)
 CHUNK_BYTES = 64 << 20
+# Runs of at least this many grid rows compile the grid pass's C kernel (planarkin.kernel) when
+# it is not compiled yet: compiling costs about 0.5-1 s once per machine, the kernel saves
+# about 2 us per row (README "Against pylinkage + numba")
+KERNEL_BUILD_ROWS = 200_000
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -897,6 +901,7 @@ class Analysis:
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
         # keep their interpolated values: the Jacobian is singular somewhere in that interval
         solve = ~self.crossing[idx]
+        R = None          # |Phi| at the results when the solve computed it for every row
         for u in _distinct(segs[solve]):
             sel = np.nonzero(solve & (segs == u))[0]
             whole = len(sel) == N
@@ -904,7 +909,8 @@ class Analysis:
             Qs, Qds, Qdds = (Q, Qd, Qdd) if whole else (Q[sel], Qd[sel], Qdd[sel])
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
-                order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers))
+                order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
+                kernel_build=opts.rows >= KERNEL_BUILD_ROWS)
             ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
@@ -914,6 +920,8 @@ class Analysis:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
             iters[sel] = info.iterations
             cond[sel] = _cond(info)
+            if whole and ok.all():
+                R = info.residual
             for i in sel[~ok]:
                 self.fallbacks += 1
                 res = self._follow_to(int(idx[i]), float(t[i]))
@@ -926,7 +934,7 @@ class Analysis:
                                        cond[keep], segs[keep], drivers[0][keep]) \
                         if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
-        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R)
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
@@ -944,12 +952,13 @@ class Analysis:
         n = f.nodes
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T) -> Chunk:
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T, R=None) -> Chunk:
         """Residual of every equation (redundant ones included) at the results, user units.
-        T: the equations' targets at t."""
+        T: the equations' targets at t; R: their |Phi| (N, m) when the solve computed it."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
-        R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
+        if R is None:
+            R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
         residual = R.max(axis=1)
         if self.A.redundant_rows and self.event is None:
             # the rows left out of the solve must stay satisfied

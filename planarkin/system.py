@@ -87,6 +87,8 @@ class BatchInfo:
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
     sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
     smin: np.ndarray                  # (N, nblocks) lower bound of each solve block's sigma_min
+    # (N, m) |Phi| of every equation at the results, where the pass computed it (the kernel)
+    residual: np.ndarray | None = None
 
 
 class System:
@@ -385,7 +387,7 @@ class System:
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None, fused=None):
+                    drivers=None, fused=None, kernel_build=False):
         """Positions, velocities and accelerations at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
@@ -395,11 +397,18 @@ class System:
         (T, NU, FDD) of driver_values(t) when the caller already has them. fused: take the fused
         small-block pass where it applies (True: small blocks, see SMALL_BLOCK), the reference
         pass (False) or choose (None: fused for small blocks and batches of SMALL_BATCH points or
-        more); both give the same results to rounding.
+        more); both give the same results to rounding. Where the compiled kernel
+        (planarkin.kernel) applies and is compiled, it takes the place of both (policies reuse
+        and full); kernel_build: compile it first if missing (for runs long enough to pay back
+        the compiler's half second).
         Returns BatchInfo.
         """
         if fused is None:
             fused = Q.shape[0] >= SMALL_BATCH
+        if fused and policy != "fixed":
+            k = self._kernel(kernel_build)
+            if k is not None:
+                return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if fused and self.small():
             return self._solve_small(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
@@ -536,6 +545,24 @@ class System:
             out.append((B.cols, B.rows, diag, o[:, 0], o[:, 1], o[:, 2]))
         self._csc["small"] = (out, zero)
         return self._csc["small"]
+
+    def _kernel(self, build: bool):
+        """(library, packed system) of the compiled kernel, or None where it does not apply."""
+        from . import kernel
+        if "kernel" not in self._csc:
+            self._csc["kernel"] = kernel.pack(self)
+        P = self._csc["kernel"]
+        if P is None:
+            return None
+        lib = kernel.library(build)
+        return None if lib is None else (lib, P)
+
+    def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
+        from . import kernel
+        T, NU, FDD = self.driver_values(t) if drivers is None else drivers
+        iters, conv, ratio, sign, smin, R = kernel.solve(k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD,
+                                                         policy, tol, maxit, order)
+        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin, R)
 
     def _solve_small(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
         """solve_batch for small blocks (see SMALL_BLOCK): the reference pass's Newton
