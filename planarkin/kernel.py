@@ -32,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-KMAX = 6              # largest block the kernel factors (Gauss-Jordan on the stack)
+KMAX = 64             # largest solve block (the path's merged blocks; Gauss-Jordan on the stack)
+KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # kind codes of the C source; the kinds are matched by class, not by name
 _CODES = {"Revolute": 1, "Translational": 2, "Angle": 3, "XDistance": 4, "YDistance": 5,
@@ -47,7 +48,7 @@ SOURCE = r"""
 #include <stdlib.h>
 #include <string.h>
 
-#define KMAX 6
+#define KMAX 64
 
 /* one equation row of element e: value g, gradient over (x_i, y_i, phi_i, x_j, y_j, phi_j),
    gamma_g (needs qd); want: 1 g, 2 gradient, 4 gamma (reference sections 1, 2, 5) */
@@ -183,7 +184,9 @@ static void block_matrix(int kb, const int32_t *rows, const int32_t *rpos, const
 
 /* all points of one batch; arrays row-major per point. inblk (m): the row is in a block; R
    (N, m): |Phi| of every row at the results; rcol (m x 6): the columns of each row's gradient
-   entries; rpos: see block_matrix. Returns 0, or -1 when out of memory. */
+   entries; rpos: see block_matrix; sign (N, nfine) per fine block: solve block b holds bnf[b]
+   fine blocks, the first numbered bfirst[b], their sizes bfs[bfo[b]...]. Returns 0, or -1
+   when out of memory. */
 int pk_solve(int N, int W, int m, int nb, int nblk,
              const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
              const int32_t *rowel, const int32_t *roweq,
@@ -192,13 +195,17 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
              double *Q, double *Qd, double *Qdd, const double *T, const double *NU,
              const double *FDD, int maxit, double tol, int full, int order,
              int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
-             const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos)
+             const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
+             int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
+             const int32_t *bfs)
 {
     int nbb = nb + 1, i, b, it, rp, a, k;
     int n = W - 3;
     double *C = malloc(sizeof(double) * (size_t)N * nbb);
     double *S = malloc(sizeof(double) * (size_t)N * nbb);
-    double *MI = malloc(sizeof(double) * (size_t)N * KMAX * KMAX);
+    int kmax = 1;
+    for (b = 0; b < nblk; b++) if (bk[b] > kmax) kmax = bk[b];
+    double *MI = malloc(sizeof(double) * (size_t)N * kmax * kmax);
     double *SZ = malloc(sizeof(double) * (size_t)N);
     int total = 0;
     for (b = 0; b < nblk; b++) total += bk[b] * bk[b];
@@ -248,7 +255,28 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                         for (a = 0; a < kb * kb; a++) f += Mi[a] * Mi[a];
                         sm = ok ? 1.0 / sqrt(f) : 0.0;
                     }
-                    if (it == 0) { sign[(size_t)i * nblk + b] = sg; smin[(size_t)i * nblk + b] = sm; }
+                    if (it == 0) {
+                        smin[(size_t)i * nblk + b] = sm;
+                        if (bnf[b] == 1) sign[(size_t)i * nfine + bfirst[b]] = sg;
+                        else {   /* a merged block: the signs of its fine blocks */
+                            int f, o = 0;
+                            for (f = 0; f < bnf[b]; f++) {
+                                int sz = bfs[bfo[b] + f], u, v;
+                                double sub[KMAX * KMAX], subinv[KMAX * KMAX], sf;
+                                if (sz == 1) {
+                                    double j = J[o * kb + o];
+                                    sf = (j > 0) - (j < 0);
+                                    if (j != j) sf = NAN;
+                                } else {
+                                    for (u = 0; u < sz; u++) for (v = 0; v < sz; v++)
+                                        sub[u * sz + v] = J[(o + u) * kb + o + v];
+                                    invert(sz, sub, subinv, &sf);
+                                }
+                                sign[(size_t)i * nfine + bfirst[b] + f] = sf;
+                                o += sz;
+                            }
+                        }
+                    }
                 }
                 for (rp = 0; rp < kb; rp++) {
                     if (!refactor) {
@@ -392,7 +420,7 @@ def library(build: bool = False):
     fn.restype = ctypes.c_int
     fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
                    + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
-                   + [ctypes.c_void_p] * 9)
+                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4)
     _state["lib"] = lib
     return lib
 
@@ -422,17 +450,20 @@ class Packed:
     """A System's elements and blocks as the kernel's int32 / float64 arrays."""
 
     def __init__(self, ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows, inblk,
-                 rcol, rpos):
+                 rcol, rpos, nfine, bfirst, bnf, bfo, bfs):
         self.arrays = (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows)
         self.nblk = len(bk)
         self.tail = (inblk, rcol, rpos)
+        self.nfine = nfine
+        self.fine = (bfirst, bnf, bfo, bfs)
 
 
 def pack(S) -> Packed | None:
     """The kernel's description of System S, or None when it does not apply: a kind the kernel
-    does not know, a block of more than KMAX unknowns or holding several fine blocks, an
-    element on one body twice."""
-    if not S.blocks or any(len(B.cols) > KMAX or len(B.sizes) != 1 for B in S.blocks):
+    does not know, a solve block of more than KMAX unknowns or a fine block of more than KFINE,
+    an element on one body twice."""
+    if not S.blocks or any(len(B.cols) > KMAX or max(B.sizes) > KFINE or S.is_large(B)
+                           for B in S.blocks):
         return None
     cm = S.cm
     ekind, ebi, ebj, eprm = [], [], [], []
@@ -483,7 +514,10 @@ def pack(S) -> Packed | None:
     return Packed(i32(ekind), i32(ebi), i32(ebj),
                   np.ascontiguousarray(np.array(eprm).reshape(-1, 8), dtype=float),
                   i32(rowel), i32(roweq), i32(bk), i32(boff), i32(baff), i32(bcols), i32(brows),
-                  np.isin(np.arange(cm.m), brows).astype(np.uint8), i32(rcol), i32(rpos))
+                  np.isin(np.arange(cm.m), brows).astype(np.uint8), i32(rcol), i32(rpos),
+                  S.nfine, i32([B.first for B in S.blocks]), i32([len(B.sizes) for B in S.blocks]),
+                  i32(np.cumsum([0] + [len(B.sizes) for B in S.blocks])[:-1]),
+                  i32([z for B in S.blocks for z in B.sizes]))
 
 
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
@@ -495,7 +529,7 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     iters = np.zeros(N, dtype=np.int64)
     conv = np.zeros(N, dtype=np.uint8)
     ratio = np.zeros(N)
-    sign = np.zeros((N, nblk))
+    sign = np.zeros((N, P.nfine))
     smin = np.zeros((N, nblk))
     R = np.empty((N, S.cm.m))
     work = [np.ascontiguousarray(X, dtype=float) for X in (Q, Qd, Qdd)]
@@ -505,7 +539,7 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
                       *[ptr(a) for a in work], *[ptr(a) for a in drv], int(maxit), float(tol),
                       int(policy == "full"), int(order), ptr(iters), ptr(conv), ptr(ratio),
                       ptr(sign), ptr(smin), ptr(P.tail[0]), ptr(R), ptr(P.tail[1]),
-                      ptr(P.tail[2]))
+                      ptr(P.tail[2]), P.nfine, *[ptr(a) for a in P.fine])
     if rc != 0:
         raise MemoryError("planarkin kernel: out of memory")
     for X, Wk in zip((Q, Qd, Qdd), work):

@@ -394,21 +394,20 @@ class System:
         with the solution. policy: 'reuse' (Jacobian factored once, at the prediction), 'full'
         (refactored every iteration) or 'fixed' (exactly maxit iterations, reused Jacobian).
         order: 0 positions only, 1 with velocities, 2 with accelerations. drivers: the
-        (T, NU, FDD) of driver_values(t) when the caller already has them. fused: take the fused
-        small-block pass where it applies (True: small blocks, see SMALL_BLOCK), the reference
-        pass (False) or choose (None: fused for small blocks and batches of SMALL_BATCH points or
-        more); both give the same results to rounding. Where the compiled kernel
-        (planarkin.kernel) applies and is compiled, it takes the place of both (policies reuse
-        and full); kernel_build: compile it first if missing (for runs long enough to pay back
-        the compiler's half second).
+        (T, NU, FDD) of driver_values(t) when the caller already has them. fused: False, the reference
+        pass; True or None, the compiled kernel (planarkin.kernel) where it applies and is
+        compiled (policies reuse and full), else the fused small-block pass where it applies
+        (small blocks, see SMALL_BLOCK; None: for batches of SMALL_BATCH points or more), else
+        the reference pass; all give the same results to rounding. kernel_build: compile the
+        kernel first if missing (for runs long enough to pay back the compiler's second).
         Returns BatchInfo.
         """
+        if fused is not False and policy != "fixed":
+            k = self._kernel(kernel_build)
+            if k is not None:          # no per-call overhead to pay back: any batch
+                return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if fused is None:
             fused = Q.shape[0] >= SMALL_BATCH
-        if fused and policy != "fixed":
-            k = self._kernel(kernel_build)
-            if k is not None:
-                return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if fused and self.small():
             return self._solve_small(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:

@@ -90,15 +90,16 @@ def _same(ref, fus):
     np.testing.assert_allclose(ref.residual, fus.residual, rtol=1e-3, atol=1e-15)
 
 
-def _batch(name):
-    """The grid System of an example and predictions 1e-4 off its solution at 300 times."""
+def _batch(name, merged=False, N=300):
+    """The grid System of an example (merged: the path's) and predictions 1e-4 off its solution
+    at N times."""
     m = planarkin.load(ROOT / "mechanisms" / name)
     from planarkin.options import resolve
     from planarkin.results import prepare
     an = prepare(m, resolve(m, {"steps": 100}, source="api"))
     an.follow()
-    S = an.follower.systems[0][0]
-    t = np.linspace(0.0, 1.0, 300)
+    S = an.follower.systems[0][1 if merged else 0]
+    t = np.linspace(0.0, 1.0, N)
     ch = an._dense(t)                           # solved rows, user units: rebuild predictions
     ext = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
     Q0 = ext + 1e-4 * np.sin(np.arange(ext.size).reshape(ext.shape))
@@ -150,6 +151,20 @@ def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compile
                   policy=policy, order=order)
     R = np.abs(S.residual(Q, t))
     assert np.abs(info.residual - R).max() <= 1e-15
+
+
+@pytest.mark.parametrize("name,N", [("four-bar.yaml", 4), ("klann-leg.yaml", 4),
+                                    ("slider-crank.yaml", 300)])
+def test_kernel_on_the_paths_merged_blocks(name, N, monkeypatch, compiled):
+    """The path follower's blocks merge the fine ones (a 9 x 9 block for the four-bar): the
+    determinant signs of every fine block inside, a handful of candidate points per call."""
+    if compiled is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    S, t, Q0 = _batch(name, merged=True, N=N)
+    assert max(len(B.sizes) for B in S.blocks) > 1 and S._kernel(False) is not None
+    for policy in ("reuse", "full"):
+        _info_match(S, t, Q0, (False, None), policy)
 
 
 def test_kernel_declines_other_kinds():
