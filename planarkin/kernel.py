@@ -377,6 +377,28 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
     free(C); free(S); free(MI); free(SZ); free(GR); free(MB);
     return 0;
 }
+
+/* the grid pass's predictions: quintic Hermite interpolation (planarkin.solver.hermite5, same
+   operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of W numbers */
+void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double *Tn,
+                const double *Qn, const double *Qdn, const double *Qddn, double *Q)
+{
+    int i, c;
+    for (i = 0; i < N; i++) {
+        int64_t k = idx[i];
+        double h = Tn[k + 1] - Tn[k], s = (t[i] - Tn[k]) / h;
+        double s2 = s * s, s3 = s2 * s, s4 = s3 * s, s5 = s3 * s2;
+        double H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5, H1 = s - 6 * s3 + 8 * s4 - 3 * s5;
+        double H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5, H3 = 10 * s3 - 15 * s4 + 6 * s5;
+        double H4 = -4 * s3 + 7 * s4 - 3 * s5, H5 = 0.5 * s3 - s4 + 0.5 * s5;
+        double h1 = H1 * h, h2 = H2 * h * h, h4 = H4 * h, h5 = H5 * h * h;
+        const double *y0 = Qn + k * W, *d0 = Qdn + k * W, *a0 = Qddn + k * W;
+        const double *y1 = y0 + W, *d1 = d0 + W, *a1 = a0 + W;
+        double *q = Q + (size_t)i * W;
+        for (c = 0; c < W; c++)
+            q[c] = H0 * y0[c] + h1 * d0[c] + h2 * a0[c] + H3 * y1[c] + h4 * d1[c] + h5 * a1[c];
+    }
+}
 """
 
 _state: dict = {}        # "lib": the loaded library; "failed": compiling did not work
@@ -390,9 +412,11 @@ def _cache_dir() -> Path:
     return Path(base) / "planarkin"
 
 
+_TAG = hashlib.sha256(SOURCE.encode()).hexdigest()[:16]
+
+
 def _path() -> Path:
-    tag = hashlib.sha256(SOURCE.encode()).hexdigest()[:16]
-    return _cache_dir() / f"kernel-{tag}-{sys.platform}.so"
+    return _cache_dir() / f"kernel-{_TAG}-{sys.platform}.so"
 
 
 def library(build: bool = False):
@@ -421,6 +445,8 @@ def library(build: bool = False):
     fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
                    + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
                    + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4)
+    lib.pk_hermite.restype = None
+    lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
     _state["lib"] = lib
     return lib
 
@@ -546,3 +572,14 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
         if Wk is not X:
             X[...] = Wk
     return iters, conv.astype(bool), ratio, sign, smin, R
+
+
+def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
+    """solver.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)."""
+    t = np.ascontiguousarray(t, dtype=float)
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    nodes = [np.ascontiguousarray(a, dtype=float) for a in (Tn, Qn, Qdn, Qddn)]
+    Q = np.empty((len(t), Qn.shape[1]))
+    lib.pk_hermite(len(t), Qn.shape[1], t.ctypes.data, idx.ctypes.data,
+                   *[a.ctypes.data for a in nodes], Q.ctypes.data)
+    return Q

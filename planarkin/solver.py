@@ -860,8 +860,13 @@ class Analysis:
             Q = np.repeat(Qn[:1], N, axis=0)
             Qd = np.repeat(Qdn[:1], N, axis=0)
             Qdd = np.repeat(Qddn[:1], N, axis=0)
+        elif (predict := self._kernel_hermite(idx := np.clip(
+                np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
+            # the compiled kernel solves this chunk: its predictions too (the same formula)
+            Q = predict(t, idx, Tn, Qn, Qdn, Qddn)
+            Qd = np.zeros_like(Q)
+            Qdd = np.zeros_like(Q)
         else:
-            idx = np.clip(np.searchsorted(Tn, t, side="right") - 1, 0, K - 2)
             h = (Tn[idx + 1] - Tn[idx])[:, None]
             s = (t[:, None] - Tn[idx][:, None]) / h
             args = (s, h, Qn[idx], Qdn[idx], Qddn[idx], Qn[idx + 1], Qdn[idx + 1], Qddn[idx + 1])
@@ -935,6 +940,20 @@ class Analysis:
                         if keep.any() else None
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
         return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R)
+
+    def _kernel_hermite(self, idx):
+        """kernel.hermite bound to the compiled library when the chunk at node intervals idx
+        is solved (not interpolated), on one segment without a passed bifurcation, by a System
+        that has the kernel; else None."""
+        segs = self.seg[idx]
+        u = int(segs[0])
+        if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
+            return None
+        k = self.follower.systems[u][0]._kernel(False)
+        if k is None:
+            return None
+        from . import kernel
+        return lambda *a: kernel.hermite(k[0], *a)
 
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""

@@ -548,12 +548,17 @@ class System:
     def _kernel(self, build: bool):
         """(library, packed system) of the compiled kernel, or None where it does not apply."""
         from . import kernel
+        # packing costs a few ms: not for runs that will not use it; compiling (about a second,
+        # once per machine) not for a system the kernel does not cover
+        lib = kernel.library(False)
+        if lib is None and not build:
+            return None
         if "kernel" not in self._csc:
             self._csc["kernel"] = kernel.pack(self)
         P = self._csc["kernel"]
         if P is None:
             return None
-        lib = kernel.library(build)
+        lib = lib or kernel.library(True)
         return None if lib is None else (lib, P)
 
     def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
