@@ -221,6 +221,10 @@ class System:
             B = self._block(rows, cols, tuple(len(self.fine.cols[k]) for k in g), g[0], where)
             blocks.append(base.classify(B))
         self.blocks = tuple(blocks)
+        # the fast routes read the model's element groups (cm.groups), not the blocks' parts:
+        # a copy whose blocks were replaced (studies.batch: per-row parameters) keeps the
+        # reference pass
+        self._built = self.blocks
         self.nfine = len(self.fine.cols)
 
     def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int,
@@ -400,8 +404,11 @@ class System:
         (small blocks, see SMALL_BLOCK; None: for batches of SMALL_BATCH points or more), else
         the reference pass; all give the same results to rounding. kernel_build: compile the
         kernel first if missing (for runs long enough to pay back the compiler's second).
+        Systems whose blocks were replaced after building take the reference pass.
         Returns BatchInfo.
         """
+        if self.blocks is not getattr(self, "_built", None):
+            fused = False
         if fused is not False and policy != "fixed":
             k = self._kernel(kernel_build)
             if k is not None:          # no per-call overhead to pay back: any batch
