@@ -12,12 +12,13 @@ acceleration systems by forward substitution through the blocks, with the gradie
 at the converged positions.
 
 It covers the kinds whose equations are the point-and-line formulas of reference §1-2
-(revolute, translational, pin-slot, slide, angle, x, y, distance) and blocks of up to KMAX
-unknowns; any other kind or a larger block keeps the numpy passes (kernel_for returns None).
+(revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE
+unknowns and solve blocks (the path follower's merged ones) of up to KMAX; any other kind or a
+larger block keeps the numpy passes (pack returns None).
 
 No dependency: the source below is compiled once with the system's C compiler (``cc``) into a
 per-user cache (PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin or ~/.cache/planarkin), keyed
-by the source's hash, and loaded with ctypes. Compiling takes about half a second, so it is done
+by the source's hash, and loaded with ctypes. Compiling takes one to three seconds, so it is done
 only for runs long enough to pay it back (the caller's ``build``); a compiled library is used by
 every later run. Without a compiler, with an unwritable cache or with PLANARKIN_KERNEL=0 the
 numpy passes run instead: same results to rounding (tests/test_perstep.py).
@@ -32,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-KMAX = 64             # largest solve block (the path's merged blocks; Gauss-Jordan on the stack)
+KMAX = 64             # largest solve block (the path's merged blocks)
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # kind codes of the C source; the kinds are matched by class, not by name
@@ -48,7 +49,8 @@ SOURCE = r"""
 #include <stdlib.h>
 #include <string.h>
 
-#define KMAX 64
+#define KMAX 64   /* largest solve block */
+#define KFINE 6   /* largest fine block */
 
 /* one equation row of element e: value g, gradient over (x_i, y_i, phi_i, x_j, y_j, phi_j),
    gamma_g (needs qd); want: 1 g, 2 gradient, 4 gamma (reference sections 1, 2, 5) */
@@ -134,9 +136,9 @@ static void row_eval(int kind, int bi, int bj, const double *p, int eq, const do
 /* inverse of the k x k matrix J (row-major) by Gauss-Jordan with partial pivoting, as
    planarkin.linalg._inv_gauss_jordan: returns 1 and the determinant's sign, or 0 (singular:
    inverse nan, sign 0) */
-static int invert(int k, const double *J, double *inv, double *sign)
+static int invert(int k, const double *J, double *inv, double *sign, double *work)
 {
-    double A[KMAX][2 * KMAX];
+    double (*A)[2 * KMAX] = (double (*)[2 * KMAX])work;   /* KMAX x 2 KMAX, on the heap */
     int i, j, r, col;
     double scale = 0.0, sg = 1.0;
     for (i = 0; i < k; i++)
@@ -212,8 +214,12 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
     int nrow = boff[nblk - 1] + bk[nblk - 1];
     double *GR = malloc(sizeof(double) * (size_t)nrow * 6);
     double *MB = malloc(sizeof(double) * (size_t)(total > 0 ? total : 1));
-    if (!C || !S || !MI || !SZ || !GR || !MB) {
-        free(C); free(S); free(MI); free(SZ); free(GR); free(MB);
+    /* the block matrix and the Gauss-Jordan workspace on the heap: up to 64 unknowns they
+       would take 100 KB of stack, more than some threads have */
+    double *J = malloc(sizeof(double) * KMAX * KMAX);
+    double *WK = malloc(sizeof(double) * 2 * KMAX * KMAX);
+    if (!C || !S || !MI || !SZ || !GR || !MB || !J || !WK) {
+        free(C); free(S); free(MI); free(SZ); free(GR); free(MB); free(J); free(WK);
         return -1;
     }
     for (i = 0; i < N; i++) {
@@ -236,7 +242,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
             for (i = 0; i < N; i++) {
                 double *q = Q + (size_t)i * W, *c = C + (size_t)i * nbb, *s = S + (size_t)i * nbb;
                 double *Mi = MI + (size_t)i * kb * kb;
-                double r[KMAX], gr[KMAX * 6], J[KMAX * KMAX], sg, sm;
+                double r[KMAX], gr[KMAX * 6], sg, sm;
                 if (refactor) {
                     for (rp = 0; rp < kb; rp++) {
                         int e = rel[rp];
@@ -250,7 +256,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                         if (J[0] != J[0]) sg = NAN;
                         sm = fabs(J[0]);
                     } else {
-                        int ok = invert(kb, J, Mi, &sg);
+                        int ok = invert(kb, J, Mi, &sg, WK);
                         double f = 0.0;
                         for (a = 0; a < kb * kb; a++) f += Mi[a] * Mi[a];
                         sm = ok ? 1.0 / sqrt(f) : 0.0;
@@ -262,7 +268,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                             int f, o = 0;
                             for (f = 0; f < bnf[b]; f++) {
                                 int sz = bfs[bfo[b] + f], u, v;
-                                double sub[KMAX * KMAX], subinv[KMAX * KMAX], sf;
+                                double sub[KFINE * KFINE], subinv[KFINE * KFINE], sf;
                                 if (sz == 1) {
                                     double j = J[o * kb + o];
                                     sf = (j > 0) - (j < 0);
@@ -270,7 +276,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                                 } else {
                                     for (u = 0; u < sz; u++) for (v = 0; v < sz; v++)
                                         sub[u * sz + v] = J[(o + u) * kb + o + v];
-                                    invert(sz, sub, subinv, &sf);
+                                    invert(sz, sub, subinv, &sf, WK);
                                 }
                                 sign[(size_t)i * nfine + bfirst[b] + f] = sf;
                                 o += sz;
@@ -337,7 +343,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                 int kb = bk[b];
                 const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
                 int32_t rel[KMAX];
-                double *gr = GR + 6 * boff[b], *Mi = MB + mo, r[KMAX], J[KMAX * KMAX], sg, gam;
+                double *gr = GR + 6 * boff[b], *Mi = MB + mo, r[KMAX], sg, gam;
                 for (rp = 0; rp < kb; rp++) rel[rp] = rowel[rows[rp]];
                 if (lev == 1) {
                     for (rp = 0; rp < kb; rp++) {
@@ -349,7 +355,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                     }
                     block_matrix(kb, rows, rpos, gr, J);
                     if (kb == 1) Mi[0] = 1.0 / J[0];
-                    else invert(kb, J, Mi, &sg);
+                    else invert(kb, J, Mi, &sg, WK);
                 }
                 for (rp = 0; rp < kb; rp++) {
                     int e = rel[rp], row = rows[rp];
@@ -374,7 +380,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
             }
         }
     }
-    free(C); free(S); free(MI); free(SZ); free(GR); free(MB);
+    free(C); free(S); free(MI); free(SZ); free(GR); free(MB); free(J); free(WK);
     return 0;
 }
 
@@ -421,8 +427,8 @@ def _path() -> Path:
 
 def library(build: bool = False):
     """The compiled kernel (a ctypes library), or None: disabled (PLANARKIN_KERNEL=0), not yet
-    compiled and build False, or no working C compiler. build: compile it when missing (about
-    half a second, once per machine and source version; tried once per process)."""
+    compiled and build False, or no working C compiler. build: compile it when missing (one to
+    three seconds, once per machine and source version; tried once per process)."""
     if os.environ.get("PLANARKIN_KERNEL", "1") == "0":
         return None
     if "lib" in _state:

@@ -56,8 +56,8 @@ PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and 
 # 3,000 steps (128 MB gave 385-397 MB)
 CHUNK_BYTES = 64 << 20
 # Runs of at least this many grid rows compile the grid pass's C kernel (planarkin.kernel) when
-# it is not compiled yet: compiling costs about 0.5-1 s once per machine, the kernel saves
-# about 2 us per row (README "Against pylinkage + numba")
+# it is not compiled yet: compiling costs 1-3 s once per machine, the kernel saves about 2 us
+# per row (README "Against pylinkage + numba")
 KERNEL_BUILD_ROWS = 200_000
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
