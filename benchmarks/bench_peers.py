@@ -6,7 +6,11 @@ Per mechanism (the slider-crank and the four-bar of models.py, one crank turn in
 a grid of --steps intervals), positions + velocities + accelerations:
 
 * closed form: the vectorised numpy closed forms of models.py over the whole grid (the floor);
-* planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call);
+* planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call),
+  by each grid-pass route of --routes: kernel (the compiled kernel, planarkin/kernel.py, compiled
+  by the warm-up call if missing), numpy (PLANARKIN_KERNEL=0: the fused numpy pass of small
+  blocks), reference (the reference numpy pass, System._solve_batch: the code before issue 12
+  item 3);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
   simulation with velocities and accelerations) on the same mechanism and step, built and
   compiled once; the JIT start-up (first call) is reported separately and not counted.
@@ -114,7 +118,10 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--peer-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--json", metavar="PATH")
+    ap.add_argument("--routes", default="kernel,numpy,reference",
+                    help="planarkin grid-pass routes to time, comma-separated")
     a = ap.parse_args(argv)
+    routes = [r for r in a.routes.split(",") if r]
     import common
     import models
     import numpy as np
@@ -138,49 +145,89 @@ def main(argv=None):
         t = np.linspace(0.0, 1.0, rows)
         best_cf = min(_timed(lambda: cf_fn(t))[0] for _ in range(3))
         model = planarkin.load(f"{name}.yaml", text=text)
-        planarkin.solve(model, steps=S)                       # warm-up
+        for route in routes:
+            with _route(route):
+                planarkin.solve(model, steps=S)               # warm-up (compiles the kernel)
         w = subprocess.Popen([a.peer_python, "-c", WORKER, str(HERE), name, str(S),
                               str(a.rounds)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                              text=True)
-        pk_wall, pk_cpu = [], []
-        res = None
+        walls = {r: [] for r in routes}
+        cpus = {r: [] for r in routes}
+        res = {}
         for _ in range(a.rounds):
-            c0, t0 = time.process_time(), time.perf_counter()
-            res = planarkin.solve(model, steps=S)
-            pk_wall.append(time.perf_counter() - t0)
-            pk_cpu.append(time.process_time() - c0)
+            for route in routes:
+                with _route(route):
+                    c0, t0 = time.process_time(), time.perf_counter()
+                    res[route] = planarkin.solve(model, steps=S)
+                    walls[route].append(time.perf_counter() - t0)
+                    cpus[route].append(time.process_time() - c0)
             w.stdin.write("go\n")
             w.stdin.flush()
             assert w.stdout.readline().strip() == "done"
         w.stdin.close()
         peer_out = json.loads(w.stdout.readline())
         w.wait()
-        pk_err = planarkin_errors(res, name)
         us = lambda s: s / rows * 1e6                         # noqa: E731
-        pk, pl = min(pk_wall), min(peer_out["wall"])
-        pkc, plc = min(pk_cpu), min(peer_out["cpu"])
+        pl, plc = min(peer_out["wall"]), min(peer_out["cpu"])
         print(f"== {name}: {S} steps, P + V + A ==")
         print(f"  closed form (vectorised numpy)    {us(best_cf):7.3f} us/step")
         print(f"  pylinkage + numba                 {us(pl):7.3f} us/step   CPU {us(plc):7.3f}"
               f"   (JIT start-up {peer_out['jit']:.2f} s, not counted)   errors P/V/A "
               + " ".join(f"{e:.1e}" for e in peer_out["err"]))
-        print(f"  planarkin.solve                   {us(pk):7.3f} us/step   CPU {us(pkc):7.3f}"
-              f"   errors P/V/A " + " ".join(f"{e:.1e}" for e in pk_err))
-        print(f"  ratio planarkin / pylinkage+numba {pk / pl:7.2f} x (wall)   {pkc / plc:.2f} x "
-              f"(CPU)   target <= 2;  planarkin / closed form {pk / best_cf:.1f} x")
-        print(f"  all rounds (s): planarkin {', '.join(f'{x:.3f}' for x in pk_wall)}; "
-              f"pylinkage {', '.join(f'{x:.3f}' for x in peer_out['wall'])}\n", flush=True)
-        results["mechanisms"][name] = {
-            "closed_form_us": us(best_cf), "pylinkage_us": us(pl), "pylinkage_cpu_us": us(plc),
-            "planarkin_us": us(pk), "planarkin_cpu_us": us(pkc), "ratio_wall": pk / pl,
-            "ratio_cpu": pkc / plc, "pylinkage_err": peer_out["err"], "planarkin_err": pk_err,
-            "jit_s": peer_out["jit"], "rounds": {"planarkin": pk_wall,
-                                                  "pylinkage": peer_out["wall"]}}
+        out = {"closed_form_us": us(best_cf), "pylinkage_us": us(pl), "pylinkage_cpu_us": us(plc),
+               "pylinkage_err": peer_out["err"], "jit_s": peer_out["jit"],
+               "rounds": {"pylinkage": peer_out["wall"]}, "routes": {}}
+        for route in routes:
+            pk, pkc = min(walls[route]), min(cpus[route])
+            pk_err = planarkin_errors(res[route], name)
+            print(f"  planarkin.solve, {route:9s}       {us(pk):7.3f} us/step   CPU {us(pkc):7.3f}"
+                  f"   errors P/V/A " + " ".join(f"{e:.1e}" for e in pk_err))
+            print(f"    ratio planarkin / pylinkage+numba {pk / pl:6.2f} x (wall)   "
+                  f"{pkc / plc:.2f} x (CPU)   target <= 2;  planarkin / closed form "
+                  f"{pk / best_cf:.1f} x")
+            out["routes"][route] = {"planarkin_us": us(pk), "planarkin_cpu_us": us(pkc),
+                                    "ratio_wall": pk / pl, "ratio_cpu": pkc / plc,
+                                    "planarkin_err": pk_err}
+            out["rounds"][route] = walls[route]
+        print(f"  all rounds (s): " + "; ".join(
+            f"{r} {', '.join(f'{x:.3f}' for x in walls[r])}" for r in routes)
+            + f"; pylinkage {', '.join(f'{x:.3f}' for x in peer_out['wall'])}\n", flush=True)
+        results["mechanisms"][name] = out
     import os
     la = os.getloadavg()
     print(f"load avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}")
     if a.json:
         Path(a.json).write_text(json.dumps(results, indent=2))
+
+
+class _route:
+    """Context: planarkin's grid pass takes one route (see the module docstring)."""
+
+    def __init__(self, route):
+        if route not in ("kernel", "numpy", "reference"):
+            sys.exit(f"unknown route {route!r} (kernel, numpy, reference)")
+        self.route = route
+
+    def __enter__(self):
+        import os
+
+        from planarkin import system
+        self.saved = (os.environ.get("PLANARKIN_KERNEL"), system.SMALL_BATCH)
+        os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "kernel" else "0"
+        if self.route == "reference":
+            system.SMALL_BATCH = 1 << 62
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        from planarkin import system
+        env, system.SMALL_BATCH = self.saved
+        if env is None:
+            os.environ.pop("PLANARKIN_KERNEL", None)
+        else:
+            os.environ["PLANARKIN_KERNEL"] = env
+        return False
 
 
 def _timed(fn):

@@ -1,10 +1,13 @@
 """Where planarkin spends its time: cProfile of one in-process solve.
 
     python benchmarks/bench_profile.py [--steps 200000] [--chain 1000] [--chain-steps 1000]
-                                       [--top 15] [--sort tottime]
+                                       [--top 15] [--sort tottime] [--phases]
 
 Profiles planarkin.solve(model, steps=...) (after one warm-up call, not profiled) for the
 slider-crank and for the N-four-bar chain, and prints the top lines of each profile.
+--phases instead prints, for the slider-crank and the four-bar and each grid-pass route
+(kernel, numpy, reference; see bench_peers.py), the CPU time per step of the phases of a solve
+(best of 3) and the Python function calls per grid chunk.
 """
 
 from __future__ import annotations
@@ -45,6 +48,74 @@ def profile(label, text, steps, top, sort, warm=True):
     print()
 
 
+PHASES = (  # (module, attribute, phase): the functions timed, CPU time
+    ("planarkin.solver.Analysis", "follow", "path following (fixed cost)"),
+    ("planarkin.solver", "hermite5", "prediction (numpy Hermite)"),
+    ("planarkin.kernel", "hermite", "prediction (kernel Hermite)"),
+    ("planarkin.solver.Analysis", "_driver_values", "driver values"),
+    ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
+    ("planarkin.system.System", "_solve_small", "P+V+A solve, fused numpy pass"),
+    ("planarkin.kernel", "solve", "P+V+A solve, kernel"),
+    ("planarkin.solver.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
+    ("planarkin.results", "refuse", "refusal checks"),
+    ("planarkin.solver.Analysis", "_dense", "grid pass in all (the rows above but path)"),
+)
+
+
+def phases(label, text, steps, route):
+    import collections
+    import importlib
+
+    from bench_peers import _route
+    model = planarkin.load(f"{label}.yaml", text=text)
+    acc = collections.Counter()
+    saved = []
+    for modname, attr, phase in PHASES:
+        path = modname.split(".")
+        try:
+            owner = importlib.import_module(modname)
+        except ImportError:
+            owner = getattr(importlib.import_module(".".join(path[:-1])), path[-1])
+        f = getattr(owner, attr)
+
+        def timed(*args, _f=f, _phase=phase, **kw):
+            c0 = time.process_time()
+            try:
+                return _f(*args, **kw)
+            finally:
+                acc[_phase] += time.process_time() - c0
+        saved.append((owner, attr, f))
+        setattr(owner, attr, timed)
+    try:
+        with _route(route):
+            planarkin.solve(model, steps=steps)                  # warm-up
+            best = None
+            for _ in range(3):
+                acc.clear()
+                c0 = time.process_time()
+                res = planarkin.solve(model, steps=steps)
+                total = time.process_time() - c0
+                if best is None or total < best[0]:
+                    best = (total, dict(acc))
+            pr = cProfile.Profile()
+            pr.enable()
+            planarkin.solve(model, steps=steps)
+            pr.disable()
+    finally:
+        for owner, attr, f in saved:
+            setattr(owner, attr, f)
+    calls = sum(v[1] for v in pstats.Stats(pr).stats.values())
+    chunks = -(-len(res.t) // 8192)
+    rows = len(res.t)
+    total, parts = best
+    print(f"== {label}, {steps} steps, route {route}: {total / rows * 1e6:.3f} us/step CPU, "
+          f"{calls / chunks:.0f} Python calls per grid chunk of 8192 rows (path included) ==")
+    for _, _, phase in PHASES:
+        if phase in parts:
+            print(f"  {phase:46s} {parts[phase] / rows * 1e6:7.3f} us/step")
+    print()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=200_000, help="slider-crank steps")
@@ -54,8 +125,15 @@ def main(argv=None):
     ap.add_argument("--sort", default="tottime", help="pstats sort key (tottime, cumulative)")
     ap.add_argument("--no-warm", action="store_true",
                     help="skip the warm-up call (the chain's solve takes long)")
+    ap.add_argument("--phases", action="store_true", help="CPU time per step by phase")
     a = ap.parse_args(argv)
     common.print_header(common.machine_info(), "planarkin profile")
+    if a.phases:
+        for label, text in (("slider-crank", models.slider_crank_yaml()),
+                            ("four-bar", models.four_bar_yaml())):
+            for route in ("kernel", "numpy", "reference"):
+                phases(label, text, a.steps, route)
+        return
     profile("slider-crank", models.slider_crank_yaml(), a.steps, a.top, a.sort, not a.no_warm)
     if a.chain:
         profile(f"chain-{a.chain}", models.chain_yaml(a.chain), a.chain_steps, a.top, a.sort,

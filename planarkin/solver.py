@@ -63,6 +63,10 @@ CHUNK_BYTES = 64 << 20
 CHUNK_MANY_BLOCKS = 64
 CHUNK_MIN_POINTS = 256
 CHUNK_BYTES_MANY = 256 << 20
+# Runs of at least this many grid rows compile the grid pass's C kernel (planarkin.kernel) when
+# it is not compiled yet: compiling costs 1-3 s once per machine, the kernel saves about 2 us
+# per row (README "Against pylinkage + numba")
+KERNEL_BUILD_ROWS = 200_000
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -888,8 +892,13 @@ class Analysis:
             Q = np.repeat(Qn[:1], N, axis=0)
             Qd = np.repeat(Qdn[:1], N, axis=0)
             Qdd = np.repeat(Qddn[:1], N, axis=0)
+        elif (predict := self._kernel_hermite(idx := np.clip(
+                np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
+            # the compiled kernel solves this chunk: its predictions too (the same formula)
+            Q = predict(t, idx, Tn, Qn, Qdn, Qddn)
+            Qd = np.zeros_like(Q)
+            Qdd = np.zeros_like(Q)
         else:
-            idx = np.clip(np.searchsorted(Tn, t, side="right") - 1, 0, K - 2)
             h = (Tn[idx + 1] - Tn[idx])[:, None]
             s = (t[:, None] - Tn[idx][:, None]) / h
             args = (s, h, Qn[idx], Qdn[idx], Qddn[idx], Qn[idx + 1], Qdn[idx + 1], Qddn[idx + 1])
@@ -938,6 +947,7 @@ class Analysis:
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
         # keep their interpolated values: the Jacobian is singular somewhere in that interval
         solve = ~self.crossing[idx]
+        R = None          # |Phi| at the results when the solve computed it for every row
         for u in _distinct(segs[solve]):
             sel = np.nonzero(solve & (segs == u))[0]
             whole = len(sel) == N
@@ -949,7 +959,8 @@ class Analysis:
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
-                Qddd=Qddds, third=third)
+                Qddd=Qddds, third=third,
+                kernel_build=opts.rows >= KERNEL_BUILD_ROWS)
             ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged
@@ -961,6 +972,8 @@ class Analysis:
                     Qddd[sel] = Qddds
             iters[sel] = info.iterations
             cond[sel] = _cond(info)
+            if whole and ok.all():
+                R = info.residual
             for i in sel[~ok]:
                 self.fallbacks += 1
                 res = self._follow_to(int(idx[i]), float(t[i]))
@@ -977,7 +990,21 @@ class Analysis:
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
                 if Qddd is not None:
                     Qddd[i] = self._jerk_at(u, t[i], Q[i], Qd[i], Qdd[i], self.third[i])
-        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0])
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R)
+
+    def _kernel_hermite(self, idx):
+        """kernel.hermite bound to the compiled library when the chunk at node intervals idx
+        is solved (not interpolated), on one segment without a passed bifurcation, by a System
+        that has the kernel; else None."""
+        segs = self.seg[idx]
+        u = int(segs[0])
+        if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
+            return None
+        k = self.follower.systems[u][0]._kernel(False)
+        if k is None:
+            return None
+        from . import kernel
+        return lambda *a: kernel.hermite(k[0], *a)
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
         """The jerk at a row solved by path following (a fallback): the jerk system of its
@@ -1006,12 +1033,13 @@ class Analysis:
         n = f.nodes
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T) -> Chunk:
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T, R=None) -> Chunk:
         """Residual of every equation (redundant ones included) at the results, user units.
-        T: the equations' targets at t."""
+        T: the equations' targets at t; R: their |Phi| (N, m) when the solve computed it."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
-        R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
+        if R is None:
+            R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
         residual = R.max(axis=1)
         if self.A.redundant_rows and self.event is None:
             # the rows left out of the solve must stay satisfied

@@ -41,6 +41,16 @@ PIN_BLAS_FROM = 32
 # Models with at least this many drivers evaluate them all in one expression pass
 # (System._driver_values_joint); below, each driver's own TimeFunction.derivatives.
 JOINT_DRIVERS = 16
+# The fused small-block pass (System._solve_small) serves systems whose solve blocks all have at
+# most SMALL_BLOCK unknowns (closed-form 1x1 and 2x2 inverses, no batched linalg call) at batches
+# of at least SMALL_BATCH points (the grid chunks; the path's handful of candidates keep the
+# reference pass). It computes the same Newton iterations block by block, then the velocity
+# and acceleration systems of all blocks by one forward substitution each, from the gradients
+# and gamma of every element evaluated once at the converged positions: the reference pass
+# evaluates them per block, an element with rows in two blocks twice (benchmarks/bench_peers.py,
+# README "Against pylinkage + numba").
+SMALL_BLOCK = 2
+SMALL_BATCH = 64
 
 
 @dataclass(frozen=True)
@@ -80,6 +90,8 @@ class BatchInfo:
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
     sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
     smin: np.ndarray                  # (N, nblocks) lower bound of each solve block's sigma_min
+    # (N, m) |Phi| of every equation at the results, where the pass computed it (the kernel)
+    residual: np.ndarray | None = None
 
 
 class System:
@@ -257,6 +269,10 @@ class System:
             B = self._block(rows, cols, tuple(len(self.fine.cols[k]) for k in g), g[0], where)
             blocks.append(base.classify(B))
         self.blocks = tuple(blocks)
+        # the fast routes read the model's element groups (cm.groups), not the blocks' parts:
+        # a copy whose blocks were replaced (studies.batch: per-row parameters) keeps the
+        # reference pass
+        self._built = self.blocks
         self.nfine = len(self.fine.cols)
 
     def _block(self, grows: np.ndarray, cols: np.ndarray, sizes: tuple, first: int,
@@ -427,7 +443,7 @@ class System:
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None, Qddd=None, third=None):
+                    drivers=None, Qddd=None, third=None, fused=None, kernel_build=False):
         """Positions, velocities and accelerations (and jerks) at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
@@ -436,9 +452,26 @@ class System:
         order: 0 positions only, 1 with velocities, 2 with accelerations, 3 with jerks (into
         Qddd, (N, n + 3), ground columns zero). drivers: the (T, NU, FDD) of driver_values(t)
         when the caller already has them; third: the drivers' f''' (driver_third) likewise.
+        fused: False, the reference pass; True or None, the compiled kernel (planarkin.kernel)
+        where it applies and is compiled (policies reuse and full), else the fused small-block
+        pass where it applies (small blocks, see SMALL_BLOCK; None: for batches of SMALL_BATCH
+        points or more), else the reference pass; all give the same results to rounding.
+        kernel_build: compile the kernel first if missing (for runs long enough to pay back the
+        compiler's second). Systems whose blocks were replaced after building, and jerks
+        (order 3), take the reference pass.
         Returns BatchInfo.
         """
         args = (t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd, third)
+        if self.blocks is not getattr(self, "_built", None) or order > 2:
+            fused = False
+        if fused is not False and policy != "fixed":
+            k = self._kernel(kernel_build)
+            if k is not None:          # no per-call overhead to pay back: any batch
+                return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
+        if fused is None:
+            fused = Q.shape[0] >= SMALL_BATCH
+        if fused and self.small():
+            return self._solve_small(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
             return self._solve_batch(*args)
         with one_blas_thread():
@@ -525,6 +558,167 @@ class System:
                 self._direct(B, grads, Minv, one, rhs, Qddd)
         return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
 
+    # -- the fused small-block pass ----------------------------------------------------------
+    def small(self) -> bool:
+        """Every solve block is one fine block of at most SMALL_BLOCK unknowns (and the fused
+        pass's layout exists: each block entry comes from one gradient entry)."""
+        if not self.blocks or any(len(B.cols) > SMALL_BLOCK or len(B.sizes) != 1
+                                  for B in self.blocks):
+            return False
+        return self._small_layout() is not None
+
+    def _small_layout(self):
+        """Where the fused pass finds each block's numbers in the gradients of all elements, laid
+        out as one (E + 1, N) table (the groups' flat (K * neq * nc) entries one after another,
+        a zero row last). Per block: (cols, rows, diag, off_idx, off_row, off_col): diag the
+        table rows of the block matrix's entries in row-major order (the zero row where an
+        entry is structurally zero), off_* the structurally nonzero entries in the block's
+        rows and the columns of earlier blocks (ground columns left out: their rates are
+        zero). None when an element lists a column twice (the entries would add)."""
+        if "small" in self._csc:
+            return self._csc["small"]
+        cm, n = self.cm, self.n
+        states = np.stack([cm.q0 + noise(n, 31 + k) for k in range(3)])
+        F = self.frame(self.ext(states))
+        where, offset, nz = {}, [], []
+        total = 0
+        for gi, G in enumerate(cm.groups):
+            offset.append(total)
+            total += G.grad(F)[0].size
+            nz.append((G.grad(F) != 0).any(axis=0))           # (K, neq, nc)
+            for k in range(len(G)):
+                for e in range(G.kind.neq):
+                    where[int(G.rows[k, e])] = (gi, k, e)
+        zero = total
+        out = []
+        for B in self.blocks:
+            colpos = {int(c): j for j, c in enumerate(B.cols)}
+            kb = len(B.cols)
+            diag = np.full(kb * kb, zero, dtype=np.intp)
+            off = []
+            for rp, r in enumerate(B.rows.tolist()):
+                gi, k, e = where[r]
+                G = cm.groups[gi]
+                nc = G.cols.shape[1]
+                if len(set(G.cols[k].tolist())) != nc:
+                    self._csc["small"] = None
+                    return None
+                for c in range(nc):
+                    col = int(G.cols[k, c])
+                    flat = offset[gi] + (k * G.kind.neq + e) * nc + c
+                    if col in colpos:
+                        diag[rp * kb + colpos[col]] = flat
+                    elif col < n and nz[gi][k, e, c]:
+                        off.append((flat, rp, col))
+            o = np.array(off, dtype=np.intp).reshape(-1, 3)
+            out.append((B.cols, B.rows, diag, o[:, 0], o[:, 1], o[:, 2]))
+        self._csc["small"] = (out, zero)
+        return self._csc["small"]
+
+    def _kernel(self, build: bool):
+        """(library, packed system) of the compiled kernel, or None where it does not apply."""
+        from . import kernel
+        # packing costs a few ms: not for runs that will not use it; compiling (about a second,
+        # once per machine) not for a system the kernel does not cover
+        lib = kernel.library(False)
+        if lib is None and not build:
+            return None
+        if "kernel" not in self._csc:
+            self._csc["kernel"] = kernel.pack(self)
+        P = self._csc["kernel"]
+        if P is None:
+            return None
+        lib = lib or kernel.library(True)
+        return None if lib is None else (lib, P)
+
+    def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
+        from . import kernel
+        T, NU, FDD = self.driver_values(t) if drivers is None else drivers
+        iters, conv, ratio, sign, smin, R = kernel.solve(k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD,
+                                                         policy, tol, maxit, order)
+        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin, R)
+
+    def _solve_small(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
+        """solve_batch for small blocks (see SMALL_BLOCK): the reference pass's Newton
+        iterations block by block with closed-form inverses, then velocities and accelerations
+        of all blocks by forward substitution (_forward) at the converged positions."""
+        N = Q.shape[0]
+        nblk = len(self.blocks)
+        T, NU, FDD = self.driver_values(t) if drivers is None else drivers
+        phi = Q[:, 2::3]
+        c = np.cos(phi)
+        s = np.sin(phi)
+        F = Frame(Q, c, s)
+        iters = np.zeros(N, dtype=np.int64)
+        ratio = np.zeros(N)
+        conv = np.ones(N, dtype=bool)
+        sign = np.zeros((N, self.nfine))
+        smin = np.zeros((N, nblk))
+        with np.errstate(all="ignore"):
+            for b, B in enumerate(self.blocks):
+                cols = B.cols
+                one = len(cols) == 1
+                c0 = int(cols[0])
+                pcol = 3 * B.phis + 2
+                Minv = None
+                size = np.zeros(N)
+                for it in range(maxit):
+                    if Minv is None or (policy == "full" and not B.affine):
+                        Minv, sg, sm = _invert_small(self.block_matrix(B, self.block_grads(B, F)))
+                        if it == 0:
+                            sign[:, B.first] = sg
+                            smin[:, b] = sm
+                    r = self.block_residual(B, F, T)
+                    if one:
+                        dx = r[:, 0] * Minv[0]
+                        Q[:, c0] -= dx
+                        size = np.abs(dx)
+                    else:
+                        a, bb, cc, d = Minv
+                        dx0 = a * r[:, 0] + bb * r[:, 1]
+                        dx1 = cc * r[:, 0] + d * r[:, 1]
+                        Q[:, c0] -= dx0
+                        Q[:, int(cols[1])] -= dx1
+                        size = np.maximum(np.abs(dx0), np.abs(dx1))
+                    if len(pcol):
+                        c[:, B.phis] = np.cos(Q[:, pcol])
+                        s[:, B.phis] = np.sin(Q[:, pcol])
+                    size[~np.isfinite(size)] = np.inf
+                    if it == 0:
+                        ratio = np.maximum(ratio, np.where(sm > 0, size / sm, np.inf))
+                    iters = np.maximum(iters, it + 1)
+                    if B.affine and policy != "fixed":
+                        size = np.where(np.isfinite(size), 0.0, np.inf)   # one step is exact
+                        break
+                    if policy != "fixed" and (size <= tol).all():
+                        break
+                if policy != "fixed":
+                    conv &= size <= tol
+                else:
+                    conv &= np.isfinite(size)
+            if order >= 1:
+                layout, zero = self._small_layout()
+                # every element's gradient at the converged positions, one row per entry
+                GT = np.empty((zero + 1, N))
+                o = 0
+                for G in self.cm.groups:
+                    g = G.grad(F).reshape(N, -1)
+                    GT[o:o + g.shape[1]] = g.T
+                    o += g.shape[1]
+                GT[zero] = 0.0
+                XT = np.zeros((Qd.shape[1], N))
+                _forward(layout, GT, NU.T, XT)
+                Qd[:, : self.n] = XT[: self.n].T
+                if order >= 2:
+                    F2 = Frame(Q, c, s, Qd)
+                    rhs = FDD.T.copy()
+                    for G in self.cm.groups:
+                        rhs[G.rows.ravel()] += G.gamma(F2).reshape(N, -1).T
+                    XT[:] = 0.0
+                    _forward(layout, GT, rhs, XT)
+                    Qdd[:, : self.n] = XT[: self.n].T
+        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
+
     def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:
         """Block rows of Phi_q x = rhs solved for the block's columns of X (in place), the other
         columns of X known (earlier blocks)."""
@@ -583,3 +777,39 @@ def _invert(J: np.ndarray, one: bool, want: bool = True):
     if not want:
         return Minv, None, None
     return Minv, sg, np.where(ok, sigma_min_lower(Minv), 0.0)
+
+
+def _invert_small(J: np.ndarray):
+    """Closed-form inverses of a batch of 1x1 or 2x2 blocks J (N, k, k): (entries of the inverse
+    as a tuple of (N,) arrays, row-major; det sign (N,); sigma_min lower bound 1 / ||J^-1||_F
+    (N,), 0 where singular). A singular block's inverse holds nan or inf."""
+    if J.shape[1] == 1:
+        j = J[:, 0, 0]
+        return (1.0 / j,), np.sign(j), np.abs(j)
+    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+    det = a * d - b * c
+    ok = np.isfinite(det) & (det != 0)
+    inv = 1.0 / np.where(ok, det, np.nan)
+    smin = np.where(ok, np.abs(det) / np.sqrt(a * a + b * b + c * c + d * d), 0.0)
+    return (d * inv, -b * inv, -c * inv, a * inv), np.where(ok, np.sign(det), 0.0), smin
+
+
+def _forward(layout, GT: np.ndarray, rhsT: np.ndarray, XT: np.ndarray) -> None:
+    """Forward substitution through the block-triangular Jacobian, transposed arrays: GT
+    (E + 1, N) the gradient table of System._small_layout, rhsT (m, N) the right-hand sides of
+    all rows, XT (n + 3, N) the unknowns, zero on entry, filled block by block."""
+    for cols, rows, diag, oi, orow, ocol in layout:
+        r = rhsT[rows]
+        if len(oi):
+            p = GT[oi] * XT[ocol]
+            if len(rows) == 1:
+                r[0] -= p.sum(axis=0)
+            else:
+                np.subtract.at(r, orow, p)
+        if len(cols) == 1:
+            XT[cols[0]] = r[0] / GT[diag[0]]
+        else:
+            a, b, c, d = GT[diag[0]], GT[diag[1]], GT[diag[2]], GT[diag[3]]
+            det = a * d - b * c
+            XT[cols[0]] = (d * r[0] - b * r[1]) / det
+            XT[cols[1]] = (a * r[1] - c * r[0]) / det

@@ -1,0 +1,190 @@
+"""The grid pass's fast routes against the reference pass (issue 12 item 3).
+
+System._solve_batch is the reference implementation; the fused small-block pass
+(System._solve_small) and the compiled kernel (planarkin.kernel) must give the same positions,
+velocities and accelerations to rounding, the same iteration counts, determinant signs and
+convergence flags, on every example model they apply to; without a compiler the numpy passes
+run."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import planarkin
+from planarkin import kernel, system
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = sorted((ROOT / "mechanisms").glob("*.yaml"))
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    """The kernel compiled into a private cache (about a second); skips without a compiler."""
+    saved = os.environ.get("PLANARKIN_CACHE")
+    os.environ["PLANARKIN_CACHE"] = str(tmp_path_factory.mktemp("kernel"))
+    kernel._state.clear()
+    lib = kernel.library(build=True)
+    yield lib
+    if saved is None:
+        del os.environ["PLANARKIN_CACHE"]
+    else:
+        os.environ["PLANARKIN_CACHE"] = saved
+    kernel._state.clear()
+
+
+def _solve(path, monkeypatch, route, steps=240, **opts):
+    """Solve with the grid pass forced onto route ('reference', 'fused' or 'kernel'); returns
+    the Result and the routes the grid chunks took."""
+    taken = []
+    real = system.System.solve_batch
+
+    def spy(self, t, Q, Qd, Qdd, **kw):
+        if Q.shape[0] > 8:                     # a grid chunk, not the path's candidates
+            kw["fused"] = route != "reference"
+            if route == "kernel" and self._kernel(False) is not None:
+                taken.append("kernel")
+            elif route == "fused" and self.small():
+                taken.append("fused")
+            else:
+                taken.append("reference")
+        return real(self, t, Q, Qd, Qdd, **kw)
+
+    with monkeypatch.context() as m:
+        m.setattr(system.System, "solve_batch", spy)
+        m.setenv("PLANARKIN_KERNEL", "1" if route == "kernel" else "0")
+        res = planarkin.solve(planarkin.load(path), steps=steps, **opts)
+    return res, taken
+
+
+def _close(a, b, what):
+    if not a.size:
+        return
+    scale = max(1.0, float(np.abs(a).max()))
+    assert np.abs(a - b).max() <= 1e-12 * scale, what
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_fast_routes_match_reference(path, monkeypatch, compiled):
+    ref, _ = _solve(path, monkeypatch, "reference")
+    assert ref.status == 0
+    checked = 0
+    for route in ("fused", "kernel"):
+        if route == "kernel" and compiled is None:
+            continue                            # no C compiler: the numpy passes run
+        res, taken = _solve(path, monkeypatch, route)
+        assert res.status == 0
+        if route in taken:                      # else a block size or kind the route lacks
+            _same(ref, res)
+            checked += 1
+    if not checked:
+        pytest.skip("blocks or kinds only the reference pass covers")
+
+
+def _same(ref, fus):
+    for name in ("q", "qd", "qdd", "p", "pd", "pdd"):
+        _close(getattr(ref, name), getattr(fus, name), name)
+    assert np.array_equal(ref.iterations, fus.iterations)
+    np.testing.assert_allclose(ref.cond, fus.cond, rtol=1e-9)
+    np.testing.assert_allclose(ref.residual, fus.residual, rtol=1e-3, atol=1e-15)
+
+
+def _batch(name, merged=False, N=300):
+    """The grid System of an example (merged: the path's) and predictions 1e-4 off its solution
+    at N times."""
+    m = planarkin.load(ROOT / "mechanisms" / name)
+    from planarkin.options import resolve
+    from planarkin.results import prepare
+    an = prepare(m, resolve(m, {"steps": 100}, source="api"))
+    an.follow()
+    S = an.follower.systems[0][1 if merged else 0]
+    t = np.linspace(0.0, 1.0, N)
+    ch = an._dense(t)                           # solved rows, user units: rebuild predictions
+    ext = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
+    Q0 = ext + 1e-4 * np.sin(np.arange(ext.size).reshape(ext.shape))
+    Q0[:, S.n:] = 0.0
+    return S, t, Q0
+
+
+def _info_match(S, t, Q0, routes, policy="reuse", order=2):
+    out = []
+    for fused in routes:
+        Q, Qd, Qdd = Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)
+        info = S.solve_batch(t, Q, Qd, Qdd, tol=1e-12, maxit=8, fused=fused, policy=policy,
+                             order=order)
+        out.append((Q, Qd, Qdd, info))
+    (Q1, Qd1, Qdd1, i1), (Q2, Qd2, Qdd2, i2) = out
+    for a, b, what in ((Q1, Q2, "q"), (Qd1, Qd2, "qd"), (Qdd1, Qdd2, "qdd")):
+        _close(a, b, what)
+    assert np.array_equal(i1.iterations, i2.iterations)
+    assert np.array_equal(i1.converged, i2.converged) and i1.converged.all()
+    assert np.array_equal(i1.sign, i2.sign)
+    np.testing.assert_allclose(i1.smin, i2.smin, rtol=1e-12)
+    np.testing.assert_allclose(i1.ratio, i2.ratio, rtol=1e-9)
+    return i2
+
+
+def test_fused_pass_info_matches_reference(monkeypatch):
+    """BatchInfo field by field on the four-bar (a 2x2 block) at predictions off the solution."""
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    S, t, Q0 = _batch("four-bar.yaml")
+    assert S.small()
+    _info_match(S, t, Q0, (False, True))
+
+
+@pytest.mark.parametrize("name,policy,order", [
+    ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2), ("klann-leg.yaml", "reuse", 2),
+    ("trammel.yaml", "reuse", 2), ("boom.yaml", "reuse", 2), ("quick-return.yaml", "full", 2),
+    ("four-bar.yaml", "full", 1), ("slider-crank.yaml", "reuse", 0)])
+def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compiled):
+    """Field by field, blocks of 1, 2 and 4 unknowns, revolute, translational, x and distance
+    rows; and the residuals it returns are those of System.residual."""
+    if compiled is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    S, t, Q0 = _batch(name)
+    assert S._kernel(False) is not None
+    info = _info_match(S, t, Q0, (False, True), policy, order)
+    Q = Q0.copy()
+    S.solve_batch(t, Q, np.zeros_like(Q), np.zeros_like(Q), tol=1e-12, maxit=8, fused=False,
+                  policy=policy, order=order)
+    R = np.abs(S.residual(Q, t))
+    assert np.abs(info.residual - R).max() <= 1e-15
+
+
+@pytest.mark.parametrize("name,N", [("four-bar.yaml", 4), ("klann-leg.yaml", 4),
+                                    ("slider-crank.yaml", 300)])
+def test_kernel_on_the_paths_merged_blocks(name, N, monkeypatch, compiled):
+    """The path follower's blocks merge the fine ones (a 9 x 9 block for the four-bar): the
+    determinant signs of every fine block inside, a handful of candidate points per call."""
+    if compiled is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    S, t, Q0 = _batch(name, merged=True, N=N)
+    assert max(len(B.sizes) for B in S.blocks) > 1 and S._kernel(False) is not None
+    for policy in ("reuse", "full"):
+        _info_match(S, t, Q0, (False, None), policy)
+
+
+def test_kernel_declines_other_kinds():
+    """A cam (a motion law) and gear meshes keep the numpy passes."""
+    from planarkin.options import resolve
+    from planarkin.results import prepare
+    for name in ("cam-roller.yaml", "planetary.yaml"):
+        m = planarkin.load(ROOT / "mechanisms" / name)
+        S = prepare(m, resolve(m, {"steps": 10}, source="api")).follower.systems[0][0]
+        assert kernel.pack(S) is None
+
+
+def test_without_compiler_the_numpy_passes_run(monkeypatch, tmp_path):
+    monkeypatch.setenv("PLANARKIN_CACHE", str(tmp_path))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    monkeypatch.setattr(kernel, "_state", {})
+    assert kernel.library(build=True) is None
+    assert kernel.library(build=True) is None          # tried once per process
+    assert not list(tmp_path.iterdir())
+    res = planarkin.solve(planarkin.load(ROOT / "mechanisms" / "four-bar.yaml"), steps=100)
+    assert res.status == 0
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    assert kernel.library(build=True) is None
