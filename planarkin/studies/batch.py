@@ -37,7 +37,7 @@ from ..elements.base import Group
 from ..expr import parse
 from ..solver import COND_WARN, KAPPA, _cond
 from .variants import Outcome
-from .warm import CHAIN, _predictor_error
+from .fused import Fused
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -146,6 +146,7 @@ class Batch:
                            np.array([first[int(r)][1] for r in p.group.rows[:, 0]]))
                           for p in B.parts] for B in self.S.blocks]
         self.grid = study.opts.grid
+        self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
 
     def _expr(self, node):
@@ -237,32 +238,48 @@ class Batch:
         S.blocks = tuple(blocks)
         return S
 
+    def row_groups(self, groups, T):
+        """The model's element groups with the varied parameters per row (variant x time, T
+        times per variant); the other parameters stay as compiled (broadcast over rows)."""
+        out = []
+        for G, params, entries in zip(self.cm.groups, groups, self.gvar):
+            p = dict(G.params)
+            for name in {e[0] for e in entries}:
+                a = np.repeat(params[name], T, axis=0)
+                p[name] = a.view(RowParam) if a.ndim == 3 else a
+            out.append(Group(G.kind, G.bodies, G.cols, p, G.rows))
+        return out
+
     def solve(self, values, Q, Qd, Qdd, sign):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values)
         TT, NU, FDD = self.drivers(targets, env)
-        rows = lambda a: np.repeat(a, T, axis=0)
-        S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
         n3 = Q.shape[2]
         Qr, Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Q, Qd, Qdd))
         o = self.study.opts
+        drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
-        info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full", tol=o.tol,
-                             maxit=max(o.iterations, 8), order=2,
-                             drivers=tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD)))
+        if self.fused is not None:
+            info = self.fused.solve(self.row_groups(groups, T), Qr, Qdr, Qddr, *drivers,
+                                    tol=o.tol, maxit=max(o.iterations, 8))
+        else:
+            rows = lambda a: np.repeat(a, T, axis=0)
+            S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
+            info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
+                                 tol=o.tol, maxit=max(o.iterations, 8), order=2,
+                                 drivers=drivers)
         with np.errstate(all="ignore"):
             good = (info.converged & (info.ratio <= KAPPA) & np.isfinite(Qdr).all(axis=1)
                     & np.isfinite(Qddr).all(axis=1) & (_cond(info) <= COND_WARN)
                     & (info.sign == sign.reshape(Vn * T, -1)).all(axis=1))
         ok &= good.reshape(Vn, T).all(axis=1)
         Qs, Qds, Qdds = (a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr))
-        n = self.cm.n
-        for v in np.nonzero(ok)[0]:
-            if not (_predictor_error(self.grid, Qs[v], Qds[v], Qdds[v], n) <= o.path_tol).all():
-                ok[v] = False
+        if ok.any():
+            ok[ok] = (_path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
+                      <= o.path_tol).all(axis=1)
         return Qs, Qds, Qdds, info.sign.reshape(Vn, T, -1), ok, s
 
     def nominal_solution(self):
@@ -436,3 +453,16 @@ class Batch:
                 if out[c][j] is None:
                     out[c][j] = self.study.solve(v)[0]
         return out
+
+
+def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
+    """(V, T-1) warm._predictor_error of V variants' solutions (V, T, n + 3) at once."""
+    h = np.diff(grid)[None, :, None]
+    j3 = np.zeros_like(Q[:, :-1])
+    j3[:, 1:] = (Qdd[:, 1:-1] - Qdd[:, :-2]) / h[:, :-1]
+    pred = Q[:, :-1] + h * Qd[:, :-1] + 0.5 * h * h * Qdd[:, :-1] + h ** 3 / 6.0 * j3
+    ef = np.abs(Q[:, 1:, :n] - pred[..., :n]).max(axis=2)
+    j3c = (Qdd[:, 1:] - Qdd[:, :-1]) / h
+    back = Q[:, 1:] - h * Qd[:, 1:] + 0.5 * h * h * Qdd[:, 1:] - h ** 3 / 6.0 * j3c
+    eb = np.abs(back[..., :n] - Q[:, :-1, :n]).max(axis=2)
+    return np.maximum(ef, eb)
