@@ -296,9 +296,29 @@ class Batch:
                                   policy=self.study.opts.newton, tol=self.study.opts.tol,
                                   maxit=self.study.opts.iterations, order=2)
         self.nominal = (Q, Qd, Qdd, info.sign)
+        self.tangent = self._tangent(res)
         from .warm import _predictor_error
         if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
+
+    def _tangent(self, res):
+        """(T, n + 3, k) exact dq/dp of the nominal positions on the grid, internal units per
+        unit of each varied parameter (studies.sensitivity), or None where it does not apply."""
+        from ..diagnostics import InputError
+        from .sensitivity import sensitivities
+        cm = self.cm
+        try:
+            dq, _ = sensitivities(cm, self.study.root, self.study.texts(), self.varied,
+                                  res.t, res.q)
+        except (InputError, np.linalg.LinAlgError):
+            return None
+        dq = dq.copy()
+        dq[:, 0::3] /= cm.L
+        dq[:, 1::3] /= cm.L
+        dq[:, 2::3] *= cm.angle_factor
+        if not np.isfinite(dq).all():
+            return None
+        return np.concatenate([dq, np.zeros((len(dq), 3, dq.shape[2]))], axis=1)
 
     # -- metrics -------------------------------------------------------------------------------
     def metrics(self, Q, Qd, Qdd, s) -> np.ndarray:
@@ -358,9 +378,10 @@ class Batch:
         """Outcomes of a group of chains (lists of variants), solved in lockstep.
 
         Predictions: a chain's head from the nominal, every next variant from its predecessor,
-        by the secant through the two previous solutions when the parameter step repeats (a
-        sweep along one parameter, the substeps), else by the predecessor's solution itself; a
-        step that fails is retried in SUBSTEPS equal steps."""
+        by the quadratic through the three previous solutions when the parameter step repeated
+        twice, the secant through two when once (a sweep along one parameter, the substeps),
+        else by the predecessor's solution itself; a step that fails is retried in SUBSTEPS
+        equal steps."""
         nan = float("nan")
         C = len(chains_values)
         keys = self.varied
@@ -369,24 +390,35 @@ class Batch:
         rep = lambda a: np.repeat(a[None], C, axis=0)
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
-        prev = [None] * C               # (state, parameters) of the solution before
+        # per chain the positions of the last two solutions before the current one and the
+        # parameter steps that led from each to the next: (Q, step) pairs, newest last
+        hist: list[list] = [[] for _ in range(C)]
         here = [nominal.copy() for _ in range(C)]
         alive = np.ones(C, dtype=bool)
+        same = lambda u, v: np.allclose(u, v, rtol=1e-9, atol=0) and np.any(v)
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
             pred = [a[live].copy() for a in state]
             for i, c in enumerate(live):
-                if prev[c] is not None:
-                    dp, dq = targets[i] - here[c], prev[c][1]
-                    if np.allclose(dp, dq, rtol=1e-9, atol=0) and np.any(dq):
-                        for a, a_prev, a_now in zip(pred, prev[c][0], state):
-                            a[i] = 2 * a_now[c] - a_prev
+                h = hist[c]
+                dp = targets[i] - here[c]
+                # polynomial extrapolation along a repeated parameter step: the error of the
+                # quadratic is third order in the step, so one Newton correction reaches
+                # rounding and its Jacobian serves the velocity solve (studies.fused)
+                if len(h) == 2 and same(dp, h[1][1]) and same(dp, h[0][1]):
+                    pred[0][i] = 3 * (state[0][c] - h[1][0]) + h[0][0]
+                elif h and same(dp, h[-1][1]):
+                    pred[0][i] = 2 * state[0][c] - h[-1][0]
+                elif self.tangent is not None:
+                    # any other step (a chain's head, a factorial's next row): first order in
+                    # the step, with the nominal's exact sensitivities
+                    pred[0][i] = state[0][c] + self.tangent @ dp
             vals = [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
             for i, c in enumerate(live):
                 if ok[i]:
-                    prev[c] = ([a[c].copy() for a in state], targets[i] - here[c])
+                    hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-2:]
                     for a, new in zip(state, (Qn, Qdn, Qddn)):
                         a[c] = new[i]
                     sign[c] = sgn[i]

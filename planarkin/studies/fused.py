@@ -12,7 +12,9 @@ inverted in closed form (1 x 1 and 2 x 2) or by linalg.inv_batched. That is Newt
 the whole system, so it converges quadratically from a good prediction (a neighbour's solution)
 to the same solution. The velocities and accelerations are then the exact linear systems
 Phi_q qdot = nu and Phi_q qddot = gamma with the Jacobian at the converged positions, solved by
-the same substitution.
+the same substitution (the last Newton iteration's factorisation where that iteration's
+correction was at rounding level, REUSE: from a prediction of third order in the parameter step
+one correction reaches the solution and the next only confirms it).
 
 Per row the diagnostics the path follower's step tests read are kept: the determinant sign of
 every fine block and a lower bound of its smallest singular value at the prediction, the first
@@ -32,6 +34,21 @@ import numpy as np
 
 from ..elements.base import Frame
 from ..linalg import inv_batched, sigma_min_lower
+
+
+# A last Newton correction at most this (internal units: lengths / L, radians) leaves the
+# Jacobian it was taken with within rounding of the one at the solution, so that factorisation
+# serves the velocity and acceleration systems (relative change of the order of REUSE).
+REUSE = 1e-14
+
+
+def _select(mask, a, b):
+    """Per row: a where mask, else b, through the nested tuples of factor()'s output."""
+    if a is None:
+        return None
+    if isinstance(a, (tuple, list)):
+        return type(a)(_select(mask, x, y) for x, y in zip(a, b))
+    return np.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
 
 
 @dataclass
@@ -194,6 +211,9 @@ class Fused:
                     Q[:, :n] -= dx[:, :n]
                 else:
                     Q[live, :n] -= dx[live, :n]
+                # rows whose Jacobian of this iteration is the one at their solution: those
+                # converged before (not moved) and those whose correction was at rounding level
+                near = ~live | (step <= REUSE)
                 size = np.where(live, step, size)
                 iters[live] = it + 1
                 done |= step <= tol
@@ -202,7 +222,9 @@ class Fused:
                 if done.all():
                     break
             # velocities and accelerations: exact linear systems at the converged positions
-            fac, _, _ = self.factor(self.jacobian(groups, F), want=False)
+            if not near.all():
+                fresh, _, _ = self.factor(self.jacobian(groups, F), want=False)
+                fac = _select(near, fac, fresh) if near.any() else fresh
             Qd[:, :n] = 0.0
             self.substitute(fac, NU, Qd)
             Qdd[:, :n] = 0.0
