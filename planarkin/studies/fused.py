@@ -19,8 +19,9 @@ one correction reaches the solution and the next only confirms it).
 Per row the diagnostics the path follower's step tests read are kept: the determinant sign of
 every fine block and a lower bound of its smallest singular value at the prediction, the first
 correction of every block against that bound (KAPPA), and convergence (the last correction at
-most tol). A row that has converged is not updated again, so its result does not depend on the
-other rows of the call.
+most tol). A row that has converged is not updated again; once only a quarter of the rows is
+still iterating, those iterate alone (a chain whose parameter step repeats no earlier one needs a
+few more iterations than its lockstep neighbours).
 
 Applies when every solve block is one fine block, small (dense) and the system square; otherwise
 the caller keeps System.solve_batch.
@@ -49,6 +50,15 @@ def _select(mask, a, b):
     if isinstance(a, (tuple, list)):
         return type(a)(_select(mask, x, y) for x, y in zip(a, b))
     return np.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
+
+
+def _take(G, rows, N):
+    """The group G with its per-row parameters (first axis N) restricted to rows."""
+    from ..elements.base import Group
+    p = {k: (np.asarray(v)[rows].view(type(v))
+             if v.ndim >= 2 and v.shape[0] == N and v.shape[1] == len(G) else v)
+         for k, v in G.params.items()}
+    return Group(G.kind, G.bodies, G.cols, p, G.rows)
 
 
 @dataclass
@@ -191,36 +201,61 @@ class Fused:
         done = np.zeros(N, dtype=bool)
         size = np.full(N, np.inf)
         dx = np.zeros((N, n + 3))
+        rows = None                     # the rows still iterating, once they are few
         with np.errstate(all="ignore"):
             for it in range(maxit):
-                fac, sg, sm = self.factor(self.jacobian(groups, F), want=it == 0)
-                if it == 0:
-                    sign, smin = sg, sm
-                self.substitute(fac, self.residual(groups, F, T), dx)
-                step = np.abs(dx[:, :n]).max(axis=1)
-                step[~np.isfinite(step)] = np.inf
-                if it == 0:
-                    ratio = np.zeros(N)
-                    for b, (_, cols, *_rest) in enumerate(self.plan):
-                        db = np.abs(dx[:, cols]).max(axis=1)
-                        ratio = np.maximum(ratio, np.where(smin[:, b] > 0, db / smin[:, b],
-                                                           np.inf))
-                    ratio[~np.isfinite(ratio)] = np.inf
-                live = ~done
-                if live.all():
-                    Q[:, :n] -= dx[:, :n]
+                if rows is None and it and 4 * (~done).sum() <= N:
+                    # the few rows left (a step that repeats no earlier one) iterate alone
+                    rows = np.nonzero(~done)[0]
+                    sub = [_take(G, rows, N) for G in groups]
+                    Qs = Q[rows]
+                    Fs = Frame(Qs, np.cos(Qs[:, 2::3]), np.sin(Qs[:, 2::3]))
+                    Ts = T[rows]
+                    dxs = np.zeros((len(rows), n + 3))
+                if rows is not None:
+                    fac, _, _ = self.factor(self.jacobian(sub, Fs), want=False)
+                    self.substitute(fac, self.residual(sub, Fs, Ts), dxs)
+                    step = np.full(N, np.inf)
+                    step[rows] = np.abs(dxs[:, :n]).max(axis=1)
+                    step[~np.isfinite(step)] = np.inf
+                    live = ~done
+                    Qs[live[rows], :n] -= dxs[live[rows], :n]
+                    np.cos(Qs[:, 2::3], out=Fs.c)
+                    np.sin(Qs[:, 2::3], out=Fs.s)
                 else:
-                    Q[live, :n] -= dx[live, :n]
-                # rows whose Jacobian of this iteration is the one at their solution: those
-                # converged before (not moved) and those whose correction was at rounding level
-                near = ~live | (step <= REUSE)
+                    fac, sg, sm = self.factor(self.jacobian(groups, F), want=it == 0)
+                    if it == 0:
+                        sign, smin = sg, sm
+                    self.substitute(fac, self.residual(groups, F, T), dx)
+                    step = np.abs(dx[:, :n]).max(axis=1)
+                    step[~np.isfinite(step)] = np.inf
+                    if it == 0:
+                        ratio = np.zeros(N)
+                        for b, (_, cols, *_rest) in enumerate(self.plan):
+                            db = np.abs(dx[:, cols]).max(axis=1)
+                            ratio = np.maximum(ratio, np.where(smin[:, b] > 0,
+                                                               db / smin[:, b], np.inf))
+                        ratio[~np.isfinite(ratio)] = np.inf
+                    live = ~done
+                    if live.all():
+                        Q[:, :n] -= dx[:, :n]
+                    else:
+                        Q[live, :n] -= dx[live, :n]
+                    # rows whose Jacobian of this iteration is the one at their solution: those
+                    # converged before (not moved) and those whose correction was at rounding
+                    near = ~live | (step <= REUSE)
+                    np.cos(phi, out=F.c)
+                    np.sin(phi, out=F.s)
                 size = np.where(live, step, size)
                 iters[live] = it + 1
-                done |= step <= tol
-                np.cos(phi, out=F.c)
-                np.sin(phi, out=F.s)
+                done |= live & (step <= tol)
                 if done.all():
                     break
+            if rows is not None:
+                Q[rows] = Qs
+                np.cos(phi, out=F.c)
+                np.sin(phi, out=F.s)
+                near = np.zeros(N, dtype=bool)
             # velocities and accelerations: exact linear systems at the converged positions
             if not near.all():
                 fresh, _, _ = self.factor(self.jacobian(groups, F), want=False)
