@@ -401,7 +401,11 @@ class Batch:
         hist: list[list] = [[] for _ in range(C)]
         here = [nominal.copy() for _ in range(C)]
         alive = np.ones(C, dtype=bool)
-        same = lambda u, v: np.allclose(u, v, rtol=1e-9, atol=0) and np.any(v)
+
+        def same(u, v) -> bool:
+            """Whether parameter step u repeats step v (to rounding; v not zero)."""
+            return any(v) and all(abs(a - b) <= 1e-9 * abs(b) for a, b in zip(u.tolist(),
+                                                                               v.tolist()))
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""

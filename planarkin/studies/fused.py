@@ -105,6 +105,8 @@ class Fused:
             self.plan.append((rows, cols, k, dep, diag, offd, B.first))
             earlier += cols.tolist()
         self.nfine = S.nfine
+        self.unknowns = np.concatenate([p[1] for p in self.plan])
+        self.block_of = np.concatenate([np.full(p[2], b) for b, p in enumerate(self.plan)])
 
     @staticmethod
     def applies(S) -> bool:
@@ -230,11 +232,8 @@ class Fused:
                     step = np.abs(dx[:, :n]).max(axis=1)
                     step[~np.isfinite(step)] = np.inf
                     if it == 0:
-                        ratio = np.zeros(N)
-                        for b, (_, cols, *_rest) in enumerate(self.plan):
-                            db = np.abs(dx[:, cols]).max(axis=1)
-                            ratio = np.maximum(ratio, np.where(smin[:, b] > 0,
-                                                               db / smin[:, b], np.inf))
+                        # every block's first correction against its sigma_min bound
+                        ratio = (np.abs(dx[:, self.unknowns]) / smin[:, self.block_of]).max(axis=1)
                         ratio[~np.isfinite(ratio)] = np.inf
                     live = ~done
                     if live.all():
