@@ -52,6 +52,17 @@ def _select(mask, a, b):
     return np.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
 
 
+def _put(a, rows, b) -> None:
+    """a[rows] = b through the nested tuples of factor()'s output (in place)."""
+    if a is None:
+        return
+    if isinstance(a, (tuple, list)):
+        for x, y in zip(a, b):
+            _put(x, rows, y)
+        return
+    a[rows] = b
+
+
 def _take(G, rows, N):
     """The group G with its per-row parameters (first axis N) restricted to rows."""
     from ..elements.base import Group
@@ -215,8 +226,8 @@ class Fused:
                     Ts = T[rows]
                     dxs = np.zeros((len(rows), n + 3))
                 if rows is not None:
-                    fac, _, _ = self.factor(self.jacobian(sub, Fs), want=False)
-                    self.substitute(fac, self.residual(sub, Fs, Ts), dxs)
+                    facs, _, _ = self.factor(self.jacobian(sub, Fs), want=False)
+                    self.substitute(facs, self.residual(sub, Fs, Ts), dxs)
                     step = np.full(N, np.inf)
                     step[rows] = np.abs(dxs[:, :n]).max(axis=1)
                     step[~np.isfinite(step)] = np.inf
@@ -254,11 +265,20 @@ class Fused:
                 Q[rows] = Qs
                 np.cos(phi, out=F.c)
                 np.sin(phi, out=F.s)
-                near = np.zeros(N, dtype=bool)
-            # velocities and accelerations: exact linear systems at the converged positions
+                near[rows] = False      # moved since the last iteration over all rows
+            # velocities and accelerations: exact linear systems at the converged positions;
+            # the rows whose last factorisation is not at their solution get a new one
             if not near.all():
-                fresh, _, _ = self.factor(self.jacobian(groups, F), want=False)
-                fac = _select(near, fac, fresh) if near.any() else fresh
+                need = np.nonzero(~near)[0]
+                if 4 * len(need) <= N:
+                    Qn = Q[need]
+                    Fn = Frame(Qn, F.c[need], F.s[need])
+                    fresh, _, _ = self.factor(
+                        self.jacobian([_take(G, need, N) for G in groups], Fn), want=False)
+                    _put(fac, need, fresh)
+                else:
+                    fresh, _, _ = self.factor(self.jacobian(groups, F), want=False)
+                    fac = _select(near, fac, fresh) if near.any() else fresh
             Qd[:, :n] = 0.0
             self.substitute(fac, NU, Qd)
             Qdd[:, :n] = 0.0
