@@ -35,9 +35,9 @@ import numpy as np
 from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
-from ..solver import COND_WARN, KAPPA, _cond
+from ..solver import COND_WARN, KAPPA
 from .variants import Outcome
-from .fused import Fused
+from .fused import Fused, rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -276,9 +276,11 @@ class Batch:
                                  tol=o.tol, maxit=max(o.iterations, 8), order=2,
                                  drivers=drivers)
         with np.errstate(all="ignore"):
-            good = (info.converged & (info.ratio <= KAPPA) & np.isfinite(Qdr).all(axis=1)
-                    & np.isfinite(Qddr).all(axis=1) & (_cond(info) <= COND_WARN)
-                    & (info.sign == sign.reshape(Vn * T, -1)).all(axis=1))
+            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
+            good = (info.converged & (info.ratio <= KAPPA)
+                    & np.isfinite(rowmax(np.abs(Qdr))) & np.isfinite(rowmax(np.abs(Qddr)))
+                    & (cond <= COND_WARN)
+                    & (rowmax(np.abs(info.sign - sign.reshape(Vn * T, -1))) == 0))
         ok &= good.reshape(Vn, T).all(axis=1)
         Qs, Qds, Qdds = (a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr))
         if ok.all():
@@ -506,6 +508,7 @@ def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
     j3[:, 1:] = dA[:, :-1]
     hh = 0.5 * h * h
     h3 = h ** 3 / 6.0
-    ef = np.abs(Q[:, 1:] - (Q[:, :-1] + h * Qd[:, :-1] + hh * Qdd[:, :-1] + h3 * j3)).max(axis=2)
-    eb = np.abs(Q[:, 1:] - h * Qd[:, 1:] + hh * Qdd[:, 1:] - h3 * dA - Q[:, :-1]).max(axis=2)
-    return np.maximum(ef, eb)
+    ef = np.abs(Q[:, 1:] - (Q[:, :-1] + h * Qd[:, :-1] + hh * Qdd[:, :-1] + h3 * j3))
+    eb = np.abs(Q[:, 1:] - h * Qd[:, 1:] + hh * Qdd[:, 1:] - h3 * dA - Q[:, :-1])
+    V, K = ef.shape[:2]
+    return np.maximum(rowmax(ef.reshape(V * K, n)), rowmax(eb.reshape(V * K, n))).reshape(V, K)

@@ -52,6 +52,18 @@ def _select(mask, a, b):
     return np.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
 
 
+def rowmax(a: np.ndarray) -> np.ndarray:
+    """(N, k) -> (N,) largest entry of each row, NaN if any is: a.max(axis=1), column by
+    column (numpy reduces a short trailing axis several times slower than it takes the
+    elementwise maximum of a few columns)."""
+    if a.shape[1] > 32 or a.shape[1] == 0:
+        return a.max(axis=1)
+    m = a[:, 0].copy()
+    for i in range(1, a.shape[1]):
+        np.maximum(m, a[:, i], out=m)
+    return m
+
+
 def _put(a, rows, b) -> None:
     """a[rows] = b through the nested tuples of factor()'s output (in place)."""
     if a is None:
@@ -229,7 +241,7 @@ class Fused:
                     facs, _, _ = self.factor(self.jacobian(sub, Fs), want=False)
                     self.substitute(facs, self.residual(sub, Fs, Ts), dxs)
                     step = np.full(N, np.inf)
-                    step[rows] = np.abs(dxs[:, :n]).max(axis=1)
+                    step[rows] = rowmax(np.abs(dxs[:, :n]))
                     step[~np.isfinite(step)] = np.inf
                     live = ~done
                     Qs[live[rows], :n] -= dxs[live[rows], :n]
@@ -240,11 +252,11 @@ class Fused:
                     if it == 0:
                         sign, smin = sg, sm
                     self.substitute(fac, self.residual(groups, F, T), dx)
-                    step = np.abs(dx[:, :n]).max(axis=1)
+                    step = rowmax(np.abs(dx[:, :n]))
                     step[~np.isfinite(step)] = np.inf
                     if it == 0:
                         # every block's first correction against its sigma_min bound
-                        ratio = (np.abs(dx[:, self.unknowns]) / smin[:, self.block_of]).max(axis=1)
+                        ratio = rowmax(np.abs(dx[:, self.unknowns]) / smin[:, self.block_of])
                         ratio[~np.isfinite(ratio)] = np.inf
                     live = ~done
                     if live.all():
@@ -283,5 +295,5 @@ class Fused:
             self.substitute(fac, NU, Qd)
             Qdd[:, :n] = 0.0
             self.substitute(fac, self.gamma(groups, Frame(Q, F.c, F.s, Qd), FDD), Qdd)
-        conv = done & (size <= tol) & np.isfinite(Q).all(axis=1)
+        conv = done & (size <= tol) & np.isfinite(rowmax(np.abs(Q)))
         return FusedInfo(iters, conv, ratio, sign, smin)
