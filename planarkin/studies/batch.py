@@ -8,8 +8,13 @@ in one call, and nothing is validated, compiled or assembled per variant: the nu
 depend on the varied parameters are evaluated from the file's expressions for all variants at
 once, in the nominal model's internal units.
 
-Each variant is predicted from its predecessor in its chain (studies.warm.chains; a chain's head
-from the nominal; a parameter step that fails is retried in equal substeps) and accepted only if every grid
+Each variant is predicted from its predecessor in its chain (studies.warm.chains): along a
+repeated parameter step by the quadratic (or secant) through the previous solutions, otherwise
+(a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
+exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
+equal substeps. The solve is one Newton pass over the whole system for all variants x grid
+times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
+accepted only if every grid
 point passes the tests the path follower applies to a step: Newton converged, its first
 correction at most KAPPA of the smallest singular value, finite velocities and accelerations,
 condition below COND_WARN, the determinant sign of every fine block equal to the predecessor's at

@@ -111,7 +111,8 @@ class Fused:
             for k in range(K):
                 for e in range(neq):
                     for c in range(nc):
-                        where[(int(G.rows[k, e]), int(G.cols[k, c]))] = off + (k * neq + e) * nc + c
+                        key = (int(G.rows[k, e]), int(G.cols[k, c]))
+                        where[key] = off + (k * neq + e) * nc + c
             off += K * neq * nc
         self.width = off + 1                # the last column: a structural zero
         at = lambda r, c: where.get((int(r), int(c)), off)
