@@ -266,7 +266,11 @@ class Batch:
         groups, targets, s, env, ok = self.numbers(values)
         TT, NU, FDD = self.drivers(targets, env)
         n3 = Q.shape[2]
-        Qr, Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Q, Qd, Qdd))
+        Qr = Q.reshape(Vn * T, n3).copy()
+        if self.fused is not None:      # it solves the velocities and accelerations afresh
+            Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
+        else:
+            Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
         o = self.study.opts
         drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
@@ -416,7 +420,7 @@ class Batch:
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
-            pred = [a[live].copy() for a in state]
+            pred = [a[live] for a in state]          # copies (fancy indexing)
             for i, c in enumerate(live):
                 h = hist[c]
                 dp = targets[i] - here[c]
