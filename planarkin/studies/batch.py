@@ -329,6 +329,8 @@ class Batch:
                                   res.t, res.q)
         except (InputError, np.linalg.LinAlgError):
             return None
+        except Exception:  # noqa: BLE001 - only a prediction: without it the batch still runs
+            return None
         dq = dq.copy()
         dq[:, 0::3] /= cm.L
         dq[:, 1::3] /= cm.L
@@ -397,8 +399,9 @@ class Batch:
         Predictions: a chain's head from the nominal, every next variant from its predecessor,
         by the quadratic through the three previous solutions when the parameter step repeated
         twice, the secant through two when once (a sweep along one parameter, the substeps),
-        else by the predecessor's solution itself; a step that fails is retried in SUBSTEPS
-        equal steps."""
+        else (a head, a factorial's next row) to first order in the step with the nominal's
+        exact sensitivities (the predecessor's solution itself where those do not apply); a
+        step that fails is retried in SUBSTEPS equal steps."""
         nan = float("nan")
         C = len(chains_values)
         keys = self.varied
