@@ -245,8 +245,9 @@ class Batch:
 
     def row_groups(self, groups, T):
         """The model's element groups with the varied parameters per row (variant x time, T
-        times per variant); the other parameters stay as compiled (broadcast over rows)."""
-        out = []
+        times per variant); the other parameters stay as compiled (broadcast over rows).
+        Returns (groups, per group the names of its per-row parameters)."""
+        out, keys = [], []
         for G, params, entries in zip(self.cm.groups, groups, self.gvar):
             p = dict(G.params)
             for name in {e[0] for e in entries}:
@@ -257,7 +258,8 @@ class Batch:
                     a = a.view(RowParam)
                 p[name] = a
             out.append(Group(G.kind, G.bodies, G.cols, p, G.rows))
-        return out
+            keys.append({e[0] for e in entries})
+        return out, keys
 
     def solve(self, values, Q, Qd, Qdd, sign):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
@@ -276,8 +278,9 @@ class Batch:
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
         if self.fused is not None:
-            info = self.fused.solve(self.row_groups(groups, T), Qr, Qdr, Qddr, *drivers,
-                                    tol=o.tol, maxit=max(o.iterations, 8))
+            rg, keys = self.row_groups(groups, T)
+            info = self.fused.solve(rg, Qr, Qdr, Qddr, *drivers, tol=o.tol,
+                                    maxit=max(o.iterations, 8), rowkeys=keys)
         else:
             rows = lambda a: np.repeat(a, T, axis=0)
             S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])

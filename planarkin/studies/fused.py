@@ -75,11 +75,10 @@ def _put(a, rows, b) -> None:
     a[rows] = b
 
 
-def _take(G, rows, N):
-    """The group G with its per-row parameters (first axis N) restricted to rows."""
+def _take(G, rows, keys):
+    """The group G with its per-row parameters (the names keys) restricted to rows."""
     from ..elements.base import Group
-    p = {k: (np.asarray(v)[rows].view(type(v))
-             if v.ndim >= 2 and v.shape[0] == N and v.shape[1] == len(G) else v)
+    p = {k: (np.asarray(v)[rows].view(type(v)) if k in keys else v)
          for k, v in G.params.items()}
     return Group(G.kind, G.bodies, G.cols, p, G.rows)
 
@@ -214,11 +213,13 @@ class Fused:
                 X[:, cols] = np.einsum("nij,nj->ni", inv, r)
 
     # -- the solve -------------------------------------------------------------------------------
-    def solve(self, groups, Q, Qd, Qdd, T, NU, FDD, *, tol, maxit):
+    def solve(self, groups, Q, Qd, Qdd, T, NU, FDD, *, tol, maxit, rowkeys=None):
         """Positions (Newton from the predictions Q), velocities and accelerations of N rows, in
-        place. groups: the model's element groups with per-row parameters; T, NU, FDD (N, m): the
-        drivers' targets, nu and f'' per row. Returns FusedInfo."""
+        place. groups: the model's element groups, some parameters per row (first axis N):
+        rowkeys, per group the names of those (None: none); T, NU, FDD (N, m): the drivers'
+        targets, nu and f'' per row. Returns FusedInfo."""
         N = Q.shape[0]
+        rowkeys = rowkeys or [()] * len(groups)
         n = self.n
         phi = Q[:, 2::3]
         F = Frame(Q, np.cos(phi), np.sin(phi))
@@ -233,7 +234,7 @@ class Fused:
                 if rows is None and it and 4 * (~done).sum() <= N:
                     # the few rows left (a step that repeats no earlier one) iterate alone
                     rows = np.nonzero(~done)[0]
-                    sub = [_take(G, rows, N) for G in groups]
+                    sub = [_take(G, rows, ks) for G, ks in zip(groups, rowkeys)]
                     Qs = Q[rows]
                     Fs = Frame(Qs, np.cos(Qs[:, 2::3]), np.sin(Qs[:, 2::3]))
                     Ts = T[rows]
@@ -286,8 +287,8 @@ class Fused:
                 if 4 * len(need) <= N:
                     Qn = Q[need]
                     Fn = Frame(Qn, F.c[need], F.s[need])
-                    fresh, _, _ = self.factor(
-                        self.jacobian([_take(G, need, N) for G in groups], Fn), want=False)
+                    sub = [_take(G, need, ks) for G, ks in zip(groups, rowkeys)]
+                    fresh, _, _ = self.factor(self.jacobian(sub, Fn), want=False)
                     _put(fac, need, fresh)
                 else:
                     fresh, _, _ = self.factor(self.jacobian(groups, F), want=False)
