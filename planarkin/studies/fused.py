@@ -23,8 +23,8 @@ most tol). A row that has converged is not updated again; once only a quarter of
 still iterating, those iterate alone (a chain whose parameter step repeats no earlier one needs a
 few more iterations than its lockstep neighbours).
 
-Applies when every solve block is one fine block, small (dense) and the system square; otherwise
-the caller keeps System.solve_batch.
+Applies when every solve block is one fine block, small (dense), the system square and its
+gradient entries at most MAX_ENTRIES per row; otherwise the caller keeps System.solve_batch.
 """
 
 from __future__ import annotations
@@ -41,6 +41,9 @@ from ..linalg import inv_batched, sigma_min_lower
 # Jacobian it was taken with within rounding of the one at the solution, so that factorisation
 # serves the velocity and acceleration systems (relative change of the order of REUSE).
 REUSE = 1e-14
+# The whole Jacobian is held per row (its gradient entries, 8 bytes each): above this many a
+# large mechanism keeps System.solve_batch, whose per-block arrays stay small.
+MAX_ENTRIES = 1024
 
 
 def _select(mask, a, b):
@@ -133,7 +136,9 @@ class Fused:
 
     @staticmethod
     def applies(S) -> bool:
+        entries = sum(len(G) * G.kind.neq * G.cols.shape[1] for G in S.cm.groups)
         return (S.blocks is not None and len(S.rows) == S.cm.m == S.n
+                and entries <= MAX_ENTRIES
                 and all(len(B.sizes) == 1 and not S.is_large(B) for B in S.blocks))
 
     # -- evaluations over all rows ---------------------------------------------------------------
