@@ -1,7 +1,7 @@
 """Throughput of a four-bar design sweep (variants per second, P + V + A over 360 steps),
 planarkin against pylinkage with numba, the textbook solver and the closed form, in one run.
 
-    python benchmarks/bench_sweep.py [--variants 10000] [--planarkin 64] [--textbook 4]
+    python benchmarks/bench_sweep.py [--variants 10000] [--planarkin N] [--textbook 4]
                                      [--pylinkage-python /tmp/benchvenv/bin/python]
 
 The sweep: the four-bar of benchmarks/models.py (crank a, coupler b, rocker c = 0.10, ground
@@ -13,14 +13,17 @@ and accelerations.
   install pylinkage numba`; not a dependency of planarkin): `Linkage.step_fast_with_kinematics`
   (the numba-compiled solver with velocities and accelerations) in a Python loop over the
   variants, `set_constraints` per variant; the compile run excluded. All V variants.
-* planarkin: `planarkin.studies.variants.Study.run` (what `planarkin sweep --jobs 1` runs:
-  validate + compile + assemble every variant, each started from its neighbour's nodes, grid
-  pass with P, V, A, a max metric) on the first `--planarkin` variants; variants/s extrapolates.
+* planarkin: `planarkin.studies.variants.Study.run` (what `planarkin sweep --jobs 1` runs: the
+  variants batched, studies/batch.py, grid pass with P, V, A, a max metric) on all V variants,
+  or with `--planarkin N` on N of them spread evenly over the factorial (a sparser sweep, whose
+  neighbours are farther apart); variants/s extrapolates.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
 * closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
 
 Every rate is measured in this one run; the ratios are the figures to quote (the machine is
-shared, absolute times vary).
+shared, absolute times vary). Rates are given per wall second and per CPU second of the process
+(time.process_time; pylinkage's in its own process): on a machine shared with other jobs the
+CPU-time ratio is the steadier one.
 """
 
 from __future__ import annotations
@@ -69,6 +72,7 @@ def one(a, b):
     return lk.step_fast_with_kinematics(iterations=steps, dt=1.0)
 pos, vel, acc = one(a_vals[0], b_vals[0])     # numba compile, excluded
 t = time.perf_counter()
+c = time.process_time()
 n = 0
 worst = 0
 for a in a_vals:
@@ -76,7 +80,8 @@ for a in a_vals:
         pos, vel, acc = one(a, b)
         n += 1
 elapsed = time.perf_counter() - t
-print(json.dumps({"variants": n, "seconds": elapsed, "constraints": list(base),
+cpu = time.process_time() - c
+print(json.dumps({"variants": n, "seconds": elapsed, "cpu": cpu, "constraints": list(base),
                   "nan": bool(np.isnan(pos).any()),
                   "last_C": [pos[-1, 3, 0], pos[-1, 3, 1]]}))
 '''
@@ -95,7 +100,8 @@ def run_pylinkage(python: str, a_vals, b_vals):
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--variants", type=int, default=10_000)
-    ap.add_argument("--planarkin", type=int, default=64)
+    ap.add_argument("--planarkin", type=int, default=None,
+                    help="variants planarkin solves (default: all)")
     ap.add_argument("--textbook", type=int, default=4)
     ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
     args = ap.parse_args()
@@ -107,13 +113,17 @@ def main() -> None:
     print(f"four-bar sweep: {len(variants)} variants x {STEPS} steps (P, V, A); "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     rates = {}
+    cpu = {}        # variants per CPU second: less sensitive to the other jobs on the machine
+
+    npk = len(variants) if args.planarkin is None else min(args.planarkin, len(variants))
+    n = max(200, min(npk, 2000))
 
     # closed form
-    t0 = time.perf_counter()
-    for v in variants[: max(200, args.planarkin)]:
+    t0, c0 = time.perf_counter(), time.process_time()
+    for v in variants[:n]:
         models.four_bar_closed_form(t_grid, a=v["a"], b=v["b"])
-    n = max(200, args.planarkin)
     rates["closed form (numpy, per variant)"] = n / (time.perf_counter() - t0)
+    cpu["closed form (numpy, per variant)"] = n / (time.process_time() - c0)
 
     # planarkin
     from planarkin.studies.variants import Study
@@ -121,13 +131,14 @@ def main() -> None:
         path = Path(d) / "four-bar.yaml"
         path.write_text(models.four_bar_yaml())
         study = Study(str(path), metrics=["max:rocker.phi"])
-        sub = [variants[i] for i in np.linspace(0, len(variants) - 1, args.planarkin).astype(int)]
+        sub = [variants[i] for i in np.linspace(0, len(variants) - 1, npk).astype(int)]
         study.run(sub[:2])
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = study.run(sub)
         el = time.perf_counter() - t0
         ok = sum(o.status == "ok" for o in out)
         rates["planarkin Study.run (sweep --jobs 1)"] = len(sub) / el
+        cpu["planarkin Study.run (sweep --jobs 1)"] = len(sub) / (time.process_time() - c0)
         # accuracy: the metric against the closed form
         err = 0.0
         for v, o in zip(sub, out):
@@ -139,27 +150,33 @@ def main() -> None:
 
     # textbook
     import textbook
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for v in variants[: args.textbook]:
         sysm = textbook.System.from_mechanism(models.four_bar_mechanism(a=v["a"], b=v["b"]))
         q0 = models.four_bar_closed_form(np.array([0.0]), a=v["a"], b=v["b"])["q"][0]
         textbook.solve(sysm, q0, t_grid)
     rates["textbook (per-step dense Newton)"] = args.textbook / (time.perf_counter() - t0)
+    cpu["textbook (per-step dense Newton)"] = args.textbook / (time.process_time() - c0)
 
     # pylinkage
     res, why = run_pylinkage(args.pylinkage_python, a_vals, b_vals)
     if res is not None:
         rates["pylinkage + numba (step_fast_with_kinematics)"] = res["variants"] / res["seconds"]
+        cpu["pylinkage + numba (step_fast_with_kinematics)"] = res["variants"] / res["cpu"]
         print(f"pylinkage: {res['variants']} variants in {res['seconds']:.2f} s, "
               f"NaN in results: {res['nan']}")
     else:
         print(f"pylinkage: not measured: {why}")
 
-    ref = rates.get("pylinkage + numba (step_fast_with_kinematics)")
-    print(f"\n{'solver':<48} {'variants/s':>12} {'us/step':>9} {'vs pylinkage':>13}")
+    key = "pylinkage + numba (step_fast_with_kinematics)"
+    ref, cref = rates.get(key), cpu.get(key)
+    print(f"\n{'solver':<48} {'variants/s':>12} {'us/step':>9} {'vs pylinkage':>13} "
+          f"{'CPU variants/s':>15} {'vs pylinkage':>13}")
     for k, r in rates.items():
         rel = f"{r / ref:.3g}x" if ref else "-"
-        print(f"{k:<48} {r:12.1f} {1e6 / (r * (STEPS + 1)):9.2f} {rel:>13}")
+        crel = f"{cpu[k] / cref:.3g}x" if cref else "-"
+        print(f"{k:<48} {r:12.1f} {1e6 / (r * (STEPS + 1)):9.2f} {rel:>13} {cpu[k]:15.1f} "
+              f"{crel:>13}")
 
 
 if __name__ == "__main__":

@@ -6,8 +6,10 @@ import pytest
 
 from planarkin.studies import batch as batchmod
 from planarkin.studies.execute import executor
+from planarkin.studies.fused import Fused
 from planarkin.studies.sweep import Range, factorial
 from planarkin.studies.variants import Study
+from planarkin.studies.warm import _predictor_error
 from test_sweep import four_bar_closed_form
 
 FB = "mechanisms/four-bar.yaml"
@@ -70,3 +72,62 @@ def test_a_parameter_reaching_the_analysis_settings_is_not_batched(tmp_path):
     with pytest.raises(batchmod.Unsupported, match="analysis settings"):
         batchmod.Batch(Study(str(path)), ["T"])
     assert Study(str(path)).batch([{"T": 1.0}]) is None
+
+
+def test_a_chain_steps_to_every_variant_at_once_rows_and_heads_included(study, monkeypatch):
+    # heads (from the nominal) and a factorial's next row (a step that repeats no earlier one)
+    # are predicted to first order with the nominal's exact sensitivities: no step is retried
+    # in substeps, so each unit takes one solve per chain position
+    variants = factorial([Range("a", 0.03, 0.05, 4), Range("b", 0.11, 0.13, 3)])
+    B = study.batch(variants)
+    assert B.tangent is not None
+    calls = []
+    orig = B.solve
+    monkeypatch.setattr(B, "solve", lambda vals, *a: calls.append(len(vals)) or orig(vals, *a))
+    out = study.run(variants)
+    assert [o.status for o in out] == ["ok"] * 12
+    assert calls == [2, 2, 2, 2, 1, 1, 1, 1]       # 3 chains of 4, in units of 2 chains
+
+
+def test_path_errors_of_many_variants_are_the_followers_per_variant():
+    rng = np.random.default_rng(7)
+    grid = np.sort(rng.uniform(0, 1, 9))
+    Q, Qd, Qdd = (rng.normal(size=(3, 9, 12)) for _ in range(3))
+    many = batchmod._path_errors(grid, Q, Qd, Qdd, 9)
+    for v in range(3):
+        assert np.array_equal(many[v], _predictor_error(grid, Q[v], Qd[v], Qdd[v], 9))
+
+
+@pytest.mark.parametrize("path", [FB, "mechanisms/slider-crank.yaml",
+                                  "mechanisms/klann-leg.yaml"])     # klann: a 4 x 4 block
+@pytest.mark.parametrize("spread", ["even", "few far"])
+def test_the_fused_pass_equals_the_block_by_block_solve(path, spread):
+    from planarkin.assembly import assemble
+    from planarkin.linalg import noise
+    from planarkin.results import analyse
+    s = Study(path, analysis={"steps": 90})
+    cm = s.nominal
+    _, res = analyse(cm, s.opts)
+    S = assemble(cm).system
+    assert Fused.applies(S)
+    unit = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+    exact = np.concatenate([res.q / unit, np.zeros((len(res.t), 3))], axis=1)
+    pred = exact.copy()
+    dev = noise(pred[:, :cm.n].size, 3).reshape(len(pred), cm.n)
+    if spread == "even":
+        pred[:, :cm.n] += 1e-4 * dev
+    else:   # most rows one correction from the solution, every 8th farther: those iterate alone
+        far = np.arange(len(pred)) % 8 == 0
+        pred[:, :cm.n] += np.where(far[:, None], 3e-3, 1e-9) * dev
+    ref = [pred.copy(), np.zeros_like(pred), np.zeros_like(pred)]
+    info = S.solve_batch(res.t, *ref, policy="full", tol=1e-10, maxit=8, order=2)
+    got = [pred.copy(), np.zeros_like(pred), np.zeros_like(pred)]
+    drivers = S.driver_values(res.t)
+    fi = Fused(S).solve(cm.groups, *got, *drivers, tol=1e-10, maxit=8)
+    assert info.converged.all() and fi.converged.all()
+    for a, b in zip(got, ref):
+        scale = np.abs(b).max(axis=0) + 1e-300
+        assert (np.abs(a - b) <= 1e-12 * scale).all()
+    assert np.allclose(got[0], exact, rtol=0, atol=1e-12)
+    assert np.array_equal(fi.sign, info.sign)
+    assert np.allclose(fi.smin, info.smin, rtol=1e-10, atol=0)

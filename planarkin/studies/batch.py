@@ -8,8 +8,13 @@ in one call, and nothing is validated, compiled or assembled per variant: the nu
 depend on the varied parameters are evaluated from the file's expressions for all variants at
 once, in the nominal model's internal units.
 
-Each variant is predicted from its predecessor in its chain (studies.warm.chains; a chain's head
-from the nominal; a parameter step that fails is retried in equal substeps) and accepted only if every grid
+Each variant is predicted from its predecessor in its chain (studies.warm.chains): along a
+repeated parameter step by the quadratic (or secant) through the previous solutions, otherwise
+(a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
+exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
+equal substeps. The solve is one Newton pass over the whole system for all variants x grid
+times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
+accepted only if every grid
 point passes the tests the path follower applies to a step: Newton converged, its first
 correction at most KAPPA of the smallest singular value, finite velocities and accelerations,
 condition below COND_WARN, the determinant sign of every fine block equal to the predecessor's at
@@ -35,9 +40,9 @@ import numpy as np
 from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
-from ..solver import COND_WARN, KAPPA, _cond
+from ..solver import COND_WARN, KAPPA
 from .variants import Outcome
-from .warm import CHAIN, _predictor_error
+from .fused import Fused, rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -146,6 +151,7 @@ class Batch:
                            np.array([first[int(r)][1] for r in p.group.rows[:, 0]]))
                           for p in B.parts] for B in self.S.blocks]
         self.grid = study.opts.grid
+        self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
 
     def _expr(self, node):
@@ -237,32 +243,63 @@ class Batch:
         S.blocks = tuple(blocks)
         return S
 
+    def row_groups(self, groups, T):
+        """The model's element groups with the varied parameters per row (variant x time, T
+        times per variant); the other parameters stay as compiled (broadcast over rows).
+        Returns (groups, per group the names of its per-row parameters)."""
+        out, keys = [], []
+        for G, params, entries in zip(self.cm.groups, groups, self.gvar):
+            p = dict(G.params)
+            for name in {e[0] for e in entries}:
+                a = np.repeat(params[name], T, axis=0)
+                if a.ndim == 3:
+                    # components outermost in memory: p[:, i] is then a contiguous (R, K)
+                    a = np.moveaxis(np.ascontiguousarray(np.moveaxis(a, 2, 0)), 0, 2)
+                    a = a.view(RowParam)
+                p[name] = a
+            out.append(Group(G.kind, G.bodies, G.cols, p, G.rows))
+            keys.append({e[0] for e in entries})
+        return out, keys
+
     def solve(self, values, Q, Qd, Qdd, sign):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values)
         TT, NU, FDD = self.drivers(targets, env)
-        rows = lambda a: np.repeat(a, T, axis=0)
-        S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
         n3 = Q.shape[2]
-        Qr, Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Q, Qd, Qdd))
+        Qr = Q.reshape(Vn * T, n3).copy()
+        if self.fused is not None:      # it solves the velocities and accelerations afresh
+            Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
+        else:
+            Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
         o = self.study.opts
+        drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
-        info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full", tol=o.tol,
-                             maxit=max(o.iterations, 8), order=2,
-                             drivers=tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD)))
+        if self.fused is not None:
+            rg, keys = self.row_groups(groups, T)
+            info = self.fused.solve(rg, Qr, Qdr, Qddr, *drivers, tol=o.tol,
+                                    maxit=max(o.iterations, 8), rowkeys=keys)
+        else:
+            rows = lambda a: np.repeat(a, T, axis=0)
+            S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
+            info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
+                                 tol=o.tol, maxit=max(o.iterations, 8), order=2,
+                                 drivers=drivers)
         with np.errstate(all="ignore"):
-            good = (info.converged & (info.ratio <= KAPPA) & np.isfinite(Qdr).all(axis=1)
-                    & np.isfinite(Qddr).all(axis=1) & (_cond(info) <= COND_WARN)
-                    & (info.sign == sign.reshape(Vn * T, -1)).all(axis=1))
+            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
+            good = (info.converged & (info.ratio <= KAPPA)
+                    & np.isfinite(rowmax(np.abs(Qdr))) & np.isfinite(rowmax(np.abs(Qddr)))
+                    & (cond <= COND_WARN)
+                    & (rowmax(np.abs(info.sign - sign.reshape(Vn * T, -1))) == 0))
         ok &= good.reshape(Vn, T).all(axis=1)
         Qs, Qds, Qdds = (a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr))
-        n = self.cm.n
-        for v in np.nonzero(ok)[0]:
-            if not (_predictor_error(self.grid, Qs[v], Qds[v], Qdds[v], n) <= o.path_tol).all():
-                ok[v] = False
+        if ok.all():
+            ok = (_path_errors(self.grid, Qs, Qds, Qdds, self.cm.n) <= o.path_tol).all(axis=1)
+        elif ok.any():
+            ok[ok] = (_path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
+                      <= o.path_tol).all(axis=1)
         return Qs, Qds, Qdds, info.sign.reshape(Vn, T, -1), ok, s
 
     def nominal_solution(self):
@@ -279,9 +316,31 @@ class Batch:
                                   policy=self.study.opts.newton, tol=self.study.opts.tol,
                                   maxit=self.study.opts.iterations, order=2)
         self.nominal = (Q, Qd, Qdd, info.sign)
+        self.tangent = self._tangent(res)
         from .warm import _predictor_error
         if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
+
+    def _tangent(self, res):
+        """(T, n + 3, k) exact dq/dp of the nominal positions on the grid, internal units per
+        unit of each varied parameter (studies.sensitivity), or None where it does not apply."""
+        from ..diagnostics import InputError
+        from .sensitivity import sensitivities
+        cm = self.cm
+        try:
+            dq, _ = sensitivities(cm, self.study.root, self.study.texts(), self.varied,
+                                  res.t, res.q)
+        except (InputError, np.linalg.LinAlgError):
+            return None
+        except Exception:  # noqa: BLE001 - only a prediction: without it the batch still runs
+            return None
+        dq = dq.copy()
+        dq[:, 0::3] /= cm.L
+        dq[:, 1::3] /= cm.L
+        dq[:, 2::3] *= cm.angle_factor
+        if not np.isfinite(dq).all():
+            return None
+        return np.concatenate([dq, np.zeros((len(dq), 3, dq.shape[2]))], axis=1)
 
     # -- metrics -------------------------------------------------------------------------------
     def metrics(self, Q, Qd, Qdd, s) -> np.ndarray:
@@ -341,8 +400,10 @@ class Batch:
         """Outcomes of a group of chains (lists of variants), solved in lockstep.
 
         Predictions: a chain's head from the nominal, every next variant from its predecessor,
-        by the secant through the two previous solutions when the parameter step repeats (a
-        sweep along one parameter, the substeps), else by the predecessor's solution itself; a
+        by the quadratic through the three previous solutions when the parameter step repeated
+        twice, the secant through two when once (a sweep along one parameter, the substeps),
+        else (a head, a factorial's next row) to first order in the step with the nominal's
+        exact sensitivities (the predecessor's solution itself where those do not apply); a
         step that fails is retried in SUBSTEPS equal steps."""
         nan = float("nan")
         C = len(chains_values)
@@ -352,24 +413,39 @@ class Batch:
         rep = lambda a: np.repeat(a[None], C, axis=0)
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
-        prev = [None] * C               # (state, parameters) of the solution before
+        # per chain the positions of the last two solutions before the current one and the
+        # parameter steps that led from each to the next: (Q, step) pairs, newest last
+        hist: list[list] = [[] for _ in range(C)]
         here = [nominal.copy() for _ in range(C)]
         alive = np.ones(C, dtype=bool)
 
+        def same(u, v) -> bool:
+            """Whether parameter step u repeats step v (to rounding; v not zero)."""
+            return any(v) and all(abs(a - b) <= 1e-9 * abs(b) for a, b in zip(u.tolist(),
+                                                                               v.tolist()))
+
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
-            pred = [a[live].copy() for a in state]
+            pred = [a[live] for a in state]          # copies (fancy indexing)
             for i, c in enumerate(live):
-                if prev[c] is not None:
-                    dp, dq = targets[i] - here[c], prev[c][1]
-                    if np.allclose(dp, dq, rtol=1e-9, atol=0) and np.any(dq):
-                        for a, a_prev, a_now in zip(pred, prev[c][0], state):
-                            a[i] = 2 * a_now[c] - a_prev
+                h = hist[c]
+                dp = targets[i] - here[c]
+                # polynomial extrapolation along a repeated parameter step: the error of the
+                # quadratic is third order in the step, so one Newton correction reaches
+                # rounding and its Jacobian serves the velocity solve (studies.fused)
+                if len(h) == 2 and same(dp, h[1][1]) and same(dp, h[0][1]):
+                    pred[0][i] = 3 * (state[0][c] - h[1][0]) + h[0][0]
+                elif h and same(dp, h[-1][1]):
+                    pred[0][i] = 2 * state[0][c] - h[-1][0]
+                elif self.tangent is not None:
+                    # any other step (a chain's head, a factorial's next row): first order in
+                    # the step, with the nominal's exact sensitivities
+                    pred[0][i] = state[0][c] + self.tangent @ dp
             vals = [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
             for i, c in enumerate(live):
                 if ok[i]:
-                    prev[c] = ([a[c].copy() for a in state], targets[i] - here[c])
+                    hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-2:]
                     for a, new in zip(state, (Qn, Qdn, Qddn)):
                         a[c] = new[i]
                     sign[c] = sgn[i]
@@ -436,3 +512,18 @@ class Batch:
                 if out[c][j] is None:
                     out[c][j] = self.study.solve(v)[0]
         return out
+
+
+def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
+    """(V, T-1) warm._predictor_error of V variants' solutions (V, T, n + 3) at once."""
+    Q, Qd, Qdd = Q[..., :n], Qd[..., :n], Qdd[..., :n]
+    h = np.diff(grid)[None, :, None]
+    dA = (Qdd[:, 1:] - Qdd[:, :-1]) / h             # the jerk over each interval
+    j3 = np.zeros_like(dA)
+    j3[:, 1:] = dA[:, :-1]
+    hh = 0.5 * h * h
+    h3 = h ** 3 / 6.0
+    ef = np.abs(Q[:, 1:] - (Q[:, :-1] + h * Qd[:, :-1] + hh * Qdd[:, :-1] + h3 * j3))
+    eb = np.abs(Q[:, 1:] - h * Qd[:, 1:] + hh * Qdd[:, 1:] - h3 * dA - Q[:, :-1])
+    V, K = ef.shape[:2]
+    return np.maximum(rowmax(ef.reshape(V * K, n)), rowmax(eb.reshape(V * K, n))).reshape(V, K)
