@@ -149,3 +149,28 @@ def test_text_columns_compare_exactly_and_empty_cells_are_nan(tmp_path):
     assert c.status == DIFFERS
     assert c.differences[0].format() == ("sweep.csv: status at row 2: 'invalid' (new) vs "
                                          "'failed' (golden); 1 value of the column differ")
+
+
+def test_sweep_parquet_text_columns_compare_like_the_csv(tmp_path):
+    """sweep.parquet holds text columns (status, kind, message) beside the numbers: they
+    compare exactly, as in sweep.csv, instead of making the table unusable."""
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+
+    def write(name, status, m):
+        (tmp_path / name).mkdir()
+        pq.write_table(pa.table({"variant": [1, 2], "status": status, "message": ["", None],
+                                 "m [m]": m}), tmp_path / name / "sweep.parquet")
+    write("a", ["ok", "failed"], [0.25, None])
+    write("b", ["ok", "failed"], [0.25, None])
+    assert compare_dirs(tmp_path / "a", tmp_path / "b", rtol=0, atol=0).status == SAME
+    header, data, texts = read_table(tmp_path / "a" / "sweep.parquet")
+    assert header == ["variant", "status", "message", "m [m]"]
+    assert texts[1][0] == ["ok", "failed"] and texts[2][0] == ["", ""]
+    assert data[1, 3] != data[1, 3]                       # a missing number is NaN
+    shutil.rmtree(tmp_path / "a")
+    write("a", ["ok", "invalid"], [0.25, None])
+    c = compare_dirs(tmp_path / "a", tmp_path / "b")
+    assert c.status == DIFFERS
+    assert c.differences[0].format().startswith("sweep.parquet: status at row 2: 'invalid' "
+                                                "(new) vs 'failed' (golden)")

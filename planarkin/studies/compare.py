@@ -104,17 +104,28 @@ def _read_parquet(path: Path) -> tuple[list[str], np.ndarray, dict]:
     except ImportError:
         raise Unusable(f"{path}: reading Parquet needs pyarrow: pip install "
                        f"'planarkin[parquet]'") from None
+    import pyarrow as pa
+    texts: dict[int, tuple[list[str], int]] = {}
     try:
         t = pq.read_table(path)
         header = list(t.column_names)
-        data = np.column_stack([t.column(k).to_numpy().astype(np.float64) for k in
-                                range(t.num_columns)]) if t.num_columns else np.empty((0, 0))
+        cols = []
+        for k in range(t.num_columns):
+            col = t.column(k)
+            if pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
+                # a text column (sweep.parquet's status, kind, message): compared exactly,
+                # a missing cell as the CSV's empty one; its number column is NaN
+                texts[k] = (["" if v is None else v for v in col.to_pylist()], 1)
+                cols.append(np.full(t.num_rows, np.nan))
+            else:
+                cols.append(col.to_numpy(zero_copy_only=False).astype(np.float64))
+        data = np.column_stack(cols) if cols else np.empty((0, 0))
     except Exception as e:  # noqa: BLE001 - any damage makes the table unusable
         raise Unusable(f"{path}: cannot read: {e}") from None
     if len(set(header)) != len(header):
         dup = sorted({h for h in header if header.count(h) > 1})
         raise Unusable(f"{path}: repeated column name {', '.join(repr(d) for d in dup)}")
-    return header, data.reshape(t.num_rows, len(header)), {}
+    return header, data.reshape(t.num_rows, len(header)), texts
 
 
 def _is_float(v: str) -> bool:
