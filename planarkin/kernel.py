@@ -18,10 +18,13 @@ larger block keeps the numpy passes (pack returns None).
 
 No dependency: the source below is compiled once with the system's C compiler (``cc``) into a
 per-user cache (PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin or ~/.cache/planarkin), keyed
-by the source's hash, and loaded with ctypes. Compiling takes one to three seconds, so it is done
-only for runs long enough to pay it back (the caller's ``build``); a compiled library is used by
-every later run. Without a compiler, with an unwritable cache or with PLANARKIN_KERNEL=0 the
-numpy passes run instead: same results to rounding (tests/test_perstep.py).
+by the source's hash, and loaded with ctypes. The first run on a machine that meets a system the
+kernel covers compiles it before solving anything (about 0.7 s of CPU, once per machine and
+source version), so the route a run takes depends on the machine only (a working compiler),
+never on what earlier runs left in the cache: identical input gives identical bytes on one
+machine. A compiler that fails leaves a marker (``.failed``, with its message) so that later
+runs do not try again. Without a compiler, with an unwritable cache or with PLANARKIN_KERNEL=0
+the numpy passes run instead: same results to rounding (tests/test_perstep.py).
 """
 
 from __future__ import annotations
@@ -425,17 +428,23 @@ def _path() -> Path:
     return _cache_dir() / f"kernel-{_TAG}-{sys.platform}.so"
 
 
-def library(build: bool = False):
+def disabled() -> bool:
+    """PLANARKIN_KERNEL=0: the numpy passes only."""
+    return os.environ.get("PLANARKIN_KERNEL", "1") == "0"
+
+
+def library(build: bool = True):
     """The compiled kernel (a ctypes library), or None: disabled (PLANARKIN_KERNEL=0), not yet
-    compiled and build False, or no working C compiler. build: compile it when missing (one to
-    three seconds, once per machine and source version; tried once per process)."""
-    if os.environ.get("PLANARKIN_KERNEL", "1") == "0":
+    compiled and build False, or no working C compiler. build: compile it when missing (about a
+    second, once per machine and source version; tried once per process, and never again on a
+    machine where it failed: the marker file)."""
+    if disabled():
         return None
     if "lib" in _state:
         return _state["lib"]
     path = _path()
     if not path.exists():
-        if not build or _state.get("failed"):
+        if not build or _state.get("failed") or _failed_marker(path).exists():
             return None
         if not _compile(path):
             _state["failed"] = True
@@ -457,8 +466,14 @@ def library(build: bool = False):
     return lib
 
 
+def _failed_marker(path: Path) -> Path:
+    return path.with_suffix(".failed")
+
+
 def _compile(path: Path) -> bool:
-    """cc -O2 into a temporary file beside path, renamed into place (concurrent runs)."""
+    """cc -O2 into a temporary file beside path, renamed into place (concurrent runs). A
+    compiler that exists but fails leaves the marker, with its message, so that every later
+    run does not pay for trying again (delete it to retry); no compiler at all costs nothing."""
     import subprocess
     import tempfile
     cc = os.environ.get("CC", "cc")
@@ -471,6 +486,8 @@ def _compile(path: Path) -> bool:
             r = subprocess.run([cc, "-O2", "-fPIC", "-shared", "-o", str(out), str(src), "-lm"],
                                capture_output=True, timeout=120)
             if r.returncode != 0 or not out.exists():
+                _failed_marker(path).write_bytes(b"%s exited %d:\n" % (cc.encode(), r.returncode)
+                                                 + r.stderr[-4000:])
                 return False
             os.replace(out, path)
         return True

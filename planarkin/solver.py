@@ -63,10 +63,6 @@ CHUNK_BYTES = 64 << 20
 CHUNK_MANY_BLOCKS = 64
 CHUNK_MIN_POINTS = 256
 CHUNK_BYTES_MANY = 256 << 20
-# Runs of at least this many grid rows compile the grid pass's C kernel (planarkin.kernel) when
-# it is not compiled yet: compiling costs 1-3 s once per machine, the kernel saves about 2 us
-# per row (README "Against pylinkage + numba")
-KERNEL_BUILD_ROWS = 200_000
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
@@ -959,8 +955,7 @@ class Analysis:
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
-                Qddd=Qddds, third=third,
-                kernel_build=opts.rows >= KERNEL_BUILD_ROWS)
+                Qddd=Qddds, third=third)
             ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
             if opts.newton != "fixed":
                 ok &= info.converged

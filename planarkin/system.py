@@ -443,7 +443,7 @@ class System:
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None, Qddd=None, third=None, fused=None, kernel_build=False):
+                    drivers=None, Qddd=None, third=None, fused=None):
         """Positions, velocities and accelerations (and jerks) at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
@@ -456,16 +456,15 @@ class System:
         where it applies and is compiled (policies reuse and full), else the fused small-block
         pass where it applies (small blocks, see SMALL_BLOCK; None: for batches of SMALL_BATCH
         points or more), else the reference pass; all give the same results to rounding.
-        kernel_build: compile the kernel first if missing (for runs long enough to pay back the
-        compiler's second). Systems whose blocks were replaced after building, and jerks
-        (order 3), take the reference pass.
+        Systems whose blocks were replaced after building, and jerks (order 3), take the
+        reference pass.
         Returns BatchInfo.
         """
         args = (t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd, third)
         if self.blocks is not getattr(self, "_built", None) or order > 2:
             fused = False
         if fused is not False and policy != "fixed":
-            k = self._kernel(kernel_build)
+            k = self._kernel()
             if k is not None:          # no per-call overhead to pay back: any batch
                 return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if fused is None:
@@ -615,20 +614,21 @@ class System:
         self._csc["small"] = (out, zero)
         return self._csc["small"]
 
-    def _kernel(self, build: bool):
-        """(library, packed system) of the compiled kernel, or None where it does not apply."""
+    def _kernel(self, build: bool = True):
+        """(library, packed system) of the compiled kernel, or None where it does not apply.
+        The first system the kernel covers compiles it (once per machine, about a second of
+        CPU), before anything is solved: whether a run takes the kernel then depends on the
+        machine (a working compiler) only, never on what earlier runs left in the cache, so
+        that identical input gives identical bytes on one machine. build False: only look."""
         from . import kernel
-        # packing costs a few ms: not for runs that will not use it; compiling (about a second,
-        # once per machine) not for a system the kernel does not cover
-        lib = kernel.library(False)
-        if lib is None and not build:
+        if kernel.disabled():
             return None
         if "kernel" not in self._csc:
-            self._csc["kernel"] = kernel.pack(self)
+            self._csc["kernel"] = kernel.pack(self)    # a few ms; None: kinds it does not cover
         P = self._csc["kernel"]
         if P is None:
             return None
-        lib = lib or kernel.library(True)
+        lib = kernel.library(build)
         return None if lib is None else (lib, P)
 
     def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):

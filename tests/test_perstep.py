@@ -188,3 +188,37 @@ def test_without_compiler_the_numpy_passes_run(monkeypatch, tmp_path):
     assert res.status == 0
     monkeypatch.setenv("PLANARKIN_KERNEL", "0")
     assert kernel.library(build=True) is None
+
+
+def test_a_failing_compiler_is_tried_once_per_machine(monkeypatch, tmp_path):
+    """A compiler that exists but fails leaves a marker with its message: later processes do
+    not pay for it again (a run that compiled in vain every time would be a second slower)."""
+    calls = tmp_path / "calls"
+    cc = tmp_path / "bad-cc"
+    cc.write_text(f"#!/bin/sh\necho x >> {calls}\necho 'no such thing' >&2\nexit 1\n")
+    cc.chmod(0o755)
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("PLANARKIN_CACHE", str(cache))
+    monkeypatch.setenv("CC", str(cc))
+    for _ in range(3):                          # three processes: a fresh state each
+        monkeypatch.setattr(kernel, "_state", {})
+        assert kernel.library(build=True) is None
+    assert calls.read_text().count("x") == 1
+    (marker,) = cache.glob("*.failed")
+    assert b"no such thing" in marker.read_bytes()
+
+
+def test_the_route_does_not_depend_on_the_cache(monkeypatch, tmp_path, compiled):
+    """The first run on a machine compiles the kernel before it solves anything, so it takes
+    the same route, and writes the same bytes, as every later run."""
+    if compiled is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    model = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
+    monkeypatch.setenv("PLANARKIN_CACHE", str(tmp_path))
+    monkeypatch.setattr(kernel, "_state", {})
+    first = planarkin.solve(model, steps=120)           # compiles into the empty cache
+    assert list(tmp_path.glob("kernel-*"))
+    monkeypatch.setattr(kernel, "_state", {})
+    later = planarkin.solve(model, steps=120)           # loads the compiled file
+    for a, b in ((first.q, later.q), (first.qd, later.qd), (first.qdd, later.qdd)):
+        assert np.array_equal(a, b)
