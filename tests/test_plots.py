@@ -2,6 +2,7 @@
 geometry of the mechanism drawing."""
 
 import dataclasses
+import os
 from pathlib import Path
 
 import numpy as np
@@ -275,6 +276,31 @@ def test_plot_server_splits_the_figures():
     assert plotworker_split(names, False) == (["bodies"], names[1:], False)
     assert plotworker_split(names, True) == ([], names, True)
     assert plotworker_split([], True) == ([], [], False)        # --no-plots --animate
+
+
+def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
+    """The split is decided by the processes runnable at the job's arrival (the server counts
+    itself), not by the 1-minute load average that still counts the run's own start-up."""
+    from planarkin.output import plotworker
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))     # stale: ignored
+    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
+    for runnable, idle in ((1, True), (2, False), (5, False)):
+        monkeypatch.setattr(plotworker, "_runnable", lambda: runnable)
+        assert plotworker._idle_core() is idle
+    monkeypatch.setattr(plotworker, "_cores", lambda: 4)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
+    assert plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_cores", lambda: 1)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 1)
+    assert not plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: None)         # no /proc: the average
+    assert not plotworker._idle_core()
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
+    assert plotworker._idle_core()
+    if os.path.exists("/proc/loadavg"):
+        monkeypatch.undo()
+        assert plotworker._runnable() >= 1          # this test itself is running
 
 
 def plotworker_split(names, animate):

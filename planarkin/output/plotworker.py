@@ -176,13 +176,47 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
 
 
 def _idle_core() -> bool:
-    """Whether a second drawing process would find a core to run on (load average below the
-    number of cores). On a machine already busy it would only add the cost of the fork and of
-    the work both processes repeat, and finish no sooner."""
+    """Whether a second drawing process would find a core to run on: fewer processes runnable
+    now, besides this server, than cores. On a machine already busy it would only add the cost
+    of the fork and of the work both processes repeat, and finish no sooner.
+
+    Counted now (/proc/loadavg's runnable count, the least of three looks 2 ms apart: the
+    parent is just closing its tables and going to wait), not by the 1-minute load average,
+    which still counts this run's own start-up and the runs before it: measured on a quiet
+    2-core machine, that average (1.5-2 after a few runs) kept the split from ever happening.
+    """
+    cores = _cores()
+    if cores < 2:
+        return False
+    runnable = _runnable()
+    if runnable is None:
+        try:
+            return os.getloadavg()[0] < cores - 0.5
+        except OSError:
+            return True
+    return runnable - 1 < cores - 1
+
+
+def _cores() -> int:
     try:
-        return os.getloadavg()[0] < (os.cpu_count() or 1) - 0.5
-    except OSError:
-        return True
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _runnable(looks: int = 3) -> int | None:
+    """Processes runnable on the machine now, this one included (None where not known)."""
+    import time
+    seen = []
+    for k in range(looks):
+        try:
+            with open("/proc/loadavg") as f:
+                seen.append(int(f.read().split()[3].partition("/")[0]))
+        except (OSError, ValueError, IndexError):
+            return None
+        if k + 1 < looks:
+            time.sleep(0.002)
+    return min(seen)
 
 
 def _draw(cm, data, info, out, fmt, animate, x):
