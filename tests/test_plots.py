@@ -269,6 +269,50 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
             check_file(tmp_path / stem / name, "png")
 
 
+def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch):
+    """In a batch the plot server draws a model while the next one solves: its plots are
+    collected (and its directory put in place, its line printed) only after the next model's
+    solve, and the lines keep the models' order."""
+    import json
+    from click.testing import CliRunner
+    from planarkin import results
+    from planarkin.cli import main
+    from planarkin.output import plotworker
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
+    events = []
+    solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
+
+    def stream(an, **kw):
+        events.append(("solve", an.cm.spec.name))
+        return solve(an, **kw)
+
+    def submitted(cm, *a, **kw):
+        events.append(("submit", cm.spec.name))
+        return submit(cm, *a, **kw)
+
+    def collected():
+        events.append(("collect", ""))
+        return collect()
+    monkeypatch.setattr(results, "stream", stream)
+    monkeypatch.setattr(plotworker, "submit", submitted)
+    monkeypatch.setattr(plotworker, "collect", collected)
+    four_bar = ROOT / "mechanisms" / "four-bar.yaml"
+    r = CliRunner().invoke(main, ["run", str(SLIDER_CRANK), str(four_bar), "--out",
+                                  str(tmp_path), "--steps", "40"])
+    assert r.exit_code == 0, r.output
+    a, b = planarkin.load(SLIDER_CRANK).spec.name, planarkin.load(four_bar).spec.name
+    assert events == [("solve", a), ("submit", a), ("solve", b), ("collect", ""),
+                      ("submit", b), ("collect", "")]
+    lines = [ln for ln in r.output.splitlines() if ln.startswith("ok ")]
+    assert [ln.split()[1] for ln in lines] == [f"{SLIDER_CRANK}:", f"{four_bar}:"]
+    for stem in ("slider-crank", "four-bar"):
+        s = json.loads((tmp_path / stem / "summary.json").read_text())
+        assert s["plots"][:4] == ["bodies.png", "points.png", "trajectories.png",
+                                  "mechanism.png"]
+        for name in s["plots"]:
+            check_file(tmp_path / stem / name, "png")
+
+
 def test_plot_server_splits_the_figures():
     assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
         "bodies", "points", "trajectories", "mechanism"]
