@@ -251,7 +251,7 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
     from click.testing import CliRunner
     from planarkin.cli import main
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
     runner = CliRunner()
     r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
                              "--out", str(tmp_path), "--steps", "60", "-q"])
@@ -278,7 +278,7 @@ def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch)
     from planarkin import results
     from planarkin.cli import main
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
     events = []
     solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
 
@@ -342,6 +342,14 @@ def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
     assert not plotworker._idle_core()
     monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
     assert plotworker._idle_core()
+    # the parent about to wait is still closing its tables: look again, a few ms apart
+    looks = iter([2, 2, 1])
+    monkeypatch.setattr(plotworker, "_runnable", lambda: next(looks))
+    assert not plotworker._idle_core()
+    looks = iter([2, 2, 1])
+    assert plotworker._idle_core(patient=True)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 2)
+    assert not plotworker._idle_core(patient=True)
     if os.path.exists("/proc/loadavg"):
         monkeypatch.undo()
         assert plotworker._runnable() >= 1          # this test itself is running
@@ -475,7 +483,7 @@ def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, posi
     """Split between the server and a child it forks (an idle core, forced here; the CLI test
     takes the other path): the files in figure order, a failure in the child raises here."""
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: True)     # inherited by the fork
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: True)     # inherited by the fork
     plotworker.start()
     try:
         files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)

@@ -77,9 +77,11 @@ def draw(cm, data, info, out, fmt: str | None, animate, x: str = "time"):
     return collect() if submit(cm, data, info, out, fmt, animate, x) else None
 
 
-def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bool:
+def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time",
+           waits: bool = True) -> bool:
     """Send a job (arguments as for draw) and return at once: True when the server has it
-    (its answer is then read by `collect`), False when there is no server."""
+    (its answer is then read by `collect`), False when there is no server. waits: the caller
+    waits for the answer next (False: it goes on solving the next model of a batch)."""
     global _pending, _jobs
     if _server is None:
         return False
@@ -91,7 +93,7 @@ def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bo
         if _server is None:
             return False
     try:
-        _server[1].send((cm, data, info, str(out), fmt, animate, x))
+        _server[1].send((cm, data, info, str(out), fmt, animate, x, waits))
     except OSError:
         stop()
         return False
@@ -214,26 +216,35 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
     return names[:1], names[1:], False
 
 
-def _idle_core() -> bool:
+def _idle_core(patient: bool = False) -> bool:
     """Whether a second drawing process would find a core to run on: fewer processes runnable
     now, besides this server, than cores. On a machine already busy it would only add the cost
-    of the fork and of the work both processes repeat, and finish no sooner.
+    of the fork and of the work both processes repeat, and finish no sooner (measured at load
+    6 on 2 cores: 10-25 % more CPU, no sooner).
 
-    Counted now (/proc/loadavg's runnable count, the least of three looks 2 ms apart: the
-    parent is just closing its tables and going to wait), not by the 1-minute load average,
-    which still counts this run's own start-up and the runs before it: measured on a quiet
-    2-core machine, that average (1.5-2 after a few runs) kept the split from ever happening.
+    Counted now (/proc/loadavg's runnable count), not by the 1-minute load average, which
+    still counts this run's own start-up and the runs before it: on a quiet 2-core machine that
+    average (1.5-2 after a few runs) kept the split from ever happening. patient: the parent is
+    about to wait for this job, but is still closing its tables (20-45 ms): look again, 3 ms
+    apart, for up to 30 ms (in a batch the parent goes on solving: one look).
     """
     cores = _cores()
     if cores < 2:
         return False
-    runnable = _runnable()
-    if runnable is None:
-        try:
-            return os.getloadavg()[0] < cores - 0.5
-        except OSError:
+    import time
+    looks = 10 if patient else 1
+    for k in range(looks):
+        runnable = _runnable()
+        if runnable is None:
+            try:
+                return os.getloadavg()[0] < cores - 0.5
+            except OSError:
+                return True
+        if runnable - 1 < cores - 1:
             return True
-    return runnable - 1 < cores - 1
+        if k + 1 < looks:
+            time.sleep(0.003)
+    return False
 
 
 def _cores() -> int:
@@ -243,25 +254,19 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _runnable(looks: int = 3) -> int | None:
+def _runnable() -> int | None:
     """Processes runnable on the machine now, this one included (None where not known)."""
-    import time
-    seen = []
-    for k in range(looks):
-        try:
-            with open("/proc/loadavg") as f:
-                seen.append(int(f.read().split()[3].partition("/")[0]))
-        except (OSError, ValueError, IndexError):
-            return None
-        if k + 1 < looks:
-            time.sleep(0.002)
-    return min(seen)
+    try:
+        with open("/proc/loadavg") as f:
+            return int(f.read().split()[3].partition("/")[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
-def _draw(cm, data, info, out, fmt, animate, x):
+def _draw(cm, data, info, out, fmt, animate, x, waits=True):
     """The model's figures, then the rooms' (forces.png, measures.png ...), all in the server:
     the parent never imports matplotlib."""
-    files = _draw_model(cm, data, info, out, fmt, animate, x)
+    files = _draw_model(cm, data, info, out, fmt, animate, x, waits)
     if fmt:
         from pathlib import Path
 
@@ -272,13 +277,14 @@ def _draw(cm, data, info, out, fmt, animate, x):
     return files
 
 
-def _draw_model(cm, data, info, out, fmt, animate, x):
+def _draw_model(cm, data, info, out, fmt, animate, x, waits=True):
     from pathlib import Path
 
     from . import plots
     out = Path(out)
     names = plots.figure_names(cm) if fmt else []
-    mine_child, mine, child_anim = split(names, animate) if _idle_core() else ([], names, False)
+    mine_child, mine, child_anim = split(names, animate) if _idle_core(patient=waits) \
+        else ([], names, False)
 
     def part(figs, anim):
         files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \

@@ -192,7 +192,7 @@ class DirectoryWriter:
                         # the CLI's plot server (if it started one) draws while the tables close
                         from . import plotworker
                         sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
-                                                 self.animate, self.x)
+                                                 self.animate, self.x, waits=not defer)
                     closed, busy = self._close_tables()
                     summary = self._summary(info, closed, busy, started)
             except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
