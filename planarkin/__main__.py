@@ -20,7 +20,7 @@ def entry():
     import sys
     from .output import plotworker
     if plotworker.wanted(sys.argv[1:]):
-        plotworker.start()      # matplotlib's import now overlaps click's, numpy's, the model's
+        plotworker.start(early=True)    # matplotlib's import overlaps click's, numpy's ...
     from .cli import main
     main()
 

@@ -331,6 +331,9 @@ def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
     for runnable, idle in ((1, True), (2, False), (5, False)):
         monkeypatch.setattr(plotworker, "_runnable", lambda: runnable)
         assert plotworker._idle_core() is idle
+    monkeypatch.setattr(os, "getloadavg", lambda: (8.0, 8.0, 8.0))     # busy for a while:
+    assert not plotworker._idle_core()                      # an empty queue for an instant
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))
     monkeypatch.setattr(plotworker, "_cores", lambda: 4)
     monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
     assert plotworker._idle_core()
@@ -353,6 +356,19 @@ def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
     if os.path.exists("/proc/loadavg"):
         monkeypatch.undo()
         assert plotworker._runnable() >= 1          # this test itself is running
+
+
+def test_plot_server_started_first_only_for_a_run_with_plots_and_a_free_core(monkeypatch):
+    """planarkin.__main__ forks the server before parsing the command line, on a guess: a run
+    that draws, and a core free (else it would repeat the parent's imports for nothing)."""
+    from planarkin.output import plotworker
+    assert plotworker.wanted(["run", "a.yaml", "--steps", "9"])
+    for argv in ([], ["check", "a.yaml"], ["run", "a.yaml", "--no-plots"], ["run", "--help"],
+                 ["run", "-h"]):
+        assert not plotworker.wanted(argv)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    plotworker.start(early=True)
+    assert not plotworker.running()
 
 
 def plotworker_split(names, animate):
@@ -483,7 +499,7 @@ def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, posi
     """Split between the server and a child it forks (an idle core, forced here; the CLI test
     takes the other path): the files in figure order, a failure in the child raises here."""
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: True)     # inherited by the fork
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: True)   # (the fork too)
     plotworker.start()
     try:
         files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)

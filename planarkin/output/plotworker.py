@@ -28,14 +28,16 @@ _pending = False        # a job was sent and its answer not read yet
 _jobs = 0               # jobs sent to the running server
 
 
-def start() -> None:
+def start(early: bool = False) -> None:
     """Fork the plot server (once per process; nothing where fork does not exist).
 
-    Called by `planarkin.__main__` as its first act when the command line asks for plots
-    (before click and numpy are imported: the server's 0.5 s of importing then overlaps the
-    parent's own start-up too), and again by `planarkin run` (a no-op then)."""
+    early=True: called by `planarkin.__main__` as its first act when the command line asks for
+    plots, before click and numpy are imported, so that the server's 0.5 s of importing
+    overlaps the parent's own start-up too; only when a core is free (else the server would
+    import numpy and planarkin's modules a second time, 0.1-0.3 s of CPU, for nothing).
+    `planarkin run` calls it again (a no-op when the server runs)."""
     global _server, _jobs
-    if _server is not None:
+    if _server is not None or (early and not _idle_core()):
         return
     import multiprocessing as mp
 
@@ -222,9 +224,11 @@ def _idle_core(patient: bool = False) -> bool:
     of the fork and of the work both processes repeat, and finish no sooner (measured at load
     6 on 2 cores: 10-25 % more CPU, no sooner).
 
-    Counted now (/proc/loadavg's runnable count), not by the 1-minute load average, which
+    Counted now (/proc/loadavg's runnable count), not by the 1-minute load average alone, which
     still counts this run's own start-up and the runs before it: on a quiet 2-core machine that
-    average (1.5-2 after a few runs) kept the split from ever happening. patient: the parent is
+    average (1.5-2 after a few runs) kept the split from ever happening. The average only rules
+    out a machine busy for a while (at least one more than the cores), whose run queue empties
+    for an instant now and then. patient: the parent is
     about to wait for this job, but is still closing its tables (20-45 ms): look again, 3 ms
     apart, for up to 30 ms (in a batch the parent goes on solving: one look).
     """
@@ -240,11 +244,18 @@ def _idle_core(patient: bool = False) -> bool:
                 return os.getloadavg()[0] < cores - 0.5
             except OSError:
                 return True
-        if runnable - 1 < cores - 1:
+        if runnable - 1 < cores - 1 and _load() < cores + 1:
             return True
         if k + 1 < looks:
             time.sleep(0.003)
     return False
+
+
+def _load() -> float:
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return 0.0
 
 
 def _cores() -> int:
