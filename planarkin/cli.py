@@ -210,7 +210,8 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
                 run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
                            animate, jobs, table_format)
                 models = ()
-            for path, outdir in zip(models, dirs):
+            for k, (path, outdir) in enumerate(zip(models, dirs)):
+                later.more = k + 1 < len(models)
                 model = _load(path, later, overrides)
                 if model is not None:
                     _run_one(path, model, outdir, later, dict(analysis),
@@ -247,6 +248,7 @@ class _Later:
     def __init__(self, report: Report):
         self.report = report
         self.waiting = None         # the end of the last model, a callable, or None
+        self.more = False           # models follow the current one (else: wait for its plots)
 
     def settle(self) -> None:
         conclude, self.waiting = self.waiting, None
@@ -310,7 +312,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
-        summary = writer.finish(info, started=t0, defer=later)
+        summary = writer.finish(info, started=t0, defer=later and report.more)
     except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
         progress.close()
         _conclude_failed(e, path, outdir, writer, report, an, t0)
