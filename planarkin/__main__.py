@@ -17,6 +17,10 @@ def _quiet_exit(signum, frame):
 def entry():
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, _quiet_exit)
+    import sys
+    from .output import plotworker
+    if plotworker.wanted(sys.argv[1:]):
+        plotworker.start(early=True)    # matplotlib's import overlaps click's, numpy's ...
     from .cli import main
     main()
 

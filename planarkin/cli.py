@@ -192,10 +192,13 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
     if sys.platform.startswith("linux"):
         _tune_malloc()
     plotting = (not no_plots or animate) and not (jobs > 1 and len(models) > 1)
+    from .output import plotworker
     if plotting:
-        from .output import plotworker      # imports matplotlib while the models solve
-        plotworker.start()                  # (stopped below, or at exit)
+        plotworker.start()                  # imports matplotlib while the models solve
+    else:                                   # (stopped below, or at exit)
+        plotworker.stop()                   # one started by __main__ on a guess
     report = Report(quiet)
+    later = _Later(report)          # the model whose plots the server draws meanwhile
     with interruptible():
         try:
             problem = check_writable(Path(out))
@@ -207,13 +210,19 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
                 run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
                            animate, jobs, table_format)
                 models = ()
-            for path, outdir in zip(models, dirs):
-                model = _load(path, report, overrides)
+            for k, (path, outdir) in enumerate(zip(models, dirs)):
+                later.more = k + 1 < len(models)
+                model = _load(path, later, overrides)
                 if model is not None:
-                    _run_one(path, model, outdir, report, dict(analysis),
+                    _run_one(path, model, outdir, later, dict(analysis),
                              None if no_plots else fmt, animate, x_axis,
                              cycle=report_what == "cycle", table_format=table_format)
+            later.settle()
         except (KeyboardInterrupt, Interrupted) as e:
+            try:
+                later.settle()
+            except (KeyboardInterrupt, Interrupted):
+                pass                            # that model reported itself interrupted
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, _signame(e), "nothing more was written")
         finally:
@@ -230,6 +239,32 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
     sys.exit(report.exit_code)
 
 
+class _Later:
+    """The report of a batch, through which a model's plots are drawn while the next model
+    solves: `_run_one` leaves the model's end (collecting its plots, summary.json, the
+    directory put in place, its report line) here, and it happens before anything more is
+    printed, so that the lines keep the models' order; `settle()` ends it explicitly."""
+
+    def __init__(self, report: Report):
+        self.report = report
+        self.waiting = None         # the end of the last model, a callable, or None
+        self.more = False           # models follow the current one (else: wait for its plots)
+
+    def settle(self) -> None:
+        conclude, self.waiting = self.waiting, None
+        if conclude is not None:
+            conclude()
+
+    def diagnostics(self, diags) -> None:
+        if diags:                   # (called for every model, mostly with none)
+            self.settle()
+            self.report.diagnostics(diags)
+
+    def __getattr__(self, name):
+        self.settle()
+        return getattr(self.report, name)
+
+
 def _signame(e: BaseException) -> str:
     return "SIGINT" if isinstance(e, KeyboardInterrupt) else "SIGTERM"
 
@@ -244,7 +279,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     from .options import resolve
     from .output.directory import Interrupted, OutputError, WriteError
     from .output.writer import DirectoryWriter
-    from .results import prepare, run_info, stream
+    from .results import prepare, stream
     t0 = time.perf_counter()
     try:
         opts = resolve(model, analysis, source="cli")
@@ -268,18 +303,48 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return
     progress = _Progress(opts.steps + 1, Path(path).name)
+    later = isinstance(report, _Later)      # else (a --jobs worker): the plots drawn here
     try:
         info, _ = stream(an, sink=writer, progress=progress)
         progress.close()
+        if later:
+            report.settle()             # the model before: its plots were drawn meanwhile
         report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
-        summary = writer.finish(info, started=t0)
-    except WriteError as e:
+        summary = writer.finish(info, started=t0, defer=later and report.more)
+    except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
+        progress.close()
+        _conclude_failed(e, path, outdir, writer, report, an, t0)
+        return
+    finally:
+        progress.close()
+    if writer.committed:
+        _conclude(path, outdir, report, info, summary, cycle, time.perf_counter() - t0)
+        return
+    spent = time.perf_counter() - t0
+
+    def conclude():
+        c0 = time.perf_counter()
+        try:
+            writer.complete()
+        except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
+            _conclude_failed(e, path, outdir, writer, report.report, an, t0)
+            return
+        _conclude(path, outdir, report.report, info, summary, cycle,
+                  spent + time.perf_counter() - c0)
+    report.waiting = conclude
+
+
+def _conclude_failed(e, path, outdir, writer, report, an, t0):
+    """After an exception in a model's end: its directory left as it was (a write error, a
+    bug) or in place with the complete rows (an interruption: raised again)."""
+    from .output.directory import Interrupted, WriteError
+    from .results import run_info
+    if isinstance(e, WriteError):
         report.failed(path, f"{e}; {outdir}/ is left as it was")
         return
-    except (KeyboardInterrupt, Interrupted) as e:
-        progress.close()
+    if isinstance(e, (KeyboardInterrupt, Interrupted)):
         if not writer.committed:        # else: interrupted while plotting, already in place
             info = run_info(an)
             info.interrupted = _signame(e)
@@ -292,17 +357,21 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.interrupted(path, _signame(e),
                            f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
                            f"{outdir}/" if rows else f"no rows -> {outdir}/")
-        raise
-    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
+        raise e
+    if isinstance(e, Exception):  # a bug must not become a traceback for the user
         writer.abort()
         report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
                             f"(please report); {outdir}/ is left as it was")
         return
-    finally:
-        progress.close()
+    raise e
+
+
+def _conclude(path, outdir, report, info, summary, cycle, seconds):
+    """A model's report line (and its cycle figures), once its directory is in place (seconds:
+    its own wall time, the next model's solve not counted)."""
     rows = summary["time"]["rows_written"]
     detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
-              f"{summary['residual']['max']:.1e}, {time.perf_counter() - t0:.2f} s -> {outdir}/")
+              f"{summary['residual']['max']:.1e}, {seconds:.2f} s -> {outdir}/")
     if info.status == 0:
         report.ok(path, detail)
     else:

@@ -2,6 +2,7 @@
 geometry of the mechanism drawing."""
 
 import dataclasses
+import os
 from pathlib import Path
 
 import numpy as np
@@ -250,7 +251,7 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
     from click.testing import CliRunner
     from planarkin.cli import main
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
     runner = CliRunner()
     r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
                              "--out", str(tmp_path), "--steps", "60", "-q"])
@@ -268,6 +269,50 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
             check_file(tmp_path / stem / name, "png")
 
 
+def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch):
+    """In a batch the plot server draws a model while the next one solves: its plots are
+    collected (and its directory put in place, its line printed) only after the next model's
+    solve, and the lines keep the models' order."""
+    import json
+    from click.testing import CliRunner
+    from planarkin import results
+    from planarkin.cli import main
+    from planarkin.output import plotworker
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    events = []
+    solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
+
+    def stream(an, **kw):
+        events.append(("solve", an.cm.spec.name))
+        return solve(an, **kw)
+
+    def submitted(cm, *a, **kw):
+        events.append(("submit", cm.spec.name))
+        return submit(cm, *a, **kw)
+
+    def collected():
+        events.append(("collect", ""))
+        return collect()
+    monkeypatch.setattr(results, "stream", stream)
+    monkeypatch.setattr(plotworker, "submit", submitted)
+    monkeypatch.setattr(plotworker, "collect", collected)
+    four_bar = ROOT / "mechanisms" / "four-bar.yaml"
+    r = CliRunner().invoke(main, ["run", str(SLIDER_CRANK), str(four_bar), "--out",
+                                  str(tmp_path), "--steps", "40"])
+    assert r.exit_code == 0, r.output
+    a, b = planarkin.load(SLIDER_CRANK).spec.name, planarkin.load(four_bar).spec.name
+    assert events == [("solve", a), ("submit", a), ("solve", b), ("collect", ""),
+                      ("submit", b), ("collect", "")]
+    lines = [ln for ln in r.output.splitlines() if ln.startswith("ok ")]
+    assert [ln.split()[1] for ln in lines] == [f"{SLIDER_CRANK}:", f"{four_bar}:"]
+    for stem in ("slider-crank", "four-bar"):
+        s = json.loads((tmp_path / stem / "summary.json").read_text())
+        assert s["plots"][:4] == ["bodies.png", "points.png", "trajectories.png",
+                                  "mechanism.png"]
+        for name in s["plots"]:
+            check_file(tmp_path / stem / name, "png")
+
+
 def test_plot_server_splits_the_figures():
     assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
         "bodies", "points", "trajectories", "mechanism"]
@@ -275,6 +320,55 @@ def test_plot_server_splits_the_figures():
     assert plotworker_split(names, False) == (["bodies"], names[1:], False)
     assert plotworker_split(names, True) == ([], names, True)
     assert plotworker_split([], True) == ([], [], False)        # --no-plots --animate
+
+
+def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
+    """The split is decided by the processes runnable at the job's arrival (the server counts
+    itself), not by the 1-minute load average that still counts the run's own start-up."""
+    from planarkin.output import plotworker
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))     # stale: ignored
+    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
+    for runnable, idle in ((1, True), (2, False), (5, False)):
+        monkeypatch.setattr(plotworker, "_runnable", lambda: runnable)
+        assert plotworker._idle_core() is idle
+    monkeypatch.setattr(os, "getloadavg", lambda: (8.0, 8.0, 8.0))     # busy for a while:
+    assert not plotworker._idle_core()                      # an empty queue for an instant
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))
+    monkeypatch.setattr(plotworker, "_cores", lambda: 4)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
+    assert plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_cores", lambda: 1)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 1)
+    assert not plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: None)         # no /proc: the average
+    assert not plotworker._idle_core()
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
+    assert plotworker._idle_core()
+    # the parent about to wait is still closing its tables: look again, a few ms apart
+    looks = iter([2, 2, 1])
+    monkeypatch.setattr(plotworker, "_runnable", lambda: next(looks))
+    assert not plotworker._idle_core()
+    looks = iter([2, 2, 1])
+    assert plotworker._idle_core(patient=True)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 2)
+    assert not plotworker._idle_core(patient=True)
+    if os.path.exists("/proc/loadavg"):
+        monkeypatch.undo()
+        assert plotworker._runnable() >= 1          # this test itself is running
+
+
+def test_plot_server_started_first_only_for_a_run_with_plots_and_a_free_core(monkeypatch):
+    """planarkin.__main__ forks the server before parsing the command line, on a guess: a run
+    that draws, and a core free (else it would repeat the parent's imports for nothing)."""
+    from planarkin.output import plotworker
+    assert plotworker.wanted(["run", "a.yaml", "--steps", "9"])
+    for argv in ([], ["check", "a.yaml"], ["run", "a.yaml", "--no-plots"], ["run", "--help"],
+                 ["run", "-h"]):
+        assert not plotworker.wanted(argv)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    plotworker.start(early=True)
+    assert not plotworker.running()
 
 
 def plotworker_split(names, animate):
@@ -405,7 +499,7 @@ def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, posi
     """Split between the server and a child it forks (an idle core, forced here; the CLI test
     takes the other path): the files in figure order, a failure in the child raises here."""
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: True)     # inherited by the fork
+    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: True)   # (the fork too)
     plotworker.start()
     try:
         files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)

@@ -18,7 +18,8 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     transmit a moment (angle, gear) are left out of the plot (their columns are in the table)."""
     from matplotlib.figure import Figure
 
-    from ..output.plots import _finish_time_axes, _palette, _pretty as _pretty2, _save, _title
+    from ..output.plots import (_finish_time_axes, _palette, _pretty as _pretty2, _save,
+                                _tick_label_width, _title)
 
     def _pretty(unit):
         return _pretty2(unit).replace("*", "\u00b7")
@@ -42,7 +43,7 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
             mags.append((name, np.hypot(c["fx"], c["fy"])))
     one = len(cm.spec.drivers) == 1
     ncol = 2 if one else 1
-    fig = Figure(figsize=(6.4 * ncol if one else 7.5, 6.6), layout="constrained")
+    fig = Figure(figsize=(6.4 * ncol if one else 7.5, 6.6))
     axes = fig.subplots(2, ncol, sharex="col", squeeze=False)
     xs = [(t, "time t [s]")]
     if one:
@@ -78,7 +79,16 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         ax.set_xlabel(xlabel)
     _finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
     fig.suptitle(_title(cm, "driver efforts and joint reactions (on body j of each joint)",
-                        info), fontsize=11)
+                        info), fontsize=11, y=1 - 0.1 / 6.6, va="top")
+    # a fixed layout, in inches: constrained layout measured every text, half of the time of
+    # this figure; the tick labels' widths come from the axes' locators and formatters
+    width = fig.get_figwidth()
+    room = [0.55 + max(_tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
+            for col in zip(*axes)]
+    aw = (width - sum(room) - 0.2) / ncol
+    fig.subplots_adjust(left=room[0] / width, right=1 - 0.2 / width, top=1 - 0.45 / 6.6,
+                        bottom=0.55 / 6.6, hspace=0.15 / 2.8,
+                        wspace=room[-1] / aw if ncol > 1 else 0.2)
     return [_save(fig, Path(out) / f"forces.{fmt}")]
 
 

@@ -394,6 +394,13 @@ def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
     fig.subplots_adjust(left=room[0] / width, right=1 - right / width, bottom=bottom / height,
                         top=1 - top / height, hspace=gap_h / row_height,
                         wspace=(room[1] / aw) if ncols > 1 else 0.2)
+    # the axis labels at fixed places: placing them, matplotlib measures every tick label of
+    # the column at each draw (a tenth of the drawing); so placed, a column's labels line up
+    # (the empty x labels of the upper rows too)
+    for c, col in enumerate(zip(*axes)):
+        for ax in col:
+            ax.yaxis.set_label_coords(-(label_w[c] + 0.15) / aw, 0.5)
+            ax.xaxis.set_label_coords(0.5, -0.29 / row_height)
     below = (0.16 * len(lines) + 0.1) / height if lines else 0.0
     fig.legend(handles=ordered, ncol=per_row, loc="lower center", bbox_to_anchor=(0.5, below),
                fontsize=FONT, frameon=False, handlelength=2.2, columnspacing=1.4)

@@ -25,18 +25,27 @@ import signal
 
 _server = None          # (process, connection) of the running server of this process, if any
 _pending = False        # a job was sent and its answer not read yet
+_jobs = 0               # jobs sent to the running server
 
 
-def start() -> None:
-    """Fork the plot server (once per process; nothing where fork does not exist)."""
-    global _server
-    if _server is not None:
+def start(early: bool = False) -> None:
+    """Fork the plot server (once per process; nothing where fork does not exist).
+
+    early=True: called by `planarkin.__main__` as its first act when the command line asks for
+    plots, before click and numpy are imported, so that the server's 0.5 s of importing
+    overlaps the parent's own start-up too; only when a core is free (else the server would
+    import numpy and planarkin's modules a second time, 0.1-0.3 s of CPU, for nothing).
+    `planarkin run` calls it again (a no-op when the server runs)."""
+    global _server, _jobs
+    if _server is not None or (early and not _idle_core()):
         return
     import multiprocessing as mp
 
-    # numpy before the fork: the parent needs it anyway, and the server then does not import
-    # it a second time (CPU that a busy machine does not have to spare)
-    import numpy  # noqa: F401
+    # numpy before the fork when the machine is busy: the parent needs it anyway, and the
+    # server then does not import it a second time (CPU a busy machine does not have to spare);
+    # with a core free both import it at once, and the server is ready 0.2 s sooner
+    if not _idle_core():
+        import numpy  # noqa: F401
     try:
         ctx = mp.get_context("fork")
     except ValueError:
@@ -46,7 +55,15 @@ def start() -> None:
     proc.start()
     child.close()
     _server = (proc, parent)
+    _jobs = 0
     atexit.register(stop)
+
+
+def wanted(argv: list[str]) -> bool:
+    """Whether a command line (sys.argv[1:]) is a `planarkin run` that will draw: a guess made
+    before parsing it, so that the server can start first. A wrong guess costs nothing: `run`
+    stops a server it does not need, and one that never had a job is killed at exit."""
+    return bool(argv) and argv[0] == "run" and not {"--no-plots", "--help", "-h"} & set(argv)
 
 
 def running() -> bool:
@@ -62,10 +79,12 @@ def draw(cm, data, info, out, fmt: str | None, animate, x: str = "time"):
     return collect() if submit(cm, data, info, out, fmt, animate, x) else None
 
 
-def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bool:
+def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time",
+           waits: bool = True) -> bool:
     """Send a job (arguments as for draw) and return at once: True when the server has it
-    (its answer is then read by `collect`), False when there is no server."""
-    global _pending
+    (its answer is then read by `collect`), False when there is no server. waits: the caller
+    waits for the answer next (False: it goes on solving the next model of a batch)."""
+    global _pending, _jobs
     if _server is None:
         return False
     if _pending:                    # a job whose caller gave up on it (an error in between)
@@ -76,11 +95,12 @@ def submit(cm, data, info, out, fmt: str | None, animate, x: str = "time") -> bo
         if _server is None:
             return False
     try:
-        _server[1].send((cm, data, info, str(out), fmt, animate, x))
+        _server[1].send((cm, data, info, str(out), fmt, animate, x, waits))
     except OSError:
         stop()
         return False
     _pending = True
+    _jobs += 1
     return True
 
 
@@ -103,13 +123,21 @@ def collect():
 
 
 def stop() -> None:
-    """Tell the server to finish and wait for it (terminate it if it does not end)."""
+    """Tell the server to finish and wait for it (terminate it if it does not end). A server
+    that never had a job is killed at once: it may still be importing matplotlib (a command
+    line error, or `run` without plots after the guess of `wanted`), and nothing of it is
+    written anywhere."""
     global _server, _pending
     if _server is None:
         return
     proc, conn = _server
     _server = None
     _pending = False
+    if not _jobs:
+        proc.kill()
+        proc.join()
+        conn.close()
+        return
     try:
         conn.send(None)
     except OSError:
@@ -153,8 +181,23 @@ def _warm_up() -> None:
     font file opened, the first glyphs rendered, the png encoder loaded), here on a tiny
     figure that is thrown away."""
     import io
+    import sys
+    import warnings
 
-    from matplotlib.figure import Figure
+    # matplotlib.projections imports the 3-D axes (mpl_toolkits.mplot3d, 0.05-0.09 s of the
+    # 0.5 s import) only to register them, and goes on without them when that import fails;
+    # no figure of planarkin is 3-D. Where a later matplotlib would need them, import again.
+    sys.modules.setdefault("mpl_toolkits.mplot3d", None)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            from matplotlib.figure import Figure
+    except ImportError:
+        for name in [m for m in sys.modules if m.startswith(("matplotlib", "mpl_toolkits"))]:
+            del sys.modules[name]
+        from matplotlib.figure import Figure
+    if sys.modules.get("mpl_toolkits.mplot3d", 0) is None:
+        del sys.modules["mpl_toolkits.mplot3d"]
 
     from . import plots  # noqa: F401 - numpy, the tables module
     fig = Figure(figsize=(1, 1))
@@ -175,20 +218,66 @@ def split(names: list[str], animate: bool) -> tuple[list[str], list[str], bool]:
     return names[:1], names[1:], False
 
 
-def _idle_core() -> bool:
-    """Whether a second drawing process would find a core to run on (load average below the
-    number of cores). On a machine already busy it would only add the cost of the fork and of
-    the work both processes repeat, and finish no sooner."""
+def _idle_core(patient: bool = False) -> bool:
+    """Whether a second drawing process would find a core to run on: fewer processes runnable
+    now, besides this server, than cores. On a machine already busy it would only add the cost
+    of the fork and of the work both processes repeat, and finish no sooner (measured at load
+    6 on 2 cores: 10-25 % more CPU, no sooner).
+
+    Counted now (/proc/loadavg's runnable count), not by the 1-minute load average alone, which
+    still counts this run's own start-up and the runs before it: on a quiet 2-core machine that
+    average (1.5-2 after a few runs) kept the split from ever happening. The average only rules
+    out a machine busy for a while (at least one more than the cores), whose run queue empties
+    for an instant now and then. patient: the parent is
+    about to wait for this job, but is still closing its tables (20-45 ms): look again, 3 ms
+    apart, for up to 30 ms (in a batch the parent goes on solving: one look).
+    """
+    cores = _cores()
+    if cores < 2:
+        return False
+    import time
+    looks = 10 if patient else 1
+    for k in range(looks):
+        runnable = _runnable()
+        if runnable is None:
+            try:
+                return os.getloadavg()[0] < cores - 0.5
+            except OSError:
+                return True
+        if runnable - 1 < cores - 1 and _load() < cores + 1:
+            return True
+        if k + 1 < looks:
+            time.sleep(0.003)
+    return False
+
+
+def _load() -> float:
     try:
-        return os.getloadavg()[0] < (os.cpu_count() or 1) - 0.5
+        return os.getloadavg()[0]
     except OSError:
-        return True
+        return 0.0
 
 
-def _draw(cm, data, info, out, fmt, animate, x):
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _runnable() -> int | None:
+    """Processes runnable on the machine now, this one included (None where not known)."""
+    try:
+        with open("/proc/loadavg") as f:
+            return int(f.read().split()[3].partition("/")[0])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _draw(cm, data, info, out, fmt, animate, x, waits=True):
     """The model's figures, then the rooms' (forces.png, measures.png ...), all in the server:
     the parent never imports matplotlib."""
-    files = _draw_model(cm, data, info, out, fmt, animate, x)
+    files = _draw_model(cm, data, info, out, fmt, animate, x, waits)
     if fmt:
         from pathlib import Path
 
@@ -199,13 +288,14 @@ def _draw(cm, data, info, out, fmt, animate, x):
     return files
 
 
-def _draw_model(cm, data, info, out, fmt, animate, x):
+def _draw_model(cm, data, info, out, fmt, animate, x, waits=True):
     from pathlib import Path
 
     from . import plots
     out = Path(out)
     names = plots.figure_names(cm) if fmt else []
-    mine_child, mine, child_anim = split(names, animate) if _idle_core() else ([], names, False)
+    mine_child, mine, child_anim = split(names, animate) if _idle_core(patient=waits) \
+        else ([], names, False)
 
     def part(figs, anim):
         files = plots.write_plots(cm, data, info, out, fmt, only=figs, x=x) if figs and fmt \

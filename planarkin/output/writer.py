@@ -169,31 +169,50 @@ class DirectoryWriter:
             closed.setdefault(csv, closed[name])
         return closed, busy
 
-    def finish(self, info: RunInfo, started: float | None = None) -> dict:
+    def finish(self, info: RunInfo, started: float | None = None, defer: bool = False) -> dict:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
         value) and the plots, and put the directory in place; returns the summary.
+
+        defer=True (a batch: the plot server then draws this model while the next one solves):
+        when the plots went to the server, return as soon as the tables are closed and the
+        summary made; `complete()` then waits for the plots, writes summary.json and puts the
+        directory in place (until then `committed` is False and the summary lacks `plots`).
 
         An interruption while the tables close or the plots are drawn keeps the complete
         tables (status interrupted, some plots missing) and is raised again once the directory
         is in place; one that arrives while the summary is written and the directory moved
         waits until it is in place."""
         pending = None
-        drawn: list = []
         data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
             else None
+        sent = False
         try:
             try:
                 with held_signals():
-                    sent = False
                     if data is not None and self.background:
                         # the CLI's plot server (if it started one) draws while the tables close
                         from . import plotworker
                         sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
-                                                 self.animate, self.x)
+                                                 self.animate, self.x, waits=not defer)
                     closed, busy = self._close_tables()
                     summary = self._summary(info, closed, busy, started)
             except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
                 pending = e
+        except BaseException:
+            self.abort()
+            raise
+        self._rest = (info, data, sent, summary, pending)
+        if defer and sent and pending is None:
+            return summary
+        return self.complete()
+
+    def complete(self) -> dict:
+        """The end of `finish` (the plots, summary.json, the directory put in place); returns
+        the summary. Raises as finish does."""
+        info, data, sent, summary, pending = self._rest
+        self._rest = None
+        drawn: list = []
+        try:
             if data is not None and pending is None:
                 t0 = time.perf_counter()
                 try:
