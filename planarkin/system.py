@@ -226,7 +226,7 @@ class System:
         active[self.rows] = True
         pattern: dict[int, list[int]] = {}
         for G in self.cm.groups:
-            nz = (G.grad(F) != 0).any(axis=0)                   # (K, neq, nc)
+            nz = self.pattern(G, F)                             # (K, neq, nc)
             for k in range(len(G)):
                 for e in range(G.kind.neq):
                     r = int(G.rows[k, e])
@@ -237,6 +237,16 @@ class System:
         self.fine = Blocks(tuple(self.rows[r] for r in fine.rows), fine.cols)
         self._merge()
         return self.fine
+
+    @staticmethod
+    def pattern(G: Group, F: Frame) -> np.ndarray:
+        """(K, neq, nc) which gradient entries of group G may be nonzero: those nonzero at one of
+        the states F (a few random ones), or all of them for a kind whose zeros are not
+        structural (Kind.sampled_zeros)."""
+        g = G.grad(F)
+        if not G.kind.sampled_zeros:
+            return np.ones(g.shape[1:], dtype=bool)
+        return (g != 0).any(axis=0)
 
     def merged(self, merge_to: int) -> "System":
         """The same equations and fine structure, solved in blocks of up to merge_to unknowns."""
@@ -584,7 +594,7 @@ class System:
         for gi, G in enumerate(cm.groups):
             offset.append(total)
             total += G.grad(F)[0].size
-            nz.append((G.grad(F) != 0).any(axis=0))           # (K, neq, nc)
+            nz.append(self.pattern(G, F))                     # (K, neq, nc)
             for k in range(len(G)):
                 for e in range(G.kind.neq):
                     where[int(G.rows[k, e])] = (gi, k, e)
@@ -741,6 +751,10 @@ class _ClassifyState:
     def classify(self, B: Block) -> Block:
         from dataclasses import replace
         S = self.S
+        if any(not p.group.kind.sampled_zeros for p in B.parts):
+            # piecewise geometry (a slot's straight piece, a cam's dwell): affine near one
+            # state says nothing of the next piece
+            return replace(B, affine=False, fixed_grad=False)
         Q2 = self.Q.copy()
         Q2[0, B.cols] += noise(len(B.cols), 20 + int(B.cols[0]))
         c, s = self.F.c.copy(), self.F.s.copy()

@@ -222,3 +222,31 @@ def test_the_route_does_not_depend_on_the_cache(monkeypatch, tmp_path, compiled)
     later = planarkin.solve(model, steps=120)           # loads the compiled file
     for a, b in ((first.q, later.q), (first.qd, later.qd), (first.qdd, later.qdd)):
         assert np.array_equal(a, b)
+
+
+def test_zeros_of_a_straight_piece_are_not_structure():
+    """A pin on a stadium track starts on a straight piece, where the slot's equation does not
+    depend on x: zeros of the gradient at states near the start are not structural there (on
+    the arcs it does depend on x). The block structure and the fused pass must not drop that
+    coupling: the fused pass once gave vy = 0 all along the arcs."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_curve_segments import STADIUM, run
+
+    results = {}
+    for fused in (False, None):
+        real = system.System.solve_batch
+
+        def forced(self, t, Q, Qd, Qdd, _real=real, _fused=fused, **kw):
+            kw["fused"] = _fused
+            return _real(self, t, Q, Qd, Qdd, **kw)
+        system.System.solve_batch = forced
+        try:
+            results[fused] = run(STADIUM).body("pin")
+        finally:
+            system.System.solve_batch = real
+    ref, fast = results[False], results[None]
+    assert np.abs(ref["vy"]).max() > 1.0                  # the arcs are reached
+    for key in ("y", "vy", "ay"):
+        scale = np.abs(ref[key]).max()
+        assert np.abs(fast[key] - ref[key]).max() <= 1e-12 * scale, key

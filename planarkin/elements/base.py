@@ -117,6 +117,14 @@ class Kind:
     equations: str = ""
     driver_equations: str = ""
 
+    # Whether a zero of the gradient at a few random states is structural (it comes from
+    # constant parameters: the phi column of a pin at a body's origin). False for kinds whose
+    # gradient vanishes on whole regions of states (a straight piece of a slot, a cam's dwell):
+    # every column of their bodies is then a dependency of their rows, or the block structure
+    # and the fused pass would drop a coupling that exists elsewhere (System.pattern), and
+    # their blocks are never taken as affine (_ClassifyState).
+    sampled_zeros: bool = True
+
     # Parameters the compiler derives from the body estimates (not YAML keys), e.g. the side of
     # a rack's pitch line on which the pinion sits: Param entries, filled by `prepare`.
     derived: tuple = ()

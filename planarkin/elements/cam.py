@@ -159,6 +159,7 @@ _REST = (Param("rest", "real", "s0 (cam) or psi0 (cam-rocker), from the geometry
 
 class Cam(Kind):
     name = "cam"
+    sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
     params = (
         Param("sk", "point", "the cam's centre of rotation on frame k, in its frame"),
@@ -245,6 +246,7 @@ class Cam(Kind):
 
 class CamRocker(Kind):
     name = "cam-rocker"
+    sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
     params = (
         Param("sk", "point", "the cam's centre of rotation on frame k, in its frame"),

@@ -142,6 +142,7 @@ def _geometry(G, F):
 
 class CurveSlot(Kind):
     name = "curve-slot"
+    sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     params = (
         Param("sj", "point", "the pin on body j in its frame"),
         Param("curve", "curve", "the curve in the frame of body i: a list of points [[x, y], ...] "
