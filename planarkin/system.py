@@ -486,20 +486,24 @@ class System:
         with one_blas_thread():
             return self._solve_batch(*args)
 
-    def _solve_batch(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd=None,
-                     third=None):
+    def _batch_start(self, t, Q, drivers):
+        """What both numpy passes start from: the points, the blocks, the drivers' (T, NU, FDD),
+        the angles' cos and sin and their Frame (updated in place as Q moves), and the
+        per-point diagnostics (iterations, ratio, converged, fine-block signs, sigma_min)."""
         N = Q.shape[0]
         nblk = len(self.blocks)
         T, NU, FDD = self.driver_values(t) if drivers is None else drivers
         phi = Q[:, 2::3]
         c = np.cos(phi)
         s = np.sin(phi)
-        F = Frame(Q, c, s)
-        iters = np.zeros(N, dtype=np.int64)
-        ratio = np.zeros(N)
-        conv = np.ones(N, dtype=bool)
-        sign = np.zeros((N, self.nfine))
-        smin = np.zeros((N, nblk))
+        return (N, nblk, T, NU, FDD, c, s, Frame(Q, c, s), np.zeros(N, dtype=np.int64),
+                np.zeros(N), np.ones(N, dtype=bool), np.zeros((N, self.nfine)),
+                np.zeros((N, nblk)))
+
+    def _solve_batch(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd=None,
+                     third=None):
+        N, nblk, T, NU, FDD, c, s, F, iters, ratio, conv, sign, smin = \
+            self._batch_start(t, Q, drivers)
         with np.errstate(all="ignore"):
             for b, B in enumerate(self.blocks):
                 cols = B.cols
@@ -652,18 +656,8 @@ class System:
         """solve_batch for small blocks (see SMALL_BLOCK): the reference pass's Newton
         iterations block by block with closed-form inverses, then velocities and accelerations
         of all blocks by forward substitution (_forward) at the converged positions."""
-        N = Q.shape[0]
-        nblk = len(self.blocks)
-        T, NU, FDD = self.driver_values(t) if drivers is None else drivers
-        phi = Q[:, 2::3]
-        c = np.cos(phi)
-        s = np.sin(phi)
-        F = Frame(Q, c, s)
-        iters = np.zeros(N, dtype=np.int64)
-        ratio = np.zeros(N)
-        conv = np.ones(N, dtype=bool)
-        sign = np.zeros((N, self.nfine))
-        smin = np.zeros((N, nblk))
+        N, nblk, T, NU, FDD, c, s, F, iters, ratio, conv, sign, smin = \
+            self._batch_start(t, Q, drivers)
         with np.errstate(all="ignore"):
             for b, B in enumerate(self.blocks):
                 cols = B.cols

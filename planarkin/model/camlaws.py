@@ -77,28 +77,11 @@ def _motion(V, node, what: str):
 def _table(V, node, what: str):
     from ..inputtable import TableError, read_columns, table_function
     what = f"{what}: table"
-    if node.kind == "map":
-        if not V.keys(node, ("file", "angle", "value", "periodic"), what):
-            return None
-        v = node.value
-        if "file" not in v:
-            V.err(node, f"{what}: missing file (the CSV file of cam angle and value, relative "
-                        f"to the model file)")
-            return None
-        fname = V.text(v["file"], f"{what}: file")
-    else:
-        v = {}
-        fname = V.text(node, what)
-    if fname is None:
+    ref = V.table_ref(node, what, ("angle", "value"), ("periodic",),
+                      " of cam angle and value")
+    if ref is None:
         return None
-    cols = {}
-    for key in ("angle", "value"):
-        if key in v:
-            n = v[key]
-            if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
-                V.err(n, f"{what}: {key} must be a column name or number")
-                return None
-            cols[key] = n.value if isinstance(n.value, int) else str(n.text)
+    fname, cols, v = ref
     periodic = None
     if "periodic" in v:
         n = v["periodic"]

@@ -126,28 +126,10 @@ def _segments(V, node, what: str):
 
 def _table(V, node, what: str):
     from ..inputtable import TableError, read_columns
-    if node.kind == "map":
-        if not V.keys(node, ("file", "x", "y"), what):
-            return None
-        v = node.value
-        if "file" not in v:
-            V.err(node, f"{what}: missing file (the CSV file of x, y points, relative to the "
-                        f"model file)")
-            return None
-        fname = V.text(v["file"], f"{what}: file")
-    else:
-        v = {}
-        fname = V.text(node, what)
-    if fname is None:
+    ref = V.table_ref(node, what, ("x", "y"), (), " of x, y points")
+    if ref is None:
         return None
-    cols = {}
-    for key in ("x", "y"):
-        if key in v:
-            n = v[key]
-            if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
-                V.err(n, f"{what}: {key} must be a column name or number")
-                return None
-            cols[key] = n.value if isinstance(n.value, int) else str(n.text)
+    fname, cols, v = ref
     path = Path(V.file).parent / fname
     shown = str(path)
     owner = what.rsplit(": curve", 1)[0]

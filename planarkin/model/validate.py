@@ -113,6 +113,37 @@ class _Validator:
         vals = [self.number(item, what) for item in node.value]
         return None if any(v is None for v in vals) else tuple(vals)
 
+    def table_ref(self, node: Node, what: str, columns: tuple, extra: tuple = (),
+                  contents: str = ""):
+        """A `table:` reference (drivers, cam laws, curves): a file name, or a map of `file`,
+        the `columns` keys (a column name or 0-based number each) and the `extra` keys.
+        Returns (file name, {column key: name or number}, the map's entries) or None, the
+        problem reported. contents: what the file holds, for the missing-file message."""
+        if node.kind == "map":
+            if not self.keys(node, ("file", *columns, *extra), what):
+                return None
+            v = node.value
+            if "file" not in v:
+                self.err(node, f"{what}: missing file (the CSV file{contents}, relative to the "
+                               f"model file)")
+                return None
+            fname = self.text(v["file"], f"{what}: file")
+        else:
+            v = {}
+            fname = self.text(node, what)
+        if fname is None:
+            return None
+        cols = {}
+        for key in columns:
+            if key in v:
+                n = v[key]
+                if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
+                    self.err(n, f"{what}: {key} must be a column name or number, not "
+                                f"{_type_name(n)}")
+                    return None
+                cols[key] = n.value if isinstance(n.value, int) else str(n.text)
+        return fname, cols, v
+
     def text(self, node: Node, what: str) -> str | None:
         if node.kind != "scalar" or node.value is None:
             self.err(node, f"{what} must be a text, not {_type_name(node)}")
@@ -775,28 +806,10 @@ class _Validator:
         from ..diagnostics import Diagnostic
         from ..inputtable import TableError, read_table, table_function
         what = f"{what}: table"
-        if node.kind == "map":
-            if not self.keys(node, ("file", "time", "value", "periodic"), what):
-                return None
-            v = node.value
-            if "file" not in v:
-                self.err(node, f"{what}: missing file (the CSV file, relative to the model file)")
-                return None
-            fname = self.text(v["file"], f"{what}: file")
-        else:
-            v = {}
-            fname = self.text(node, what)
-        if fname is None:
+        ref = self.table_ref(node, what, ("time", "value"), ("periodic",))
+        if ref is None:
             return None
-        cols = {}
-        for key in ("time", "value"):
-            if key in v:
-                n = v[key]
-                if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
-                    self.err(n, f"{what}: {key} must be a column name or number, not "
-                                f"{_type_name(n)}")
-                    return None
-                cols[key] = n.value if isinstance(n.value, int) else str(n.text)
+        fname, cols, v = ref
         periodic = False
         if "periodic" in v:
             n = v["periodic"]
