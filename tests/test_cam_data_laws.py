@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import planarkin
+from closedforms import rel
 
 TOL = 1e-12
 
@@ -24,12 +25,6 @@ def run(text: str, path=None):
     res = planarkin.solve(model)
     assert res.status == 0, res.message
     return res
-
-
-def rel(got, want, scale=None) -> float:
-    got, want = np.asarray(got, float), np.asarray(want, float)
-    s = scale if scale is not None else np.max(np.abs(want))
-    return float(np.max(np.abs(got - want)) / s)
 
 
 CAM = """

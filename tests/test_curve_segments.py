@@ -19,21 +19,10 @@ import planarkin
 from planarkin.elements import KINDS
 from planarkin.elements.base import group, make_frame
 from planarkin.elements.path import Arc, Line, PathCurve
+from closedforms import rel, run
 
 TOL = 1e-12
 TWO_PI = 2 * math.pi
-
-
-def run(text: str, name: str = "model.yaml"):
-    res = planarkin.solve(planarkin.load(name, text=text))
-    assert res.status == 0, res.message
-    return res
-
-
-def rel(got, want, scale=None) -> float:
-    got, want = np.asarray(got, float), np.asarray(want, float)
-    s = scale if scale is not None else np.max(np.abs(want))
-    return float(np.max(np.abs(got - want)) / s)
 
 
 CIRCLE_SLOT = """

@@ -95,6 +95,7 @@ def test_a_wrong_jerk_is_detected():
 # -- runs with up_to: jerk against closed forms ------------------------------------------------
 
 import planarkin  # noqa: E402
+from closedforms import rel
 
 ROOT = Path(__file__).resolve().parent.parent
 TWO_PI = 2 * math.pi
@@ -108,11 +109,6 @@ def run(model, **opts):
 
 def load(text):
     return planarkin.load("model.yaml", text=text)
-
-
-def rel(got, want) -> float:
-    got, want = np.asarray(got, float), np.asarray(want, float)
-    return float(np.max(np.abs(got - want)) / np.max(np.abs(want)))
 
 
 def test_slider_crank_slider_jerk_closed_form():

@@ -16,23 +16,11 @@ import numpy as np
 import pytest
 
 import planarkin
+from closedforms import rel, run
 
 ROOT = Path(__file__).resolve().parent.parent
 TOL = 1e-12
 TWO_PI = 2 * math.pi
-
-
-def run(text: str, name: str = "model.yaml"):
-    res = planarkin.solve(planarkin.load(name, text=text))
-    assert res.status == 0, res.message
-    return res
-
-
-def rel(got, want, scale=None) -> float:
-    """Largest |got - want| over the run, relative to the largest |want| (or scale)."""
-    got, want = np.asarray(got, float), np.asarray(want, float)
-    s = scale if scale is not None else np.max(np.abs(want))
-    return float(np.max(np.abs(got - want)) / s)
 
 
 def check(measured: dict, exact: dict, scale: dict | None = None) -> float:
