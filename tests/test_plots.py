@@ -533,3 +533,14 @@ def test_the_cli_process_never_imports_matplotlib(tmp_path):
                          cwd=ROOT, timeout=300)
     assert out.stdout.split()[-2:] == ["False", "0"], out.stdout + out.stderr
     assert (tmp_path / "slider-crank" / "mechanism.png").exists()
+
+
+def test_mechanism_legend_names_only_paths_that_are_drawn():
+    """A sketch names its ground pins too: they do not move, so they have no path and no entry
+    in the legend (an entry in a colour that appears nowhere in the drawing)."""
+    m = planarkin.load(ROOT / "mechanisms" / "six-bar-sketch.yaml")
+    r = planarkin.solve(m, steps=40)
+    fig = plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert {"B", "C", "P", "F"} <= set(labels)
+    assert not {"A", "D", "E"} & set(labels), labels

@@ -992,14 +992,18 @@ def _mechanism_figure(cm, scene: _Scene, instants: int | None = None):
         times[0] += " (named)"
     alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
     # a centrode's label on two lines: a long one would narrow the drawing
-    labels = times + [s[0] for s in scene.trace_styles] + \
+    labels = times + [s[0] for s, xy in zip(scene.trace_styles, scene.traces)
+                      if not s[1] or np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span] + \
         [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")] + \
         [w for j, _ in scene.moving for w in ("moving centrode", f"of {scene.names[j]}")]
     fig, ax, beside = _plane_figure(cm, scene, 9.0, 0.65 + _text_width(labels))
     handles, seen = [], set()
+    tol = 1e-6 * scene.span
     for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=w, zorder=5,
                         ls="-" if is_point else (0, (4, 2)))
+        if is_point and not np.nanmax(np.ptp(xy, axis=0)) > tol:
+            continue        # a point that does not move (a ground pin): no path to name
         if label not in seen:
             seen.add(label)
             line.set_label(label)
