@@ -544,3 +544,18 @@ def test_mechanism_legend_names_only_paths_that_are_drawn():
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert {"B", "C", "P", "F"} <= set(labels)
     assert not {"A", "D", "E"} & set(labels), labels
+
+
+def test_a_slot_is_drawn_whole():
+    """curved-slot.yaml: the arc slot on the frame is drawn along its whole length (the pin's
+    path covers only the part it runs along), every point of it on the circle about C."""
+    m = planarkin.load(ROOT / "mechanisms" / "curved-slot.yaml")
+    r = planarkin.solve(m, steps=40)
+    scene = plots._Scene(m, r._chunk)
+    cx, R = 0.4, 0.3                                       # Cx and R of the file
+    on_circle = [P for P in scene.axes if len(P) > 100 and np.allclose(
+        np.hypot(P[:, 0] - cx, P[:, 1]), R, rtol=0, atol=1e-12)]
+    assert on_circle, [len(P) for P in scene.axes]
+    path = r.point("B")
+    arc = on_circle[0]
+    assert np.ptp(arc[:, 0]) > np.ptp(path["x"]) + 1e-3       # longer than the pin's run

@@ -1223,5 +1223,13 @@ def _belt(G, k, L, revolutes, ground):
     return out
 
 
+def _slot(G, k, L, revolutes, ground):
+    """curve-slot: the slot or track itself, its whole length, on body i (a line on the frame,
+    dashed on a moving body); the pin's path shows only the part it runs along."""
+    cv = G.params["curve"][k]
+    P = cv.eval(np.linspace(cv.a0, cv.a1, 241))[0] * L
+    return [(int(G.bodies[k, 0]), P)]
+
+
 MACHINE_OUTLINES = {"belt": _belt, "gear-mesh": _discs, "roll-disc": _discs, "rack-pinion": _pinion,
-                    "roll-line": _pinion, "cam": _cam, "cam-rocker": _cam}
+                    "roll-line": _pinion, "cam": _cam, "cam-rocker": _cam, "curve-slot": _slot}
