@@ -285,13 +285,7 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
     S.build_blocks()
     A = Assembly(q=q, residual=float(np.abs(r).max()), iterations=its, active_rows=active,
                  redundant_rows=redundant, dof=dof, system=S, warnings=warnings)
-    _apply_branch_hints(cm, A)
-    A.modes = block_modes(cm, S, A.q)
-    if sketched:
-        from .model.sketch import keep_drawn_branches, moved_points
-        keep_drawn_branches(cm, A)
-        A.warnings += moved_points(cm, S.ext(A.q[None, :])[0])
-    return A
+    return _finish(cm, S, A, sketched)
 
 
 def _undifferentiable_rows(S: System, q: np.ndarray) -> np.ndarray:
@@ -498,6 +492,12 @@ def _assemble_blocks(cm: CompiledModel, S_all: System, sketched: bool) -> Assemb
     A = Assembly(q=q, residual=float(np.abs(r).max()), iterations=int(info.iterations[0]),
                  active_rows=S.rows, redundant_rows=[], dof=cm.n - cm.m_joint, system=S,
                  warnings=meshing)
+    return _finish(cm, S, A, sketched)
+
+
+def _finish(cm: CompiledModel, S: System, A: Assembly, sketched: bool) -> Assembly:
+    """What every assembly route ends with: the requested branches, the assembly modes and,
+    for a sketch, its drawn branches kept and the pins it moved named."""
     _apply_branch_hints(cm, A)
     A.modes = block_modes(cm, S, A.q)
     if sketched:

@@ -433,6 +433,13 @@ def disabled() -> bool:
     return os.environ.get("PLANARKIN_KERNEL", "1") == "0"
 
 
+def unavailable() -> bool:
+    """Known not to load in this process: disabled, or compiling failed (here or, by the
+    marker, on an earlier run), so that callers need not pack a system for it."""
+    return disabled() or bool(_state.get("failed")) or (
+        "lib" not in _state and _failed_marker(_path()).exists())
+
+
 def library(build: bool = True):
     """The compiled kernel (a ctypes library), or None: disabled (PLANARKIN_KERNEL=0), not yet
     compiled and build False, or no working C compiler. build: compile it when missing (about a

@@ -635,7 +635,7 @@ class System:
         machine (a working compiler) only, never on what earlier runs left in the cache, so
         that identical input gives identical bytes on one machine. build False: only look."""
         from . import kernel
-        if kernel.disabled():
+        if kernel.unavailable():
             return None
         if "kernel" not in self._csc:
             self._csc["kernel"] = kernel.pack(self)    # a few ms; None: kinds it does not cover

@@ -96,11 +96,7 @@ def _table(V, node, what: str):
         (th, y), lines = read_columns(path, [(cols.get("angle"), 0, "cam angle"),
                                              (cols.get("value"), 1, "value")])
     except TableError as exc:
-        for line, msg in exc.args[0]:
-            if line is None:
-                V.err(node, f"{what}: {shown}: {msg}")
-            else:
-                V.C.items.append(Diagnostic(shown, line, f"{msg} (the law of {owner})"))
+        V.table_errors(exc, node, what, shown, f"the law of {owner}")
         return None
     turn = _turn(V)
     span = float(th[-1] - th[0])

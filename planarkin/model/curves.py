@@ -137,11 +137,7 @@ def _table(V, node, what: str):
         (x, y), lines = read_columns(path, [(cols.get("x"), 0, "x"), (cols.get("y"), 1, "y")],
                                      increasing=False, min_rows=6)
     except TableError as exc:
-        for line, msg in exc.args[0]:
-            if line is None:
-                V.err(node, f"{what}: {shown}: {msg}")
-            else:
-                V.C.items.append(Diagnostic(shown, line, f"{msg} (the curve of {owner})"))
+        V.table_errors(exc, node, what, shown, f"the curve of {owner}")
         return None
     pts = list(zip(x.tolist(), y.tolist()))
     for k in range(1, len(pts)):

@@ -144,6 +144,16 @@ class _Validator:
                 cols[key] = n.value if isinstance(n.value, int) else str(n.text)
         return fname, cols, v
 
+    def table_errors(self, exc, node: Node, what: str, shown: str, whose: str) -> None:
+        """A TableError's problems: at the table file's own line (naming `whose` table it is),
+        or, for a problem of the whole file, at the model's `table:` node."""
+        from ..diagnostics import Diagnostic
+        for line, msg in exc.args[0]:
+            if line is None:
+                self.err(node, f"{what}: {shown}: {msg}")
+            else:
+                self.C.items.append(Diagnostic(shown, line, f"{msg} ({whose})"))
+
     def text(self, node: Node, what: str) -> str | None:
         if node.kind != "scalar" or node.value is None:
             self.err(node, f"{what} must be a text, not {_type_name(node)}")
@@ -823,11 +833,7 @@ class _Validator:
         try:
             t, y, tlines = read_table(path, cols.get("time"), cols.get("value"))
         except TableError as exc:
-            for line, msg in exc.args[0]:
-                if line is None:
-                    self.err(node, f"{what}: {shown}: {msg}")
-                else:
-                    self.C.items.append(Diagnostic(shown, line, f"{msg} (the table of {what[:-7]})"))
+            self.table_errors(exc, node, what, shown, f"the table of {what[:-7]}")
             return None
         if periodic:
             scale = max(1.0, float(abs(y).max()))
