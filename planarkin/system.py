@@ -635,10 +635,8 @@ class System:
         machine (a working compiler) only, never on what earlier runs left in the cache, so
         that identical input gives identical bytes on one machine. build False: only look."""
         from . import kernel
-        if kernel.unavailable():
-            return None
-        if "kernel" not in self._csc:
-            self._csc["kernel"] = kernel.pack(self)    # a few ms; None: kinds it does not cover
+        if "kernel" not in self._csc:      # once per system: a few ms; None: not for the kernel
+            self._csc["kernel"] = None if kernel.unavailable() else kernel.pack(self)
         P = self._csc["kernel"]
         if P is None:
             return None
