@@ -262,13 +262,19 @@ def refuse(an: Analysis, ch: Chunk) -> Chunk:
     cut before the first row with a non-finite time or value, or a residual above
     residual_limit, and the run stops there (an event of kind 'non-finite' or 'residual')."""
     arrays = [a for a in (ch.q, ch.qd, ch.qdd, ch.qddd) if a is not None]
+    limit = residual_limit(an.opts)
+    points = [a for a in (ch.p, ch.pd, ch.pdd, ch.pddd) if a is not None]
+    # the common case in one pass per array: a sum is finite only if every term is (a sum that
+    # overflows takes the row-by-row checks below, which find nothing to refuse)
+    if not len(ch.t) or (all(np.isfinite(a.sum()) for a in [ch.t, ch.residual] + arrays + points)
+                         and ch.residual.max() <= limit):
+        return ch
     bad = ~np.isfinite(ch.t) | ~np.isfinite(ch.residual)
     for a in arrays:
         bad |= ~np.isfinite(a).all(axis=1)
     for a in (ch.p, ch.pd, ch.pdd, ch.pddd):
         if a is not None and a.size:
             bad |= ~np.isfinite(a).all(axis=(1, 2))
-    limit = residual_limit(an.opts)
     high = np.isfinite(ch.residual) & (ch.residual > limit)
     stop = bad | high
     if not stop.any():
