@@ -226,6 +226,14 @@ INLINE double factor(int kb, int nj, const int *src, const int *dst, const doubl
         if (J[0] != J[0]) *sg = NAN;
         return fabs(J[0]);
     }
+    if (kb == 2) {   /* closed form, as System._invert_small (the fused numpy pass) */
+        double a = J[0], b = J[1], c = J[2], d = J[3], det = a * d - b * c;
+        int ok2 = isfinite(det) && det != 0;
+        double inv = 1.0 / (ok2 ? det : NAN);
+        Mi[0] = d * inv; Mi[1] = -b * inv; Mi[2] = -c * inv; Mi[3] = a * inv;
+        *sg = ok2 ? (det > 0) - (det < 0) : 0.0;
+        return ok2 ? fabs(det) / sqrt(a * a + b * b + c * c + d * d) : 0.0;
+    }
     int ok = invert(kb, J, Mi, sg, WK);
     double f = 0.0;
     for (k = 0; k < kb * kb; k++) f += Mi[k] * Mi[k];
@@ -253,25 +261,33 @@ INLINE void rates(int kb, const Row *rw, const int32_t *cols, int nj, const int 
                   const double *s, double *qd, double *qdd, const double *t, const double *nu,
                   const double *fdd, double *Ri, double *gr, double *Mi, double *J, double *WK)
 {
-    double r[KMAX], g = 0.0, gam = 0.0, sg;
+    double r[KMAX], gm[KMAX], g = 0.0, gam = 0.0, sg;
     int rp;
-    for (rp = 0; rp < kb; rp++) {
-        const Row *w = rw + rp;
-        row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, 0, have ? 1 : 3, &g, gr + 6 * rp,
-                 0);
-        Ri[w->row] = fabs(g - t[w->row]);
+    if (!have) {
+        for (rp = 0; rp < kb; rp++) {
+            const Row *w = rw + rp;
+            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, 0, 3, &g, gr + 6 * rp, 0);
+            Ri[w->row] = fabs(g - t[w->row]);
+        }
+        factor(kb, nj, src, dst, gr, J, Mi, &sg, WK);
     }
-    if (order < 1) return;
-    if (!have) factor(kb, nj, src, dst, gr, J, Mi, &sg, WK);
     for (rp = 0; rp < kb; rp++) {
         const Row *w = rw + rp;
         r[rp] = nu[w->row] - dot6(gr + 6 * rp, w->rc, qd);
     }
     apply(kb, Mi, r, cols, qd);
+    if (have)        /* the residuals, and gamma at the same time (the same terms) */
+        for (rp = 0; rp < kb; rp++) {
+            const Row *w = rw + rp;
+            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, order >= 2 ? 5 : 1, &g,
+                     0, gm + rp);
+            Ri[w->row] = fabs(g - t[w->row]);
+        }
     if (order < 2) return;
     for (rp = 0; rp < kb; rp++) {
         const Row *w = rw + rp;
-        row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, 4, 0, 0, &gam);
+        if (have) gam = gm[rp];
+        else row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, 4, 0, 0, &gam);
         r[rp] = (gam + fdd[w->row]) - dot6(gr + 6 * rp, w->rc, qdd);
     }
     apply(kb, Mi, r, cols, qdd);
@@ -342,7 +358,7 @@ INLINE void block(int kb, int b, int N, int W, int m, int nbb, int nblk, int nfi
                 q[cols[a]] -= dx;
                 double ad = fabs(dx);
                 if (ad > sz || ad != ad) sz = ad;
-                if (cols[a] % 3 == 2) {
+                if (cols[a] % 3 == 2 && dx != 0.0) {      /* an angle that moved */
                     c[cols[a] / 3] = cos(q[cols[a]]);
                     s[cols[a] / 3] = sin(q[cols[a]]);
                 }
@@ -423,8 +439,14 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
     for (i = 0; i < N; i++) {
         double *q = Q + (size_t)i * W;
         for (b = 0; b < nbb; b++) {
-            C[(size_t)i * nbb + b] = cos(q[3 * b + 2]);
-            S[(size_t)i * nbb + b] = sin(q[3 * b + 2]);
+            double phi = q[3 * b + 2];
+            if (phi == 0.0 && !signbit(phi)) {     /* the ground, bodies that do not turn */
+                C[(size_t)i * nbb + b] = 1.0;
+                S[(size_t)i * nbb + b] = 0.0;
+            } else {
+                C[(size_t)i * nbb + b] = cos(phi);
+                S[(size_t)i * nbb + b] = sin(phi);
+            }
         }
         iters[i] = 0; conv[i] = 1; ratio[i] = 0.0;
         if (order >= 1) for (a = 0; a < n; a++) Qd[(size_t)i * W + a] = 0.0;
