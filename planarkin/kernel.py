@@ -785,16 +785,18 @@ def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
     return Q
 
 
-def layout(lib, cm, Q, Qd, Qdd, order: int, unit):
+def layout(lib, cm, Q, Qd, Qdd, order: int, unit, out=None):
     """A chunk's user-unit arrays from its internal (N, n + 3) rows, in one pass: q, qd, qdd
     (N, n) (None above order) and the points' p, pd, pdd (N, P, 2), as solver._chunk computes
-    them with point_kinematics."""
+    them with point_kinematics. out: those six arrays (C-contiguous, float) to write into."""
     N, W = Q.shape
     n = cm.n
     P = len(cm.point_body)
     arrs = [np.ascontiguousarray(a, dtype=float) for a in (Q, Qd, Qdd)]
-    q, qd, qdd = (np.empty((N, n)) if k <= order else None for k in range(3))
-    p, pd, pdd = (np.empty((N, P, 2)) if k <= order else None for k in range(3))
+    if out is None:
+        out = tuple(np.empty((N, n)) if k <= order else None for k in range(3)) \
+            + tuple(np.empty((N, P, 2)) if k <= order else None for k in range(3))
+    q, qd, qdd, p, pd, pdd = out
     pbody = np.ascontiguousarray(cm.point_body, dtype=np.int32)
     ps = np.ascontiguousarray(cm.point_s, dtype=float).reshape(P, 2)
     unit = np.ascontiguousarray(unit, dtype=float)

@@ -761,6 +761,7 @@ class Analysis:
         self.timings: dict[str, float] = {}
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
+        self.out = None             # results.Collect: where the kernel lays chunks out (solve())
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
@@ -1089,7 +1090,9 @@ class Analysis:
         unit = np.tile([L, L, 1.0 / af], cm.nb)
         if lib is not None and order <= 2:
             from . import kernel
-            q, qd, qdd, p, pd, pdd = kernel.layout(lib, cm, Q, Qd, Qdd, order, unit)
+            out = None if self.out is None else self.out.reserve(len(t), n, len(cm.point_body),
+                                                                 order)
+            q, qd, qdd, p, pd, pdd = kernel.layout(lib, cm, Q, Qd, Qdd, order, unit, out)
             return Chunk(t, q, qd, qdd, p, pd, pdd, iters, cond, residual)
         q = Q[:, :n] * unit
         qd = Qd[:, :n] * unit if order >= 1 else None
