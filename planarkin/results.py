@@ -316,9 +316,10 @@ def refuse(an: Analysis, ch: Chunk) -> Chunk:
     points = [a for a in (ch.p, ch.pd, ch.pdd, ch.pddd) if a is not None]
     # the common case in one pass per array: a sum is finite only if every term is (a sum that
     # overflows takes the row-by-row checks below, which find nothing to refuse)
-    if not len(ch.t) or (all(np.isfinite(a.sum()) for a in [ch.t, ch.residual] + arrays + points)
-                         and ch.residual.max() <= limit):
-        return ch
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not len(ch.t) or (all(np.isfinite(a.sum()) for a in [ch.t, ch.residual] + arrays
+                                 + points) and ch.residual.max() <= limit):
+            return ch
     bad = ~np.isfinite(ch.t) | ~np.isfinite(ch.residual)
     for a in arrays:
         bad |= ~np.isfinite(a).all(axis=1)
