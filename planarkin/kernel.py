@@ -7,9 +7,14 @@ that of a compiled special-purpose library. This module holds the same algorithm
 System._solve_batch, the reference pass, written in C over points: the same Newton iterations
 block by block (a block iterates until every point of the batch has converged, as the
 reference does, so the iteration counts agree), the same determinant signs and sigma_min bounds
-(Gauss-Jordan with partial pivoting, 1 / ||J^-1||_F), then per point the velocity and
-acceleration systems by forward substitution through the blocks, with the gradients and gamma
-at the converged positions.
+(1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks in closed form as the
+fused numpy pass), and after each block, per point, its rows of the velocity and acceleration
+systems with the gradients and gamma at the converged positions (the earlier blocks' rates
+known). An affine block (one exact Newton step) finishes each point in one pass, reusing the
+step's gradients and inverse where they do not depend on the block's unknowns, as the
+reference does. The kernel also returns what the grid pass would otherwise reduce in numpy:
+each point's largest residual and condition estimate, converged False where a result is not
+finite; pk_layout writes a chunk's user-unit arrays and point kinematics in one pass.
 
 It covers the kinds whose equations are the point-and-line formulas of reference §1-2
 (revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE

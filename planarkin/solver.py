@@ -801,12 +801,6 @@ class Analysis:
             width = len(next(sg for sg, su in zip(N.sign, N.seg) if su == u))
             self.signs[u] = np.array([sg if su == u else np.zeros(width)
                                       for sg, su in zip(N.sign, N.seg)])
-        # per segment: the signs of all its nodes when they are one row (the common case: no
-        # branch changes), so that a chunk's rows compare with that row, not gather per row
-        self.signs_one = {}
-        for u in self.signs:
-            mine = self.signs[u][self.seg == u]
-            self.signs_one[u] = mine[0] if len(mine) and (mine == mine[0]).all() else None
         self.timings["path"] = time.perf_counter() - t0
         return self.event
 
@@ -994,6 +988,19 @@ class Analysis:
                     Qddd[i] = self._jerk_at(u, t[i], Q[i], Qd[i], Qdd[i], self.third[i])
         return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R, Rmax, lib)
 
+    def _signs_one(self, u: int):
+        """The determinant signs all nodes of segment u share (the common case: no branch
+        changes), or None: a chunk's rows then compare with that one row, not with a row
+        gathered per point. Kept with the signs array it was read from (studies.warm sets
+        them without following a path)."""
+        signs = self.signs[u]
+        got = self.__dict__.setdefault("_one", {}).get(u)
+        if got is None or got[0] is not signs:
+            mine = signs[self.seg == u]
+            got = self._one[u] = (signs, mine[0] if len(mine) and (mine == mine[0]).all()
+                                  else None)
+        return got[1]
+
     def _accepted(self, info, Qs, u: int, idx, sel, whole: bool):
         """Which solved grid points are accepted as a path step would be: converged, first
         correction within KAPPA of sigma_min, finite, the determinant signs of the bracketing
@@ -1001,7 +1008,7 @@ class Analysis:
         few whole-array reductions: its converged flags say finite already)."""
         K = len(self.Tn)
         if whole and info.cond is not None and self.opts.newton != "fixed":
-            one = self.signs_one.get(u) if K > 1 else None
+            one = self._signs_one(u) if K > 1 else None
             if (info.ratio.max() <= KAPPA and info.converged.all()
                     and (K == 1 or (one is not None and (info.sign == one).all()))):
                 return True
