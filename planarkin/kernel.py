@@ -257,6 +257,17 @@ INLINE void apply(int kb, const double *Mi, const double *r, const int32_t *cols
     }
 }
 
+/* the same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
+   _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
+   holds the Jansen leg's accelerations to 1e-14 of the exact linkage: 9.6e-15 so, 1.003e-14
+   through the inverse) */
+INLINE void solve2(const double *J, const double *r, const int32_t *cols, double *X)
+{
+    double det = J[0] * J[3] - J[1] * J[2];
+    X[cols[0]] = (J[3] * r[0] - J[1] * r[1]) / det;
+    X[cols[1]] = (J[0] * r[1] - J[2] * r[0]) / det;
+}
+
 /* One point's block rows at its converged positions: residuals |Phi - target| into Ri, then
    with order >= 1 the velocities (Phi_q qd = nu, the earlier blocks' columns known) and with
    order >= 2 the accelerations (Phi_q qdd = gamma + f''). gr, Mi: the rows' gradients and the
@@ -280,7 +291,8 @@ INLINE void rates(int kb, const Row *rw, const int32_t *cols, int nj, const int 
         const Row *w = rw + rp;
         r[rp] = nu[w->row] - dot6(gr + 6 * rp, w->rc, qd);
     }
-    apply(kb, Mi, r, cols, qd);
+    if (kb == 2) solve2(J, r, cols, qd);
+    else apply(kb, Mi, r, cols, qd);
     if (have)        /* the residuals, and gamma at the same time (the same terms) */
         for (rp = 0; rp < kb; rp++) {
             const Row *w = rw + rp;
@@ -295,7 +307,8 @@ INLINE void rates(int kb, const Row *rw, const int32_t *cols, int nj, const int 
         else row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, 4, 0, 0, &gam);
         r[rp] = (gam + fdd[w->row]) - dot6(gr + 6 * rp, w->rc, qdd);
     }
-    apply(kb, Mi, r, cols, qdd);
+    if (kb == 2) solve2(J, r, cols, qdd);
+    else apply(kb, Mi, r, cols, qdd);
 }
 
 /* One solve block for all points (specialised below for 1 and 2 unknowns). Newton block by
