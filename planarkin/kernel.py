@@ -7,9 +7,14 @@ that of a compiled special-purpose library. This module holds the same algorithm
 System._solve_batch, the reference pass, written in C over points: the same Newton iterations
 block by block (a block iterates until every point of the batch has converged, as the
 reference does, so the iteration counts agree), the same determinant signs and sigma_min bounds
-(Gauss-Jordan with partial pivoting, 1 / ||J^-1||_F), then per point the velocity and
-acceleration systems by forward substitution through the blocks, with the gradients and gamma
-at the converged positions.
+(1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks in closed form as the
+fused numpy pass), and after each block, per point, its rows of the velocity and acceleration
+systems with the gradients and gamma at the converged positions (the earlier blocks' rates
+known). An affine block (one exact Newton step) finishes each point in one pass, reusing the
+step's gradients and inverse where they do not depend on the block's unknowns, as the
+reference does. The kernel also returns what the grid pass would otherwise reduce in numpy:
+each point's largest residual and condition estimate, converged False where a result is not
+finite; pk_layout writes a chunk's user-unit arrays and point kinematics in one pass.
 
 It covers the kinds whose equations are the point-and-line formulas of reference §1-2
 (revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE
@@ -54,10 +59,15 @@ SOURCE = r"""
 
 #define KMAX 64   /* largest solve block */
 #define KFINE 6   /* largest fine block */
+#if defined(__GNUC__)
+#define INLINE static inline __attribute__((always_inline))
+#else
+#define INLINE static inline
+#endif
 
 /* one equation row of element e: value g, gradient over (x_i, y_i, phi_i, x_j, y_j, phi_j),
    gamma_g (needs qd); want: 1 g, 2 gradient, 4 gamma (reference sections 1, 2, 5) */
-static void row_eval(int kind, int bi, int bj, const double *p, int eq, const double *q,
+INLINE void row_eval(int kind, int bi, int bj, const double *p, int eq, const double *q,
                      const double *c, const double *s, const double *qd, int want,
                      double *g, double *gr, double *gam)
 {
@@ -138,15 +148,16 @@ static void row_eval(int kind, int bi, int bj, const double *p, int eq, const do
 
 /* inverse of the k x k matrix J (row-major) by Gauss-Jordan with partial pivoting, as
    planarkin.linalg._inv_gauss_jordan: returns 1 and the determinant's sign, or 0 (singular:
-   inverse nan, sign 0) */
-static int invert(int k, const double *J, double *inv, double *sign, double *work)
+   inverse nan, sign 0). A (k x 2k, row-major): the workspace. Inlined per small size (the
+   grid's blocks have 1-6 unknowns), so that the loops unroll; the operations and their order
+   are the same for every size. */
+INLINE int gauss_jordan(int k, const double *J, double *inv, double *sign, double *A)
 {
-    double (*A)[2 * KMAX] = (double (*)[2 * KMAX])work;   /* KMAX x 2 KMAX, on the heap */
-    int i, j, r, col;
+    int w = 2 * k, i, j, r, col;
     double scale = 0.0, sg = 1.0;
     for (i = 0; i < k; i++)
         for (j = 0; j < k; j++) {
-            A[i][j] = J[i * k + j]; A[i][k + j] = (i == j);
+            A[i * w + j] = J[i * k + j]; A[i * w + k + j] = (i == j);
             double a = fabs(J[i * k + j]);
             if (a > scale || a != a) scale = a;
         }
@@ -154,44 +165,263 @@ static int invert(int k, const double *J, double *inv, double *sign, double *wor
     int ok = 1;
     for (col = 0; col < k; col++) {
         int pr = col;
-        for (r = col + 1; r < k; r++) if (fabs(A[r][col]) > fabs(A[pr][col])) pr = r;
+        for (r = col + 1; r < k; r++) if (fabs(A[r * w + col]) > fabs(A[pr * w + col])) pr = r;
         if (pr != col) {
-            for (j = 0; j < 2 * k; j++) { double t = A[col][j]; A[col][j] = A[pr][j]; A[pr][j] = t; }
+            for (j = 0; j < w; j++) {
+                double t = A[col * w + j]; A[col * w + j] = A[pr * w + j]; A[pr * w + j] = t;
+            }
             sg = -sg;
         }
-        double piv = A[col][col];
+        double piv = A[col * w + col];
         if (!(fabs(piv) > tiny)) { ok = 0; piv = 1.0; }
         sg *= (piv > 0) - (piv < 0);
-        for (j = 0; j < 2 * k; j++) A[col][j] /= piv;
+        for (j = 0; j < w; j++) A[col * w + j] /= piv;
         for (r = 0; r < k; r++) {
             if (r == col) continue;
-            double f = A[r][col];
-            if (f != 0.0) for (j = 0; j < 2 * k; j++) A[r][j] -= f * A[col][j];
+            double f = A[r * w + col];
+            if (f != 0.0) for (j = 0; j < w; j++) A[r * w + j] -= f * A[col * w + j];
         }
     }
-    for (i = 0; i < k; i++) for (j = 0; j < k; j++) inv[i * k + j] = ok ? A[i][k + j] : NAN;
+    for (i = 0; i < k; i++) for (j = 0; j < k; j++) inv[i * k + j] = ok ? A[i * w + k + j] : NAN;
     *sign = ok ? sg : 0.0;
     return ok;
 }
 
-/* The block's matrix from its rows' gradients gr (kb x 6); rpos (m x 6): where each gradient
-   entry of a row goes in its block's row (-1: another block's column) */
-static void block_matrix(int kb, const int32_t *rows, const int32_t *rpos, const double *gr,
-                         double *J)
+static int invert(int k, const double *J, double *inv, double *sign, double *work)
 {
-    int rp, k;
-    for (k = 0; k < kb * kb; k++) J[k] = 0.0;
-    for (rp = 0; rp < kb; rp++) {
-        const int32_t *pos = rpos + 6 * rows[rp];
-        for (k = 0; k < 6; k++) if (pos[k] >= 0) J[rp * kb + pos[k]] = gr[rp * 6 + k];
+    switch (k) {
+    case 2: return gauss_jordan(2, J, inv, sign, work);
+    case 3: return gauss_jordan(3, J, inv, sign, work);
+    case 4: return gauss_jordan(4, J, inv, sign, work);
+    default: return gauss_jordan(k, J, inv, sign, work);
     }
+}
+
+/* NaN-propagating maximum, as numpy's max */
+INLINE double nanmax(double a, double v) { return (v > a || v != v) ? v : a; }
+
+/* One equation row of a block, unpacked once per block and call; rc: the columns of its
+   gradient entries */
+typedef struct {
+    int kind, bi, bj, eq, row;
+    const double *p;
+    int rc[6];
+} Row;
+
+/* gradient x rates of one row, summed in pairs (a chain of six dependent subtractions was
+   a tenth of the kernel's time) */
+INLINE double dot6(const double *g, const int *rc, const double *X)
+{
+    return (g[0] * X[rc[0]] + g[1] * X[rc[1]]) + (g[2] * X[rc[2]] + g[3] * X[rc[3]])
+           + (g[4] * X[rc[4]] + g[5] * X[rc[5]]);
+}
+
+/* the block's matrix (kb x kb) from its rows' gradients gr (kb x 6): nj entries, J[dst[e]] =
+   gr[src[e]] in order (of a repeated position the last counts, as System.block_matrix); then
+   its inverse Mi, determinant sign and sigma_min bound 1 / ||J^-1||_F (as _invert) */
+INLINE double factor(int kb, int nj, const int *src, const int *dst, const double *gr, double *J,
+                     double *Mi, double *sg, double *WK)
+{
+    int k;
+    for (k = 0; k < kb * kb; k++) J[k] = 0.0;
+    for (k = 0; k < nj; k++) J[dst[k]] = gr[src[k]];
+    if (kb == 1) {
+        Mi[0] = 1.0 / J[0];
+        *sg = (J[0] > 0) - (J[0] < 0);
+        if (J[0] != J[0]) *sg = NAN;
+        return fabs(J[0]);
+    }
+    if (kb == 2) {   /* closed form, as System._invert_small (the fused numpy pass) */
+        double a = J[0], b = J[1], c = J[2], d = J[3], det = a * d - b * c;
+        int ok2 = isfinite(det) && det != 0;
+        double inv = 1.0 / (ok2 ? det : NAN);
+        Mi[0] = d * inv; Mi[1] = -b * inv; Mi[2] = -c * inv; Mi[3] = a * inv;
+        *sg = ok2 ? (det > 0) - (det < 0) : 0.0;
+        return ok2 ? fabs(det) / sqrt(a * a + b * b + c * c + d * d) : 0.0;
+    }
+    int ok = invert(kb, J, Mi, sg, WK);
+    double f = 0.0;
+    for (k = 0; k < kb * kb; k++) f += Mi[k] * Mi[k];
+    return ok ? 1.0 / sqrt(f) : 0.0;
+}
+
+/* x = Mi r into the block's columns of X */
+INLINE void apply(int kb, const double *Mi, const double *r, const int32_t *cols, double *X)
+{
+    int a, k;
+    if (kb == 1) { X[cols[0]] = r[0] * Mi[0]; return; }
+    for (a = 0; a < kb; a++) {
+        double x = 0.0;
+        for (k = 0; k < kb; k++) x += Mi[a * kb + k] * r[k];
+        X[cols[a]] = x;
+    }
+}
+
+/* the same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
+   _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
+   holds the Jansen leg's accelerations to 1e-14 of the exact linkage: 9.6e-15 so, 1.003e-14
+   through the inverse) */
+INLINE void solve2(const double *J, const double *r, const int32_t *cols, double *X)
+{
+    double det = J[0] * J[3] - J[1] * J[2];
+    X[cols[0]] = (J[3] * r[0] - J[1] * r[1]) / det;
+    X[cols[1]] = (J[0] * r[1] - J[2] * r[0]) / det;
+}
+
+/* One point's block rows at its converged positions: residuals |Phi - target| into Ri, then
+   with order >= 1 the velocities (Phi_q qd = nu, the earlier blocks' columns known) and with
+   order >= 2 the accelerations (Phi_q qdd = gamma + f''). gr, Mi: the rows' gradients and the
+   block's inverse at the converged positions (have: already there, else evaluated here) */
+INLINE void rates(int kb, const Row *rw, const int32_t *cols, int nj, const int *src,
+                  const int *dst, int order, int have, const double *q, const double *c,
+                  const double *s, double *qd, double *qdd, const double *t, const double *nu,
+                  const double *fdd, double *Ri, double *gr, double *Mi, double *J, double *WK)
+{
+    double r[KMAX], gm[KMAX], g = 0.0, gam = 0.0, sg;
+    int rp;
+    if (!have) {
+        for (rp = 0; rp < kb; rp++) {
+            const Row *w = rw + rp;
+            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, 0, 3, &g, gr + 6 * rp, 0);
+            Ri[w->row] = fabs(g - t[w->row]);
+        }
+        factor(kb, nj, src, dst, gr, J, Mi, &sg, WK);
+    }
+    for (rp = 0; rp < kb; rp++) {
+        const Row *w = rw + rp;
+        r[rp] = nu[w->row] - dot6(gr + 6 * rp, w->rc, qd);
+    }
+    if (kb == 2) solve2(J, r, cols, qd);
+    else apply(kb, Mi, r, cols, qd);
+    if (have)        /* the residuals, and gamma at the same time (the same terms) */
+        for (rp = 0; rp < kb; rp++) {
+            const Row *w = rw + rp;
+            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, order >= 2 ? 5 : 1, &g,
+                     0, gm + rp);
+            Ri[w->row] = fabs(g - t[w->row]);
+        }
+    if (order < 2) return;
+    for (rp = 0; rp < kb; rp++) {
+        const Row *w = rw + rp;
+        if (have) gam = gm[rp];
+        else row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, 4, 0, 0, &gam);
+        r[rp] = (gam + fdd[w->row]) - dot6(gr + 6 * rp, w->rc, qdd);
+    }
+    if (kb == 2) solve2(J, r, cols, qdd);
+    else apply(kb, Mi, r, cols, qdd);
+}
+
+/* One solve block for all points (specialised below for 1 and 2 unknowns). Newton block by
+   block as System._solve_batch: the block iterates until every point of the batch has
+   converged (so the iteration counts agree with the reference); an affine block takes exactly
+   one step, which is exact, so each point is finished (rates included) in one pass. */
+INLINE void block(int kb, int b, int N, int W, int m, int nbb, int nblk, int nfine, const Row *rw,
+                  const int32_t *cols, int nj, const int *src, const int *dst, int affine,
+                  int fixed, int maxit, double tol, int full, int order, double *Q, double *Qd,
+                  double *Qdd, double *C, double *S, const double *T, const double *NU,
+                  const double *FDD, int64_t *iters, uint8_t *conv, double *ratio, double *sign,
+                  double *smin, double *R, int bfirst, int bnf, const int32_t *fs, double *MI,
+                  double *SZ, double *GB, double *J, double *WK)
+{
+    int i, it, rp, a;
+    for (it = 0; it < maxit; it++) {
+        int refactor = (it == 0) || (full && !affine);
+        int all_small = 1;
+        for (i = 0; i < N; i++) {
+            double *q = Q + (size_t)i * W, *c = C + (size_t)i * nbb, *s = S + (size_t)i * nbb;
+            const double *t = T + (size_t)i * m;
+            double *Mi = MI + (size_t)i * kb * kb, *gr = GB;
+            double r[KMAX], sg = 0.0, sm;
+            if (refactor) {
+                for (rp = 0; rp < kb; rp++) {
+                    const Row *w = rw + rp;
+                    row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, 0, 3, r + rp,
+                             gr + 6 * rp, 0);
+                }
+                sm = factor(kb, nj, src, dst, gr, J, Mi, &sg, WK);
+                if (it == 0) {
+                    smin[(size_t)i * nblk + b] = sm;
+                    if (bnf == 1) sign[(size_t)i * nfine + bfirst] = sg;
+                    else {   /* a merged block: the signs of its fine blocks */
+                        int f, o = 0;
+                        for (f = 0; f < bnf; f++) {
+                            int sz = fs[f], u, v;
+                            double sub[KFINE * KFINE], subinv[KFINE * KFINE], sf;
+                            if (sz == 1) {
+                                double j = J[o * kb + o];
+                                sf = (j > 0) - (j < 0);
+                                if (j != j) sf = NAN;
+                            } else {
+                                for (u = 0; u < sz; u++) for (v = 0; v < sz; v++)
+                                    sub[u * sz + v] = J[(o + u) * kb + o + v];
+                                invert(sz, sub, subinv, &sf, WK);
+                            }
+                            sign[(size_t)i * nfine + bfirst + f] = sf;
+                            o += sz;
+                        }
+                    }
+                }
+            } else {
+                for (rp = 0; rp < kb; rp++) {
+                    const Row *w = rw + rp;
+                    row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, 0, 1, r + rp, 0, 0);
+                }
+            }
+            for (rp = 0; rp < kb; rp++) r[rp] -= t[rw[rp].row];
+            double sz = 0.0;
+            for (a = 0; a < kb; a++) {
+                double dx = 0.0;
+                int k;
+                for (k = 0; k < kb; k++) dx += Mi[a * kb + k] * r[k];
+                q[cols[a]] -= dx;
+                double ad = fabs(dx);
+                if (ad > sz || ad != ad) sz = ad;
+                if (cols[a] % 3 == 2 && dx != 0.0) {      /* an angle that moved */
+                    c[cols[a] / 3] = cos(q[cols[a]]);
+                    s[cols[a] / 3] = sin(q[cols[a]]);
+                }
+            }
+            if (!isfinite(sz)) sz = INFINITY;
+            if (it == 0) {
+                double sm0 = smin[(size_t)i * nblk + b];
+                double v = sm0 > 0 ? sz / sm0 : INFINITY;
+                if (v > ratio[i] || v != v) ratio[i] = v;
+            }
+            if (iters[i] < it + 1) iters[i] = it + 1;
+            if (affine) {
+                /* one step is exact: converged unless not finite; the point is done */
+                conv[i] = conv[i] && isfinite(sz);
+                if (order >= 1)
+                    rates(kb, rw, cols, nj, src, dst, order, fixed, q, c, s,
+                          Qd + (size_t)i * W, Qdd + (size_t)i * W, t, NU + (size_t)i * m,
+                          FDD + (size_t)i * m, R + (size_t)i * m, gr, Mi, J, WK);
+                continue;
+            }
+            SZ[i] = sz;
+            if (!(sz <= tol)) all_small = 0;
+        }
+        if (affine || all_small) break;
+    }
+    if (affine) return;
+    for (i = 0; i < N; i++) conv[i] = conv[i] && (SZ[i] <= tol);
+    if (order < 1) return;
+    for (i = 0; i < N; i++)
+        rates(kb, rw, cols, nj, src, dst, order, 0, Q + (size_t)i * W, C + (size_t)i * nbb,
+              S + (size_t)i * nbb, Qd + (size_t)i * W, Qdd + (size_t)i * W, T + (size_t)i * m,
+              NU + (size_t)i * m, FDD + (size_t)i * m, R + (size_t)i * m,
+              GB, MI + (size_t)i * kb * kb, J, WK);
 }
 
 /* all points of one batch; arrays row-major per point. inblk (m): the row is in a block; R
    (N, m): |Phi| of every row at the results; rcol (m x 6): the columns of each row's gradient
-   entries; rpos: see block_matrix; sign (N, nfine) per fine block: solve block b holds bnf[b]
-   fine blocks, the first numbered bfirst[b], their sizes bfs[bfo[b]...]. Returns 0, or -1
-   when out of memory. */
+   entries; rpos (m x 6): where each gradient entry of a row goes in its block's row (-1:
+   another block's column); sign (N, nfine) per fine block: solve block b holds bnf[b] fine
+   blocks, the first numbered bfirst[b], their sizes bfs[bfo[b]...]. bfix (nblk): the block's
+   whole gradient does not depend on its own unknowns (System Block.fixed_grad: the rates reuse
+   the Newton step's gradients and inverse, as the reference does). Outputs besides: rmax (N)
+   the largest |Phi| of each point (numpy's R.max(axis=1)), cond (N) its condition estimate
+   (planarkin.solver._cond: the largest 1 / max(smin, 1e-300) over the blocks); conv[i] is 0 where
+   a coordinate of the result is not finite. Returns 0, or -1 when out of memory. */
 int pk_solve(int N, int W, int m, int nb, int nblk,
              const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
              const int32_t *rowel, const int32_t *roweq,
@@ -202,188 +432,98 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
              int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
              const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
              int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
-             const int32_t *bfs)
+             const int32_t *bfs, const int32_t *bfix, double *rmax, double *cond)
 {
-    int nbb = nb + 1, i, b, it, rp, a, k;
+    int nbb = nb + 1, i, b, rp, a, k;
     int n = W - 3;
-    double *C = malloc(sizeof(double) * (size_t)N * nbb);
-    double *S = malloc(sizeof(double) * (size_t)N * nbb);
     int kmax = 1;
     for (b = 0; b < nblk; b++) if (bk[b] > kmax) kmax = bk[b];
+    double *C = malloc(sizeof(double) * (size_t)N * nbb);
+    double *S = malloc(sizeof(double) * (size_t)N * nbb);
     double *MI = malloc(sizeof(double) * (size_t)N * kmax * kmax);
+    double *GB = malloc(sizeof(double) * KMAX * 6);
     double *SZ = malloc(sizeof(double) * (size_t)N);
-    int total = 0;
-    for (b = 0; b < nblk; b++) total += bk[b] * bk[b];
-    int nrow = boff[nblk - 1] + bk[nblk - 1];
-    double *GR = malloc(sizeof(double) * (size_t)nrow * 6);
-    double *MB = malloc(sizeof(double) * (size_t)(total > 0 ? total : 1));
-    /* the block matrix and the Gauss-Jordan workspace on the heap: up to 64 unknowns they
-       would take 100 KB of stack, more than some threads have */
+    /* the block matrix, the Gauss-Jordan workspace and the rows on the heap: up to 64 unknowns
+       they would take 100 KB of stack, more than some threads have */
     double *J = malloc(sizeof(double) * KMAX * KMAX);
     double *WK = malloc(sizeof(double) * 2 * KMAX * KMAX);
-    if (!C || !S || !MI || !SZ || !GR || !MB || !J || !WK) {
-        free(C); free(S); free(MI); free(SZ); free(GR); free(MB); free(J); free(WK);
+    Row *rw = malloc(sizeof(Row) * KMAX);
+    int *src = malloc(sizeof(int) * KMAX * 6), *dst = malloc(sizeof(int) * KMAX * 6);
+    if (!C || !S || !MI || !GB || !SZ || !J || !WK || !rw || !src || !dst) {
+        free(C); free(S); free(MI); free(GB); free(SZ); free(J); free(WK); free(rw); free(src);
+        free(dst);
         return -1;
     }
     for (i = 0; i < N; i++) {
+        double *q = Q + (size_t)i * W;
         for (b = 0; b < nbb; b++) {
-            C[(size_t)i * nbb + b] = cos(Q[(size_t)i * W + 3 * b + 2]);
-            S[(size_t)i * nbb + b] = sin(Q[(size_t)i * W + 3 * b + 2]);
+            double phi = q[3 * b + 2];
+            if (phi == 0.0 && !signbit(phi)) {     /* the ground, bodies that do not turn */
+                C[(size_t)i * nbb + b] = 1.0;
+                S[(size_t)i * nbb + b] = 0.0;
+            } else {
+                C[(size_t)i * nbb + b] = cos(phi);
+                S[(size_t)i * nbb + b] = sin(phi);
+            }
         }
         iters[i] = 0; conv[i] = 1; ratio[i] = 0.0;
+        if (order >= 1) for (a = 0; a < n; a++) Qd[(size_t)i * W + a] = 0.0;
+        if (order >= 2) for (a = 0; a < n; a++) Qdd[(size_t)i * W + a] = 0.0;
     }
-    /* positions: Newton block by block, every point of the batch (System._solve_batch) */
     for (b = 0; b < nblk; b++) {
-        int kb = bk[b];
+        int kb = bk[b], nj = 0;
         const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
-        int32_t rel[KMAX], req[KMAX];
-        for (rp = 0; rp < kb; rp++) { rel[rp] = rowel[rows[rp]]; req[rp] = roweq[rows[rp]]; }
-        for (i = 0; i < N; i++) SZ[i] = 0.0;
-        for (it = 0; it < maxit; it++) {
-            int refactor = (it == 0) || (full && !baff[b]);
-            int all_small = 1;
-            for (i = 0; i < N; i++) {
-                double *q = Q + (size_t)i * W, *c = C + (size_t)i * nbb, *s = S + (size_t)i * nbb;
-                double *Mi = MI + (size_t)i * kb * kb;
-                double r[KMAX], gr[KMAX * 6], sg, sm;
-                if (refactor) {
-                    for (rp = 0; rp < kb; rp++) {
-                        int e = rel[rp];
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, req[rp], q, c, s, 0, 3,
-                                 r + rp, gr + 6 * rp, 0);
-                    }
-                    block_matrix(kb, rows, rpos, gr, J);
-                    if (kb == 1) {           /* as planarkin.system._invert */
-                        Mi[0] = 1.0 / J[0];
-                        sg = (J[0] > 0) - (J[0] < 0);
-                        if (J[0] != J[0]) sg = NAN;
-                        sm = fabs(J[0]);
-                    } else {
-                        int ok = invert(kb, J, Mi, &sg, WK);
-                        double f = 0.0;
-                        for (a = 0; a < kb * kb; a++) f += Mi[a] * Mi[a];
-                        sm = ok ? 1.0 / sqrt(f) : 0.0;
-                    }
-                    if (it == 0) {
-                        smin[(size_t)i * nblk + b] = sm;
-                        if (bnf[b] == 1) sign[(size_t)i * nfine + bfirst[b]] = sg;
-                        else {   /* a merged block: the signs of its fine blocks */
-                            int f, o = 0;
-                            for (f = 0; f < bnf[b]; f++) {
-                                int sz = bfs[bfo[b] + f], u, v;
-                                double sub[KFINE * KFINE], subinv[KFINE * KFINE], sf;
-                                if (sz == 1) {
-                                    double j = J[o * kb + o];
-                                    sf = (j > 0) - (j < 0);
-                                    if (j != j) sf = NAN;
-                                } else {
-                                    for (u = 0; u < sz; u++) for (v = 0; v < sz; v++)
-                                        sub[u * sz + v] = J[(o + u) * kb + o + v];
-                                    invert(sz, sub, subinv, &sf, WK);
-                                }
-                                sign[(size_t)i * nfine + bfirst[b] + f] = sf;
-                                o += sz;
-                            }
-                        }
-                    }
+        for (rp = 0; rp < kb; rp++) {
+            int row = rows[rp], e = rowel[row];
+            Row *w = rw + rp;
+            w->kind = ekind[e]; w->bi = ebi[e]; w->bj = ebj[e]; w->eq = roweq[row];
+            w->row = row; w->p = eprm + 8 * e;
+            for (k = 0; k < 6; k++) {
+                w->rc[k] = rcol[6 * row + k];
+                if (rpos[6 * row + k] >= 0) {
+                    src[nj] = 6 * rp + k;
+                    dst[nj++] = rp * kb + rpos[6 * row + k];
                 }
-                for (rp = 0; rp < kb; rp++) {
-                    if (!refactor) {
-                        int e = rel[rp];
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, req[rp], q, c, s, 0, 1,
-                                 r + rp, 0, 0);
-                    }
-                    r[rp] -= T[(size_t)i * m + rows[rp]];
-                }
-                double sz = 0.0;
-                for (a = 0; a < kb; a++) {
-                    double dx = 0.0;
-                    for (k = 0; k < kb; k++) dx += Mi[a * kb + k] * r[k];
-                    q[cols[a]] -= dx;
-                    double ad = fabs(dx);
-                    if (ad > sz || ad != ad) sz = ad;
-                    if (cols[a] % 3 == 2) {
-                        c[cols[a] / 3] = cos(q[cols[a]]);
-                        s[cols[a] / 3] = sin(q[cols[a]]);
-                    }
-                }
-                if (!isfinite(sz)) sz = INFINITY;
-                if (it == 0) {
-                    double sm0 = smin[(size_t)i * nblk + b];
-                    double v = sm0 > 0 ? sz / sm0 : INFINITY;
-                    if (v > ratio[i] || v != v) ratio[i] = v;
-                }
-                if (iters[i] < it + 1) iters[i] = it + 1;
-                if (baff[b]) sz = isfinite(sz) ? 0.0 : INFINITY;
-                SZ[i] = sz;
-                if (!(sz <= tol)) all_small = 0;
             }
-            if (baff[b] || all_small) break;
         }
-        for (i = 0; i < N; i++) conv[i] = conv[i] && (SZ[i] <= tol);
+#define BLOCK(K) block(K, b, N, W, m, nbb, nblk, nfine, rw, cols, nj, src, dst, baff[b], \
+                       bfix[b], maxit, tol, full, order, Q, Qd, Qdd, C, S, T, NU, FDD, iters, \
+                       conv, ratio, sign, smin, R, bfirst[b], bnf[b], bfs + bfo[b], MI, SZ, GB, \
+                       J, WK)
+        switch (kb) {
+        case 1: BLOCK(1); break;
+        case 2: BLOCK(2); break;
+        default: BLOCK(kb); break;
+        }
+#undef BLOCK
     }
-    /* velocities, accelerations: per point, forward substitution through the blocks with the
-       diagonal blocks at the converged positions */
+    /* per point: |Phi| of the rows outside the blocks (left out as redundant), and with order 0
+       of all; the largest residual, the condition estimate, and no convergence where a
+       coordinate is not finite */
     for (i = 0; i < N; i++) {
         double *q = Q + (size_t)i * W, *c = C + (size_t)i * nbb, *s = S + (size_t)i * nbb;
-        double *qd = Qd + (size_t)i * W, *qdd = Qdd + (size_t)i * W;
-        int lev, mo, row;
-        /* |Phi| of the rows outside the blocks (left out as redundant), and with order 0 of all */
+        double *Ri = R + (size_t)i * m, mx, cd = 0.0;
+        int row;
         for (row = 0; row < m; row++) {
             if (inblk[row] && order >= 1) continue;
-            double g;
+            double g = 0.0;
             int e = rowel[row];
             row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s, 0, 1, &g, 0, 0);
-            R[(size_t)i * m + row] = fabs(g - T[(size_t)i * m + row]);
+            Ri[row] = fabs(g - T[(size_t)i * m + row]);
         }
-        if (order < 1) continue;
-        for (a = 0; a < n; a++) qd[a] = 0.0;
-        if (order >= 2) for (a = 0; a < n; a++) qdd[a] = 0.0;
-        for (lev = 1; lev <= (order >= 2 ? 2 : 1); lev++) {
-            double *X = lev == 1 ? qd : qdd;
-            mo = 0;
-            for (b = 0; b < nblk; b++) {
-                int kb = bk[b];
-                const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
-                int32_t rel[KMAX];
-                double *gr = GR + 6 * boff[b], *Mi = MB + mo, r[KMAX], sg, gam;
-                for (rp = 0; rp < kb; rp++) rel[rp] = rowel[rows[rp]];
-                if (lev == 1) {
-                    for (rp = 0; rp < kb; rp++) {
-                        int e = rel[rp], row = rows[rp];
-                        double g;
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s,
-                                 0, 3, &g, gr + 6 * rp, 0);
-                        R[(size_t)i * m + row] = fabs(g - T[(size_t)i * m + row]);
-                    }
-                    block_matrix(kb, rows, rpos, gr, J);
-                    if (kb == 1) Mi[0] = 1.0 / J[0];
-                    else invert(kb, J, Mi, &sg, WK);
-                }
-                for (rp = 0; rp < kb; rp++) {
-                    int e = rel[rp], row = rows[rp];
-                    double acc;
-                    if (lev == 1) acc = NU[(size_t)i * m + row];
-                    else {
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s, qd,
-                                 4, 0, 0, &gam);
-                        acc = gam + FDD[(size_t)i * m + row];
-                    }
-                    const int32_t *rc = rcol + 6 * row;
-                    for (k = 0; k < 6; k++) acc -= gr[6 * rp + k] * X[rc[k]];
-                    r[rp] = acc;
-                }
-                for (a = 0; a < kb; a++) {
-                    double x = 0.0;
-                    if (kb == 1) x = r[0] * Mi[0];
-                    else for (k = 0; k < kb; k++) x += Mi[a * kb + k] * r[k];
-                    X[cols[a]] = x;
-                }
-                mo += kb * kb;
-            }
+        mx = Ri[0];
+        for (row = 1; row < m; row++) mx = nanmax(mx, Ri[row]);
+        rmax[i] = mx;
+        for (b = 0; b < nblk; b++) {
+            double v = smin[(size_t)i * nblk + b];
+            v = 1.0 / ((v >= 1e-300 || v != v) ? v : 1e-300);
+            cd = b == 0 ? v : nanmax(cd, v);
         }
+        cond[i] = cd;
+        for (a = 0; a < W; a++) if (!isfinite(q[a])) { conv[i] = 0; break; }
     }
-    free(C); free(S); free(MI); free(SZ); free(GR); free(MB); free(J); free(WK);
+    free(C); free(S); free(MI); free(GB); free(SZ); free(J); free(WK); free(rw); free(src);
+    free(dst);
     return 0;
 }
 
@@ -406,6 +546,41 @@ void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double 
         double *q = Q + (size_t)i * W;
         for (c = 0; c < W; c++)
             q[c] = H0 * y0[c] + h1 * d0[c] + h2 * a0[c] + H3 * y1[c] + h4 * d1[c] + h5 * a1[c];
+    }
+}
+
+/* a chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of each
+   row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
+   (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
+   planarkin.solver.point_kinematics in its order (then times L). order 0: positions only,
+   1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order). */
+void pk_layout(int N, int W, int n, int P, int order, const double *unit, double L,
+               const int32_t *pbody, const double *ps, const double *Q, const double *Qd,
+               const double *Qdd, double *q, double *qd, double *qdd, double *p, double *pd,
+               double *pdd)
+{
+    int i, a, k;
+    for (i = 0; i < N; i++) {
+        const double *Qi = Q + (size_t)i * W, *Qdi = Qd + (size_t)i * W, *Qddi = Qdd + (size_t)i * W;
+        for (a = 0; a < n; a++) q[(size_t)i * n + a] = Qi[a] * unit[a];
+        if (order >= 1) for (a = 0; a < n; a++) qd[(size_t)i * n + a] = Qdi[a] * unit[a];
+        if (order >= 2) for (a = 0; a < n; a++) qdd[(size_t)i * n + a] = Qddi[a] * unit[a];
+        for (k = 0; k < P; k++) {
+            int b = pbody[k];
+            size_t o = ((size_t)i * P + k) * 2;
+            double c = cos(Qi[3 * b + 2]), s = sin(Qi[3 * b + 2]);
+            double sx = c * ps[2 * k] - s * ps[2 * k + 1], sy = s * ps[2 * k] + c * ps[2 * k + 1];
+            p[o] = (Qi[3 * b] + sx) * L;
+            p[o + 1] = (Qi[3 * b + 1] + sy) * L;
+            if (order < 1) continue;
+            double w = Qdi[3 * b + 2];
+            pd[o] = (Qdi[3 * b] - w * sy) * L;
+            pd[o + 1] = (Qdi[3 * b + 1] + w * sx) * L;
+            if (order < 2) continue;
+            double al = Qddi[3 * b + 2];
+            pdd[o] = (Qddi[3 * b] - al * sy - w * w * sx) * L;
+            pdd[o + 1] = (Qddi[3 * b + 1] + al * sx - w * w * sy) * L;
+        }
     }
 }
 """
@@ -466,9 +641,12 @@ def library(build: bool = True):
     fn.restype = ctypes.c_int
     fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
                    + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
-                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4)
+                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 7)
     lib.pk_hermite.restype = None
     lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
+    lib.pk_layout.restype = None
+    lib.pk_layout.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p, ctypes.c_double]
+                              + [ctypes.c_void_p] * 11)
     _state["lib"] = lib
     return lib
 
@@ -490,7 +668,10 @@ def _compile(path: Path) -> bool:
             src = Path(tmp) / "kernel.c"
             src.write_text(SOURCE)
             out = Path(tmp) / path.name
-            r = subprocess.run([cc, "-O2", "-fPIC", "-shared", "-o", str(out), str(src), "-lm"],
+            # -ffp-contract=off: no fused multiply-adds where the target has them (the
+            # operations are those of the numpy passes, rounded as they are)
+            r = subprocess.run([cc, "-O2", "-ffp-contract=off", "-fPIC", "-shared", "-o",
+                                str(out), str(src), "-lm"],
                                capture_output=True, timeout=120)
             if r.returncode != 0 or not out.exists():
                 _failed_marker(path).write_bytes(b"%s exited %d:\n" % (cc.encode(), r.returncode)
@@ -506,12 +687,13 @@ class Packed:
     """A System's elements and blocks as the kernel's int32 / float64 arrays."""
 
     def __init__(self, ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows, inblk,
-                 rcol, rpos, nfine, bfirst, bnf, bfo, bfs):
+                 rcol, rpos, nfine, bfirst, bnf, bfo, bfs, fixed):
         self.arrays = (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows)
         self.nblk = len(bk)
         self.tail = (inblk, rcol, rpos)
         self.nfine = nfine
         self.fine = (bfirst, bnf, bfo, bfs)
+        self.fixed = fixed
 
 
 def pack(S) -> Packed | None:
@@ -573,21 +755,26 @@ def pack(S) -> Packed | None:
                   np.isin(np.arange(cm.m), brows).astype(np.uint8), i32(rcol), i32(rpos),
                   S.nfine, i32([B.first for B in S.blocks]), i32([len(B.sizes) for B in S.blocks]),
                   i32(np.cumsum([0] + [len(B.sizes) for B in S.blocks])[:-1]),
-                  i32([z for B in S.blocks for z in B.sizes]))
+                  i32([z for B in S.blocks for z in B.sizes]),
+                  i32([B.fixed_grad for B in S.blocks]))
 
 
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     """System.solve_batch by the kernel: Q, Qd, Qdd (N, n + 3) updated in place. Returns
-    (iterations, converged, ratio, sign, smin) as BatchInfo wants them and the residual
-    |Phi| (N, m) of every equation at the results (redundant ones included)."""
+    (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False where a
+    coordinate is not finite), the residual |Phi| (N, m) of every equation at the results
+    (redundant ones included), its largest value per point (N,) and the condition estimate
+    (N,) of solver._cond."""
     N, W = Q.shape
     nblk = P.nblk
-    iters = np.zeros(N, dtype=np.int64)
-    conv = np.zeros(N, dtype=np.uint8)
-    ratio = np.zeros(N)
+    iters = np.empty(N, dtype=np.int64)
+    conv = np.empty(N, dtype=bool)
+    ratio = np.empty(N)
     sign = np.zeros((N, P.nfine))
-    smin = np.zeros((N, nblk))
+    smin = np.empty((N, nblk))
     R = np.empty((N, S.cm.m))
+    rmax = np.empty(N)
+    cond = np.empty(N)
     work = [np.ascontiguousarray(X, dtype=float) for X in (Q, Qd, Qdd)]
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     ptr = lambda a: a.ctypes.data                                  # noqa: E731
@@ -595,13 +782,14 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
                       *[ptr(a) for a in work], *[ptr(a) for a in drv], int(maxit), float(tol),
                       int(policy == "full"), int(order), ptr(iters), ptr(conv), ptr(ratio),
                       ptr(sign), ptr(smin), ptr(P.tail[0]), ptr(R), ptr(P.tail[1]),
-                      ptr(P.tail[2]), P.nfine, *[ptr(a) for a in P.fine])
+                      ptr(P.tail[2]), P.nfine, *[ptr(a) for a in P.fine], ptr(P.fixed), ptr(rmax),
+                      ptr(cond))
     if rc != 0:
         raise MemoryError("planarkin kernel: out of memory")
     for X, Wk in zip((Q, Qd, Qdd), work):
         if Wk is not X:
             X[...] = Wk
-    return iters, conv.astype(bool), ratio, sign, smin, R
+    return iters, conv, ratio, sign, smin, R, rmax, cond
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
@@ -613,3 +801,26 @@ def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
     lib.pk_hermite(len(t), Qn.shape[1], t.ctypes.data, idx.ctypes.data,
                    *[a.ctypes.data for a in nodes], Q.ctypes.data)
     return Q
+
+
+def layout(lib, cm, Q, Qd, Qdd, order: int, unit, out=None):
+    """A chunk's user-unit arrays from its internal (N, n + 3) rows, in one pass: q, qd, qdd
+    (N, n) (None above order) and the points' p, pd, pdd (N, P, 2), as solver._chunk computes
+    them with point_kinematics. out: those six arrays (C-contiguous, float) to write into."""
+    N, W = Q.shape
+    n = cm.n
+    P = len(cm.point_body)
+    arrs = [np.ascontiguousarray(a, dtype=float) for a in (Q, Qd, Qdd)]
+    if out is None:
+        out = tuple(np.empty((N, n)) if k <= order else None for k in range(3)) \
+            + tuple(np.empty((N, P, 2)) if k <= order else None for k in range(3))
+    q, qd, qdd, p, pd, pdd = out
+    pbody = np.ascontiguousarray(cm.point_body, dtype=np.int32)
+    ps = np.ascontiguousarray(cm.point_s, dtype=float).reshape(P, 2)
+    unit = np.ascontiguousarray(unit, dtype=float)
+    dummy = q.ctypes.data
+    lib.pk_layout(N, W, n, P, int(order), unit.ctypes.data, float(cm.L), pbody.ctypes.data,
+                  ps.ctypes.data, *[a.ctypes.data for a in arrs],
+                  *[dummy if a is None else a.ctypes.data for a in (q, qd, qdd)],
+                  *[p.ctypes.data if a is None else a.ctypes.data for a in (p, pd, pdd)])
+    return q, qd, qdd, p, pd, pdd

@@ -713,7 +713,9 @@ def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
 
 def _cond(info) -> np.ndarray:
     """Per-point condition estimate: the worst diagonal block's 1/sigma_min bound (the blocks are
-    scaled, so their norms are of order one)."""
+    scaled, so their norms are of order one); the kernel computes it with the solve."""
+    if info.cond is not None:
+        return info.cond
     with np.errstate(divide="ignore"):
         return (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1)
 
@@ -759,6 +761,7 @@ class Analysis:
         self.timings: dict[str, float] = {}
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
+        self.out = None             # results.Collect: where the kernel lays chunks out (solve())
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
@@ -883,15 +886,17 @@ class Analysis:
         Tn, Qn, Qdn, Qddn, Cn = self.Tn, self.Qn, self.Qdn, self.Qddn, self.Cn
         K = len(Tn)
         N = len(t)
+        lib = None        # the compiled kernel, when it solves this chunk (and lays it out)
         if K == 1:
             idx = np.zeros(N, dtype=np.intp)
             Q = np.repeat(Qn[:1], N, axis=0)
             Qd = np.repeat(Qdn[:1], N, axis=0)
             Qdd = np.repeat(Qddn[:1], N, axis=0)
-        elif (predict := self._kernel_hermite(idx := np.clip(
+        elif (lib := self._chunk_kernel(idx := np.clip(
                 np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
             # the compiled kernel solves this chunk: its predictions too (the same formula)
-            Q = predict(t, idx, Tn, Qn, Qdn, Qddn)
+            from . import kernel
+            Q = kernel.hermite(lib, t, idx, Tn, Qn, Qdn, Qddn)
             Qd = np.zeros_like(Q)
             Qdd = np.zeros_like(Q)
         else:
@@ -943,7 +948,7 @@ class Analysis:
         # points between nodes on either side of a bifurcation passed with bifurcation: continue
         # keep their interpolated values: the Jacobian is singular somewhere in that interval
         solve = ~self.crossing[idx]
-        R = None          # |Phi| at the results when the solve computed it for every row
+        R = Rmax = None   # |Phi| at the results when the solve computed it for every row
         for u in _distinct(segs[solve]):
             sel = np.nonzero(solve & (segs == u))[0]
             whole = len(sel) == N
@@ -956,20 +961,16 @@ class Analysis:
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
                 Qddd=Qddds, third=third)
-            ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
-            if opts.newton != "fixed":
-                ok &= info.converged
-            if K > 1:
-                ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
+            ok = self._accepted(info, Qs, u, idx, sel, whole)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
                 if Qddd is not None:
                     Qddd[sel] = Qddds
             iters[sel] = info.iterations
             cond[sel] = _cond(info)
-            if whole and ok.all():
-                R = info.residual
-            for i in sel[~ok]:
+            if whole and (ok is True or ok.all()):
+                R, Rmax = info.residual, info.residual_max
+            for i in (() if ok is True else sel[~ok]):
                 self.fallbacks += 1
                 res = self._follow_to(int(idx[i]), float(t[i]))
                 if res is None:
@@ -985,21 +986,49 @@ class Analysis:
                 Q[i], Qd[i], Qdd[i], iters[i], cond[i] = res
                 if Qddd is not None:
                     Qddd[i] = self._jerk_at(u, t[i], Q[i], Qd[i], Qdd[i], self.third[i])
-        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R)
+        return self._chunk(t, Q, Qd, Qdd, iters, cond, segs, drivers[0], R, Rmax, lib)
 
-    def _kernel_hermite(self, idx):
-        """kernel.hermite bound to the compiled library when the chunk at node intervals idx
-        is solved (not interpolated), on one segment without a passed bifurcation, by a System
-        that has the kernel; else None."""
+    def _signs_one(self, u: int):
+        """The determinant signs all nodes of segment u share (the common case: no branch
+        changes), or None: a chunk's rows then compare with that one row, not with a row
+        gathered per point. Kept with the signs array it was read from (studies.warm sets
+        them without following a path)."""
+        signs = self.signs[u]
+        got = self.__dict__.setdefault("_one", {}).get(u)
+        if got is None or got[0] is not signs:
+            mine = signs[self.seg == u]
+            got = self._one[u] = (signs, mine[0] if len(mine) and (mine == mine[0]).all()
+                                  else None)
+        return got[1]
+
+    def _accepted(self, info, Qs, u: int, idx, sel, whole: bool):
+        """Which solved grid points are accepted as a path step would be: converged, first
+        correction within KAPPA of sigma_min, finite, the determinant signs of the bracketing
+        node. A bool array over sel, or True when all are (the kernel's chunks, checked by a
+        few whole-array reductions: its converged flags say finite already)."""
+        K = len(self.Tn)
+        if whole and info.cond is not None and self.opts.newton != "fixed":
+            one = self._signs_one(u) if K > 1 else None
+            if (info.ratio.max() <= KAPPA and info.converged.all()
+                    and (K == 1 or (one is not None and (info.sign == one).all()))):
+                return True
+        ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
+        if self.opts.newton != "fixed":
+            ok &= info.converged
+        if K > 1:
+            ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
+        return ok
+
+    def _chunk_kernel(self, idx):
+        """The compiled library when the chunk at node intervals idx is solved (not
+        interpolated), on one segment without a passed bifurcation, by a System that has the
+        kernel; else None."""
         segs = self.seg[idx]
         u = int(segs[0])
         if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
             return None
         k = self.follower.systems[u][0]._kernel(False)
-        if k is None:
-            return None
-        from . import kernel
-        return lambda *a: kernel.hermite(k[0], *a)
+        return None if k is None else k[0]
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
         """The jerk at a row solved by path following (a fallback): the jerk system of its
@@ -1028,14 +1057,18 @@ class Analysis:
         n = f.nodes
         return n.q[-1], n.qd[-1], n.qdd[-1], 0, n.cond[-1]
 
-    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T, R=None) -> Chunk:
+    def _chunk(self, t, Q, Qd, Qdd, iters, cond, segs, T, R=None, Rmax=None,
+               lib=None) -> Chunk:
         """Residual of every equation (redundant ones included) at the results, user units.
-        T: the equations' targets at t; R: their |Phi| (N, m) when the solve computed it."""
+        T: the equations' targets at t; R: their |Phi| (N, m) when the solve computed it, Rmax
+        its largest value per row when computed too. lib: the compiled kernel that solved the
+        chunk, which then writes the user-unit arrays in one pass (kernel.layout)."""
         cm, S_all = self.cm, self.S_all
         n = cm.n
         if R is None:
             R = np.abs(S_all.residual(Q, t, T)) if cm.m else np.zeros((len(t), 1))
-        residual = R.max(axis=1)
+            Rmax = None
+        residual = R.max(axis=1) if Rmax is None else Rmax
         if self.A.redundant_rows and self.event is None:
             # the rows left out of the solve must stay satisfied
             left_out = np.zeros_like(R)
@@ -1062,6 +1095,12 @@ class Analysis:
         order = self.opts.order
         L, af = cm.L, cm.angle_factor
         unit = np.tile([L, L, 1.0 / af], cm.nb)
+        if lib is not None and order <= 2:
+            from . import kernel
+            out = None if self.out is None else self.out.reserve(len(t), n, len(cm.point_body),
+                                                                 order)
+            q, qd, qdd, p, pd, pdd = kernel.layout(lib, cm, Q, Qd, Qdd, order, unit, out)
+            return Chunk(t, q, qd, qdd, p, pd, pdd, iters, cond, residual)
         q = Q[:, :n] * unit
         qd = Qd[:, :n] * unit if order >= 1 else None
         qdd = Qdd[:, :n] * unit if order >= 2 else None

@@ -90,8 +90,12 @@ class BatchInfo:
     ratio: np.ndarray                 # max over blocks of first correction / sigma_min bound
     sign: np.ndarray                  # (N, nfine) sign of det of each fine diagonal block
     smin: np.ndarray                  # (N, nblocks) lower bound of each solve block's sigma_min
-    # (N, m) |Phi| of every equation at the results, where the pass computed it (the kernel)
+    # (N, m) |Phi| of every equation at the results, where the pass computed it (the kernel),
+    # and its largest value per point (N,)
     residual: np.ndarray | None = None
+    residual_max: np.ndarray | None = None
+    # (N,) the condition estimate (solver._cond), where the pass computed it (the kernel)
+    cond: np.ndarray | None = None
 
 
 class System:
@@ -646,9 +650,9 @@ class System:
     def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
         from . import kernel
         T, NU, FDD = self.driver_values(t) if drivers is None else drivers
-        iters, conv, ratio, sign, smin, R = kernel.solve(k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD,
-                                                         policy, tol, maxit, order)
-        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin, R)
+        iters, conv, ratio, sign, smin, R, rmax, cond = kernel.solve(
+            k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
+        return BatchInfo(iters, conv, ratio, sign, smin, R, rmax, cond)
 
     def _solve_small(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
         """solve_batch for small blocks (see SMALL_BLOCK): the reference pass's Newton

@@ -151,6 +151,10 @@ def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compile
                   policy=policy, order=order)
     R = np.abs(S.residual(Q, t))
     assert np.abs(info.residual - R).max() <= 1e-15
+    # what the kernel reduces for the grid pass: each point's largest residual and the
+    # condition estimate of solver._cond, as numpy computes them from its arrays
+    assert np.array_equal(info.residual_max, info.residual.max(axis=1))
+    assert np.array_equal(info.cond, (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1))
 
 
 @pytest.mark.parametrize("name,N", [("four-bar.yaml", 4), ("klann-leg.yaml", 4),
@@ -250,3 +254,65 @@ def test_zeros_of_a_straight_piece_are_not_structure():
     for key in ("y", "vy", "ay"):
         scale = np.abs(ref[key]).max()
         assert np.abs(fast[key] - ref[key]).max() <= 1e-12 * scale, key
+
+
+def _poisoned(path, monkeypatch, route, row_t, field, steps=240):
+    """Solve on route with one value of a grid chunk's results made NaN after the solve (as an
+    overflow would): field 'qd' or 'qdd', at the row of time row_t, coordinate 2."""
+    real = system.System.solve_batch
+
+    def poisoned(self, t, Q, Qd, Qdd, **kw):
+        info = real(self, t, Q, Qd, Qdd, **kw)
+        if Q.shape[0] > 8 and (t == row_t).any():
+            {"qd": Qd, "qdd": Qdd}[field][int(np.nonzero(t == row_t)[0][0]), 2] = np.nan
+        return info
+
+    monkeypatch.setattr(system.System, "solve_batch", poisoned)
+    try:
+        return _solve(path, monkeypatch, route, steps=steps)
+    finally:
+        monkeypatch.setattr(system.System, "solve_batch", real)
+
+
+@pytest.mark.parametrize("field", ["qd", "qdd"])
+def test_a_refusal_is_the_same_on_every_route(field, monkeypatch, compiled):
+    """A non-finite value in a kernel chunk (whose acceptance and refusal checks take the
+    whole-array fast paths) is refused as the numpy routes refuse it: the same row, the same
+    message, the same rows before it."""
+    if compiled is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    path = ROOT / "mechanisms" / "four-bar.yaml"
+    out = {}
+    for route in ("reference", "fused", "kernel"):
+        res, taken = _poisoned(path, monkeypatch, route, 0.5, field)
+        assert taken and set(taken) == {route}
+        out[route] = res
+    ref = out["reference"]
+    assert ref.status == 1 and ref.event.kind == "non-finite" and len(ref.t) == 120
+    assert "t = 0.5 s" in ref.message
+    for route in ("fused", "kernel"):
+        res = out[route]
+        assert (res.status, res.event.kind, res.message) == (ref.status, ref.event.kind,
+                                                             ref.message)
+        assert len(res.t) == len(ref.t)
+        _same(ref, res)
+
+
+def test_refuse_keeps_finite_rows_whose_sum_overflows(monkeypatch):
+    """refuse() clears a chunk by one finite sum per array; a sum that overflows (huge but
+    finite values) must fall through to the row-by-row checks and keep the rows, and a
+    residual above the limit is still refused at its row."""
+    from planarkin.options import resolve
+    from planarkin.results import prepare, refuse, residual_limit
+    m = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
+    an = prepare(m, resolve(m, {"steps": 100}, source="api"))
+    ch = next(an.chunks())
+    N = len(ch.t)
+    ch.q[:2, 0] = 1.7e308                       # finite, their sum is not
+    with np.errstate(over="ignore"):
+        assert not np.isfinite(ch.q.sum())
+    kept = refuse(an, ch)
+    assert an.event is None and len(kept.t) == N
+    ch.residual[7] = 2 * residual_limit(an.opts)
+    cut = refuse(an, ch)
+    assert len(cut.t) == 7 and an.event.kind == "residual"
