@@ -38,7 +38,7 @@ FONT = 9                       # legends, annotations (ticks and labels use matp
 # ax.grid/ax.tick_params calls instead, matplotlib rebuilds every tick of every axes (a third of
 # the time of building a figure). The titles' y is fixed so that matplotlib does not measure the
 # tick labels to place them.
-STYLE = {"axes.grid": True, "grid.color": "0.88", "grid.linewidth": 0.6,
+STYLE = {"axes.grid": False, "grid.color": "0.88", "grid.linewidth": 0.6,
          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
 ROW_NAMES = ("position", "velocity", "acceleration", "jerk")
@@ -102,7 +102,6 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
     more), and every frame is mapped onto one shared palette before Pillow writes the GIF."""
     from matplotlib.animation import PillowWriter
-    from matplotlib.backends.backend_agg import RendererAgg
     from PIL import Image
 
     path = Path(out) / "animation.gif"
@@ -125,7 +124,7 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
     for a in moving:
         a.set_animated(True)
     w, h = (int(round(v * ANIM_DPI)) for v in fig.get_size_inches())
-    renderer = RendererAgg(w, h, ANIM_DPI)
+    renderer = _renderer_class()(w, h, ANIM_DPI)
     fig.draw(renderer)                      # everything that does not move
     background = renderer.copy_from_bbox(fig.bbox)
 
@@ -348,14 +347,23 @@ def _time_grid(nrows, ncols, xlabel="t [s]"):
     """Figure and (nrows, ncols) axes sharing the abscissa; sized by _arrange_time_grid."""
     from matplotlib.figure import Figure
 
-    fig = Figure()
-    axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
     from matplotlib.ticker import MaxNLocator
-    # at most five intervals on each y axis (1.7 in high): every tick is three lines and two
-    # texts to create and draw, two thirds of the drawing time of these figures
-    for row in axes:
-        for ax in row:
+
+    fig = Figure()
+    grid = fig.add_gridspec(nrows, ncols)
+    # the abscissa shared through sharex= (subplots(sharex=True) hides the upper rows' tick
+    # labels through matplotlib's tick objects, which _Ticks replaces)
+    axes, first = [], None
+    for r in range(nrows):
+        row = []
+        for c in range(ncols):
+            ax = fig.add_subplot(grid[r, c], sharex=first)
+            first = first or ax
+            # at most five intervals on each y axis (1.7 in high)
             ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
+            _Ticks.make(ax, xlabels=r == nrows - 1)
+            row.append(ax)
+        axes.append(row)
     for ax in axes[-1]:
         ax.set_xlabel(xlabel)
     return fig, axes
@@ -497,6 +505,141 @@ def _tick_label_width(axis, lo, hi) -> float:
     eps = 1e-9 * abs(hi - lo)
     ticks = ticks[(ticks >= min(lo, hi) - eps) & (ticks <= max(lo, hi) + eps)]
     return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
+
+
+class _Ticks:
+    """Grid, tick marks, tick labels and axis labels of one axes, drawn by one artist in one pass
+    (`_axes_ticks` makes it; import matplotlib before the first use).
+
+    matplotlib builds an object of three lines and two texts for every tick, copies the first
+    tick's properties into each new one and measures every tick label at each draw: in the time
+    histories that was four fifths of the drawing. Here the axes' own locator and formatter give
+    the ticks (`get_xticks` and the labels are matplotlib's), and the grid, the tick marks and
+    the labels are drawn directly: one path each for the grid and the marks, one text object
+    per axis moved from label to label. The axes' labels are drawn where `set_label_coords`
+    put them (the figure's layout places them; their axis is hidden)."""
+
+    _cls = None
+
+    @classmethod
+    def make(cls, ax, xlabels=True, ylabels=True):
+        if cls._cls is None:
+            cls._cls = _ticks_class()
+        return cls._cls(ax, xlabels, ylabels)
+
+
+def _ticks_class():
+    import matplotlib as mpl
+    from matplotlib.artist import Artist
+    from matplotlib.path import Path as MPath
+    from matplotlib.text import Text
+    from matplotlib.transforms import IdentityTransform
+
+    class Ticks(Artist):
+        zorder = 1.5        # where matplotlib draws an axis (axes.axisbelow: "line")
+
+        def __init__(self, ax, xlabels, ylabels):
+            super().__init__()
+            rc = mpl.rcParams
+            self._ax = ax
+            self.show = (xlabels, ylabels)
+            self.grid_style = (rc["grid.color"], rc["grid.linewidth"], rc["grid.alpha"])
+            self.tick_style = [(rc[f"{a}tick.major.size"], rc[f"{a}tick.major.width"],
+                                rc[f"{a}tick.major.pad"], rc[f"{a}tick.color"])
+                               for a in "xy"]
+            color = [rc[f"{a}tick.labelcolor"] for a in "xy"]
+            color = [rc[f"{a}tick.color"] if c == "inherit" else c for a, c in zip("xy", color)]
+            ident = IdentityTransform()
+            self.texts = [Text(0, 0, "", fontsize=rc["xtick.labelsize"], color=color[0],
+                               ha="center", va="top", transform=ident),
+                          Text(0, 0, "", fontsize=rc["ytick.labelsize"], color=color[1],
+                               ha="right", va="center_baseline", transform=ident)]
+            self.offset = [Text(0, 0, "", fontsize=rc["xtick.labelsize"], color=color[0],
+                                ha="right", va="top", transform=ident),
+                           Text(0, 0, "", fontsize=rc["ytick.labelsize"], color=color[1],
+                                ha="left", va="baseline", transform=ident)]
+            for t in self.texts + self.offset:
+                t.set_figure(ax.figure)
+            ax.xaxis.set_visible(False)
+            ax.yaxis.set_visible(False)
+            ax.add_artist(self)
+            self.set_clip_on(False)
+
+        @staticmethod
+        def _locs(axis):
+            """Tick values inside the view, their labels (formatted with all of the locator's
+            values, as matplotlib does) and the axis' offset text."""
+            locs = np.asarray(axis.get_majorticklocs(), float)
+            labels = axis.get_major_formatter().format_ticks(locs)
+            lo, hi = sorted(axis.get_view_interval())
+            tr = axis.get_transform()
+            a, b = tr.transform([lo, hi])
+            eps = 1e-10 * abs(b - a)        # as matplotlib's own test
+            keep = [k for k, v in enumerate(tr.transform(locs)) if a - eps <= v <= b + eps]
+            return locs[keep], [labels[k] for k in keep], axis.get_major_formatter().get_offset()
+
+        def draw(self, renderer):
+            if not self.get_visible():
+                return
+            ax = self._ax
+            renderer.open_group("ticks", gid=self.get_gid())
+            pt = renderer.points_to_pixels(1.0)
+            x0, y0, x1, y1 = ax.bbox.extents
+            xl, xs, xoff = self._locs(ax.xaxis)
+            yl, ys, yoff = self._locs(ax.yaxis)
+            X = ax.transData.transform(np.c_[xl, np.zeros(len(xl))])[:, 0] if len(xl) else xl
+            Y = ax.transData.transform(np.c_[np.zeros(len(yl)), yl])[:, 1] if len(yl) else yl
+            ident = IdentityTransform()
+
+            def segments(verts, color, width, alpha=None, cap="butt"):
+                if not len(verts):
+                    return
+                gc = renderer.new_gc()
+                gc.set_foreground(color)
+                gc.set_linewidth(width)
+                gc.set_capstyle(cap)
+                if alpha is not None:
+                    gc.set_alpha(alpha)
+                codes = np.tile([MPath.MOVETO, MPath.LINETO], len(verts) // 2)
+                renderer.draw_path(gc, MPath(np.asarray(verts, float), codes), ident)
+                gc.restore()
+
+            if True:
+                c, w, a = self.grid_style
+                v = [p for x in X for p in ((x, y0), (x, y1))] + \
+                    [p for y in Y for p in ((x0, y), (x1, y))]
+                segments(v, c, w, a, cap="projecting")
+            (xsize, xw, xpad, xc), (ysize, yw, ypad, yc) = self.tick_style
+            segments([p for x in X for p in ((x, y0), (x, y0 - xsize * pt))], xc, xw)
+            segments([p for y in Y for p in ((x0, y), (x0 - ysize * pt, y))], yc, yw)
+            tx, ty = self.texts
+            if self.show[0]:
+                for x, s in zip(X, xs):
+                    tx.set_text(s)
+                    tx.set_position((x, y0 - (xsize + xpad) * pt))
+                    tx.draw(renderer)
+                if xoff:
+                    o = self.offset[0]
+                    o.set_text(xoff)
+                    o.set_position((x1, y0 - (xsize + xpad + 1.2 * tx.get_fontsize() + 3) * pt))
+                    o.draw(renderer)
+            if self.show[1]:
+                for y, s in zip(Y, ys):
+                    ty.set_text(s)
+                    ty.set_position((x0 - (ysize + ypad) * pt, y))
+                    ty.draw(renderer)
+                if yoff:
+                    o = self.offset[1]
+                    o.set_text(yoff)
+                    o.set_position((x0, y1 + 3 * pt))
+                    o.draw(renderer)
+            for axis in (ax.xaxis, ax.yaxis):
+                if axis.label.get_text():
+                    axis.label.draw(renderer)
+            renderer.close_group("ticks")
+            self.stale = False
+
+    return Ticks
 
 
 def _duration(data, info) -> float:
@@ -873,15 +1016,20 @@ def _plane_figure(cm, scene: _Scene, width, beside, dpi=DPI, ground_alpha=1.0):
 
     fig = Figure(dpi=dpi)
     ax = fig.add_axes((0, 0, 1, 1))
+    _Ticks.make(ax)
     _mechanism_axes(ax, cm, scene, ground_alpha)
     x0, x1, y0, y1 = scene.bounds
-    left = _tick_label_width(ax.yaxis, y0, y1) + 0.5
+    label_w = _tick_label_width(ax.yaxis, y0, y1)
+    left = label_w + 0.5
     bottom, top = 0.55, 0.45
     aw = width - left - beside
     ah = float(np.clip(aw * (y1 - y0) / (x1 - x0), 2.4, 6.8)) if x1 > x0 else aw
     height = ah + bottom + top
     fig.set_size_inches(width, height)
     ax.set_position((left / width, bottom / height, aw / width, ah / height))
+    # the axis labels at fixed places, as in the time histories (_arrange_time_grid)
+    ax.yaxis.set_label_coords(-(label_w + 0.15) / aw, 0.5)
+    ax.xaxis.set_label_coords(0.5, -0.29 / ah)
     return fig, ax, ((left + aw + 0.15) / width, (bottom + ah) / height)
 
 
@@ -1054,8 +1202,9 @@ def _fit_legend(fig, legend, ax, anchor):
 # -- small helpers -------------------------------------------------------------------------------
 
 def _save(fig, path: Path) -> Path:
-    """Save a figure: png at DPI; svg and pdf without a date and (svg) with fixed
-    element ids, so that the same run gives byte-identical files."""
+    """Save a figure: png at DPI (drawn by `_renderer_class`, encoded by `_write_png`); svg and
+    pdf without a date and (svg) with fixed element ids, so that the same run gives
+    byte-identical files."""
     from contextlib import nullcontext
 
     import matplotlib as mpl
@@ -1066,23 +1215,84 @@ def _save(fig, path: Path) -> Path:
     # for the duration of one save
     salt = mpl.rc_context({"svg.hashsalt": "planarkin"}) if fmt == "svg" else nullcontext()
     if fmt == "png":
-        # drawn by Agg and encoded here: RGB (no alpha channel: the figure is opaque) at zlib
-        # level 1 takes two thirds of the time of savefig's RGBA at level 6, for files of about
-        # the same size
         from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from PIL import Image
         fig.set_dpi(DPI)
-        canvas = FigureCanvasAgg(fig)
-        canvas.draw()
-        image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
-                                 "RGBA", 0, 1).convert("RGB")
-        image.save(path, format="png", compress_level=1, dpi=(DPI, DPI))
+        FigureCanvasAgg(fig)                    # (the figure's canvas, as savefig makes it)
+        w, h = fig.bbox.size
+        renderer = _renderer_class()(int(w), int(h), DPI)
+        fig.draw(renderer)
+        _write_png(path, renderer.buffer_rgba(), DPI)
         return path
     with salt:
         fig.savefig(path, format=fmt, dpi=DPI, metadata=meta)
     # no fig.clear(): tearing the artists down costs a tenth of the drawing; dropping the last
     # reference frees them as well
     return path
+
+
+def _write_png(path: Path, rgba, dpi: int) -> None:
+    """Write an opaque RGBA buffer (h, w, 4) as an RGB png: rows unfiltered, zlib level 1, the
+    resolution in a pHYs chunk. Half of the time of Pillow's encoder at level 1 (which tries
+    every row filter), and the files are a few per cent smaller: plots are mostly runs of one
+    colour, which the filters do not shorten."""
+    import struct
+    import zlib
+
+    a = np.asarray(rgba)
+    h, w = a.shape[:2]
+    rows = np.empty((h, 3 * w + 1), np.uint8)
+    rows[:, 0] = 0                                  # filter type None
+    rows[:, 1:].reshape(h, w, 3)[...] = a[:, :, :3]
+    z = zlib.compressobj(1)
+    data = z.compress(rows) + z.flush()
+
+    def chunk(tag: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    ppm = round(dpi / 0.0254)                       # pixels per metre
+    with open(path, "wb") as f:
+        f.write(b"".join([b"\x89PNG\r\n\x1a\n",
+                          chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)),
+                          chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
+                          chunk(b"IDAT", data), chunk(b"IEND", b"")]))
+
+
+_RENDERER = []
+
+
+def _renderer_class():
+    """RendererAgg, drawing each text as one bitmap when this matplotlib draws texts glyph by
+    glyph (3.11: a Python loop over the glyphs, with a transform set and an image drawn for
+    each, a fifth of the drawing of these figures): the string is laid out and rasterised by
+    FreeType in one call and drawn as one image, as matplotlib up to 3.10 did. Math text and
+    anything else go to matplotlib's own draw_text."""
+    if _RENDERER:
+        return _RENDERER[0]
+    from matplotlib.backends import backend_agg
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    cls = RendererAgg
+    if hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"):
+        hinting = backend_agg.get_hinting_flag
+
+        class TextRenderer(RendererAgg):
+            def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+                if ismath:
+                    return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                font = self._prepare_font(prop)
+                # angle 0 here: draw_text_image rotates the bitmap
+                font.set_text(s, 0, flags=hinting())
+                font.draw_glyphs_to_bitmap(antialiased=gc.get_antialiased())
+                d = font.get_descent() / 64.0
+                xo, yo = font.get_bitmap_offset()
+                a = math.radians(angle)
+                x = round(x + xo / 64.0 + d * math.sin(a))
+                y = round(y + yo / 64.0 + d * math.cos(a))
+                self._renderer.draw_text_image(font.get_image(), x, y + 1, angle, gc)
+
+        cls = TextRenderer
+    _RENDERER.append(cls)
+    return cls
 
 
 def _palette(n: int) -> list:
