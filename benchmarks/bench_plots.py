@@ -2,6 +2,7 @@
 in one call with and without plots, and each figure drawn in process.
 
     python benchmarks/bench_plots.py [--repeat 5] [--batch 200] [--quick] [--json PATH]
+                                     [--baseline DIR] [--figures-baseline DIR] [--only-figures]
 
 Every ratio is measured in this one run, the runs with and without plots interleaved (a busy
 machine slows both alike). Targets (issue 12): a default run of mechanisms/four-bar.yaml with
@@ -38,6 +39,8 @@ def _this_checkout():
 common.planarkin_command = _this_checkout
 
 EXAMPLES = ["four-bar", "slider-crank", "six-bar", "quick-return", "boom", "trammel"]
+# --figures-baseline: the examples above, a cam and two with gears or belts
+FIGURE_EXAMPLES = EXAMPLES + ["cam-roller", "planetary", "belt-drive"]
 
 
 def single(model: str, repeat: int, tmp: Path) -> dict:
@@ -149,6 +152,68 @@ def in_process(models, repeat: int, tmp: Path) -> list[dict]:
     return rows
 
 
+def _baseline_plots(tree: Path):
+    """The plots module of another checkout (e.g. `git archive main | tar -x -C /tmp/base`),
+    loaded beside this checkout's as planarkin.output._baseline_plots: its relative imports
+    resolve to this checkout's package, so only plots.py differs (the comparison is meant for
+    changes to the figures themselves)."""
+    import importlib.util
+
+    import planarkin.output
+    src = tree / "planarkin" / "output" / "plots.py"
+    spec = importlib.util.spec_from_file_location("planarkin.output._baseline_plots", src)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    planarkin.output._baseline_plots = mod
+    return mod
+
+
+def figures_against(baseline: Path, models, repeat: int, tmp: Path) -> list[dict]:
+    """Per model and figure: best-of-repeat CPU seconds of write_plots(only=[figure]) in this
+    process, this checkout's plots.py and the baseline's, alternating call by call (so that a
+    busy machine slows both alike); the png files' sizes."""
+    import planarkin
+    from planarkin.output import plots
+    base = _baseline_plots(baseline)
+    import matplotlib.figure  # noqa: F401
+    rows = []
+    for name in models:
+        cm = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+        res = planarkin.solve(cm)
+        dirs = {"this": tmp / f"ab-this-{name}", "baseline": tmp / f"ab-base-{name}"}
+        for d in dirs.values():
+            d.mkdir(exist_ok=True)
+        for fig in plots.figure_names(cm):
+            cpu = {"this": float("inf"), "baseline": float("inf")}
+            for _ in range(repeat):
+                for who, mod in (("baseline", base), ("this", plots)):
+                    c0 = time.process_time()
+                    mod.write_plots(cm, res._chunk, res.info, dirs[who], only=[fig])
+                    cpu[who] = min(cpu[who], time.process_time() - c0)
+            size = {k: (d / f"{fig}.png").stat().st_size for k, d in dirs.items()}
+            rows.append({"model": name, "figure": fig, "cpu": cpu, "bytes": size})
+    return rows
+
+
+def print_figures_against(rows, baseline, repeat) -> None:
+    print(f"== in process, this plots.py against {baseline}'s, alternating call by call, "
+          f"best of {repeat}: CPU s (png kB) ==")
+    print(f"  {'model':<14} {'figure':<13} {'baseline':>16} {'this':>16}  ratio")
+    tot: dict = {}
+    for r in rows:
+        c, b = r["cpu"], r["bytes"]
+        t = tot.setdefault(r["model"], {"this": 0.0, "baseline": 0.0})
+        for k in t:
+            t[k] += c[k]
+        print(f"  {r['model']:<14} {r['figure']:<13} {c['baseline']:7.3f} ({b['baseline'] / 1024:5.0f})"
+              f" {c['this']:7.3f} ({b['this'] / 1024:5.0f})  {c['this'] / c['baseline']:.2f}")
+    for m, t in tot.items():
+        print(f"  {m:<14} {'all four':<13} {t['baseline']:7.3f}         {t['this']:7.3f}"
+              f"          {t['this'] / t['baseline']:.2f}")
+    print()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -157,6 +222,10 @@ def main() -> None:
     ap.add_argument("--json", type=Path)
     ap.add_argument("--baseline", type=Path, help="another checkout (e.g. `git archive main`) "
                     "to compare the default four-bar run with, interleaved")
+    ap.add_argument("--figures-baseline", type=Path, help="another checkout whose plots.py "
+                    "draws the same figures in this process, alternating with this one's")
+    ap.add_argument("--only-figures", action="store_true", help="with --figures-baseline: "
+                    "that comparison only")
     a = ap.parse_args()
     if a.quick:
         a.repeat, a.batch = 3, 24
@@ -165,6 +234,15 @@ def main() -> None:
     t_all = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="bench-plots-") as tmp:
         tmp = Path(tmp)
+        ab = None
+        if a.figures_baseline:
+            ab = figures_against(a.figures_baseline.resolve(), FIGURE_EXAMPLES, a.repeat, tmp)
+            print_figures_against(ab, a.figures_baseline, a.repeat)
+            if a.only_figures:
+                if a.json:
+                    a.json.write_text(json.dumps({"machine": info, "figures_against": ab},
+                                                 indent=1))
+                return
         s = single("four-bar", a.repeat, tmp)
         m = s["median"]
         print(f"== planarkin run mechanisms/four-bar.yaml (default 360 steps), median of "
@@ -210,7 +288,7 @@ def main() -> None:
           f"{time.perf_counter() - t_all:.0f} s")
     if a.json:
         a.json.write_text(json.dumps({"machine": info, "single": s, "batch": b,
-                                      "in_process": rows}, indent=1))
+                                      "in_process": rows, "figures_against": ab}, indent=1))
 
 
 if __name__ == "__main__":
