@@ -119,9 +119,16 @@ def batch(n: int, tmp: Path) -> dict:
     return out
 
 
+def _cold(mod) -> None:
+    """Forget the texts a plots module has rasterised in this process (`plots._TEXTS`), so that
+    a repeated figure costs what its first drawing in a fresh process does."""
+    getattr(mod, "_TEXTS", {}).clear()
+
+
 def in_process(models, repeat: int, tmp: Path) -> list[dict]:
     """Per figure: best-of-repeat seconds to build and write it in this process (wall and CPU:
-    on a busy machine the CPU seconds are the steadier figure)."""
+    on a busy machine the CPU seconds are the steadier figure), each time without the texts
+    rasterised before (`_cold`)."""
     import planarkin
     from planarkin.output import plots
     rows = []
@@ -141,6 +148,7 @@ def in_process(models, repeat: int, tmp: Path) -> list[dict]:
         for fig in plots.figure_names(cm) + ["animation.gif"]:
             best = cpu = float("inf")
             for _ in range(repeat):
+                _cold(plots)
                 t0, c0 = time.perf_counter(), time.process_time()
                 if fig == "animation.gif":
                     plots.write_animation(cm, res._chunk, d)
@@ -172,7 +180,8 @@ def _baseline_plots(tree: Path):
 def figures_against(baseline: Path, models, repeat: int, tmp: Path) -> list[dict]:
     """Per model and figure: best-of-repeat CPU seconds of write_plots(only=[figure]) in this
     process, this checkout's plots.py and the baseline's, alternating call by call (so that a
-    busy machine slows both alike); the png files' sizes."""
+    busy machine slows both alike), each without the texts rasterised before (`_cold`: as
+    the first figure drawn in a fresh process); the png files' sizes."""
     import planarkin
     from planarkin.output import plots
     base = _baseline_plots(baseline)
@@ -188,6 +197,7 @@ def figures_against(baseline: Path, models, repeat: int, tmp: Path) -> list[dict
             cpu = {"this": float("inf"), "baseline": float("inf")}
             for _ in range(repeat):
                 for who, mod in (("baseline", base), ("this", plots)):
+                    _cold(mod)
                     c0 = time.process_time()
                     mod.write_plots(cm, res._chunk, res.info, dirs[who], only=[fig])
                     cpu[who] = min(cpu[who], time.process_time() - c0)

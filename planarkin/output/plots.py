@@ -357,11 +357,10 @@ def _time_grid(nrows, ncols, xlabel="t [s]"):
     for r in range(nrows):
         row = []
         for c in range(ncols):
-            ax = fig.add_subplot(grid[r, c], sharex=first)
+            ax = _add_axes(fig, grid[r, c], xlabels=r == nrows - 1, sharex=first)
             first = first or ax
             # at most five intervals on each y axis (1.7 in high)
             ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
-            _Ticks.make(ax, xlabels=r == nrows - 1)
             row.append(ax)
         axes.append(row)
     for ax in axes[-1]:
@@ -507,9 +506,52 @@ def _tick_label_width(axis, lo, hi) -> float:
     return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
 
 
+def _add_axes(fig, where, xlabels=True, sharex=None):
+    """fig.add_subplot(where) (a subplot spec) or fig.add_axes(where) (a rectangle), its grid,
+    ticks and labels drawn by `_Ticks`; xlabels: whether the x tick labels are drawn."""
+    kw = dict(axes_class=_axes_class(), sharex=sharex)
+    ax = fig.add_axes(where, **kw) if isinstance(where, tuple) else fig.add_subplot(where, **kw)
+    _Ticks.make(ax, xlabels=xlabels)
+    return ax
+
+
+_AXES = []
+
+
+def _axes_class():
+    """Axes whose axes make no matplotlib tick objects when they are created or cleared (two
+    of them per axis, a third of the time of making an axes): `_Ticks` draws their ticks. Ticks
+    asked for (get_xticklabels, ...) are still made then, as in any axes."""
+    if _AXES:
+        return _AXES[0]
+    from matplotlib.axes import Axes
+    from matplotlib.axis import XAxis, YAxis
+
+    def reset_ticks(self):
+        self.majorTicks, self.minorTicks = [], []
+
+    light = {XAxis: type("XAxis", (XAxis,), {"reset_ticks": reset_ticks}),
+             YAxis: type("YAxis", (YAxis,), {"reset_ticks": reset_ticks})}
+
+    class PlotAxes(Axes):
+        def _init_axis(self):
+            super()._init_axis()
+            for axis in (self.xaxis, self.yaxis):
+                axis.__class__ = light[type(axis)]
+                axis.reset_ticks()
+
+        def clear(self):
+            super().clear()
+            for spine in self.spines.values():
+                spine.get_position()    # places the spine (the first tick object did that)
+
+    _AXES.append(PlotAxes)
+    return PlotAxes
+
+
 class _Ticks:
     """Grid, tick marks, tick labels and axis labels of one axes, drawn by one artist in one pass
-    (`_axes_ticks` makes it; import matplotlib before the first use).
+    (`_add_axes` makes it).
 
     matplotlib builds an object of three lines and two texts for every tick, copies the first
     tick's properties into each new one and measures every tick label at each draw: in the time
@@ -1015,8 +1057,7 @@ def _plane_figure(cm, scene: _Scene, width, beside, dpi=DPI, ground_alpha=1.0):
     from matplotlib.figure import Figure
 
     fig = Figure(dpi=dpi)
-    ax = fig.add_axes((0, 0, 1, 1))
-    _Ticks.make(ax)
+    ax = _add_axes(fig, (0, 0, 1, 1))
     _mechanism_axes(ax, cm, scene, ground_alpha)
     x0, x1, y0, y1 = scene.bounds
     label_w = _tick_label_width(ax.yaxis, y0, y1)
@@ -1067,12 +1108,13 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
 def _trajectories_figure(cm, scene: _Scene):
     """Paths of the points of interest, start dots, direction arrows, the mechanism faint at
     t = start."""
+    from matplotlib.collections import PolyCollection
     from matplotlib.lines import Line2D
-    from matplotlib.patches import FancyArrowPatch
+    from matplotlib.transforms import Affine2D
 
     fig, ax, _ = _plane_figure(cm, scene, 8.0, 0.25, ground_alpha=0.5)
     _Drawing(ax, scene, 0, color="0.6", alpha=0.45, zorder=9)
-    handles = []
+    handles, heads, tips, colors = [], [], [], []
     for k, name in enumerate(cm.point_names):
         xy = scene.traces[k]
         c = scene.point_colors[k]
@@ -1080,17 +1122,83 @@ def _trajectories_figure(cm, scene: _Scene):
         ax.plot(xy[0, 0], xy[0, 1], "o", color=c, ms=6, zorder=13)
         handles.append(line)
         for a, b in _arrow_spots(xy, 0.04 * scene.span):
-            ax.add_patch(FancyArrowPatch(a, b, arrowstyle="-|>", mutation_scale=13, color=c,
-                                         lw=0, zorder=13))
+            heads.append(_arrow_head(np.subtract(b, a)))
+            tips.append(b)
+            colors.append(c)
+    if heads:
+        # the direction marks: filled heads of 5.2 by 5.2 points at the arrows' ends (what
+        # FancyArrowPatch(arrowstyle="-|>", mutation_scale=13, lw=0) draws), in one
+        # collection; on the equal-aspect axes a direction in the data is the same on paper
+        ax.add_collection(PolyCollection(heads, offsets=tips, offset_transform=ax.transData,
+                                         transform=Affine2D().scale(1 / 72)
+                                         + fig.dpi_scale_trans, facecolors=colors,
+                                         edgecolors="none", linewidths=0, zorder=13),
+                          autolim=False)
     handles += [Line2D([], [], ls="none", marker="o", color="0.2", ms=6, label="start"),
                 Line2D([], [], ls="none", marker=">", color="0.2", ms=6, label="direction"),
                 Line2D([], [], color="0.6", lw=3, alpha=0.6, label=f"mechanism at t = "
                                                                    f"{scene.t[0]:.4g} s")]
-    ax.legend(handles=handles, loc="best", fontsize=FONT,
-              ncol=1 if len(handles) <= 12 else 2, framealpha=0.85)
+    ncol = 1 if len(handles) <= 12 else 2
+    ax.legend(handles=handles, loc=_quiet_corner(ax, scene, handles, ncol), fontsize=FONT,
+              ncol=ncol, framealpha=0.85)
     ax.set_title(f"{cm.spec.name}: paths of the points "
                  f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12, y=1.0)
     return fig
+
+
+def _arrow_head(d, length=5.2, half_width=2.6, shrink=2.0) -> np.ndarray:
+    """(3, 2) vertices in points of an arrow head pointing along d, its tip shrink points
+    short of the origin (the arrow's end)."""
+    u = np.asarray(d, float) / np.hypot(*d)
+    n = np.array([-u[1], u[0]])
+    tip = -shrink * u
+    base = tip - length * u
+    return np.array([tip, base + half_width * n, base - half_width * n])
+
+
+def _quiet_corner(ax, scene, handles, ncol=1) -> str:
+    """The corner of the axes where a legend of these handles covers the fewest points of the
+    paths and of the drawing (loc="best" without matplotlib's search, which lays the legend
+    out and tests every vertex of every artist at each of nine places: a sixth of the time of
+    this figure). The legend's size is estimated from its labels; the axes' limits are the
+    drawing's bounds widened to the axes' aspect ratio, as the equal aspect widens them."""
+    x0, x1, y0, y1 = scene.bounds
+    pos = ax.get_position()
+    W, H = ax.figure.get_size_inches()
+    aw, ah = pos.width * W, pos.height * H
+    if not (x1 > x0 and y1 > y0 and aw > 0 and ah > 0):
+        return "upper right"
+    k = max((x1 - x0) / aw, (y1 - y0) / ah)          # data units per inch
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    x0, x1, y0, y1 = cx - 0.5 * k * aw, cx + 0.5 * k * aw, cy - 0.5 * k * ah, cy + 0.5 * k * ah
+    em = FONT / 72.0
+    rows = -(-len(handles) // ncol)
+    lw = ncol * (_text_width([h.get_label() for h in handles]) + 3.6 * em) + 0.8 * em
+    lh = rows * 1.5 * em + 0.8 * em
+    pad = 0.5 * em
+    # the paths, the ground pivots and the edges of the bodies at the first instant (drawn)
+    edges = []
+    for b in range(scene.nb):
+        for V in (scene.fills[b], scene.bars[b]):
+            if V is not None:
+                G = scene.at(b, V, 0)
+                G = np.r_[G, G[:1]] if len(G) > 2 else G
+                f = np.linspace(0.0, 1.0, 16)[:, None, None]
+                edges.append((G[:-1] + f * (G[1:] - G[:-1])).reshape(-1, 2))
+    P = np.concatenate([np.asarray(xy, float).reshape(-1, 2) for xy in scene.traces]
+                       + [np.asarray(scene.pivots, float).reshape(-1, 2)] + edges)
+    P = P[np.isfinite(P).all(axis=1)]
+    u, v = (P[:, 0] - x0) / k, (P[:, 1] - y0) / k     # inches from the lower left corner
+    best, where = None, "upper right"
+    for loc, (left, bottom) in (("upper right", (aw - pad - lw, ah - pad - lh)),
+                                ("upper left", (pad, ah - pad - lh)),
+                                ("lower left", (pad, pad)),
+                                ("lower right", (aw - pad - lw, pad))):
+        n = int(np.count_nonzero((u >= left) & (u <= left + lw) & (v >= bottom)
+                                 & (v <= bottom + lh)))
+        if best is None or n < best:
+            best, where = n, loc
+    return where
 
 
 def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
@@ -1184,11 +1292,10 @@ def _fit_legend(fig, legend, ax, anchor):
     """Widen the figure until the legend beside the axes fits (the width of its texts is only
     estimated when the figure is laid out), keeping the axes' size and place in inches; the
     legend's upper-left corner is at anchor (figure fraction before widening)."""
-    from matplotlib.backends.backend_agg import RendererAgg
 
     W, H = fig.get_size_inches()
     dpi = fig.dpi
-    box = legend.get_window_extent(RendererAgg(int(W * dpi), int(H * dpi), dpi))
+    box = legend.get_window_extent(_renderer_class()(int(W * dpi), int(H * dpi), dpi))
     extra = box.x1 / dpi + 0.08 - W                   # inches past the right edge
     if extra <= 0:
         return
@@ -1258,14 +1365,34 @@ def _write_png(path: Path, rgba, dpi: int) -> None:
 
 
 _RENDERER = []
+_TEXTS: dict = {}             # (string, font, dpi, antialiased) -> _Rasterised, this process
+_TEXTS_MAX = 4096             # entries kept (a few kB each); the cache is emptied when full
+
+
+class _Rasterised:
+    """One string laid out and rasterised by FreeType: its width, height and descent (pixels)
+    and its bitmap with the bitmap's offset (FreeType's 1/64 pixels)."""
+    __slots__ = ("whd", "image", "offset")
+
+    def __init__(self, font, s, flags, antialiased):
+        font.set_text(s, 0.0, flags=flags)
+        w, h = font.get_width_height()
+        self.whd = (w / 64.0, h / 64.0, font.get_descent() / 64.0)
+        font.draw_glyphs_to_bitmap(antialiased=antialiased)
+        self.image = font.get_image()
+        self.offset = font.get_bitmap_offset()
 
 
 def _renderer_class():
-    """RendererAgg, drawing each text as one bitmap when this matplotlib draws texts glyph by
-    glyph (3.11: a Python loop over the glyphs, with a transform set and an image drawn for
-    each, a fifth of the drawing of these figures): the string is laid out and rasterised by
-    FreeType in one call and drawn as one image, as matplotlib up to 3.10 did. Math text and
-    anything else go to matplotlib's own draw_text."""
+    """RendererAgg, laying out and rasterising each distinct string once per process when this
+    matplotlib draws texts glyph by glyph (3.11: a Python loop over the glyphs, each with its own
+    transform and image; and FreeType lays the string out again for the drawing after the
+    measuring, 0.4 ms each time): the string is laid out and rasterised in one call and drawn
+    as one image, as matplotlib up to 3.10 did, and the result is kept for the next time the
+    same string is measured or drawn in the same font (tick labels, legends and axis labels
+    repeat from figure to figure). A string's bitmap does not depend on where it is drawn
+    (whole pixels, as up to 3.10), so a figure is the same whether its texts were cached or
+    not. Math text and anything else go to matplotlib's own methods."""
     if _RENDERER:
         return _RENDERER[0]
     from matplotlib.backends import backend_agg
@@ -1276,19 +1403,33 @@ def _renderer_class():
         hinting = backend_agg.get_hinting_flag
 
         class TextRenderer(RendererAgg):
+            def _text(self, s, prop, antialiased=True):
+                key = (s, tuple(prop.get_family()), prop.get_style(), prop.get_variant(),
+                       prop.get_weight(), prop.get_stretch(), prop.get_size_in_points(),
+                       prop.get_file(), self.dpi, bool(antialiased))
+                r = _TEXTS.get(key)
+                if r is None:
+                    if len(_TEXTS) >= _TEXTS_MAX:
+                        _TEXTS.clear()
+                    r = _TEXTS[key] = _Rasterised(self._prepare_font(prop), s, hinting(),
+                                                  antialiased)
+                return r
+
+            def get_text_width_height_descent(self, s, prop, ismath):
+                if ismath:
+                    return super().get_text_width_height_descent(s, prop, ismath)
+                return self._text(s, prop).whd
+
             def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
                 if ismath:
                     return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
-                font = self._prepare_font(prop)
-                # angle 0 here: draw_text_image rotates the bitmap
-                font.set_text(s, 0, flags=hinting())
-                font.draw_glyphs_to_bitmap(antialiased=gc.get_antialiased())
-                d = font.get_descent() / 64.0
-                xo, yo = font.get_bitmap_offset()
+                r = self._text(s, prop, gc.get_antialiased())
+                # the bitmap is drawn unrotated at angle 0, rotated by draw_text_image
                 a = math.radians(angle)
-                x = round(x + xo / 64.0 + d * math.sin(a))
-                y = round(y + yo / 64.0 + d * math.cos(a))
-                self._renderer.draw_text_image(font.get_image(), x, y + 1, angle, gc)
+                d = r.whd[2]
+                x = round(x + r.offset[0] / 64.0 + d * math.sin(a))
+                y = round(y + r.offset[1] / 64.0 + d * math.cos(a))
+                self._renderer.draw_text_image(r.image, x, y + 1, angle, gc)
 
         cls = TextRenderer
     _RENDERER.append(cls)
