@@ -506,12 +506,14 @@ def _tick_label_width(axis, lo, hi) -> float:
     return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
 
 
-def _add_axes(fig, where, xlabels=True, sharex=None):
+def _add_axes(fig, where, xlabels=True, sharex=None, grid=None):
     """fig.add_subplot(where) (a subplot spec) or fig.add_axes(where) (a rectangle), its grid,
-    ticks and labels drawn by `_Ticks`; xlabels: whether the x tick labels are drawn."""
+    ticks and labels drawn by `_Ticks`; xlabels: whether the x tick labels are drawn; grid:
+    (colour, line width) of the grid lines (default: rcParams grid.color, grid.linewidth).
+    Its axis labels are drawn where set_label_coords puts them (the figure's layout)."""
     kw = dict(axes_class=_axes_class(), sharex=sharex)
     ax = fig.add_axes(where, **kw) if isinstance(where, tuple) else fig.add_subplot(where, **kw)
-    _Ticks.make(ax, xlabels=xlabels)
+    _Ticks.make(ax, xlabels=xlabels, grid=grid)
     return ax
 
 
@@ -564,10 +566,10 @@ class _Ticks:
     _cls = None
 
     @classmethod
-    def make(cls, ax, xlabels=True, ylabels=True):
+    def make(cls, ax, xlabels=True, ylabels=True, grid=None):
         if cls._cls is None:
             cls._cls = _ticks_class()
-        return cls._cls(ax, xlabels, ylabels)
+        return cls._cls(ax, xlabels, ylabels, grid)
 
 
 def _ticks_class():
@@ -580,12 +582,13 @@ def _ticks_class():
     class Ticks(Artist):
         zorder = 1.5        # where matplotlib draws an axis (axes.axisbelow: "line")
 
-        def __init__(self, ax, xlabels, ylabels):
+        def __init__(self, ax, xlabels, ylabels, grid):
             super().__init__()
             rc = mpl.rcParams
             self._ax = ax
             self.show = (xlabels, ylabels)
-            self.grid_style = (rc["grid.color"], rc["grid.linewidth"], rc["grid.alpha"])
+            self.grid_style = (*(grid or (rc["grid.color"], rc["grid.linewidth"])),
+                               rc["grid.alpha"])
             self.tick_style = [(rc[f"{a}tick.major.size"], rc[f"{a}tick.major.width"],
                                 rc[f"{a}tick.major.pad"], rc[f"{a}tick.color"])
                                for a in "xy"]
@@ -646,11 +649,9 @@ def _ticks_class():
                 renderer.draw_path(gc, MPath(np.asarray(verts, float), codes), ident)
                 gc.restore()
 
-            if True:
-                c, w, a = self.grid_style
-                v = [p for x in X for p in ((x, y0), (x, y1))] + \
-                    [p for y in Y for p in ((x0, y), (x1, y))]
-                segments(v, c, w, a, cap="projecting")
+            c, w, a = self.grid_style
+            segments([p for x in X for p in ((x, y0), (x, y1))]
+                     + [p for y in Y for p in ((x0, y), (x1, y))], c, w, a, cap="projecting")
             (xsize, xw, xpad, xc), (ysize, yw, ypad, yc) = self.tick_style
             segments([p for x in X for p in ((x, y0), (x, y0 - xsize * pt))], xc, xw)
             segments([p for y in Y for p in ((x0, y), (x0 - ysize * pt, y))], yc, yw)
