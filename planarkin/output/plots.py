@@ -968,7 +968,13 @@ class _Drawing:
 
     def __init__(self, ax, scene: _Scene, row: int, color=None, body_colors=False, alpha=1.0,
                  fill=0.25, zorder=10.0, labels=False, width=4.5):
+        from matplotlib.lines import Line2D
         from matplotlib.patches import Polygon
+
+        def line(**kw):
+            # Line2D and add_line: ax.plot parses its arguments and cycles properties, a third
+            # of the cost of an empty line
+            return ax.add_line(Line2D([], [], **kw))
 
         self.scene = scene
         self.ax = ax
@@ -980,22 +986,21 @@ class _Drawing:
             if scene.fills[b] is not None:
                 patch = Polygon(scene.fills[b], closed=True, fc=_with_alpha(c, fill * alpha),
                                 ec=_with_alpha(c, alpha), lw=2.0, zorder=zorder)
-                ax.add_patch(patch)
+                ax.add_artist(patch)    # (the drawing's bounds set the limits)
                 self.parts.append((patch, b, scene.fills[b], "fill"))
             if scene.bars[b] is not None:
-                line, = ax.plot([], [], color=c, lw=width, alpha=alpha, solid_capstyle="round",
-                                zorder=zorder)
-                self.parts.append((line, b, scene.bars[b], "line"))
+                self.parts.append((line(color=c, lw=width, alpha=alpha, solid_capstyle="round",
+                                        zorder=zorder), b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
-                line, = ax.plot([], [], color=c, lw=1.0, ls="--", alpha=alpha, zorder=zorder + 0.1)
-                self.parts.append((line, b, poly, "line"))
+                self.parts.append((line(color=c, lw=1.0, ls="--", alpha=alpha,
+                                        zorder=zorder + 0.1), b, poly, "line"))
         edge = color if color is not None else "0.15"
-        self.links = [ax.plot([], [], color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)[0]
+        self.links = [line(color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)
                       for _ in scene.links]
-        self.pins, = ax.plot([], [], ls="none", marker="o", ms=5.5, mfc="white", mec=edge,
-                             mew=1.3, alpha=alpha, zorder=zorder + 0.5)
-        self.points = [ax.plot([], [], ls="none", marker="D", ms=5, mfc=scene.point_colors[k],
-                               mec=edge, mew=0.8, alpha=alpha, zorder=zorder + 0.6)[0]
+        self.pins = line(ls="none", marker="o", ms=5.5, mfc="white", mec=edge, mew=1.3,
+                         alpha=alpha, zorder=zorder + 0.5)
+        self.points = [line(ls="none", marker="D", ms=5, mfc=scene.point_colors[k], mec=edge,
+                            mew=0.8, alpha=alpha, zorder=zorder + 0.6)
                        for k in range(len(cm.point_names))]
         self.artists = ([a for a, _, _, _ in self.parts] + self.links + [self.pins]
                         + self.points)
