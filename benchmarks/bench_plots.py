@@ -93,6 +93,43 @@ def against(baseline: Path, repeat: int, tmp: Path) -> dict:
     return out
 
 
+def batch_against(baseline: Path, n: int, tmp: Path, rounds: int = 2) -> dict:
+    """The n-model batch of `batch`, with plots and with --no-plots, this checkout and another
+    one in turn (rounds times, interleaved): plotting per model, wall and CPU (medians)."""
+    import resource
+    src = tmp / "models-against"
+    src.mkdir(exist_ok=True)
+    files = []
+    for k in range(n):
+        name = EXAMPLES[k % len(EXAMPLES)]
+        f = src / f"{k:03d}-{name}.yaml"
+        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
+        files.append(str(f))
+    got: dict = {}
+    for _ in range(rounds):
+        for who, root in (("this", ROOT), ("baseline", baseline)):
+            env = dict(os.environ, PYTHONPATH=str(root))
+            for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
+                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t0 = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "planarkin", "run", *files, "-q", "--out",
+                                str(tmp / f"ba-{who}-{kind}")] + extra, cwd=root, env=env,
+                               check=True, capture_output=True)
+                wall = time.perf_counter() - t0
+                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
+                got.setdefault(who, {}).setdefault(kind, []).append((wall, cpu))
+    out = {}
+    for who, kinds in got.items():
+        med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+               for k, v in kinds.items()}
+        out[who] = {"median": med,
+                    "per_model_wall": (med["plots"][0] - med["no-plots"][0]) / n,
+                    "per_model_cpu": (med["plots"][1] - med["no-plots"][1]) / n}
+    out["models"] = n
+    return out
+
+
 def batch(n: int, tmp: Path) -> dict:
     """One call with n model files (the examples in turn), with plots and with --no-plots."""
     src = tmp / "models"
@@ -231,7 +268,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="3 repeats, a batch of 24")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--baseline", type=Path, help="another checkout (e.g. `git archive main`) "
-                    "to compare the default four-bar run with, interleaved")
+                    "to compare the default four-bar run and a batch (of at most 24 models) "
+                    "with, interleaved")
     ap.add_argument("--figures-baseline", type=Path, help="another checkout whose plots.py "
                     "draws the same figures in this process, alternating with this one's")
     ap.add_argument("--only-figures", action="store_true", help="with --figures-baseline: "
@@ -275,6 +313,18 @@ def main() -> None:
                 print(f"  {name:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
                       f"({cn:.2f} s CPU): ratio {r['ratio_wall']:.2f} x wall, "
                       f"{r['ratio_cpu']:.2f} x CPU; plots cost {r['plot_cpu']:.2f} s CPU")
+            print()
+        if a.baseline and a.batch:
+            n = min(a.batch, 24)
+            v = batch_against(a.baseline.resolve(), n, tmp)
+            print(f"== batch of {n} models, this checkout against {a.baseline}, median of 2, "
+                  f"interleaved ==")
+            for who in ("this", "baseline"):
+                r = v[who]
+                (wp, cp), (wn, cn) = r["median"]["plots"], r["median"]["no-plots"]
+                print(f"  {who:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
+                      f"({cn:.2f} s CPU): plotting per model {r['per_model_wall']:.3f} s wall, "
+                      f"{r['per_model_cpu']:.3f} s CPU")
             print()
         b = batch(a.batch, tmp) if a.batch else None
         if b is not None:

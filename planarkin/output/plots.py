@@ -34,10 +34,9 @@ ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has
 ANIM_FPS = 20
 ANIM_DPI = 100                 # 6.4 in wide -> 640 px
 FONT = 9                       # legends, annotations (ticks and labels use matplotlib's 10 pt)
-# Axes style, set through rcParams for the duration of each figure (`_styled`): given as
-# ax.grid/ax.tick_params calls instead, matplotlib rebuilds every tick of every axes (a third of
-# the time of building a figure). The titles' y is fixed so that matplotlib does not measure the
-# tick labels to place them.
+# Axes style, set through rcParams for the duration of each figure (`_styled`), read by `_Ticks`
+# (which draws every axes' grid, ticks and tick labels: matplotlib's own grid is off). The
+# titles' y is fixed so that matplotlib does not measure the tick labels to place them.
 STYLE = {"axes.grid": False, "grid.color": "0.88", "grid.linewidth": 0.6,
          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
