@@ -243,6 +243,100 @@ def figures_against(baseline: Path, models, repeat: int, tmp: Path) -> list[dict
     return rows
 
 
+def forces_against(baseline: Path, repeat: int, tmp: Path) -> dict:
+    """forces.png of the slider-crank (the example with masses): CPU seconds, best of repeat,
+    with this checkout's forces/plot.py and output/plots.py and with the baseline's (its
+    forces/plot.py loaded beside this one's, its `..output.plots` import pointed at the
+    baseline's plots module for the duration of its call), alternating call by call."""
+    import contextlib
+    import importlib.util
+
+    import planarkin
+    from planarkin.derived import derived_tables
+    from planarkin.forces import plot as this_plot
+    from planarkin.output import plots
+    base_plots = sys.modules.get("planarkin.output._baseline_plots") or _baseline_plots(baseline)
+    spec = importlib.util.spec_from_file_location(
+        "planarkin.forces._baseline_plot", baseline / "planarkin" / "forces" / "plot.py")
+    base_plot = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = base_plot
+    spec.loader.exec_module(base_plot)
+
+    @contextlib.contextmanager
+    def baseline_plots():
+        sys.modules["planarkin.output.plots"] = base_plots
+        try:
+            yield
+        finally:
+            sys.modules["planarkin.output.plots"] = plots
+
+    cm = planarkin.load(ROOT / "mechanisms" / "slider-crank.yaml")
+    res = planarkin.solve(cm)
+    (d,) = derived_tables(res.model, res.info.options)
+    X = d.compute(res._chunk)
+    cpu = {"this": float("inf"), "baseline": float("inf")}
+    for _ in range(repeat):
+        for who, mod, ctx in (("baseline", base_plot, baseline_plots),
+                              ("this", this_plot, contextlib.nullcontext)):
+            out = tmp / f"forces-{who}"
+            out.mkdir(exist_ok=True)
+            _cold(plots)
+            with ctx():
+                c0 = time.process_time()
+                mod.forces_plot(res.model, X, res.info, out, "png")
+                cpu[who] = min(cpu[who], time.process_time() - c0)
+    return cpu
+
+
+def png_encoders(repeat: int, tmp: Path) -> dict:
+    """The four-bar's bodies.png drawn once, its Agg buffer encoded by Pillow at zlib level 1
+    (RGB, what main's plots._save did) and by plots._write_png: CPU seconds (best of repeat)
+    and file sizes."""
+    import planarkin
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    from planarkin.output import plots
+    cm = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
+    res = planarkin.solve(cm)
+    fig = plots._bodies_figure(cm, res._chunk, res.info)
+    fig.set_dpi(plots.DPI)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    buf = canvas.buffer_rgba()
+    size = canvas.get_width_height()
+
+    def pillow(path):
+        Image.frombuffer("RGBA", size, buf, "raw", "RGBA", 0, 1).convert("RGB").save(
+            path, format="png", compress_level=1, dpi=(plots.DPI, plots.DPI))
+
+    def ours(path):
+        plots._write_png(path, buf, plots.DPI)
+
+    out = {}
+    for _ in range(repeat):
+        for name, fn in (("Pillow level 1", pillow), ("_write_png", ours)):
+            path = tmp / f"enc-{name[:6]}.png"
+            c0 = time.process_time()
+            fn(path)
+            c = time.process_time() - c0
+            r = out.setdefault(name, {"cpu": float("inf"), "bytes": 0})
+            r["cpu"] = min(r["cpu"], c)
+            r["bytes"] = path.stat().st_size
+    out["pixels"] = size
+    return out
+
+
+def print_extras(f, e, repeat) -> None:
+    print(f"== forces.png of the slider-crank, this against the baseline, best of {repeat}: "
+          f"{f['baseline']:.3f} s -> {f['this']:.3f} s CPU ({f['this'] / f['baseline']:.2f}x) ==")
+    w, h = e["pixels"]
+    print(f"== png encoding of bodies.png ({w} x {h}), best of {repeat}: " + ", ".join(
+        f"{k} {v['cpu'] * 1000:.1f} ms CPU, {v['bytes'] / 1024:.0f} kB"
+        for k, v in e.items() if k != "pixels") + " ==")
+    print()
+
+
 def print_figures_against(rows, baseline, repeat) -> None:
     print(f"== in process, this plots.py against {baseline}'s, alternating call by call, "
           f"best of {repeat}: CPU s (png kB) ==")
@@ -283,14 +377,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-plots-") as tmp:
         tmp = Path(tmp)
         ab = None
-        if a.figures_baseline:
+        if a.figures_baseline and a.only_figures:
             ab = figures_against(a.figures_baseline.resolve(), FIGURE_EXAMPLES, a.repeat, tmp)
             print_figures_against(ab, a.figures_baseline, a.repeat)
-            if a.only_figures:
-                if a.json:
-                    a.json.write_text(json.dumps({"machine": info, "figures_against": ab},
-                                                 indent=1))
-                return
+            ab = {"figures": ab, "forces": forces_against(a.figures_baseline.resolve(),
+                                                          a.repeat, tmp),
+                  "png": png_encoders(a.repeat, tmp)}
+            print_extras(ab["forces"], ab["png"], a.repeat)
+            if a.json:
+                a.json.write_text(json.dumps({"machine": info, "figures_against": ab}, indent=1))
+            return
         s = single("four-bar", a.repeat, tmp)
         m = s["median"]
         print(f"== planarkin run mechanisms/four-bar.yaml (default 360 steps), median of "
@@ -343,6 +439,14 @@ def main() -> None:
               f"{1 if a.quick else 3}), seconds: wall  CPU ==")
         for r in rows:
             print(f"  {r['model']:<14} {r['figure']:<20} {r['seconds']:.3f}  {r['cpu']:.3f}")
+        if a.figures_baseline:          # (after in_process, which times matplotlib's import)
+            print()
+            ab = figures_against(a.figures_baseline.resolve(), FIGURE_EXAMPLES, a.repeat, tmp)
+            print_figures_against(ab, a.figures_baseline, a.repeat)
+            ab = {"figures": ab, "forces": forces_against(a.figures_baseline.resolve(),
+                                                          a.repeat, tmp),
+                  "png": png_encoders(a.repeat, tmp)}
+            print_extras(ab["forces"], ab["png"], a.repeat)
     la = os.getloadavg()
     print(f"\nload avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}; total "
           f"{time.perf_counter() - t_all:.0f} s")
