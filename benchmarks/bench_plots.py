@@ -347,8 +347,9 @@ def print_figures_against(rows, baseline, repeat) -> None:
         t = tot.setdefault(r["model"], {"this": 0.0, "baseline": 0.0})
         for k in t:
             t[k] += c[k]
-        print(f"  {r['model']:<14} {r['figure']:<13} {c['baseline']:7.3f} ({b['baseline'] / 1024:5.0f})"
-              f" {c['this']:7.3f} ({b['this'] / 1024:5.0f})  {c['this'] / c['baseline']:.2f}")
+        kb = {k: v / 1024 for k, v in b.items()}
+        print(f"  {r['model']:<14} {r['figure']:<13} {c['baseline']:7.3f} ({kb['baseline']:5.0f})"
+              f" {c['this']:7.3f} ({kb['this']:5.0f})  {c['this'] / c['baseline']:.2f}")
     for m, t in tot.items():
         print(f"  {m:<14} {'all four':<13} {t['baseline']:7.3f}         {t['this']:7.3f}"
               f"          {t['this'] / t['baseline']:.2f}")
