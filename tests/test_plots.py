@@ -559,3 +559,66 @@ def test_a_slot_is_drawn_whole():
     path = r.point("B")
     arc = on_circle[0]
     assert np.ptp(arc[:, 0]) > np.ptp(path["x"]) + 1e-3       # longer than the pin's run
+
+
+def test_a_figure_does_not_depend_on_what_was_drawn_before(tmp_path):
+    """The process keeps the texts it has rasterised (plots._TEXTS) and the plot server draws
+    model after model: the six-bar's figures drawn after the four-bar's are byte-identical to
+    the six-bar's drawn first, in a process that has drawn nothing."""
+    six, four = _run("six-bar", steps=60), _run("four-bar", steps=60)
+    for d in ("alone", "other", "after"):
+        (tmp_path / d).mkdir()
+    plots._TEXTS.clear()
+    alone = plots.write_plots(six[0], six[1]._chunk, six[1].info, tmp_path / "alone")
+    plots._TEXTS.clear()
+    plots.write_plots(four[0], four[1]._chunk, four[1].info, tmp_path / "other")
+    after = plots.write_plots(six[0], six[1]._chunk, six[1].info, tmp_path / "after")
+    assert len(plots._TEXTS) > 0
+    assert [f.name for f in alone] == [f.name for f in after]
+    for a, b in zip(alone, after):
+        assert a.read_bytes() == b.read_bytes(), a.name
+
+
+def test_png_writer_round_trips_and_states_the_resolution(tmp_path):
+    """plots._write_png (unfiltered rows, zlib): Pillow reads back the same RGB pixels (the
+    alpha channel dropped: figures are opaque) and 150 dpi."""
+    from PIL import Image
+    rng = np.random.default_rng(12)
+    rgba = rng.integers(0, 256, size=(37, 53, 4), dtype=np.uint8)
+    rgba[5:20, 10:40] = (255, 255, 255, 255)
+    path = tmp_path / "x.png"
+    plots._write_png(path, rgba, 150)
+    with Image.open(path) as im:
+        assert im.mode == "RGB" and im.size == (53, 37)
+        assert round(im.info["dpi"][0]) == 150
+        assert np.array_equal(np.asarray(im), rgba[:, :, :3])
+
+
+@pytest.mark.parametrize("ydata", [(-0.04, 0.04), (0.0, 2.4e7), (1e6 + 0.1, 1e6 + 0.3)])
+def test_tick_labels_are_drawn_where_matplotlib_draws_them(ydata):
+    """_Ticks (the ticks, grid and tick labels of the figures' axes) draws the same tick labels
+    and offset text as matplotlib's own axes, at the same places (within a pixel)."""
+    import matplotlib as mpl
+    from matplotlib.backends.backend_agg import RendererAgg
+    from matplotlib.figure import Figure
+
+    class Recorder(RendererAgg):
+        def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+            self.seen.append((s, x, y))
+
+    def drawn(light):
+        with mpl.rc_context(plots.STYLE):
+            fig = Figure(figsize=(4, 3), dpi=150)
+            rect = (0.25, 0.2, 0.7, 0.7)
+            ax = plots._add_axes(fig, rect) if light else fig.add_axes(rect)
+            ax.plot([0.0, 360.0], ydata)
+            r = Recorder(600, 450, 150)
+            r.seen = []
+            fig.draw(r)
+        return sorted(r.seen)
+
+    ours, theirs = drawn(True), drawn(False)
+    assert [s for s, _, _ in ours] == [s for s, _, _ in theirs]
+    assert len(ours) >= 8
+    for (s, x, y), (_, x2, y2) in zip(ours, theirs):
+        assert abs(x - x2) <= 1.0 and abs(y - y2) <= 1.0, (s, x, y, x2, y2)

@@ -18,8 +18,8 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     transmit a moment (angle, gear) are left out of the plot (their columns are in the table)."""
     from matplotlib.figure import Figure
 
-    from ..output.plots import (_finish_time_axes, _palette, _pretty as _pretty2, _save,
-                                _tick_label_width, _title)
+    from ..output.plots import (_add_axes, _finish_time_axes, _palette, _pretty as _pretty2,
+                                _save, _tick_label_width, _title)
 
     def _pretty(unit):
         return _pretty2(unit).replace("*", "\u00b7")
@@ -44,7 +44,14 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     one = len(cm.spec.drivers) == 1
     ncol = 2 if one else 1
     fig = Figure(figsize=(6.4 * ncol if one else 7.5, 6.6))
-    axes = fig.subplots(2, ncol, sharex="col", squeeze=False)
+    # grid, ticks and tick labels drawn by output.plots._Ticks; the abscissa shared by column,
+    # its tick labels in the lower row
+    spec = fig.add_gridspec(2, ncol)
+    axes = [[None] * ncol for _ in range(2)]
+    for c in range(ncol):
+        for r in range(2):
+            axes[r][c] = _add_axes(fig, spec[r, c], xlabels=r == 1, sharex=axes[0][c],
+                                   grid=("0.88", 0.6))
     xs = [(t, "time t [s]")]
     if one:
         el = cm.spec.drivers[0]
@@ -63,7 +70,6 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         units = sorted({h.split(" [", 1)[1].rstrip("]") for _, h in efforts})
         ax.set_ylabel("driver effort" + (f" [{_pretty(', '.join(units))}]" if units else ""))
         ax.axhline(0, color="0.6", lw=0.6, zorder=1)
-        ax.grid(True, color="0.88", lw=0.6)
         if efforts:
             ax.legend(fontsize=9, loc="best", frameon=False)
         ax = axes[1][c]
@@ -73,7 +79,6 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
                     label=name)
         ax.set_ylabel(f"joint reaction |F| [{_pretty(u['force'])}]")
         ax.set_ylim(bottom=0)
-        ax.grid(True, color="0.88", lw=0.6)
         if mags:
             ax.legend(fontsize=9, loc="best", frameon=False, ncol=1 if len(mags) < 5 else 2)
         ax.set_xlabel(xlabel)
@@ -89,6 +94,11 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     fig.subplots_adjust(left=room[0] / width, right=1 - 0.2 / width, top=1 - 0.45 / 6.6,
                         bottom=0.55 / 6.6, hspace=0.15 / 2.8,
                         wspace=room[-1] / aw if ncol > 1 else 0.2)
+    ah = (6.6 - 1.0 - 0.15) / 2                     # axes height, inches
+    for c, col in enumerate(zip(*axes)):
+        for ax in col:
+            ax.yaxis.set_label_coords(-(room[c] - 0.4) / aw, 0.5)
+            ax.xaxis.set_label_coords(0.5, -0.31 / ah)
     return [_save(fig, Path(out) / f"forces.{fmt}")]
 
 

@@ -34,11 +34,10 @@ ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has
 ANIM_FPS = 20
 ANIM_DPI = 100                 # 6.4 in wide -> 640 px
 FONT = 9                       # legends, annotations (ticks and labels use matplotlib's 10 pt)
-# Axes style, set through rcParams for the duration of each figure (`_styled`): given as
-# ax.grid/ax.tick_params calls instead, matplotlib rebuilds every tick of every axes (a third of
-# the time of building a figure). The titles' y is fixed so that matplotlib does not measure the
-# tick labels to place them.
-STYLE = {"axes.grid": True, "grid.color": "0.88", "grid.linewidth": 0.6,
+# Axes style, set through rcParams for the duration of each figure (`_styled`), read by `_Ticks`
+# (which draws every axes' grid, ticks and tick labels: matplotlib's own grid is off). The
+# titles' y is fixed so that matplotlib does not measure the tick labels to place them.
+STYLE = {"axes.grid": False, "grid.color": "0.88", "grid.linewidth": 0.6,
          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
 ROW_NAMES = ("position", "velocity", "acceleration", "jerk")
@@ -102,7 +101,6 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
     more), and every frame is mapped onto one shared palette before Pillow writes the GIF."""
     from matplotlib.animation import PillowWriter
-    from matplotlib.backends.backend_agg import RendererAgg
     from PIL import Image
 
     path = Path(out) / "animation.gif"
@@ -125,7 +123,7 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
     for a in moving:
         a.set_animated(True)
     w, h = (int(round(v * ANIM_DPI)) for v in fig.get_size_inches())
-    renderer = RendererAgg(w, h, ANIM_DPI)
+    renderer = _renderer_class()(w, h, ANIM_DPI)
     fig.draw(renderer)                      # everything that does not move
     background = renderer.copy_from_bbox(fig.bbox)
 
@@ -348,14 +346,22 @@ def _time_grid(nrows, ncols, xlabel="t [s]"):
     """Figure and (nrows, ncols) axes sharing the abscissa; sized by _arrange_time_grid."""
     from matplotlib.figure import Figure
 
-    fig = Figure()
-    axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
     from matplotlib.ticker import MaxNLocator
-    # at most five intervals on each y axis (1.7 in high): every tick is three lines and two
-    # texts to create and draw, two thirds of the drawing time of these figures
-    for row in axes:
-        for ax in row:
+
+    fig = Figure()
+    grid = fig.add_gridspec(nrows, ncols)
+    # the abscissa shared through sharex= (subplots(sharex=True) hides the upper rows' tick
+    # labels through matplotlib's tick objects, which _Ticks replaces)
+    axes, first = [], None
+    for r in range(nrows):
+        row = []
+        for c in range(ncols):
+            ax = _add_axes(fig, grid[r, c], xlabels=r == nrows - 1, sharex=first)
+            first = first or ax
+            # at most five intervals on each y axis (1.7 in high)
             ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
+            row.append(ax)
+        axes.append(row)
     for ax in axes[-1]:
         ax.set_xlabel(xlabel)
     return fig, axes
@@ -497,6 +503,185 @@ def _tick_label_width(axis, lo, hi) -> float:
     eps = 1e-9 * abs(hi - lo)
     ticks = ticks[(ticks >= min(lo, hi) - eps) & (ticks <= max(lo, hi) + eps)]
     return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
+
+
+def _add_axes(fig, where, xlabels=True, sharex=None, grid=None):
+    """fig.add_subplot(where) (a subplot spec) or fig.add_axes(where) (a rectangle), its grid,
+    ticks and labels drawn by `_Ticks`; xlabels: whether the x tick labels are drawn; grid:
+    (colour, line width) of the grid lines (default: rcParams grid.color, grid.linewidth).
+    Its axis labels are drawn where set_label_coords puts them (the figure's layout)."""
+    kw = dict(axes_class=_axes_class(), sharex=sharex)
+    ax = fig.add_axes(where, **kw) if isinstance(where, tuple) else fig.add_subplot(where, **kw)
+    _Ticks.make(ax, xlabels=xlabels, grid=grid)
+    return ax
+
+
+_AXES = []
+
+
+def _axes_class():
+    """Axes whose axes make no matplotlib tick objects when they are created or cleared (two
+    of them per axis, a third of the time of making an axes): `_Ticks` draws their ticks. Ticks
+    asked for (get_xticklabels, ...) are still made then, as in any axes."""
+    if _AXES:
+        return _AXES[0]
+    from matplotlib.axes import Axes
+    from matplotlib.axis import XAxis, YAxis
+
+    def reset_ticks(self):
+        self.majorTicks, self.minorTicks = [], []
+
+    light = {XAxis: type("XAxis", (XAxis,), {"reset_ticks": reset_ticks}),
+             YAxis: type("YAxis", (YAxis,), {"reset_ticks": reset_ticks})}
+
+    class PlotAxes(Axes):
+        def _init_axis(self):
+            super()._init_axis()
+            for axis in (self.xaxis, self.yaxis):
+                axis.__class__ = light[type(axis)]
+                axis.reset_ticks()
+
+        def clear(self):
+            super().clear()
+            for spine in self.spines.values():
+                spine.get_position()    # places the spine (the first tick object did that)
+
+    _AXES.append(PlotAxes)
+    return PlotAxes
+
+
+class _Ticks:
+    """Grid, tick marks, tick labels and axis labels of one axes, drawn by one artist in one pass
+    (`_add_axes` makes it).
+
+    matplotlib builds an object of three lines and two texts for every tick, copies the first
+    tick's properties into each new one and measures every tick label at each draw: in the time
+    histories that was four fifths of the drawing. Here the axes' own locator and formatter give
+    the ticks (`get_xticks` and the labels are matplotlib's), and the grid, the tick marks and
+    the labels are drawn directly: one path each for the grid and the marks, one text object
+    per axis moved from label to label. The axes' labels are drawn where `set_label_coords`
+    put them (the figure's layout places them; their axis is hidden)."""
+
+    _cls = None
+
+    @classmethod
+    def make(cls, ax, xlabels=True, ylabels=True, grid=None):
+        if cls._cls is None:
+            cls._cls = _ticks_class()
+        return cls._cls(ax, xlabels, ylabels, grid)
+
+
+def _ticks_class():
+    import matplotlib as mpl
+    from matplotlib.artist import Artist
+    from matplotlib.path import Path as MPath
+    from matplotlib.text import Text
+    from matplotlib.transforms import IdentityTransform
+
+    class Ticks(Artist):
+        zorder = 1.5        # where matplotlib draws an axis (axes.axisbelow: "line")
+
+        def __init__(self, ax, xlabels, ylabels, grid):
+            super().__init__()
+            rc = mpl.rcParams
+            self._ax = ax
+            self.show = (xlabels, ylabels)
+            self.grid_style = (*(grid or (rc["grid.color"], rc["grid.linewidth"])),
+                               rc["grid.alpha"])
+            self.tick_style = [(rc[f"{a}tick.major.size"], rc[f"{a}tick.major.width"],
+                                rc[f"{a}tick.major.pad"], rc[f"{a}tick.color"])
+                               for a in "xy"]
+            color = [rc[f"{a}tick.labelcolor"] for a in "xy"]
+            color = [rc[f"{a}tick.color"] if c == "inherit" else c for a, c in zip("xy", color)]
+            ident = IdentityTransform()
+            self.texts = [Text(0, 0, "", fontsize=rc["xtick.labelsize"], color=color[0],
+                               ha="center", va="top", transform=ident),
+                          Text(0, 0, "", fontsize=rc["ytick.labelsize"], color=color[1],
+                               ha="right", va="center_baseline", transform=ident)]
+            self.offset = [Text(0, 0, "", fontsize=rc["xtick.labelsize"], color=color[0],
+                                ha="right", va="top", transform=ident),
+                           Text(0, 0, "", fontsize=rc["ytick.labelsize"], color=color[1],
+                                ha="left", va="baseline", transform=ident)]
+            for t in self.texts + self.offset:
+                t.set_figure(ax.figure)
+            ax.xaxis.set_visible(False)
+            ax.yaxis.set_visible(False)
+            ax.add_artist(self)
+            self.set_clip_on(False)
+
+        @staticmethod
+        def _locs(axis):
+            """Tick values inside the view, their labels (formatted with all of the locator's
+            values, as matplotlib does) and the axis' offset text."""
+            locs = np.asarray(axis.get_majorticklocs(), float)
+            labels = axis.get_major_formatter().format_ticks(locs)
+            lo, hi = sorted(axis.get_view_interval())
+            tr = axis.get_transform()
+            a, b = tr.transform([lo, hi])
+            eps = 1e-10 * abs(b - a)        # as matplotlib's own test
+            keep = [k for k, v in enumerate(tr.transform(locs)) if a - eps <= v <= b + eps]
+            return locs[keep], [labels[k] for k in keep], axis.get_major_formatter().get_offset()
+
+        def draw(self, renderer):
+            if not self.get_visible():
+                return
+            ax = self._ax
+            renderer.open_group("ticks", gid=self.get_gid())
+            pt = renderer.points_to_pixels(1.0)
+            x0, y0, x1, y1 = ax.bbox.extents
+            xl, xs, xoff = self._locs(ax.xaxis)
+            yl, ys, yoff = self._locs(ax.yaxis)
+            X = ax.transData.transform(np.c_[xl, np.zeros(len(xl))])[:, 0] if len(xl) else xl
+            Y = ax.transData.transform(np.c_[np.zeros(len(yl)), yl])[:, 1] if len(yl) else yl
+            ident = IdentityTransform()
+
+            def segments(verts, color, width, alpha=None, cap="butt"):
+                if not len(verts):
+                    return
+                gc = renderer.new_gc()
+                gc.set_foreground(color)
+                gc.set_linewidth(width)
+                gc.set_capstyle(cap)
+                if alpha is not None:
+                    gc.set_alpha(alpha)
+                codes = np.tile([MPath.MOVETO, MPath.LINETO], len(verts) // 2)
+                renderer.draw_path(gc, MPath(np.asarray(verts, float), codes), ident)
+                gc.restore()
+
+            c, w, a = self.grid_style
+            segments([p for x in X for p in ((x, y0), (x, y1))]
+                     + [p for y in Y for p in ((x0, y), (x1, y))], c, w, a, cap="projecting")
+            (xsize, xw, xpad, xc), (ysize, yw, ypad, yc) = self.tick_style
+            segments([p for x in X for p in ((x, y0), (x, y0 - xsize * pt))], xc, xw)
+            segments([p for y in Y for p in ((x0, y), (x0 - ysize * pt, y))], yc, yw)
+            tx, ty = self.texts
+            if self.show[0]:
+                for x, s in zip(X, xs):
+                    tx.set_text(s)
+                    tx.set_position((x, y0 - (xsize + xpad) * pt))
+                    tx.draw(renderer)
+                if xoff:
+                    o = self.offset[0]
+                    o.set_text(xoff)
+                    o.set_position((x1, y0 - (xsize + xpad + 1.2 * tx.get_fontsize() + 3) * pt))
+                    o.draw(renderer)
+            if self.show[1]:
+                for y, s in zip(Y, ys):
+                    ty.set_text(s)
+                    ty.set_position((x0 - (ysize + ypad) * pt, y))
+                    ty.draw(renderer)
+                if yoff:
+                    o = self.offset[1]
+                    o.set_text(yoff)
+                    o.set_position((x0, y1 + 3 * pt))
+                    o.draw(renderer)
+            for axis in (ax.xaxis, ax.yaxis):
+                if axis.label.get_text():
+                    axis.label.draw(renderer)
+            renderer.close_group("ticks")
+            self.stale = False
+
+    return Ticks
 
 
 def _duration(data, info) -> float:
@@ -782,7 +967,13 @@ class _Drawing:
 
     def __init__(self, ax, scene: _Scene, row: int, color=None, body_colors=False, alpha=1.0,
                  fill=0.25, zorder=10.0, labels=False, width=4.5):
+        from matplotlib.lines import Line2D
         from matplotlib.patches import Polygon
+
+        def line(**kw):
+            # Line2D and add_line: ax.plot parses its arguments and cycles properties, a third
+            # of the cost of an empty line
+            return ax.add_line(Line2D([], [], **kw))
 
         self.scene = scene
         self.ax = ax
@@ -794,22 +985,21 @@ class _Drawing:
             if scene.fills[b] is not None:
                 patch = Polygon(scene.fills[b], closed=True, fc=_with_alpha(c, fill * alpha),
                                 ec=_with_alpha(c, alpha), lw=2.0, zorder=zorder)
-                ax.add_patch(patch)
+                ax.add_artist(patch)    # (the drawing's bounds set the limits)
                 self.parts.append((patch, b, scene.fills[b], "fill"))
             if scene.bars[b] is not None:
-                line, = ax.plot([], [], color=c, lw=width, alpha=alpha, solid_capstyle="round",
-                                zorder=zorder)
-                self.parts.append((line, b, scene.bars[b], "line"))
+                self.parts.append((line(color=c, lw=width, alpha=alpha, solid_capstyle="round",
+                                        zorder=zorder), b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
-                line, = ax.plot([], [], color=c, lw=1.0, ls="--", alpha=alpha, zorder=zorder + 0.1)
-                self.parts.append((line, b, poly, "line"))
+                self.parts.append((line(color=c, lw=1.0, ls="--", alpha=alpha,
+                                        zorder=zorder + 0.1), b, poly, "line"))
         edge = color if color is not None else "0.15"
-        self.links = [ax.plot([], [], color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)[0]
+        self.links = [line(color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)
                       for _ in scene.links]
-        self.pins, = ax.plot([], [], ls="none", marker="o", ms=5.5, mfc="white", mec=edge,
-                             mew=1.3, alpha=alpha, zorder=zorder + 0.5)
-        self.points = [ax.plot([], [], ls="none", marker="D", ms=5, mfc=scene.point_colors[k],
-                               mec=edge, mew=0.8, alpha=alpha, zorder=zorder + 0.6)[0]
+        self.pins = line(ls="none", marker="o", ms=5.5, mfc="white", mec=edge, mew=1.3,
+                         alpha=alpha, zorder=zorder + 0.5)
+        self.points = [line(ls="none", marker="D", ms=5, mfc=scene.point_colors[k], mec=edge,
+                            mew=0.8, alpha=alpha, zorder=zorder + 0.6)
                        for k in range(len(cm.point_names))]
         self.artists = ([a for a, _, _, _ in self.parts] + self.links + [self.pins]
                         + self.points)
@@ -872,16 +1062,20 @@ def _plane_figure(cm, scene: _Scene, width, beside, dpi=DPI, ground_alpha=1.0):
     from matplotlib.figure import Figure
 
     fig = Figure(dpi=dpi)
-    ax = fig.add_axes((0, 0, 1, 1))
+    ax = _add_axes(fig, (0, 0, 1, 1))
     _mechanism_axes(ax, cm, scene, ground_alpha)
     x0, x1, y0, y1 = scene.bounds
-    left = _tick_label_width(ax.yaxis, y0, y1) + 0.5
+    label_w = _tick_label_width(ax.yaxis, y0, y1)
+    left = label_w + 0.5
     bottom, top = 0.55, 0.45
     aw = width - left - beside
     ah = float(np.clip(aw * (y1 - y0) / (x1 - x0), 2.4, 6.8)) if x1 > x0 else aw
     height = ah + bottom + top
     fig.set_size_inches(width, height)
     ax.set_position((left / width, bottom / height, aw / width, ah / height))
+    # the axis labels at fixed places, as in the time histories (_arrange_time_grid)
+    ax.yaxis.set_label_coords(-(label_w + 0.15) / aw, 0.5)
+    ax.xaxis.set_label_coords(0.5, -0.29 / ah)
     return fig, ax, ((left + aw + 0.15) / width, (bottom + ah) / height)
 
 
@@ -919,12 +1113,13 @@ def _mechanism_axes(ax, cm, scene: _Scene, ground_alpha=1.0):
 def _trajectories_figure(cm, scene: _Scene):
     """Paths of the points of interest, start dots, direction arrows, the mechanism faint at
     t = start."""
+    from matplotlib.collections import PolyCollection
     from matplotlib.lines import Line2D
-    from matplotlib.patches import FancyArrowPatch
+    from matplotlib.transforms import Affine2D
 
     fig, ax, _ = _plane_figure(cm, scene, 8.0, 0.25, ground_alpha=0.5)
     _Drawing(ax, scene, 0, color="0.6", alpha=0.45, zorder=9)
-    handles = []
+    handles, heads, tips, colors = [], [], [], []
     for k, name in enumerate(cm.point_names):
         xy = scene.traces[k]
         c = scene.point_colors[k]
@@ -932,17 +1127,83 @@ def _trajectories_figure(cm, scene: _Scene):
         ax.plot(xy[0, 0], xy[0, 1], "o", color=c, ms=6, zorder=13)
         handles.append(line)
         for a, b in _arrow_spots(xy, 0.04 * scene.span):
-            ax.add_patch(FancyArrowPatch(a, b, arrowstyle="-|>", mutation_scale=13, color=c,
-                                         lw=0, zorder=13))
+            heads.append(_arrow_head(np.subtract(b, a)))
+            tips.append(b)
+            colors.append(c)
+    if heads:
+        # the direction marks: filled heads of 5.2 by 5.2 points at the arrows' ends (what
+        # FancyArrowPatch(arrowstyle="-|>", mutation_scale=13, lw=0) draws), in one
+        # collection; on the equal-aspect axes a direction in the data is the same on paper
+        ax.add_collection(PolyCollection(heads, offsets=tips, offset_transform=ax.transData,
+                                         transform=Affine2D().scale(1 / 72)
+                                         + fig.dpi_scale_trans, facecolors=colors,
+                                         edgecolors="none", linewidths=0, zorder=13),
+                          autolim=False)
     handles += [Line2D([], [], ls="none", marker="o", color="0.2", ms=6, label="start"),
                 Line2D([], [], ls="none", marker=">", color="0.2", ms=6, label="direction"),
                 Line2D([], [], color="0.6", lw=3, alpha=0.6, label=f"mechanism at t = "
                                                                    f"{scene.t[0]:.4g} s")]
-    ax.legend(handles=handles, loc="best", fontsize=FONT,
-              ncol=1 if len(handles) <= 12 else 2, framealpha=0.85)
+    ncol = 1 if len(handles) <= 12 else 2
+    ax.legend(handles=handles, loc=_quiet_corner(ax, scene, handles, ncol), fontsize=FONT,
+              ncol=ncol, framealpha=0.85)
     ax.set_title(f"{cm.spec.name}: paths of the points "
                  f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12, y=1.0)
     return fig
+
+
+def _arrow_head(d, length=5.2, half_width=2.6, shrink=2.0) -> np.ndarray:
+    """(3, 2) vertices in points of an arrow head pointing along d, its tip shrink points
+    short of the origin (the arrow's end)."""
+    u = np.asarray(d, float) / np.hypot(*d)
+    n = np.array([-u[1], u[0]])
+    tip = -shrink * u
+    base = tip - length * u
+    return np.array([tip, base + half_width * n, base - half_width * n])
+
+
+def _quiet_corner(ax, scene, handles, ncol=1) -> str:
+    """The corner of the axes where a legend of these handles covers the fewest points of the
+    paths and of the drawing (loc="best" without matplotlib's search, which lays the legend
+    out and tests every vertex of every artist at each of nine places: a sixth of the time of
+    this figure). The legend's size is estimated from its labels; the axes' limits are the
+    drawing's bounds widened to the axes' aspect ratio, as the equal aspect widens them."""
+    x0, x1, y0, y1 = scene.bounds
+    pos = ax.get_position()
+    W, H = ax.figure.get_size_inches()
+    aw, ah = pos.width * W, pos.height * H
+    if not (x1 > x0 and y1 > y0 and aw > 0 and ah > 0):
+        return "upper right"
+    k = max((x1 - x0) / aw, (y1 - y0) / ah)          # data units per inch
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    x0, x1, y0, y1 = cx - 0.5 * k * aw, cx + 0.5 * k * aw, cy - 0.5 * k * ah, cy + 0.5 * k * ah
+    em = FONT / 72.0
+    rows = -(-len(handles) // ncol)
+    lw = ncol * (_text_width([h.get_label() for h in handles]) + 3.6 * em) + 0.8 * em
+    lh = rows * 1.5 * em + 0.8 * em
+    pad = 0.5 * em
+    # the paths, the ground pivots and the edges of the bodies at the first instant (drawn)
+    edges = []
+    for b in range(scene.nb):
+        for V in (scene.fills[b], scene.bars[b]):
+            if V is not None:
+                G = scene.at(b, V, 0)
+                G = np.r_[G, G[:1]] if len(G) > 2 else G
+                f = np.linspace(0.0, 1.0, 16)[:, None, None]
+                edges.append((G[:-1] + f * (G[1:] - G[:-1])).reshape(-1, 2))
+    P = np.concatenate([np.asarray(xy, float).reshape(-1, 2) for xy in scene.traces]
+                       + [np.asarray(scene.pivots, float).reshape(-1, 2)] + edges)
+    P = P[np.isfinite(P).all(axis=1)]
+    u, v = (P[:, 0] - x0) / k, (P[:, 1] - y0) / k     # inches from the lower left corner
+    best, where = None, "upper right"
+    for loc, (left, bottom) in (("upper right", (aw - pad - lw, ah - pad - lh)),
+                                ("upper left", (pad, ah - pad - lh)),
+                                ("lower left", (pad, pad)),
+                                ("lower right", (aw - pad - lw, pad))):
+        n = int(np.count_nonzero((u >= left) & (u <= left + lw) & (v >= bottom)
+                                 & (v <= bottom + lh)))
+        if best is None or n < best:
+            best, where = n, loc
+    return where
 
 
 def _arrow_spots(xy, length, fractions=(0.1, 0.4, 0.7)):
@@ -1036,11 +1297,10 @@ def _fit_legend(fig, legend, ax, anchor):
     """Widen the figure until the legend beside the axes fits (the width of its texts is only
     estimated when the figure is laid out), keeping the axes' size and place in inches; the
     legend's upper-left corner is at anchor (figure fraction before widening)."""
-    from matplotlib.backends.backend_agg import RendererAgg
 
     W, H = fig.get_size_inches()
     dpi = fig.dpi
-    box = legend.get_window_extent(RendererAgg(int(W * dpi), int(H * dpi), dpi))
+    box = legend.get_window_extent(_renderer_class()(int(W * dpi), int(H * dpi), dpi))
     extra = box.x1 / dpi + 0.08 - W                   # inches past the right edge
     if extra <= 0:
         return
@@ -1054,8 +1314,9 @@ def _fit_legend(fig, legend, ax, anchor):
 # -- small helpers -------------------------------------------------------------------------------
 
 def _save(fig, path: Path) -> Path:
-    """Save a figure: png at DPI; svg and pdf without a date and (svg) with fixed
-    element ids, so that the same run gives byte-identical files."""
+    """Save a figure: png at DPI (drawn by `_renderer_class`, encoded by `_write_png`); svg and
+    pdf without a date and (svg) with fixed element ids, so that the same run gives
+    byte-identical files."""
     from contextlib import nullcontext
 
     import matplotlib as mpl
@@ -1066,23 +1327,118 @@ def _save(fig, path: Path) -> Path:
     # for the duration of one save
     salt = mpl.rc_context({"svg.hashsalt": "planarkin"}) if fmt == "svg" else nullcontext()
     if fmt == "png":
-        # drawn by Agg and encoded here: RGB (no alpha channel: the figure is opaque) at zlib
-        # level 1 takes two thirds of the time of savefig's RGBA at level 6, for files of about
-        # the same size
         from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from PIL import Image
         fig.set_dpi(DPI)
-        canvas = FigureCanvasAgg(fig)
-        canvas.draw()
-        image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
-                                 "RGBA", 0, 1).convert("RGB")
-        image.save(path, format="png", compress_level=1, dpi=(DPI, DPI))
+        FigureCanvasAgg(fig)                    # (the figure's canvas, as savefig makes it)
+        w, h = fig.bbox.size
+        renderer = _renderer_class()(int(w), int(h), DPI)
+        fig.draw(renderer)
+        _write_png(path, renderer.buffer_rgba(), DPI)
         return path
     with salt:
         fig.savefig(path, format=fmt, dpi=DPI, metadata=meta)
     # no fig.clear(): tearing the artists down costs a tenth of the drawing; dropping the last
     # reference frees them as well
     return path
+
+
+def _write_png(path: Path, rgba, dpi: int) -> None:
+    """Write an opaque RGBA buffer (h, w, 4) as an RGB png: rows unfiltered, zlib level 1, the
+    resolution in a pHYs chunk. Half of the time of Pillow's encoder at level 1 (which tries
+    every row filter), and the files are a few per cent smaller: plots are mostly runs of one
+    colour, which the filters do not shorten."""
+    import struct
+    import zlib
+
+    a = np.asarray(rgba)
+    h, w = a.shape[:2]
+    rows = np.empty((h, 3 * w + 1), np.uint8)
+    rows[:, 0] = 0                                  # filter type None
+    rows[:, 1:].reshape(h, w, 3)[...] = a[:, :, :3]
+    z = zlib.compressobj(1)
+    data = z.compress(rows) + z.flush()
+
+    def chunk(tag: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    ppm = round(dpi / 0.0254)                       # pixels per metre
+    with open(path, "wb") as f:
+        f.write(b"".join([b"\x89PNG\r\n\x1a\n",
+                          chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)),
+                          chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
+                          chunk(b"IDAT", data), chunk(b"IEND", b"")]))
+
+
+_RENDERER = []
+_TEXTS: dict = {}             # (string, font, dpi, antialiased) -> _Rasterised, this process
+_TEXTS_MAX = 4096             # entries kept (a few kB each); the cache is emptied when full
+
+
+class _Rasterised:
+    """One string laid out and rasterised by FreeType: its width, height and descent (pixels)
+    and its bitmap with the bitmap's offset (FreeType's 1/64 pixels)."""
+    __slots__ = ("whd", "image", "offset")
+
+    def __init__(self, font, s, flags, antialiased):
+        font.set_text(s, 0.0, flags=flags)
+        w, h = font.get_width_height()
+        self.whd = (w / 64.0, h / 64.0, font.get_descent() / 64.0)
+        font.draw_glyphs_to_bitmap(antialiased=antialiased)
+        self.image = font.get_image()
+        self.offset = font.get_bitmap_offset()
+
+
+def _renderer_class():
+    """RendererAgg, laying out and rasterising each distinct string once per process when this
+    matplotlib draws texts glyph by glyph (3.11: a Python loop over the glyphs, each with its own
+    transform and image; and FreeType lays the string out again for the drawing after the
+    measuring, 0.4 ms each time): the string is laid out and rasterised in one call and drawn
+    as one image, as matplotlib up to 3.10 did, and the result is kept for the next time the
+    same string is measured or drawn in the same font (tick labels, legends and axis labels
+    repeat from figure to figure). A string's bitmap does not depend on where it is drawn
+    (whole pixels, as up to 3.10), so a figure is the same whether its texts were cached or
+    not. Math text and anything else go to matplotlib's own methods."""
+    if _RENDERER:
+        return _RENDERER[0]
+    from matplotlib.backends import backend_agg
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    cls = RendererAgg
+    if hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"):
+        hinting = backend_agg.get_hinting_flag
+
+        class TextRenderer(RendererAgg):
+            def _text(self, s, prop, antialiased=True):
+                key = (s, tuple(prop.get_family()), prop.get_style(), prop.get_variant(),
+                       prop.get_weight(), prop.get_stretch(), prop.get_size_in_points(),
+                       prop.get_file(), self.dpi, bool(antialiased))
+                r = _TEXTS.get(key)
+                if r is None:
+                    if len(_TEXTS) >= _TEXTS_MAX:
+                        _TEXTS.clear()
+                    r = _TEXTS[key] = _Rasterised(self._prepare_font(prop), s, hinting(),
+                                                  antialiased)
+                return r
+
+            def get_text_width_height_descent(self, s, prop, ismath):
+                if ismath:
+                    return super().get_text_width_height_descent(s, prop, ismath)
+                return self._text(s, prop).whd
+
+            def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+                if ismath:
+                    return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                r = self._text(s, prop, gc.get_antialiased())
+                # the bitmap is drawn unrotated at angle 0, rotated by draw_text_image
+                a = math.radians(angle)
+                d = r.whd[2]
+                x = round(x + r.offset[0] / 64.0 + d * math.sin(a))
+                y = round(y + r.offset[1] / 64.0 + d * math.cos(a))
+                self._renderer.draw_text_image(r.image, x, y + 1, angle, gc)
+
+        cls = TextRenderer
+    _RENDERER.append(cls)
+    return cls
 
 
 def _palette(n: int) -> list:
