@@ -376,6 +376,9 @@ def _conclude(path, outdir, report, info, summary, cycle, seconds):
         report.ok(path, detail)
     else:
         report.failed(path, info.message, detail)
+    for w in summary.get("warnings", ()):
+        if isinstance(w, dict) and w.get("kind") == "plots":     # the tables are written
+            report.warning(path, w["message"])
     if cycle:
         from .measures.cycle import format_cycle
         try:

@@ -573,7 +573,9 @@ def test_a_figure_does_not_depend_on_what_was_drawn_before(tmp_path):
     plots._TEXTS.clear()
     plots.write_plots(four[0], four[1]._chunk, four[1].info, tmp_path / "other")
     after = plots.write_plots(six[0], six[1]._chunk, six[1].info, tmp_path / "after")
-    assert len(plots._TEXTS) > 0
+    from matplotlib.backends.backend_agg import RendererAgg
+    if hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"):   # the cache's matplotlib (3.11)
+        assert len(plots._TEXTS) > 0
     assert [f.name for f in alone] == [f.name for f in after]
     for a, b in zip(alone, after):
         assert a.read_bytes() == b.read_bytes(), a.name
@@ -622,3 +624,32 @@ def test_tick_labels_are_drawn_where_matplotlib_draws_them(ydata):
     assert len(ours) >= 8
     for (s, x, y), (_, x2, y2) in zip(ours, theirs):
         assert abs(x - x2) <= 1.0 and abs(y - y2) <= 1.0, (s, x, y, x2, y2)
+
+
+def test_a_drawing_failure_is_reported_and_the_tables_kept(tmp_path):
+    """A figure that cannot be drawn (a bug, a matplotlib that behaves otherwise) does not cost
+    the tables: the model is ok, the failure is a warning on the terminal and in summary.json,
+    not a silently missing figure."""
+    import json
+    import subprocess
+    import sys
+    code = ("import sys\n"
+            "from planarkin.output import plots\n"
+            "def boom(*a, **k):\n"
+            "    raise IndexError('list index out of range')\n"
+            "plots.write_plots = boom\n"
+            "from planarkin.__main__ import entry\n"
+            f"sys.argv = ['planarkin', 'run', {str(ROOT / 'mechanisms' / 'four-bar.yaml')!r}, "
+            f"'--out', {str(tmp_path)!r}]\n"
+            "entry()\n")
+    env = dict(os.environ, MPLBACKEND="Agg",
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr
+    assert "warning: drawing the plots failed: IndexError: list index out of range" in r.stderr
+    assert r.stderr.count("drawing the plots failed") == 1
+    summary = json.loads((tmp_path / "four-bar" / "summary.json").read_text())
+    assert summary["status"] == "ok" and (tmp_path / "four-bar" / "bodies.csv").exists()
+    assert [w["kind"] for w in summary["warnings"]] == ["plots"]

@@ -526,13 +526,17 @@ def _axes_class():
     if _AXES:
         return _AXES[0]
     from matplotlib.axes import Axes
-    from matplotlib.axis import XAxis, YAxis
+    from matplotlib.axis import Axis, XAxis, YAxis
 
     def reset_ticks(self):
         self.majorTicks, self.minorTicks = [], []
 
-    light = {XAxis: type("XAxis", (XAxis,), {"reset_ticks": reset_ticks}),
-             YAxis: type("YAxis", (YAxis,), {"reset_ticks": reset_ticks})}
+    def _get_ticks_position(self):
+        # matplotlib <= 3.10 reads the first tick object to place an axes title
+        return Axis._get_ticks_position(self) if self.majorTicks else "default"
+
+    attrs = {"reset_ticks": reset_ticks, "_get_ticks_position": _get_ticks_position}
+    light = {XAxis: type("XAxis", (XAxis,), attrs), YAxis: type("YAxis", (YAxis,), attrs)}
 
     class PlotAxes(Axes):
         def _init_axis(self):

@@ -218,8 +218,9 @@ class DirectoryWriter:
                 try:
                     drawn = [p.name for p in self._plots(info, data, sent)]
                 except Exception as e:  # noqa: BLE001 - a figure must not cost the tables
-                    summary["warnings"].append({"kind": "plots", "message": f"drawing the "
-                                                f"plots failed: {type(e).__name__}: {e}"})
+                    why = str(e) if str(e).startswith("drawing the plots failed") else \
+                        f"drawing the plots failed: {type(e).__name__}: {e}"
+                    summary["warnings"].append({"kind": "plots", "message": why})
                 except (KeyboardInterrupt, Interrupted) as e:
                     pending = e
                 summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
