@@ -240,20 +240,32 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
 
 
 class _Later:
-    """The report of a batch, through which a model's plots are drawn while the next model
-    solves: `_run_one` leaves the model's end (collecting its plots, summary.json, the
-    directory put in place, its report line) here, and it happens before anything more is
-    printed, so that the lines keep the models' order; `settle()` ends it explicitly."""
+    """The report of a batch, through which a model's plots are drawn while the next models
+    solve: `_run_one` leaves the model's end (collecting its plots, summary.json, the
+    directory put in place, its report line) here, and the ends happen in the models' order
+    before anything more is printed, so that the lines keep that order; `settle()` ends them
+    explicitly. At most `plotworker.capacity()` ends wait at a time (the plot jobs in flight:
+    one per drawing process)."""
 
     def __init__(self, report: Report):
         self.report = report
-        self.waiting = None         # the end of the last model, a callable, or None
+        self.waiting: list = []     # the ends of the last models, callables, oldest first
         self.more = False           # models follow the current one (else: wait for its plots)
 
-    def settle(self) -> None:
-        conclude, self.waiting = self.waiting, None
-        if conclude is not None:
-            conclude()
+    def settle(self, keep: int = 0) -> None:
+        """End the oldest waiting models until `keep` wait. Every one is ended even when one
+        of them is interrupted (its directory is in place, interrupted); the first
+        interruption is raised again once all are."""
+        first = None
+        while len(self.waiting) > keep:
+            conclude = self.waiting.pop(0)
+            try:
+                conclude()
+            except BaseException as e:  # noqa: BLE001 - raised below, after the others
+                first = first or e
+                keep = 0            # interrupted: the rest are ended too, not left in flight
+        if first is not None:
+            raise first
 
     def diagnostics(self, diags) -> None:
         if diags:                   # (called for every model, mostly with none)
@@ -307,8 +319,9 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     try:
         info, _ = stream(an, sink=writer, progress=progress)
         progress.close()
-        if later:
-            report.settle()             # the model before: its plots were drawn meanwhile
+        if later:                       # the models before: their plots drawn meanwhile
+            from .output import plotworker      # (one left drawing when two drawers can)
+            report.settle(keep=plotworker.capacity() - 1)
         report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
@@ -333,7 +346,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
             return
         _conclude(path, outdir, report.report, info, summary, cycle,
                   spent + time.perf_counter() - c0)
-    report.waiting = conclude
+    report.waiting.append(conclude)
 
 
 def _conclude_failed(e, path, outdir, writer, report, an, t0):
