@@ -1,12 +1,14 @@
 """Where the time of a `planarkin run` with plots goes, process by process: a timeline.
 
-    python benchmarks/bench_plot_timeline.py [MODEL.yaml ...] [-- RUN OPTIONS]
+    python benchmarks/bench_plot_timeline.py [--force-idle] [MODEL.yaml ...] [-- RUN OPTIONS]
 
 Runs `planarkin run` in this process (the early fork included) with the plot server's steps
 wrapped so that every process appends a time stamp to one file: the fork, matplotlib imported,
 each job received, each figure saved, each answer sent and read, each directory put in place,
 the process's exit. Times are seconds since this script started (about 0.03 s after the
 interpreter did). Default: mechanisms/four-bar.yaml; give several models for a batch.
+--force-idle: the plot processes act as on a quiet machine (a core free for each drawer), to
+see their structure on a busy one (the times are then those of a busy machine).
 """
 
 from __future__ import annotations
@@ -125,6 +127,8 @@ def instrument() -> None:
 def main() -> None:
     global LOG
     args = sys.argv[1:]
+    force = "--force-idle" in args
+    args = [a for a in args if a != "--force-idle"]
     extra = []
     if "--" in args:
         k = args.index("--")
@@ -133,6 +137,9 @@ def main() -> None:
     tmp = tempfile.mkdtemp(prefix="plot-timeline-")
     LOG = os.path.join(tmp, "timeline.log")
     instrument()
+    if force:
+        from planarkin.output import plotworker
+        plotworker._idle_core = lambda *a, **k: True
     mark("instrumented")
     sys.argv = ["planarkin", "run", *models, "-q", "--out", os.path.join(tmp, "out"), *extra]
     pid = os.fork()

@@ -116,6 +116,37 @@ def batch(n: int, tmp: Path) -> dict:
     return out
 
 
+def batch_against(baseline: Path, n: int, tmp: Path) -> dict:
+    """The batch of `batch`, this checkout and another one, interleaved (baseline no-plots,
+    this no-plots, baseline plots, this plots): wall and CPU of each call, the plotting per
+    model (wall difference / models) of each tree."""
+    import resource
+    src = tmp / "models-vs"
+    src.mkdir(exist_ok=True)
+    files = []
+    for k in range(n):
+        name = EXAMPLES[k % len(EXAMPLES)]
+        f = src / f"{k:03d}-{name}.yaml"
+        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
+        files.append(str(f))
+    got: dict = {}
+    for kind, extra in (("no-plots", ["--no-plots"]), ("plots", [])):
+        for name, root in (("baseline", baseline), ("this", ROOT)):
+            env = dict(os.environ, PYTHONPATH=str(root))
+            r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "planarkin", "run", *files, "-q", "--out",
+                            str(tmp / f"vs-batch-{name}-{kind}")] + extra, cwd=root, env=env,
+                           check=True, capture_output=True)
+            wall = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            got.setdefault(name, {})[kind] = (wall, r1.ru_utime - r0.ru_utime +
+                                              r1.ru_stime - r0.ru_stime)
+    return {name: {**v, "per_model_extra": (v["plots"][0] - v["no-plots"][0]) / n,
+                   "per_model_extra_cpu": (v["plots"][1] - v["no-plots"][1]) / n}
+            for name, v in got.items()}
+
+
 def in_process(models, repeat: int, tmp: Path) -> list[dict]:
     """Per figure: best-of-repeat seconds to build and write it in this process (wall and CPU:
     on a busy machine the CPU seconds are the steadier figure)."""
@@ -187,6 +218,16 @@ def main() -> None:
                 print(f"  {name:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
                       f"({cn:.2f} s CPU): ratio {r['ratio_wall']:.2f} x wall, "
                       f"{r['ratio_cpu']:.2f} x CPU; plots cost {r['plot_cpu']:.2f} s CPU")
+            print()
+        if a.baseline and a.batch:
+            v = batch_against(a.baseline.resolve(), a.batch, tmp)
+            print(f"== this checkout against {a.baseline}: a batch of {a.batch} models, "
+                  f"interleaved ==")
+            for name, r in v.items():
+                (wp, cp), (wn, cn) = r["plots"], r["no-plots"]
+                print(f"  {name:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
+                      f"({cn:.2f} s CPU): plotting per model {r['per_model_extra']:.3f} s wall,"
+                      f" {r['per_model_extra_cpu']:.3f} s CPU")
             print()
         b = batch(a.batch, tmp) if a.batch else None
         if b is not None:
