@@ -104,6 +104,7 @@ class DirectoryWriter:
             self.t_write = 0.0
             ctx = fork_context() if background else None
             self.background = ctx is not None
+            from . import fastcsv  # noqa: F401 - once here, not in each forked writer
 
             # table_format: "csv" or "parquet" (default: the model's output: table_format);
             # the sinks, and summary.json's files and columns, go by the names of the files
