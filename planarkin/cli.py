@@ -193,9 +193,7 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
         _tune_malloc()
     plotting = (not no_plots or animate) and not (jobs > 1 and len(models) > 1)
     from .output import plotworker
-    if plotting:
-        plotworker.start()                  # imports matplotlib while the models solve
-    else:                                   # (stopped below, or at exit)
+    if not plotting:                        # (stopped below, or at exit)
         plotworker.stop()                   # one started by __main__ on a guess
     report = Report(quiet)
     later = _Later(report)          # the model whose plots the server draws meanwhile
@@ -213,6 +211,12 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
             for k, (path, outdir) in enumerate(zip(models, dirs)):
                 later.more = k + 1 < len(models)
                 model = _load(path, later, overrides)
+                if model is not None and plotting and not plotworker.running():
+                    # not started by __main__ (no core was free): forked now, it inherits
+                    # numpy and the modules a job needs, and only imports matplotlib (while
+                    # the models solve), instead of repeating the imports of this process
+                    from . import results  # noqa: F401
+                    plotworker.start()
                 if model is not None:
                     _run_one(path, model, outdir, later, dict(analysis),
                              None if no_plots else fmt, animate, x_axis,
@@ -273,7 +277,19 @@ class _Later:
             self.report.diagnostics(diags)
 
     def __getattr__(self, name):
-        self.settle()
+        try:
+            self.settle()
+        except BaseException as e:
+            # interrupted while ending the models before: their lines are printed; this
+            # one's (a model already in place) too, then the interruption goes on
+            attr, stopped = getattr(self.report, name), e
+            if not callable(attr):
+                raise
+
+            def then_raise(*args, **kwargs):
+                attr(*args, **kwargs)
+                raise stopped
+            return then_raise
         return getattr(self.report, name)
 
 

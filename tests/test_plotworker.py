@@ -279,3 +279,33 @@ def test_the_drawers_import_what_a_job_needs_and_not_the_csv_formatter():
     assert out.stdout.split("\n")[-2] == str(["matplotlib.figure", "planarkin.model.compile",
                                               "planarkin.results", "planarkin.solver"]), \
         out.stdout + out.stderr
+
+
+def test_a_model_in_place_gets_its_line_when_the_one_before_is_interrupted():
+    """The last model of a batch is put in place while the one before still waits for its
+    plots; printing the last one's line ends the one before first, and an interruption there
+    (its line says so) must not swallow the last one's line: both are printed, in order, and
+    the interruption goes on."""
+    from planarkin.cli import _Later
+
+    class Lines:
+        def __init__(self):
+            self.lines = []
+
+        def ok(self, path, detail=""):
+            self.lines.append(("ok", path))
+
+        def interrupted(self, path, sig, detail=""):
+            self.lines.append(("interrupted", path))
+
+    rep = Lines()
+    later = _Later(rep)
+
+    def before():
+        rep.interrupted("a.yaml", "SIGINT")
+        raise KeyboardInterrupt
+    later.waiting.append(before)
+    with pytest.raises(KeyboardInterrupt):
+        later.ok("b.yaml", "in place")
+    assert rep.lines == [("interrupted", "a.yaml"), ("ok", "b.yaml")]
+    assert not later.waiting

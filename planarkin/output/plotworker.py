@@ -2,11 +2,12 @@
 
 Importing matplotlib costs 0.3-0.5 s, as much as the whole analysis of an example model, and
 drawing the four figures of a model about 1 s of CPU. `start()` (the first thing `planarkin run`
-does when it will plot) forks the plot server, which imports matplotlib (and the modules a job
-needs to be unpickled) at once, behind the parent's own start-up, model loading, solve and CSV
-writing. On a machine with two cores or more the server then forks one helper, which inherits
-the imported matplotlib (a fork, not a second import). They are the two drawers; each reads
-jobs from its own pipe to the parent and answers in order.
+does when it will plot, or, when no core is free then, once its first model is loaded) forks
+the plot server, which imports matplotlib (and the modules a job needs to be unpickled) at
+once, behind the parent's own start-up, model loading, solve and CSV writing. On a machine
+with two cores or more the server then forks one helper, which inherits the imported
+matplotlib (a fork, not a second import). They are the two drawers; each reads jobs from its
+own pipe to the parent and answers in order.
 
 A job (model, plot rows, run info, pickled once: a few hundred kB) is a model's figures, its
 animation and its rooms' figures (forces.png ...), units of known relative cost. `submit()`
@@ -69,18 +70,13 @@ def start(early: bool = False) -> None:
     early=True: called by `planarkin.__main__` as its first act when the command line asks for
     plots, before click and numpy are imported, so that the server's 0.5 s of importing
     overlaps the parent's own start-up too; only when a core is free (else the server would
-    import numpy and planarkin's modules a second time, 0.1-0.3 s of CPU, for nothing).
-    `planarkin run` calls it again (a no-op when the server runs)."""
+    import numpy and planarkin's modules a second time, 0.3-0.5 s of CPU, for nothing).
+    Otherwise `planarkin run` calls it once the first model is loaded: the server then inherits
+    numpy and the modules a job needs, and imports matplotlib alone."""
     global _pool
     if _pool is not None or (early and not _idle_core()):
         return
     import multiprocessing as mp
-
-    # numpy before the fork when the machine is busy: the parent needs it anyway, and the
-    # server then does not import it a second time (CPU a busy machine does not have to spare);
-    # with a core free both import it at once, and the server is ready 0.2 s sooner
-    if not _idle_core():
-        import numpy  # noqa: F401
     try:
         ctx = mp.get_context("fork")
     except ValueError:
