@@ -193,9 +193,7 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
         _tune_malloc()
     plotting = (not no_plots or animate) and not (jobs > 1 and len(models) > 1)
     from .output import plotworker
-    if plotting:
-        plotworker.start()                  # imports matplotlib while the models solve
-    else:                                   # (stopped below, or at exit)
+    if not plotting:                        # (stopped below, or at exit)
         plotworker.stop()                   # one started by __main__ on a guess
     report = Report(quiet)
     later = _Later(report)          # the model whose plots the server draws meanwhile
@@ -213,6 +211,12 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
             for k, (path, outdir) in enumerate(zip(models, dirs)):
                 later.more = k + 1 < len(models)
                 model = _load(path, later, overrides)
+                if model is not None and plotting and not plotworker.running():
+                    # not started by __main__ (no core was free): forked now, it inherits
+                    # numpy and the modules a job needs, and only imports matplotlib (while
+                    # the models solve), instead of repeating the imports of this process
+                    from . import results  # noqa: F401
+                    plotworker.start()
                 if model is not None:
                     _run_one(path, model, outdir, later, dict(analysis),
                              None if no_plots else fmt, animate, x_axis,
@@ -240,20 +244,32 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
 
 
 class _Later:
-    """The report of a batch, through which a model's plots are drawn while the next model
-    solves: `_run_one` leaves the model's end (collecting its plots, summary.json, the
-    directory put in place, its report line) here, and it happens before anything more is
-    printed, so that the lines keep the models' order; `settle()` ends it explicitly."""
+    """The report of a batch, through which a model's plots are drawn while the next models
+    solve: `_run_one` leaves the model's end (collecting its plots, summary.json, the
+    directory put in place, its report line) here, and the ends happen in the models' order
+    before anything more is printed, so that the lines keep that order; `settle()` ends them
+    explicitly. At most `plotworker.capacity()` ends wait at a time (the plot jobs in flight:
+    one per drawing process)."""
 
     def __init__(self, report: Report):
         self.report = report
-        self.waiting = None         # the end of the last model, a callable, or None
+        self.waiting: list = []     # the ends of the last models, callables, oldest first
         self.more = False           # models follow the current one (else: wait for its plots)
 
-    def settle(self) -> None:
-        conclude, self.waiting = self.waiting, None
-        if conclude is not None:
-            conclude()
+    def settle(self, keep: int = 0) -> None:
+        """End the oldest waiting models until `keep` wait. Every one is ended even when one
+        of them is interrupted (its directory is in place, interrupted); the first
+        interruption is raised again once all are."""
+        first = None
+        while len(self.waiting) > keep:
+            conclude = self.waiting.pop(0)
+            try:
+                conclude()
+            except BaseException as e:  # noqa: BLE001 - raised below, after the others
+                first = first or e
+                keep = 0            # interrupted: the rest are ended too, not left in flight
+        if first is not None:
+            raise first
 
     def diagnostics(self, diags) -> None:
         if diags:                   # (called for every model, mostly with none)
@@ -261,7 +277,19 @@ class _Later:
             self.report.diagnostics(diags)
 
     def __getattr__(self, name):
-        self.settle()
+        try:
+            self.settle()
+        except BaseException as e:
+            # interrupted while ending the models before: their lines are printed; this
+            # one's (a model already in place) too, then the interruption goes on
+            attr, stopped = getattr(self.report, name), e
+            if not callable(attr):
+                raise
+
+            def then_raise(*args, **kwargs):
+                attr(*args, **kwargs)
+                raise stopped
+            return then_raise
         return getattr(self.report, name)
 
 
@@ -307,8 +335,9 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     try:
         info, _ = stream(an, sink=writer, progress=progress)
         progress.close()
-        if later:
-            report.settle()             # the model before: its plots were drawn meanwhile
+        if later:                       # the models before: their plots drawn meanwhile
+            from .output import plotworker      # (one left drawing when two drawers can)
+            report.settle(keep=plotworker.capacity() - 1)
         report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
@@ -333,7 +362,7 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
             return
         _conclude(path, outdir, report.report, info, summary, cycle,
                   spent + time.perf_counter() - c0)
-    report.waiting = conclude
+    report.waiting.append(conclude)
 
 
 def _conclude_failed(e, path, outdir, writer, report, an, t0):

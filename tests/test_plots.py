@@ -251,7 +251,7 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
     from click.testing import CliRunner
     from planarkin.cli import main
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
     runner = CliRunner()
     r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
                              "--out", str(tmp_path), "--steps", "60", "-q"])
@@ -272,13 +272,14 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
 def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch):
     """In a batch the plot server draws a model while the next one solves: its plots are
     collected (and its directory put in place, its line printed) only after the next model's
-    solve, and the lines keep the models' order."""
+    solve, and the lines keep the models' order. Here on a machine taken as busy: one job in
+    flight (tests/test_plotworker.py: two, with a core free)."""
     import json
     from click.testing import CliRunner
     from planarkin import results
     from planarkin.cli import main
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
     events = []
     solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
 
@@ -290,9 +291,9 @@ def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch)
         events.append(("submit", cm.spec.name))
         return submit(cm, *a, **kw)
 
-    def collected():
+    def collected(ticket):
         events.append(("collect", ""))
-        return collect()
+        return collect(ticket)
     monkeypatch.setattr(results, "stream", stream)
     monkeypatch.setattr(plotworker, "submit", submitted)
     monkeypatch.setattr(plotworker, "collect", collected)
@@ -314,23 +315,36 @@ def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch)
 
 
 def test_plot_server_splits_the_figures():
+    """Two halves of about equal drawing time: bodies.png costs about twice each of the
+    others; the animation about as much as the four figures."""
     assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
         "bodies", "points", "trajectories", "mechanism"]
-    names = ["bodies", "points", "trajectories", "mechanism"]
-    assert plotworker_split(names, False) == (["bodies"], names[1:], False)
-    assert plotworker_split(names, True) == ([], names, True)
-    assert plotworker_split([], True) == ([], [], False)        # --no-plots --animate
+    figs = [("figure", n) for n in ("bodies", "points", "trajectories", "mechanism")]
+    assert plotworker_split(figs, 2) == [[0, 1], [2, 3]]
+    assert plotworker_split(figs + [("animation",)], 2) == [[0, 1, 2, 3], [4]]
+    assert plotworker_split(figs + [("room", 0)], 2) == [[0, 1, 2], [3, 4]]     # forces.png
+    assert plotworker_split([("animation",)], 2) == [[0], []]   # --no-plots --animate
+    assert plotworker_split(figs, 1) == [[0, 1, 2, 3]]
 
 
 def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
-    """The split is decided by the processes runnable at the job's arrival (the server counts
-    itself), not by the 1-minute load average that still counts the run's own start-up."""
+    """A second drawing process runs only when the processes runnable now that are not ours
+    leave it a core (our own runnable threads, e.g. the parent's spinning BLAS threads, do not
+    count), not by the 1-minute load average that still counts the run's own start-up."""
     from planarkin.output import plotworker
     monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))     # stale: ignored
     monkeypatch.setattr(plotworker, "_cores", lambda: 2)
+    monkeypatch.setattr(plotworker, "_ours_running", lambda: 1)
     for runnable, idle in ((1, True), (2, False), (5, False)):
         monkeypatch.setattr(plotworker, "_runnable", lambda: runnable)
         assert plotworker._idle_core() is idle
+    monkeypatch.setattr(plotworker, "_ours_running", lambda: 3)      # BLAS threads, a writer
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
+    assert plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 4)
+    assert not plotworker._idle_core()
+    monkeypatch.setattr(plotworker, "_ours_running", lambda: 1)
+    monkeypatch.setattr(plotworker, "_runnable", lambda: 1)
     monkeypatch.setattr(os, "getloadavg", lambda: (8.0, 8.0, 8.0))     # busy for a while:
     assert not plotworker._idle_core()                      # an empty queue for an instant
     monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))
@@ -345,17 +359,17 @@ def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
     assert not plotworker._idle_core()
     monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
     assert plotworker._idle_core()
-    # the parent about to wait is still closing its tables: look again, a few ms apart
+    # another process runnable for an instant (a shell starting a command): the fewest of
+    # three looks
     looks = iter([2, 2, 1])
     monkeypatch.setattr(plotworker, "_runnable", lambda: next(looks))
-    assert not plotworker._idle_core()
-    looks = iter([2, 2, 1])
-    assert plotworker._idle_core(patient=True)
+    assert plotworker._idle_core()
     monkeypatch.setattr(plotworker, "_runnable", lambda: 2)
-    assert not plotworker._idle_core(patient=True)
+    assert not plotworker._idle_core()
     if os.path.exists("/proc/loadavg"):
         monkeypatch.undo()
         assert plotworker._runnable() >= 1          # this test itself is running
+        assert plotworker._ours_running() >= 1
 
 
 def test_plot_server_started_first_only_for_a_run_with_plots_and_a_free_core(monkeypatch):
@@ -366,14 +380,14 @@ def test_plot_server_started_first_only_for_a_run_with_plots_and_a_free_core(mon
     for argv in ([], ["check", "a.yaml"], ["run", "a.yaml", "--no-plots"], ["run", "--help"],
                  ["run", "-h"]):
         assert not plotworker.wanted(argv)
-    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: False)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
     plotworker.start(early=True)
     assert not plotworker.running()
 
 
-def plotworker_split(names, animate):
+def plotworker_split(units, parts):
     from planarkin.output import plotworker
-    return plotworker.split(names, animate)
+    return plotworker.split(units, parts)
 
 
 def _run(name, **kw):
@@ -496,24 +510,33 @@ def test_tradeoff_labels_do_not_overlap():
 
 def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, positions, tmp_path,
                                                                     monkeypatch):
-    """Split between the server and a child it forks (an idle core, forced here; the CLI test
-    takes the other path): the files in figure order, a failure in the child raises here."""
+    """Split between the server and its helper (an idle core, forced here; the CLI test takes
+    the other path): the files in figure order, a failure in a drawer raises here; a drawer
+    that dies leaves the other, and with both gone the caller draws itself."""
     from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda patient=False: True)   # (the fork too)
+    monkeypatch.setattr(plotworker, "_idle_core", lambda: True)
     plotworker.start()
     try:
         files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
         assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
                                            "mechanism.png"]
+        assert len(plotworker._pool.parts) == 0 and all(
+            d.pid and d.alive and not d.queue for d in plotworker._pool.drawers)
         with pytest.raises(RuntimeError, match="drawing the plots failed"):
             plotworker.draw(model, positions._chunk, positions.info, tmp_path / "missing" / "x",
                             "png", False)
         assert plotworker.running()             # a failed job does not end the server
-        proc = plotworker._server[0]
-        proc.kill()
-        proc.join()
+        server, helper = plotworker._pool.drawers
+        os.kill(helper.pid, 9)
         assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
-                               False) is None   # the caller then draws itself
+                               False) is None   # its part is lost: the caller draws itself
+        assert plotworker.running() and not helper.alive
+        files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
+        assert len(files) == 4                  # the server alone
+        plotworker._pool.proc.kill()
+        plotworker._pool.proc.join()
+        assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
+                               False) is None
         assert not plotworker.running()
     finally:
         plotworker.stop()

@@ -92,6 +92,7 @@ class DirectoryWriter:
         self.sinks: dict = {}
         self.rows = 0
         self.committed = False             # the directory is in place
+        self.ticket = None                 # the plot job in the plot server, if any
         try:
             spec = cm.spec.output
             self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
@@ -103,6 +104,7 @@ class DirectoryWriter:
             self.t_write = 0.0
             ctx = fork_context() if background else None
             self.background = ctx is not None
+            from . import fastcsv  # noqa: F401 - once here, not in each forked writer
 
             # table_format: "csv" or "parquet" (default: the model's output: table_format);
             # the sinks, and summary.json's files and columns, go by the names of the files
@@ -173,7 +175,7 @@ class DirectoryWriter:
         """Close the tables, write summary.json (wall time since `started`, a perf_counter
         value) and the plots, and put the directory in place; returns the summary.
 
-        defer=True (a batch: the plot server then draws this model while the next one solves):
+        defer=True (a batch: the plot server then draws this model while the next ones solve):
         when the plots went to the server, return as soon as the tables are closed and the
         summary made; `complete()` then waits for the plots, writes summary.json and puts the
         directory in place (until then `committed` is False and the summary lacks `plots`).
@@ -185,15 +187,16 @@ class DirectoryWriter:
         pending = None
         data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
             else None
-        sent = False
+        sent = None                 # the plot job's ticket, when the plot server has it
         try:
             try:
                 with held_signals():
                     if data is not None and self.background:
                         # the CLI's plot server (if it started one) draws while the tables close
                         from . import plotworker
-                        sent = plotworker.submit(self.cm, data, info, self.out, self.plots,
-                                                 self.animate, self.x, waits=not defer)
+                        sent = self.ticket = plotworker.submit(
+                            self.cm, data, info, self.out, self.plots, self.animate, self.x,
+                            waits=not defer)
                     closed, busy = self._close_tables()
                     summary = self._summary(info, closed, busy, started)
             except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
@@ -232,7 +235,7 @@ class DirectoryWriter:
                 if data is not None and sent:     # nothing may still draw into the directory
                     from . import plotworker
                     with held_signals():
-                        plotworker.stop()
+                        plotworker.finish_job(sent)
             # what is there, whoever drew it, in figure order (the plot server, this process,
             # a room; an interrupted drawing may have left some)
             there = {p.name for p in self.out.iterdir()} - set(summary["files"]) - \
@@ -268,11 +271,12 @@ class DirectoryWriter:
                             for name in self.sinks}
         return summary
 
-    def _plots(self, info: RunInfo, data, sent: bool) -> list:
-        """Collect the plot server's files (the model's and the rooms' figures), or draw them all
-        here (no server, or it died). Returns the files in figure order."""
+    def _plots(self, info: RunInfo, data, sent) -> list:
+        """Collect the plot server's files (the model's and the rooms' figures; sent: the job's
+        ticket), or draw them all here (no server, or it died). Returns the files in figure
+        order."""
         from . import plotworker
-        files = plotworker.collect() if sent else None
+        files = plotworker.collect(sent) if sent else None
         if files is not None:
             return files                # the server drew the rooms' figures too
         from . import plots as plotting       # matplotlib only when plotting
@@ -291,6 +295,9 @@ class DirectoryWriter:
 
     def abort(self) -> None:
         """Stop every writer and remove the new files; the previous directory stays."""
+        if self.ticket is not None:             # a plot job drawing into it: not waited for
+            from . import plotworker
+            plotworker.forget(self.ticket)
         with held_signals():
             for s in self.sinks.values():
                 s.kill()
