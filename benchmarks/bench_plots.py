@@ -64,26 +64,42 @@ def single(model: str, repeat: int, tmp: Path) -> dict:
             "plots_wait_last": inner}
 
 
+def _batch_files(src: Path, n: int) -> list[str]:
+    """n model files in src: copies of the examples in turn."""
+    src.mkdir(exist_ok=True)
+    files = []
+    for k in range(n):
+        name = EXAMPLES[k % len(EXAMPLES)]
+        f = src / f"{k:03d}-{name}.yaml"
+        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
+        files.append(str(f))
+    return files
+
+
+def _timed_run(root: Path, args: list) -> tuple:
+    """(wall, CPU) seconds of `python -m planarkin run ARGS` of the checkout at root."""
+    import resource
+    env = dict(os.environ, PYTHONPATH=str(root))
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "planarkin", "run", *args], cwd=root, env=env,
+                   check=True, capture_output=True)
+    wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
+
+
 def against(baseline: Path, repeat: int, tmp: Path) -> dict:
     """The default four-bar run with and without plots, this checkout and another one (e.g. a
     `git archive` of main), all four interleaved: wall and CPU medians."""
-    import resource
     trees = {"this": ROOT, "baseline": baseline}
     got: dict = {}
     for _ in range(repeat):
         for name, root in trees.items():
-            env = dict(os.environ, PYTHONPATH=str(root))
             for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
-                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                t0 = time.perf_counter()
-                subprocess.run([sys.executable, "-m", "planarkin", "run",
-                                str(root / "mechanisms" / "four-bar.yaml"), "-q", "--out",
-                                str(tmp / f"vs-{name}-{kind}")] + extra, cwd=root, env=env,
-                               check=True, capture_output=True)
-                wall = time.perf_counter() - t0
-                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
-                got.setdefault(name, {}).setdefault(kind, []).append((wall, cpu))
+                got.setdefault(name, {}).setdefault(kind, []).append(_timed_run(
+                    root, [str(root / "mechanisms" / "four-bar.yaml"), "-q", "--out",
+                           str(tmp / f"vs-{name}-{kind}")] + extra))
     out = {}
     for name, kinds in got.items():
         med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
@@ -97,29 +113,13 @@ def against(baseline: Path, repeat: int, tmp: Path) -> dict:
 def batch_against(baseline: Path, n: int, tmp: Path, rounds: int = 2) -> dict:
     """The n-model batch of `batch`, with plots and with --no-plots, this checkout and another
     one in turn (rounds times, interleaved): plotting per model, wall and CPU (medians)."""
-    import resource
-    src = tmp / "models-against"
-    src.mkdir(exist_ok=True)
-    files = []
-    for k in range(n):
-        name = EXAMPLES[k % len(EXAMPLES)]
-        f = src / f"{k:03d}-{name}.yaml"
-        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
-        files.append(str(f))
+    files = _batch_files(tmp / "models-against", n)
     got: dict = {}
     for _ in range(rounds):
         for who, root in (("this", ROOT), ("baseline", baseline)):
-            env = dict(os.environ, PYTHONPATH=str(root))
             for kind, extra in (("plots", []), ("no-plots", ["--no-plots"])):
-                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                t0 = time.perf_counter()
-                subprocess.run([sys.executable, "-m", "planarkin", "run", *files, "-q", "--out",
-                                str(tmp / f"ba-{who}-{kind}")] + extra, cwd=root, env=env,
-                               check=True, capture_output=True)
-                wall = time.perf_counter() - t0
-                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
-                got.setdefault(who, {}).setdefault(kind, []).append((wall, cpu))
+                got.setdefault(who, {}).setdefault(kind, []).append(_timed_run(
+                    root, [*files, "-q", "--out", str(tmp / f"ba-{who}-{kind}")] + extra))
     out = {}
     for who, kinds in got.items():
         med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
@@ -133,14 +133,7 @@ def batch_against(baseline: Path, n: int, tmp: Path, rounds: int = 2) -> dict:
 
 def batch(n: int, tmp: Path) -> dict:
     """One call with n model files (the examples in turn), with plots and with --no-plots."""
-    src = tmp / "models"
-    src.mkdir(exist_ok=True)
-    files = []
-    for k in range(n):
-        name = EXAMPLES[k % len(EXAMPLES)]
-        f = src / f"{k:03d}-{name}.yaml"
-        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
-        files.append(str(f))
+    files = _batch_files(tmp / "models", n)
     out = {}
     for kind, extra in (("no-plots", ["--no-plots"]), ("plots", [])):
         w, cpu, _ = run_cli(["run"] + files + extra + ["--quiet", "--out", str(tmp / f"batch-{kind}")])
@@ -178,14 +171,7 @@ def drawers_ab(n: int, rounds: int, tmp: Path) -> dict:
     """This checkout's batch of n models drawn by one process at a time against two (the
     default where a core is free), alternating `rounds` times, and --no-plots once: the
     plotting per model of each (wall difference / models), medians."""
-    src = tmp / "models-ab"
-    src.mkdir(exist_ok=True)
-    files = []
-    for k in range(n):
-        name = EXAMPLES[k % len(EXAMPLES)]
-        f = src / f"{k:03d}-{name}.yaml"
-        shutil.copy(ROOT / "mechanisms" / f"{name}.yaml", f)
-        files.append(str(f))
+    files = _batch_files(tmp / "models-ab", n)
     cmd, env = _this_checkout()
     w0, _, _ = run_cli(["run", *files, "--no-plots", "-q", "--out", str(tmp / "ab-np")])
     got: dict = {"one": [], "two": []}
