@@ -187,6 +187,10 @@ static void block_matrix(int kb, const int32_t *rows, const int32_t *rpos, const
     }
 }
 
+/* the element parameters of point i: eprm (E x 8) shared by all points, or with vrow (N) the
+   table vprm (V x ne x 8) of parameter sets, row vrow[i] (a design study's variants) */
+#define EPRM(i) (vrow ? vprm + (size_t)vrow[i] * 8 * ne : eprm)
+
 /* all points of one batch; arrays row-major per point. inblk (m): the row is in a block; R
    (N, m): |Phi| of every row at the results; rcol (m x 6): the columns of each row's gradient
    entries; rpos: see block_matrix; sign (N, nfine) per fine block: solve block b holds bnf[b]
@@ -202,7 +206,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
              int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
              const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
              int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
-             const int32_t *bfs)
+             const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne)
 {
     int nbb = nb + 1, i, b, it, rp, a, k;
     int n = W - 3;
@@ -249,7 +253,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                 if (refactor) {
                     for (rp = 0; rp < kb; rp++) {
                         int e = rel[rp];
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, req[rp], q, c, s, 0, 3,
+                        row_eval(ekind[e], ebi[e], ebj[e], EPRM(i) + 8 * e, req[rp], q, c, s, 0, 3,
                                  r + rp, gr + 6 * rp, 0);
                     }
                     block_matrix(kb, rows, rpos, gr, J);
@@ -290,7 +294,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                 for (rp = 0; rp < kb; rp++) {
                     if (!refactor) {
                         int e = rel[rp];
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, req[rp], q, c, s, 0, 1,
+                        row_eval(ekind[e], ebi[e], ebj[e], EPRM(i) + 8 * e, req[rp], q, c, s, 0, 1,
                                  r + rp, 0, 0);
                     }
                     r[rp] -= T[(size_t)i * m + rows[rp]];
@@ -333,7 +337,8 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
             if (inblk[row] && order >= 1) continue;
             double g;
             int e = rowel[row];
-            row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s, 0, 1, &g, 0, 0);
+            row_eval(ekind[e], ebi[e], ebj[e], EPRM(i) + 8 * e, roweq[row], q, c, s, 0, 1, &g, 0,
+                     0);
             R[(size_t)i * m + row] = fabs(g - T[(size_t)i * m + row]);
         }
         if (order < 1) continue;
@@ -352,7 +357,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                     for (rp = 0; rp < kb; rp++) {
                         int e = rel[rp], row = rows[rp];
                         double g;
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s,
+                        row_eval(ekind[e], ebi[e], ebj[e], EPRM(i) + 8 * e, roweq[row], q, c, s,
                                  0, 3, &g, gr + 6 * rp, 0);
                         R[(size_t)i * m + row] = fabs(g - T[(size_t)i * m + row]);
                     }
@@ -365,7 +370,7 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
                     double acc;
                     if (lev == 1) acc = NU[(size_t)i * m + row];
                     else {
-                        row_eval(ekind[e], ebi[e], ebj[e], eprm + 8 * e, roweq[row], q, c, s, qd,
+                        row_eval(ekind[e], ebi[e], ebj[e], EPRM(i) + 8 * e, roweq[row], q, c, s, qd,
                                  4, 0, 0, &gam);
                         acc = gam + FDD[(size_t)i * m + row];
                     }
@@ -406,6 +411,256 @@ void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double 
         double *q = Q + (size_t)i * W;
         for (c = 0; c < W; c++)
             q[c] = H0 * y0[c] + h1 * d0[c] + h2 * a0[c] + H3 * y1[c] + h4 * d1[c] + h5 * a1[c];
+    }
+}
+
+/* pk_solve's arguments and results, point by point (a design study, studies.batch): each point
+   solves its blocks in order, each block by Newton until that point's own correction is at
+   most tol (so a point's result does not depend on the other points of the batch), 1 x 1 and
+   2 x 2 blocks inverted in closed form (as studies.fused), then its velocities and
+   accelerations as pk_solve. Always order 2; R: |Phi| of the rows outside the blocks only. */
+int pk_rows(int N, int W, int m, int nb, int nblk,
+            const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
+            const int32_t *rowel, const int32_t *roweq,
+            const int32_t *bk, const int32_t *boff, const int32_t *baff,
+            const int32_t *bcols, const int32_t *brows,
+            double *Q, double *Qd, double *Qdd, const double *T, const double *NU,
+            const double *FDD, int maxit, double tol, int full, int order,
+            int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
+            const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
+            int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
+            const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne)
+{
+    int nbb = nb + 1, i, b, it, rp, a, k, mo;
+    int n = W - 3, total = 0;
+    for (b = 0; b < nblk; b++) total += bk[b] * bk[b];
+    int nrow = boff[nblk - 1] + bk[nblk - 1];
+    double *C = malloc(sizeof(double) * nbb), *S = malloc(sizeof(double) * nbb);
+    double *GR = malloc(sizeof(double) * (size_t)nrow * 6);
+    double *MB = malloc(sizeof(double) * (size_t)(total > 0 ? total : 1));
+    double *J = malloc(sizeof(double) * KMAX * KMAX);
+    double *WK = malloc(sizeof(double) * 2 * KMAX * KMAX);
+    int *keep = malloc(sizeof(int) * nblk), *mof = malloc(sizeof(int) * nblk);
+    if (!C || !S || !GR || !MB || !J || !WK || !keep || !mof) {
+        free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof);
+        return -1;
+    }
+    (void)order;
+    /* keep[b]: the block's Newton matrix is the one at the converged positions, exactly, and
+       serves the velocities and accelerations: an affine block (one iteration) whose rows'
+       gradients do not depend on its unknowns (revolute, x, y: on the angles only; angle:
+       constant) nor, for the revolute, x and y, on an angle among them */
+    for (b = 0, mo = 0; b < nblk; b++) {
+        keep[b] = baff[b];
+        mof[b] = mo;
+        mo += bk[b] * bk[b];
+        for (rp = 0; rp < bk[b] && keep[b]; rp++) {
+            int e = rowel[brows[boff[b] + rp]], kd = ekind[e];
+            if (kd != 3 && kd != 1 && kd != 4 && kd != 5) keep[b] = 0;
+            else if (kd != 3)
+                for (a = 0; a < bk[b]; a++) {
+                    int c = bcols[boff[b] + a];
+                    if (c == 3 * ebi[e] + 2 || c == 3 * ebj[e] + 2) keep[b] = 0;
+                }
+        }
+    }
+    for (i = 0; i < N; i++) {
+        double *q = Q + (size_t)i * W, *qd = Qd + (size_t)i * W, *qdd = Qdd + (size_t)i * W;
+        const double *ep = EPRM(i), *t = T + (size_t)i * m;
+        double *sgn = sign + (size_t)i * nfine, *sm = smin + (size_t)i * nblk;
+        double rat = 0.0;
+        int its = 0, ok = 1, row, lev;
+        for (b = 0; b < nbb; b++) { C[b] = cos(q[3 * b + 2]); S[b] = sin(q[3 * b + 2]); }
+        /* positions: block by block, Newton to this point's convergence */
+        for (b = 0; b < nblk; b++) {
+            int kb = bk[b];
+            const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
+            double r[KMAX], *gr = GR + 6 * boff[b], *Mi = MB + mof[b], sz = INFINITY;
+            for (it = 0; it < maxit; it++) {
+                int refactor = (it == 0) || (full && !baff[b]);
+                for (rp = 0; rp < kb; rp++) {
+                    int e = rowel[rows[rp]];
+                    row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[rows[rp]], q, C, S, 0,
+                             refactor ? 3 : 1, r + rp, gr + 6 * rp, 0);
+                    r[rp] -= t[rows[rp]];
+                }
+                if (refactor) {
+                    double sg, s0;
+                    block_matrix(kb, rows, rpos, gr, J);
+                    if (kb == 1) {
+                        Mi[0] = 1.0 / J[0];
+                        sg = (J[0] > 0) - (J[0] < 0);
+                        if (J[0] != J[0]) sg = NAN;
+                        s0 = fabs(J[0]);
+                    } else if (kb == 2) {
+                        double det = J[0] * J[3] - J[1] * J[2], rd = 1.0 / det;
+                        Mi[0] = J[3] * rd; Mi[1] = -J[1] * rd; Mi[2] = -J[2] * rd;
+                        Mi[3] = J[0] * rd;
+                        sg = (det > 0) - (det < 0);
+                        if (det != det) sg = NAN;
+                        double nf = sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2] + J[3] * J[3])
+                                    * fabs(rd);
+                        s0 = (isfinite(nf) && det != 0) ? 1.0 / nf : 0.0;
+                    } else {
+                        int okk = invert(kb, J, Mi, &sg, WK);
+                        double f = 0.0;
+                        for (a = 0; a < kb * kb; a++) f += Mi[a] * Mi[a];
+                        s0 = okk ? 1.0 / sqrt(f) : 0.0;
+                    }
+                    if (it == 0) {
+                        sm[b] = s0;
+                        if (bnf[b] == 1) sgn[bfirst[b]] = sg;
+                        else {   /* a merged block: the signs of its fine blocks */
+                            int f, o = 0;
+                            for (f = 0; f < bnf[b]; f++) {
+                                int sz_ = bfs[bfo[b] + f], u, v;
+                                double sub[KFINE * KFINE], subinv[KFINE * KFINE], sf;
+                                if (sz_ == 1) {
+                                    double j = J[o * kb + o];
+                                    sf = (j > 0) - (j < 0);
+                                    if (j != j) sf = NAN;
+                                } else {
+                                    for (u = 0; u < sz_; u++) for (v = 0; v < sz_; v++)
+                                        sub[u * sz_ + v] = J[(o + u) * kb + o + v];
+                                    invert(sz_, sub, subinv, &sf, WK);
+                                }
+                                sgn[bfirst[b] + f] = sf;
+                                o += sz_;
+                            }
+                        }
+                    }
+                }
+                sz = 0.0;
+                for (a = 0; a < kb; a++) {
+                    double dx = 0.0;
+                    for (k = 0; k < kb; k++) dx += Mi[a * kb + k] * r[k];
+                    q[cols[a]] -= dx;
+                    double ad = fabs(dx);
+                    if (ad > sz || ad != ad) sz = ad;
+                    if (cols[a] % 3 == 2) {
+                        C[cols[a] / 3] = cos(q[cols[a]]);
+                        S[cols[a] / 3] = sin(q[cols[a]]);
+                    }
+                }
+                if (!isfinite(sz)) sz = INFINITY;
+                if (it == 0) {
+                    double v = sm[b] > 0 ? sz / sm[b] : INFINITY;
+                    if (v > rat || v != v) rat = v;
+                }
+                if (its < it + 1) its = it + 1;
+                if (baff[b]) { sz = isfinite(sz) ? 0.0 : INFINITY; break; }
+                if (sz <= tol) break;
+            }
+            ok = ok && (sz <= tol);
+        }
+        iters[i] = its; conv[i] = ok; ratio[i] = rat;
+        /* |Phi| of the rows outside the blocks (left out as redundant); nan: not computed */
+        for (row = 0; row < m; row++) {
+            if (inblk[row]) { R[(size_t)i * m + row] = NAN; continue; }
+            double g;
+            int e = rowel[row];
+            row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[row], q, C, S, 0, 1, &g, 0, 0);
+            R[(size_t)i * m + row] = fabs(g - t[row]);
+        }
+        /* velocities, accelerations: forward substitution through the blocks with the
+           diagonal blocks at the converged positions (pk_solve's) */
+        for (a = 0; a < n; a++) { qd[a] = 0.0; qdd[a] = 0.0; }
+        for (lev = 1; lev <= 2; lev++) {
+            double *X = lev == 1 ? qd : qdd;
+            for (b = 0; b < nblk; b++) {
+                int kb = bk[b];
+                const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
+                double *gr = GR + 6 * boff[b], *M = MB + mof[b], r[KMAX], sg, gam;
+                if (lev == 1 && !keep[b]) {
+                    for (rp = 0; rp < kb; rp++) {
+                        int e = rowel[rows[rp]];
+                        double g;
+                        row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[rows[rp]], q, C, S,
+                                 0, 2, &g, gr + 6 * rp, 0);
+                    }
+                    block_matrix(kb, rows, rpos, gr, J);
+                    if (kb == 1) M[0] = 1.0 / J[0];
+                    else if (kb == 2) {
+                        double rd = 1.0 / (J[0] * J[3] - J[1] * J[2]);
+                        M[0] = J[3] * rd; M[1] = -J[1] * rd; M[2] = -J[2] * rd; M[3] = J[0] * rd;
+                    } else invert(kb, J, M, &sg, WK);
+                }
+                for (rp = 0; rp < kb; rp++) {
+                    int row = rows[rp], e = rowel[row];
+                    double acc;
+                    if (lev == 1) acc = NU[(size_t)i * m + row];
+                    else {
+                        row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[row], q, C, S, qd,
+                                 4, 0, 0, &gam);
+                        acc = gam + FDD[(size_t)i * m + row];
+                    }
+                    const int32_t *rc = rcol + 6 * row;
+                    const double *g6 = gr + 6 * rp;
+                    acc -= (g6[0] * X[rc[0]] + g6[1] * X[rc[1]]) + (g6[2] * X[rc[2]]
+                           + g6[3] * X[rc[3]]) + (g6[4] * X[rc[4]] + g6[5] * X[rc[5]]);
+                    r[rp] = acc;
+                }
+                for (a = 0; a < kb; a++) {
+                    double x = 0.0;
+                    for (k = 0; k < kb; k++) x += M[a * kb + k] * r[k];
+                    X[cols[a]] = x;
+                }
+            }
+        }
+    }
+    free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof);
+    return 0;
+}
+
+/* studies.batch's acceptance of V variants x T grid times solved by pk_rows (the same tests
+   as Batch.accept, the numpy reference): per row converged, finite Q, Qd, Qdd (W columns),
+   first correction at most kappa sigma_min, condition 1 / min(smin) at most cond_max, every
+   fine-block sign equal to sign0's; per variant every row so and the Taylor predictor error
+   (studies.warm._predictor_error, forwards and backwards, over the first n columns) between
+   consecutive grid times t at most path_tol. ok (V): in 1 / 0, out. */
+void pk_accept(int V, int T, int W, int n, int nfine, int nblk, const double *t,
+               const double *Q, const double *Qd, const double *Qdd, const uint8_t *conv,
+               const double *ratio, const double *sign, const double *sign0,
+               const double *smin, double kappa, double cond_max, double path_tol,
+               uint8_t *ok)
+{
+    int v, k, c;
+    for (v = 0; v < V; v++) {
+        int good = ok[v];
+        for (k = 0; k < T && good; k++) {
+            size_t i = (size_t)v * T + k;
+            const double *q = Q + i * W, *qd = Qd + i * W, *qdd = Qdd + i * W;
+            double lo = INFINITY;
+            good = conv[i] && ratio[i] <= kappa;
+            for (c = 0; c < W && good; c++)
+                good = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
+            for (c = 0; c < nblk; c++) {
+                double x = smin[i * nblk + c];
+                if (x < lo || x != x) lo = x;
+            }
+            if (lo != lo) good = 0;
+            else if (good) good = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
+            for (c = 0; c < nfine && good; c++)
+                good = sign[i * nfine + c] == sign0[i * nfine + c];
+        }
+        for (k = 0; k + 1 < T && good; k++) {
+            size_t i = (size_t)v * T + k;
+            double h = t[k + 1] - t[k], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
+            double hp = k ? t[k] - t[k - 1] : 1.0;
+            const double *q0 = Q + i * W, *q1 = q0 + W, *d0 = Qd + i * W, *d1 = d0 + W;
+            const double *a0 = Qdd + i * W, *a1 = a0 + W, *ap = a0 - W;
+            double e = 0.0;
+            for (c = 0; c < n; c++) {
+                double j3 = k ? (a0[c] - ap[c]) / hp : 0.0, dA = (a1[c] - a0[c]) / h;
+                double ef = fabs(q1[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
+                double eb = fabs(q1[c] - h * d1[c] + hh * a1[c] - h3 * dA - q0[c]);
+                if (ef > e || ef != ef) e = ef;
+                if (eb > e || eb != eb) e = eb;
+                if (e != e) break;
+            }
+            good = e <= path_tol;
+        }
+        ok[v] = good;
     }
 }
 """
@@ -466,7 +721,13 @@ def library(build: bool = True):
     fn.restype = ctypes.c_int
     fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
                    + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
-                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4)
+                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4
+                   + [ctypes.c_void_p] * 2 + [ctypes.c_int])
+    lib.pk_rows.restype = ctypes.c_int
+    lib.pk_rows.argtypes = fn.argtypes
+    lib.pk_accept.restype = None
+    lib.pk_accept.argtypes = ([ctypes.c_int] * 6 + [ctypes.c_void_p] * 9
+                              + [ctypes.c_double] * 3 + [ctypes.c_void_p])
     lib.pk_hermite.restype = None
     lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
     _state["lib"] = lib
@@ -576,11 +837,40 @@ def pack(S) -> Packed | None:
                   i32([z for B in S.blocks for z in B.sizes]))
 
 
-def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
+def table(cm, params) -> np.ndarray:
+    """(V, E, 8) element parameters of V parameter sets in pack's layout: params holds, per
+    group of cm.groups (in order), the arrays name -> (V, K, 2) of its K instances' 2-vectors
+    (si, sj, vi, vj), the model's own where a name is missing."""
+    V = next((a.shape[0] for p in params for a in p.values()), 1)
+    parts = []
+    for G, p in zip(cm.groups, params):
+        code = _CODES[type(G.kind).__name__]
+        out = np.zeros((V, len(G), 8))
+        for name in _PARAMS[code]:
+            at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+            out[:, :, at:at + 2] = p.get(name, G.params[name])
+        parts.append(out)
+    return np.concatenate(parts, axis=1)
+
+
+def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, rows=None,
+          table=None, pointwise=False):
     """System.solve_batch by the kernel: Q, Qd, Qdd (N, n + 3) updated in place. Returns
     (iterations, converged, ratio, sign, smin) as BatchInfo wants them and the residual
-    |Phi| (N, m) of every equation at the results (redundant ones included)."""
+    |Phi| (N, m) of every equation at the results (redundant ones included). rows (N,) int32
+    with table (V, E, 8) (see `table`): point i solves with the element parameters
+    table[rows[i]] instead of the system's own (a design study's variants, studies.batch).
+    pointwise: pk_rows, each point iterated to its own convergence (order 2 only; the residual
+    of the rows in blocks is then not computed: nan)."""
+    if pointwise and order != 2:
+        raise ValueError("planarkin kernel: the pointwise solve is of order 2")
     N, W = Q.shape
+    if rows is not None:
+        rows = np.ascontiguousarray(rows, dtype=np.int32)
+        table = np.ascontiguousarray(table, dtype=float)
+        if rows.shape != (N,) or table.shape[1:] != P.arrays[3].shape or (
+                N and not 0 <= rows.min() <= rows.max() < len(table)):
+            raise ValueError("planarkin kernel: per-point parameter rows out of the table")
     nblk = P.nblk
     iters = np.zeros(N, dtype=np.int64)
     conv = np.zeros(N, dtype=np.uint8)
@@ -591,11 +881,13 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     work = [np.ascontiguousarray(X, dtype=float) for X in (Q, Qd, Qdd)]
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     ptr = lambda a: a.ctypes.data                                  # noqa: E731
-    rc = lib.pk_solve(N, W, S.cm.m, S.nb, nblk, *[ptr(a) for a in P.arrays],
+    rc = (lib.pk_rows if pointwise else lib.pk_solve)(N, W, S.cm.m, S.nb, nblk, *[ptr(a) for a in P.arrays],
                       *[ptr(a) for a in work], *[ptr(a) for a in drv], int(maxit), float(tol),
                       int(policy == "full"), int(order), ptr(iters), ptr(conv), ptr(ratio),
                       ptr(sign), ptr(smin), ptr(P.tail[0]), ptr(R), ptr(P.tail[1]),
-                      ptr(P.tail[2]), P.nfine, *[ptr(a) for a in P.fine])
+                      ptr(P.tail[2]), P.nfine, *[ptr(a) for a in P.fine],
+                      None if rows is None else ptr(rows), None if rows is None else ptr(table),
+                      P.arrays[3].shape[0])
     if rc != 0:
         raise MemoryError("planarkin kernel: out of memory")
     for X, Wk in zip((Q, Qd, Qdd), work):
@@ -613,3 +905,22 @@ def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
     lib.pk_hermite(len(t), Qn.shape[1], t.ctypes.data, idx.ctypes.data,
                    *[a.ctypes.data for a in nodes], Q.ctypes.data)
     return Q
+
+
+def accept(lib, t, Q, Qd, Qdd, conv, ratio, sign, sign0, smin, n, kappa, cond_max, path_tol,
+           ok) -> np.ndarray:
+    """pk_accept: which of V variants solved on the grid t (T,) pass every acceptance test
+    (studies.batch.Batch.accept is the numpy reference). Q, Qd, Qdd (V T, W) as pk_rows left
+    them, conv ratio (V T,), sign sign0 (V T, nfine), smin (V T, nblk); ok (V,) bool, the
+    variants still in question. Returns ok (V,) bool."""
+    V, T = len(ok), len(t)
+    c = lambda a, dt=float: np.ascontiguousarray(a, dtype=dt)     # noqa: E731
+    arrs = [c(t), c(Q), c(Qd), c(Qdd), c(conv, np.uint8), c(ratio), c(sign), c(sign0), c(smin)]
+    out = np.ascontiguousarray(ok, dtype=np.uint8).copy()
+    if arrs[1].shape[0] != V * T or arrs[6].shape != arrs[7].shape:
+        raise ValueError("planarkin kernel: accept's arrays do not match")
+    lib.pk_accept(V, T, arrs[1].shape[1], int(n), arrs[6].shape[1], arrs[8].shape[1],
+                  *[a.ctypes.data for a in arrs], float(kappa), float(cond_max),
+                  float(path_tol), out.ctypes.data)
+    return out.astype(bool)
+

@@ -268,12 +268,21 @@ class Batch:
         groups, targets, s, env, ok = self.numbers(values)
         TT, NU, FDD = self.drivers(targets, env)
         n3 = Q.shape[2]
+        o = self.study.opts
+        k = self.kernel()
+        if k is not None:
+            from .. import kernel
+            Qr, Qdr, Qddr, info = self.solve_kernel(k, groups, Q, TT, NU, FDD)
+            ok = kernel.accept(k[0], self.grid, Qr, Qdr, Qddr, info.converged, info.ratio,
+                               info.sign, sign.reshape(Vn * T, -1), info.smin, self.cm.n, KAPPA,
+                               COND_WARN, o.path_tol, ok)
+            return (*(a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr)),
+                    info.sign.reshape(Vn, T, -1), ok, s)
         Qr = Q.reshape(Vn * T, n3).copy()
         if self.fused is not None:      # it solves the velocities and accelerations afresh
             Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
         else:
             Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
-        o = self.study.opts
         drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
@@ -287,6 +296,45 @@ class Batch:
             info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
                                  tol=o.tol, maxit=max(o.iterations, 8), order=2,
                                  drivers=drivers)
+        return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
+
+    def kernel(self):
+        """(library, packed system) of the compiled kernel (planarkin.kernel) where it covers
+        the system and is available (PLANARKIN_KERNEL read per call), else None: the numpy
+        passes (studies.fused, System.solve_batch) are the reference route."""
+        from .. import kernel
+        if kernel.disabled():
+            return None
+        if not hasattr(self, "_kpack"):
+            self._kpack = None if kernel.unavailable() else kernel.pack(self.S)
+        lib = kernel.library() if self._kpack is not None else None
+        return None if lib is None else (lib, self._kpack)
+
+    def solve_kernel(self, k, groups, Q, TT, NU, FDD):
+        """The batch solve by the kernel: every (variant, time) row a point, its variant's
+        element parameters one row of a (Vn, E, 8) table. Returns (Q, Qd, Qdd) (Vn T, n + 3)
+        and the diagnostics."""
+        from .. import kernel
+        from ..system import BatchInfo
+        Vn, T, n3 = Q.shape
+        o = self.study.opts
+        Qr = Q.reshape(Vn * T, n3).copy()
+        Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
+        rows = np.repeat(np.arange(Vn, dtype=np.int32), T)
+        table = kernel.table(self.cm, groups)
+        iters, conv, ratio, sign, smin, _ = kernel.solve(
+            k[0], self.S, k[1], Qr, Qdr, Qddr, *(a.reshape(Vn * T, -1) for a in (TT, NU, FDD)),
+            "full", o.tol, max(o.iterations, 8), 2, rows=rows, table=table,
+            pointwise=True)
+        # finite positions: tested by kernel.accept with the velocities and accelerations
+        return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sign, smin)
+
+    def accept(self, Qr, Qdr, Qddr, info, sign, ok, s):
+        """Every acceptance test of a step on every row (see the module), then the Taylor path
+        test per variant. Returns (Q, Qd, Qdd, sign, ok, s) as solve."""
+        Vn, T = sign.shape[0], sign.shape[1]
+        n3 = Qr.shape[1]
+        o = self.study.opts
         with np.errstate(all="ignore"):
             cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
             good = (info.converged & (info.ratio <= KAPPA)
