@@ -418,7 +418,9 @@ void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double 
    solves its blocks in order, each block by Newton until that point's own correction is at
    most tol (so a point's result does not depend on the other points of the batch), 1 x 1 and
    2 x 2 blocks inverted in closed form (as studies.fused), then its velocities and
-   accelerations as pk_solve. Always order 2; R: |Phi| of the rows outside the blocks only. */
+   accelerations as pk_solve. Always order 2; R: |Phi| of the rows outside the blocks only (or
+   NULL: none). trow (N): the row of T, NU and FDD that point i reads (a study's grid times,
+   the same for every variant), NULL: row i. */
 int pk_rows(int N, int W, int m, int nb, int nblk,
             const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
             const int32_t *rowel, const int32_t *roweq,
@@ -429,7 +431,8 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
             int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
             const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
             int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
-            const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne)
+            const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne,
+            const int32_t *trow)
 {
     int nbb = nb + 1, i, b, it, rp, a, k, mo;
     int n = W - 3, total = 0;
@@ -466,7 +469,8 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
     }
     for (i = 0; i < N; i++) {
         double *q = Q + (size_t)i * W, *qd = Qd + (size_t)i * W, *qdd = Qdd + (size_t)i * W;
-        const double *ep = EPRM(i), *t = T + (size_t)i * m;
+        size_t ti = (size_t)(trow ? trow[i] : i) * m;
+        const double *ep = EPRM(i), *t = T + ti;
         double *sgn = sign + (size_t)i * nfine, *sm = smin + (size_t)i * nblk;
         double rat = 0.0;
         int its = 0, ok = 1, row, lev;
@@ -555,7 +559,7 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
         }
         iters[i] = its; conv[i] = ok; ratio[i] = rat;
         /* |Phi| of the rows outside the blocks (left out as redundant); nan: not computed */
-        for (row = 0; row < m; row++) {
+        for (row = 0; row < m && R; row++) {
             if (inblk[row]) { R[(size_t)i * m + row] = NAN; continue; }
             double g;
             int e = rowel[row];
@@ -588,11 +592,11 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
                 for (rp = 0; rp < kb; rp++) {
                     int row = rows[rp], e = rowel[row];
                     double acc;
-                    if (lev == 1) acc = NU[(size_t)i * m + row];
+                    if (lev == 1) acc = NU[ti + row];
                     else {
                         row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[row], q, C, S, qd,
                                  4, 0, 0, &gam);
-                        acc = gam + FDD[(size_t)i * m + row];
+                        acc = gam + FDD[ti + row];
                     }
                     const int32_t *rc = rcol + 6 * row;
                     const double *g6 = gr + 6 * rp;
@@ -724,7 +728,7 @@ def library(build: bool = True):
                    + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4
                    + [ctypes.c_void_p] * 2 + [ctypes.c_int])
     lib.pk_rows.restype = ctypes.c_int
-    lib.pk_rows.argtypes = fn.argtypes
+    lib.pk_rows.argtypes = fn.argtypes + [ctypes.c_void_p]
     lib.pk_accept.restype = None
     lib.pk_accept.argtypes = ([ctypes.c_int] * 6 + [ctypes.c_void_p] * 9
                               + [ctypes.c_double] * 3 + [ctypes.c_void_p])
@@ -854,23 +858,14 @@ def table(cm, params) -> np.ndarray:
 
 
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, rows=None,
-          table=None, pointwise=False):
+          table=None):
     """System.solve_batch by the kernel: Q, Qd, Qdd (N, n + 3) updated in place. Returns
     (iterations, converged, ratio, sign, smin) as BatchInfo wants them and the residual
     |Phi| (N, m) of every equation at the results (redundant ones included). rows (N,) int32
     with table (V, E, 8) (see `table`): point i solves with the element parameters
-    table[rows[i]] instead of the system's own (a design study's variants, studies.batch).
-    pointwise: pk_rows, each point iterated to its own convergence (order 2 only; the residual
-    of the rows in blocks is then not computed: nan)."""
-    if pointwise and order != 2:
-        raise ValueError("planarkin kernel: the pointwise solve is of order 2")
+    table[rows[i]] instead of the system's own (a design study's variants, studies.batch)."""
     N, W = Q.shape
-    if rows is not None:
-        rows = np.ascontiguousarray(rows, dtype=np.int32)
-        table = np.ascontiguousarray(table, dtype=float)
-        if rows.shape != (N,) or table.shape[1:] != P.arrays[3].shape or (
-                N and not 0 <= rows.min() <= rows.max() < len(table)):
-            raise ValueError("planarkin kernel: per-point parameter rows out of the table")
+    rows, table = _rows(rows, table, N, P)
     nblk = P.nblk
     iters = np.zeros(N, dtype=np.int64)
     conv = np.zeros(N, dtype=np.uint8)
@@ -881,7 +876,7 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, 
     work = [np.ascontiguousarray(X, dtype=float) for X in (Q, Qd, Qdd)]
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     ptr = lambda a: a.ctypes.data                                  # noqa: E731
-    rc = (lib.pk_rows if pointwise else lib.pk_solve)(N, W, S.cm.m, S.nb, nblk, *[ptr(a) for a in P.arrays],
+    rc = lib.pk_solve(N, W, S.cm.m, S.nb, nblk, *[ptr(a) for a in P.arrays],
                       *[ptr(a) for a in work], *[ptr(a) for a in drv], int(maxit), float(tol),
                       int(policy == "full"), int(order), ptr(iters), ptr(conv), ptr(ratio),
                       ptr(sign), ptr(smin), ptr(P.tail[0]), ptr(R), ptr(P.tail[1]),
@@ -894,6 +889,55 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, 
         if Wk is not X:
             X[...] = Wk
     return iters, conv.astype(bool), ratio, sign, smin, R
+
+
+def _rows(rows, table, N, P):
+    if rows is None:
+        return None, None
+    rows = np.ascontiguousarray(rows, dtype=np.int32)
+    table = np.ascontiguousarray(table, dtype=float)
+    if rows.shape != (N,) or table.shape[1:] != P.arrays[3].shape or (
+            N and not 0 <= rows.min() <= rows.max() < len(table)):
+        raise ValueError("planarkin kernel: per-point parameter rows out of the table")
+    return rows, table
+
+
+def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
+               trow=None):
+    """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
+    each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
+    drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
+    i reads row trow[i]; rows, table: per-point element parameters as for `solve`. Returns
+    (Q, Qd, Qdd, iterations, converged, ratio, sign, smin), Q the array given when it is
+    contiguous float64 (updated in place), else a copy."""
+    N, W = Q.shape
+    if maxit < 1:
+        raise ValueError("planarkin kernel: at least one Newton iteration")
+    rows, table = _rows(rows, table, N, P)
+    Q = np.ascontiguousarray(Q, dtype=float)
+    Qd, Qdd = np.zeros((N, W)), np.zeros((N, W))
+    drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
+    if trow is not None:
+        trow = np.ascontiguousarray(trow, dtype=np.int32)
+        if trow.shape != (N,) or (N and not 0 <= trow.min() <= trow.max() < len(drv[0])):
+            raise ValueError("planarkin kernel: driver rows out of the tables")
+    elif len(drv[0]) != N:
+        raise ValueError("planarkin kernel: one driver row per point wanted")
+    iters = np.empty(N, dtype=np.int64)
+    conv = np.empty(N, dtype=np.uint8)
+    ratio = np.empty(N)
+    sign = np.empty((N, P.nfine))
+    smin = np.empty((N, P.nblk))
+    ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
+    rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
+                     ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),
+                     1, 2, ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin),
+                     ptr(P.tail[0]), None, ptr(P.tail[1]), ptr(P.tail[2]), P.nfine,
+                     *[ptr(a) for a in P.fine], ptr(rows), ptr(table), P.arrays[3].shape[0],
+                     ptr(trow))
+    if rc != 0:
+        raise MemoryError("planarkin kernel: out of memory")
+    return Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:

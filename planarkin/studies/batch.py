@@ -9,7 +9,7 @@ depend on the varied parameters are evaluated from the file's expressions for al
 once, in the nominal model's internal units.
 
 Each variant is predicted from its predecessor in its chain (studies.warm.chains): along a
-repeated parameter step by the quadratic (or secant) through the previous solutions, otherwise
+repeated parameter step by the cubic (quadratic, secant) through the previous solutions, otherwise
 (a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
 equal substeps. The solve is one Newton pass over the whole system for all variants x grid
@@ -128,7 +128,7 @@ class Batch:
                         entries.append((p.name, k, None, self._expr(node), scale))
                     else:
                         raise Unsupported(f"{el.label}: a varied parameter reaches {p.name}")
-                if el.role == "driver" and uses(keys.get("f")):
+                if el.role == "driver" and self._depends_t(keys.get("f")):
                     scale = {"length": 1 / self.L, "angle": self.af, None: 1.0}[kind.target_unit]
                     f = parse(_text(keys["f"]), self.order, allow_t=True)
                     self.fvar.append((int(G.rows[k, 0]), (f, f.diff("t"), f.diff("t").diff("t")),
@@ -153,6 +153,15 @@ class Batch:
         self.grid = study.opts.grid
         self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
+
+    def _depends_t(self, node) -> bool:
+        """_depends for a driver's f, a function of t: whether a varied parameter reaches it."""
+        if node is not None and node.kind not in ("seq", "map") and isinstance(node.value, str):
+            try:
+                return bool(parse(node.value, self.order, allow_t=True).names & self.dep)
+            except Exception:  # noqa: BLE001 - the validator has reported it for the nominal
+                return True
+        return node is not None and self._depends(node)
 
     def _expr(self, node):
         return parse(_text(node), self.order)
@@ -208,7 +217,9 @@ class Batch:
         """(Vn, T, m) targets, nu and f'' on the grid."""
         t = self.grid
         Vn = targets.shape[0]
-        base = self.S.driver_values(t)
+        if not hasattr(self, "_base"):
+            self._base = self.S.driver_values(t)
+        base = self._base
         T = targets[:, None, :] + (base[0] - self.cm.targets)[None]
         NU = np.repeat(base[1][None], Vn, axis=0)
         FDD = np.repeat(base[2][None], Vn, axis=0)
@@ -263,21 +274,23 @@ class Batch:
 
     def solve(self, values, Q, Qd, Qdd, sign):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
-        signs are sign (Vn, T, nfine). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
+        signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
+        kernel and studies.fused solve them afresh: None will do there). Returns (Q, Qd, Qdd,
+        sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values)
-        TT, NU, FDD = self.drivers(targets, env)
         n3 = Q.shape[2]
         o = self.study.opts
         k = self.kernel()
         if k is not None:
             from .. import kernel
-            Qr, Qdr, Qddr, info = self.solve_kernel(k, groups, Q, TT, NU, FDD)
+            Qr, Qdr, Qddr, info = self.solve_kernel(k, groups, targets, env, Q)
             ok = kernel.accept(k[0], self.grid, Qr, Qdr, Qddr, info.converged, info.ratio,
                                info.sign, sign.reshape(Vn * T, -1), info.smin, self.cm.n, KAPPA,
                                COND_WARN, o.path_tol, ok)
             return (*(a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr)),
                     info.sign.reshape(Vn, T, -1), ok, s)
+        TT, NU, FDD = self.drivers(targets, env)
         Qr = Q.reshape(Vn * T, n3).copy()
         if self.fused is not None:      # it solves the velocities and accelerations afresh
             Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
@@ -310,22 +323,26 @@ class Batch:
         lib = kernel.library() if self._kpack is not None else None
         return None if lib is None else (lib, self._kpack)
 
-    def solve_kernel(self, k, groups, Q, TT, NU, FDD):
-        """The batch solve by the kernel: every (variant, time) row a point, its variant's
-        element parameters one row of a (Vn, E, 8) table. Returns (Q, Qd, Qdd) (Vn T, n + 3)
-        and the diagnostics."""
+    def solve_kernel(self, k, groups, targets, env, Q):
+        """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
+        point, its variant's element parameters one row of a (Vn, E, 8) table, its drivers'
+        the grid time's row where no varied parameter reaches them. Returns (Q, Qd, Qdd)
+        (Vn T, n + 3) and the diagnostics."""
         from .. import kernel
         from ..system import BatchInfo
         Vn, T, n3 = Q.shape
         o = self.study.opts
         Qr = Q.reshape(Vn * T, n3).copy()
-        Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
         rows = np.repeat(np.arange(Vn, dtype=np.int32), T)
         table = kernel.table(self.cm, groups)
-        iters, conv, ratio, sign, smin, _ = kernel.solve(
-            k[0], self.S, k[1], Qr, Qdr, Qddr, *(a.reshape(Vn * T, -1) for a in (TT, NU, FDD)),
-            "full", o.tol, max(o.iterations, 8), 2, rows=rows, table=table,
-            pointwise=True)
+        if self.tvar or self.fvar:
+            drv, trow = [a.reshape(Vn * T, -1) for a in self.drivers(targets, env)], None
+        else:       # drivers() of one variant: the same for all
+            drv = [a[0] for a in self.drivers(targets[:1], env)]
+            trow = np.tile(np.arange(T, dtype=np.int32), Vn)
+        Qr, Qdr, Qddr, iters, conv, ratio, sign, smin = kernel.solve_rows(
+            k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
+            trow=trow)
         # finite positions: tested by kernel.accept with the velocities and accelerations
         return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sign, smin)
 
@@ -448,8 +465,9 @@ class Batch:
         """Outcomes of a group of chains (lists of variants), solved in lockstep.
 
         Predictions: a chain's head from the nominal, every next variant from its predecessor,
-        by the quadratic through the three previous solutions when the parameter step repeated
-        twice, the secant through two when once (a sweep along one parameter, the substeps),
+        by the cubic through the four previous solutions when the parameter step repeated three
+        times, the quadratic through three or the secant through two when twice or once (a
+        sweep along one parameter, the substeps),
         else (a head, a factorial's next row) to first order in the step with the nominal's
         exact sensitivities (the predecessor's solution itself where those do not apply); a
         step that fails is retried in SUBSTEPS equal steps."""
@@ -461,7 +479,7 @@ class Batch:
         rep = lambda a: np.repeat(a[None], C, axis=0)
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
-        # per chain the positions of the last two solutions before the current one and the
+        # per chain the positions of the last three solutions before the current one and the
         # parameter steps that led from each to the next: (Q, step) pairs, newest last
         hist: list[list] = [[] for _ in range(C)]
         here = [nominal.copy() for _ in range(C)]
@@ -474,30 +492,37 @@ class Batch:
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
-            pred = [a[live] for a in state]          # copies (fancy indexing)
+            # copies (fancy indexing); the velocities and accelerations only for the pass
+            # that starts from them (System.solve_batch's; the others solve them afresh)
+            full = self.kernel() is None and self.fused is None
+            pred = [a[live] if full or j == 0 else None for j, a in enumerate(state)]
             for i, c in enumerate(live):
                 h = hist[c]
                 dp = targets[i] - here[c]
                 # polynomial extrapolation along a repeated parameter step: the error of the
-                # quadratic is third order in the step, so one Newton correction reaches
-                # rounding and its Jacobian serves the velocity solve (studies.fused)
-                if len(h) == 2 and same(dp, h[1][1]) and same(dp, h[0][1]):
-                    pred[0][i] = 3 * (state[0][c] - h[1][0]) + h[0][0]
+                # cubic is fourth order in the step, so that one Newton correction, at most
+                # tol, reaches rounding (the quadratic's third order leaves a second one)
+                if len(h) == 3 and all(same(dp, x[1]) for x in h):
+                    q0, q1, q2 = state[0][c], h[2][0], h[1][0]
+                    pred[0][i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h[0][0])
+                elif len(h) >= 2 and same(dp, h[-1][1]) and same(dp, h[-2][1]):
+                    pred[0][i] = 3 * (state[0][c] - h[-1][0]) + h[-2][0]
                 elif h and same(dp, h[-1][1]):
                     pred[0][i] = 2 * state[0][c] - h[-1][0]
                 elif self.tangent is not None:
                     # any other step (a chain's head, a factorial's next row): first order in
                     # the step, with the nominal's exact sensitivities
-                    pred[0][i] = state[0][c] + self.tangent @ dp
+                    # (elementwise: a BLAS product would wake its threads for a few numbers)
+                    pred[0][i] = state[0][c] + (self.tangent * dp).sum(axis=-1)
             vals = [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
-            for i, c in enumerate(live):
-                if ok[i]:
-                    hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-2:]
-                    for a, new in zip(state, (Qn, Qdn, Qddn)):
-                        a[c] = new[i]
-                    sign[c] = sgn[i]
-                    here[c] = targets[i].copy()
+            got = np.nonzero(ok)[0]
+            cs = [live[i] for i in got]
+            for i, c in zip(got, cs):
+                hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-3:]
+                here[c] = targets[i].copy()
+            for a, new in zip(state + [sign], (Qn, Qdn, Qddn, sgn)):
+                a[cs] = new[got]
             return ok, (Qn, Qdn, Qddn), s
 
         def advance(live, targets):
@@ -506,7 +531,8 @@ class Batch:
             solutions and point offsets of the last attempt at the targets."""
             live = list(live)
             ok, sol, s = step(live, targets)
-            sol = [a.copy() for a in sol]
+            if not ok.all():        # the substeps' results go into these
+                sol = [a.copy() for a in sol]
             for nsub in SUBSTEPS:
                 bad = [i for i in range(len(live)) if not ok[i]]
                 if not bad:
