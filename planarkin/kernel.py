@@ -420,7 +420,14 @@ void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double 
    2 x 2 blocks inverted in closed form (as studies.fused), then its velocities and
    accelerations as pk_solve. Always order 2; R: |Phi| of the rows outside the blocks only (or
    NULL: none). trow (N): the row of T, NU and FDD that point i reads (a study's grid times,
-   the same for every variant), NULL: row i. */
+   the same for every variant), NULL: row i.
+   With good (N) not NULL, studies.batch's acceptance tests of every point (Batch.accept is
+   the numpy reference), while its numbers are at hand: good[i] = converged, finite Q, Qd, Qdd
+   (W columns), first correction at most kappa sigma_min, 1 / min(smin) at most cond_max and
+   every fine-block sign equal to sign0's (N, nfine); perr[i] = the Taylor predictor error
+   (studies.warm._predictor_error, forwards and backwards, first n columns) of the interval
+   from the point before, when that is the same variant (vrow) at the grid time before
+   (times tg, indexed as T), else 0. */
 int pk_rows(int N, int W, int m, int nb, int nblk,
             const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
             const int32_t *rowel, const int32_t *roweq,
@@ -432,7 +439,8 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
             const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
             int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
             const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne,
-            const int32_t *trow)
+            const int32_t *trow, const double *tg, const double *sign0, double kappa,
+            double cond_max, uint8_t *good, double *perr)
 {
     int nbb = nb + 1, i, b, it, rp, a, k, mo;
     int n = W - 3, total = 0;
@@ -444,8 +452,11 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
     double *J = malloc(sizeof(double) * KMAX * KMAX);
     double *WK = malloc(sizeof(double) * 2 * KMAX * KMAX);
     int *keep = malloc(sizeof(int) * nblk), *mof = malloc(sizeof(int) * nblk);
-    if (!C || !S || !GR || !MB || !J || !WK || !keep || !mof) {
+    double *jerk = malloc(sizeof(double) * (n > 0 ? n : 1));  /* the last interval's dA */
+    int jerk_ok = 0;                                           /* it is the one before */
+    if (!C || !S || !GR || !MB || !J || !WK || !keep || !mof || !jerk) {
         free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof);
+        free(jerk);
         return -1;
     }
     (void)order;
@@ -611,62 +622,43 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
                 }
             }
         }
+        if (!good) continue;
+        /* the acceptance tests of the point, and of the interval from the point before */
+        {
+            int g = conv[i] && ratio[i] <= kappa, c;
+            double lo = INFINITY, e = 0.0;
+            for (c = 0; c < W && g; c++) g = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
+            for (c = 0; c < nblk; c++) if (sm[c] < lo || sm[c] != sm[c]) lo = sm[c];
+            if (lo != lo) g = 0;
+            else if (g) g = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
+            for (c = 0; c < nfine && g; c++) g = sgn[c] == sign0[(size_t)i * nfine + c];
+            good[i] = g;
+            size_t k1 = trow ? trow[i] : i, k0 = i > 0 ? (trow ? trow[i - 1] : i - 1) : 0;
+            if (i > 0 && k1 == k0 + 1 && (!vrow || vrow[i] == vrow[i - 1])) {
+                double h = tg[k1] - tg[k0], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
+                const double *q0 = q - W, *d0 = qd - W, *a0 = qdd - W;
+                int nan = 0;
+                for (c = 0; c < n; c++) {
+                    double dA = (qdd[c] - a0[c]) / h, j3 = jerk_ok ? jerk[c] : 0.0;
+                    double ef = fabs(q[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
+                    double eb = fabs(q[c] - h * qd[c] + hh * qdd[c] - h3 * dA - q0[c]);
+                    double x = ef > eb ? ef : eb;
+                    jerk[c] = dA;
+                    e = x > e ? x : e;
+                    nan |= (ef != ef) | (eb != eb);
+                }
+                jerk_ok = 1;
+                perr[i] = nan ? NAN : e;
+            } else {
+                jerk_ok = 0;
+                perr[i] = 0.0;
+            }
+        }
     }
-    free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof);
+    free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof); free(jerk);
     return 0;
 }
 
-/* studies.batch's acceptance of V variants x T grid times solved by pk_rows (the same tests
-   as Batch.accept, the numpy reference): per row converged, finite Q, Qd, Qdd (W columns),
-   first correction at most kappa sigma_min, condition 1 / min(smin) at most cond_max, every
-   fine-block sign equal to sign0's; per variant every row so and the Taylor predictor error
-   (studies.warm._predictor_error, forwards and backwards, over the first n columns) between
-   consecutive grid times t at most path_tol. ok (V): in 1 / 0, out. */
-void pk_accept(int V, int T, int W, int n, int nfine, int nblk, const double *t,
-               const double *Q, const double *Qd, const double *Qdd, const uint8_t *conv,
-               const double *ratio, const double *sign, const double *sign0,
-               const double *smin, double kappa, double cond_max, double path_tol,
-               uint8_t *ok)
-{
-    int v, k, c;
-    for (v = 0; v < V; v++) {
-        int good = ok[v];
-        for (k = 0; k < T && good; k++) {
-            size_t i = (size_t)v * T + k;
-            const double *q = Q + i * W, *qd = Qd + i * W, *qdd = Qdd + i * W;
-            double lo = INFINITY;
-            good = conv[i] && ratio[i] <= kappa;
-            for (c = 0; c < W && good; c++)
-                good = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
-            for (c = 0; c < nblk; c++) {
-                double x = smin[i * nblk + c];
-                if (x < lo || x != x) lo = x;
-            }
-            if (lo != lo) good = 0;
-            else if (good) good = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
-            for (c = 0; c < nfine && good; c++)
-                good = sign[i * nfine + c] == sign0[i * nfine + c];
-        }
-        for (k = 0; k + 1 < T && good; k++) {
-            size_t i = (size_t)v * T + k;
-            double h = t[k + 1] - t[k], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
-            double hp = k ? t[k] - t[k - 1] : 1.0;
-            const double *q0 = Q + i * W, *q1 = q0 + W, *d0 = Qd + i * W, *d1 = d0 + W;
-            const double *a0 = Qdd + i * W, *a1 = a0 + W, *ap = a0 - W;
-            double e = 0.0;
-            for (c = 0; c < n; c++) {
-                double j3 = k ? (a0[c] - ap[c]) / hp : 0.0, dA = (a1[c] - a0[c]) / h;
-                double ef = fabs(q1[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
-                double eb = fabs(q1[c] - h * d1[c] + hh * a1[c] - h3 * dA - q0[c]);
-                if (ef > e || ef != ef) e = ef;
-                if (eb > e || eb != eb) e = eb;
-                if (e != e) break;
-            }
-            good = e <= path_tol;
-        }
-        ok[v] = good;
-    }
-}
 """
 
 _state: dict = {}        # "lib": the loaded library; "failed": compiling did not work
@@ -728,10 +720,8 @@ def library(build: bool = True):
                    + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4
                    + [ctypes.c_void_p] * 2 + [ctypes.c_int])
     lib.pk_rows.restype = ctypes.c_int
-    lib.pk_rows.argtypes = fn.argtypes + [ctypes.c_void_p]
-    lib.pk_accept.restype = None
-    lib.pk_accept.argtypes = ([ctypes.c_int] * 6 + [ctypes.c_void_p] * 9
-                              + [ctypes.c_double] * 3 + [ctypes.c_void_p])
+    lib.pk_rows.argtypes = (fn.argtypes + [ctypes.c_void_p] * 3 + [ctypes.c_double] * 2
+                            + [ctypes.c_void_p] * 2)
     lib.pk_hermite.restype = None
     lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
     _state["lib"] = lib
@@ -903,13 +893,16 @@ def _rows(rows, table, N, P):
 
 
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
-               trow=None):
+               trow=None, accept=None):
     """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
     each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
     drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
     i reads row trow[i]; rows, table: per-point element parameters as for `solve`. Returns
-    (Q, Qd, Qdd, iterations, converged, ratio, sign, smin), Q the array given when it is
-    contiguous float64 (updated in place), else a copy."""
+    (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array given when
+    it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0, kappa,
+    cond_max), the acceptance tests of studies.batch (see pk_rows): good (N,) bool and perr
+    (N,), the path error of the interval from the point before (grid times tg, indexed as
+    T); None: not tested (good, perr None)."""
     N, W = Q.shape
     if maxit < 1:
         raise ValueError("planarkin kernel: at least one Newton iteration")
@@ -928,16 +921,28 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     ratio = np.empty(N)
     sign = np.empty((N, P.nfine))
     smin = np.empty((N, P.nblk))
+    good = perr = sign0 = tg = None
+    kappa = cond_max = 0.0
+    if accept is not None:
+        tg, sign0, kappa, cond_max = accept
+        tg = np.ascontiguousarray(tg, dtype=float)
+        sign0 = np.ascontiguousarray(sign0, dtype=float)
+        if sign0.shape != (N, P.nfine) or len(tg) != len(drv[0]):
+            raise ValueError("planarkin kernel: acceptance arrays do not match")
+        good = np.empty(N, dtype=np.uint8)
+        perr = np.empty(N)
     ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
     rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
                      ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),
                      1, 2, ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin),
                      ptr(P.tail[0]), None, ptr(P.tail[1]), ptr(P.tail[2]), P.nfine,
                      *[ptr(a) for a in P.fine], ptr(rows), ptr(table), P.arrays[3].shape[0],
-                     ptr(trow))
+                     ptr(trow), ptr(tg), ptr(sign0), float(kappa), float(cond_max), ptr(good),
+                     ptr(perr))
     if rc != 0:
         raise MemoryError("planarkin kernel: out of memory")
-    return Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin
+    return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+            None if good is None else good.view(bool), perr)
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
@@ -949,22 +954,4 @@ def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
     lib.pk_hermite(len(t), Qn.shape[1], t.ctypes.data, idx.ctypes.data,
                    *[a.ctypes.data for a in nodes], Q.ctypes.data)
     return Q
-
-
-def accept(lib, t, Q, Qd, Qdd, conv, ratio, sign, sign0, smin, n, kappa, cond_max, path_tol,
-           ok) -> np.ndarray:
-    """pk_accept: which of V variants solved on the grid t (T,) pass every acceptance test
-    (studies.batch.Batch.accept is the numpy reference). Q, Qd, Qdd (V T, W) as pk_rows left
-    them, conv ratio (V T,), sign sign0 (V T, nfine), smin (V T, nblk); ok (V,) bool, the
-    variants still in question. Returns ok (V,) bool."""
-    V, T = len(ok), len(t)
-    c = lambda a, dt=float: np.ascontiguousarray(a, dtype=dt)     # noqa: E731
-    arrs = [c(t), c(Q), c(Qd), c(Qdd), c(conv, np.uint8), c(ratio), c(sign), c(sign0), c(smin)]
-    out = np.ascontiguousarray(ok, dtype=np.uint8).copy()
-    if arrs[1].shape[0] != V * T or arrs[6].shape != arrs[7].shape:
-        raise ValueError("planarkin kernel: accept's arrays do not match")
-    lib.pk_accept(V, T, arrs[1].shape[1], int(n), arrs[6].shape[1], arrs[8].shape[1],
-                  *[a.ctypes.data for a in arrs], float(kappa), float(cond_max),
-                  float(path_tol), out.ctypes.data)
-    return out.astype(bool)
 

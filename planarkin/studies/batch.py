@@ -283,11 +283,10 @@ class Batch:
         o = self.study.opts
         k = self.kernel()
         if k is not None:
-            from .. import kernel
-            Qr, Qdr, Qddr, info = self.solve_kernel(k, groups, targets, env, Q)
-            ok = kernel.accept(k[0], self.grid, Qr, Qdr, Qddr, info.converged, info.ratio,
-                               info.sign, sign.reshape(Vn * T, -1), info.smin, self.cm.n, KAPPA,
-                               COND_WARN, o.path_tol, ok)
+            Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign)
+            with np.errstate(invalid="ignore"):
+                ok &= good.reshape(Vn, T).all(axis=1) & (perr.reshape(Vn, T)
+                                                         <= o.path_tol).all(axis=1)
             return (*(a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr)),
                     info.sign.reshape(Vn, T, -1), ok, s)
         TT, NU, FDD = self.drivers(targets, env)
@@ -323,11 +322,13 @@ class Batch:
         lib = kernel.library() if self._kpack is not None else None
         return None if lib is None else (lib, self._kpack)
 
-    def solve_kernel(self, k, groups, targets, env, Q):
+    def solve_kernel(self, k, groups, targets, env, Q, sign):
         """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
         point, its variant's element parameters one row of a (Vn, E, 8) table, its drivers'
-        the grid time's row where no varied parameter reaches them. Returns (Q, Qd, Qdd)
-        (Vn T, n + 3) and the diagnostics."""
+        the grid time's row where no varied parameter reaches them; with the acceptance tests
+        of every row (those of `accept`, against the predecessors' signs sign) and the path
+        errors. Returns (Q, Qd, Qdd) (Vn T, n + 3), the diagnostics, good (Vn T,) and the path
+        errors (Vn T,) (each row's interval from the row before, 0 for a variant's first)."""
         from .. import kernel
         from ..system import BatchInfo
         Vn, T, n3 = Q.shape
@@ -340,11 +341,12 @@ class Batch:
         else:       # drivers() of one variant: the same for all
             drv = [a[0] for a in self.drivers(targets[:1], env)]
             trow = np.tile(np.arange(T, dtype=np.int32), Vn)
-        Qr, Qdr, Qddr, iters, conv, ratio, sign, smin = kernel.solve_rows(
+        tg = self.grid if trow is not None else np.tile(self.grid, Vn)
+        Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
-            trow=trow)
-        # finite positions: tested by kernel.accept with the velocities and accelerations
-        return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sign, smin)
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN))
+        # good: finite positions too, with the velocities and accelerations
+        return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sg, smin), good, perr
 
     def accept(self, Qr, Qdr, Qddr, info, sign, ok, s):
         """Every acceptance test of a step on every row (see the module), then the Taylor path
@@ -480,15 +482,12 @@ class Batch:
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
         # per chain the positions of the last three solutions before the current one and the
-        # parameter steps that led from each to the next: (Q, step) pairs, newest last
-        hist: list[list] = [[] for _ in range(C)]
-        here = [nominal.copy() for _ in range(C)]
+        # parameter steps that led from each to the next (newest last), nh of them valid
+        hq = np.zeros((C, 3) + Q0.shape)
+        hdp = np.zeros((C, 3, len(keys)))
+        nh = np.zeros(C, dtype=int)
+        here = np.repeat(nominal[None], C, axis=0)
         alive = np.ones(C, dtype=bool)
-
-        def same(u, v) -> bool:
-            """Whether parameter step u repeats step v (to rounding; v not zero)."""
-            return any(v) and all(abs(a - b) <= 1e-9 * abs(b) for a, b in zip(u.tolist(),
-                                                                               v.tolist()))
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
@@ -496,31 +495,49 @@ class Batch:
             # that starts from them (System.solve_batch's; the others solve them afresh)
             full = self.kernel() is None and self.fused is None
             pred = [a[live] if full or j == 0 else None for j, a in enumerate(state)]
-            for i, c in enumerate(live):
-                h = hist[c]
-                dp = targets[i] - here[c]
-                # polynomial extrapolation along a repeated parameter step: the error of the
-                # cubic is fourth order in the step, so that one Newton correction, at most
-                # tol, reaches rounding (the quadratic's third order leaves a second one)
-                if len(h) == 3 and all(same(dp, x[1]) for x in h):
-                    q0, q1, q2 = state[0][c], h[2][0], h[1][0]
-                    pred[0][i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h[0][0])
-                elif len(h) >= 2 and same(dp, h[-1][1]) and same(dp, h[-2][1]):
-                    pred[0][i] = 3 * (state[0][c] - h[-1][0]) + h[-2][0]
-                elif h and same(dp, h[-1][1]):
-                    pred[0][i] = 2 * state[0][c] - h[-1][0]
-                elif self.tangent is not None:
-                    # any other step (a chain's head, a factorial's next row): first order in
-                    # the step, with the nominal's exact sensitivities
-                    # (elementwise: a BLAS product would wake its threads for a few numbers)
-                    pred[0][i] = state[0][c] + (self.tangent * dp).sum(axis=-1)
+            live = np.asarray(live, dtype=int)
+            dp = targets - here[live]
+            # same[:, j]: the step repeats history step j (to rounding; that one not zero)
+            v = hdp[live]
+            same = (np.any(v != 0, axis=-1)
+                    & np.all(np.abs(dp[:, None] - v) <= 1e-9 * np.abs(v), axis=-1)
+                    & (np.arange(3)[None] >= 3 - nh[live][:, None]))
+            # polynomial extrapolation along a repeated parameter step: the error of the
+            # cubic is fourth order in the step, so that one Newton correction, at most tol,
+            # reaches rounding (the quadratic's third order leaves a second one)
+            cubic = same.all(axis=1)
+            quad = ~cubic & same[:, 1] & same[:, 2]
+            sec = ~cubic & ~quad & same[:, 2]
+            rest = ~(cubic | quad | sec)
+            q = pred[0]
+            if cubic.any():
+                i = np.nonzero(cubic)[0]
+                q0, h = q[i], hq[live[i]]
+                q1, q2 = h[:, 2], h[:, 1]
+                q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h[:, 0])
+            if quad.any():
+                i = np.nonzero(quad)[0]
+                h = hq[live[i]]
+                q[i] = 3 * (q[i] - h[:, 2]) + h[:, 1]
+            if sec.any():
+                i = np.nonzero(sec)[0]
+                q[i] = 2 * q[i] - hq[live[i], 2]
+            if rest.any() and self.tangent is not None:
+                # any other step (a chain's head, a factorial's next row): first order in the
+                # step, with the nominal's exact sensitivities (elementwise: a BLAS product
+                # would wake its threads for a few numbers)
+                i = np.nonzero(rest)[0]
+                q[i] = q[i] + (self.tangent[None] * dp[i][:, None, None, :]).sum(axis=-1)
             vals = [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
             got = np.nonzero(ok)[0]
-            cs = [live[i] for i in got]
-            for i, c in zip(got, cs):
-                hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-3:]
-                here[c] = targets[i].copy()
+            cs = live[got]
+            hq[cs, :2] = hq[cs, 1:]
+            hq[cs, 2] = state[0][cs]
+            hdp[cs, :2] = hdp[cs, 1:]
+            hdp[cs, 2] = dp[got]
+            nh[cs] = np.minimum(nh[cs] + 1, 3)
+            here[cs] = targets[got]
             for a, new in zip(state + [sign], (Qn, Qdn, Qddn, sgn)):
                 a[cs] = new[got]
             return ok, (Qn, Qdn, Qddn), s
