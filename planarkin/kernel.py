@@ -485,7 +485,10 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
         double *sgn = sign + (size_t)i * nfine, *sm = smin + (size_t)i * nblk;
         double rat = 0.0;
         int its = 0, ok = 1, row, lev;
-        for (b = 0; b < nbb; b++) { C[b] = cos(q[3 * b + 2]); S[b] = sin(q[3 * b + 2]); }
+        for (b = 0; b < nbb; b++) {   /* (the ground's angle is 0: no call) */
+            double ph = q[3 * b + 2];
+            if (ph == 0.0) { C[b] = 1.0; S[b] = 0.0; } else { C[b] = cos(ph); S[b] = sin(ph); }
+        }
         /* positions: block by block, Newton to this point's convergence */
         for (b = 0; b < nblk; b++) {
             int kb = bk[b];
@@ -579,7 +582,7 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
         }
         /* velocities, accelerations: forward substitution through the blocks with the
            diagonal blocks at the converged positions (pk_solve's) */
-        for (a = 0; a < n; a++) { qd[a] = 0.0; qdd[a] = 0.0; }
+        for (a = 0; a < W; a++) { qd[a] = 0.0; qdd[a] = 0.0; }   /* ground columns too */
         for (lev = 1; lev <= 2; lev++) {
             double *X = lev == 1 ? qd : qdd;
             for (b = 0; b < nblk; b++) {
@@ -908,7 +911,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
         raise ValueError("planarkin kernel: at least one Newton iteration")
     rows, table = _rows(rows, table, N, P)
     Q = np.ascontiguousarray(Q, dtype=float)
-    Qd, Qdd = np.zeros((N, W)), np.zeros((N, W))
+    Qd, Qdd = np.empty((N, W)), np.empty((N, W))         # pk_rows writes every column
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     if trow is not None:
         trow = np.ascontiguousarray(trow, dtype=np.int32)

@@ -482,10 +482,12 @@ class Batch:
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
         # per chain the positions of the last three solutions before the current one and the
-        # parameter steps that led from each to the next (newest last), nh of them valid
+        # parameter steps that led from each to the next, in a ring: entry j (0 the newest)
+        # in slot (nh - 1 - j) % 3, nh of them pushed so far
         hq = np.zeros((C, 3) + Q0.shape)
         hdp = np.zeros((C, 3, len(keys)))
         nh = np.zeros(C, dtype=int)
+        back = np.arange(2, -1, -1)             # oldest first: entries 2, 1, 0
         here = np.repeat(nominal[None], C, axis=0)
         alive = np.ones(C, dtype=bool)
 
@@ -497,11 +499,12 @@ class Batch:
             pred = [a[live] if full or j == 0 else None for j, a in enumerate(state)]
             live = np.asarray(live, dtype=int)
             dp = targets - here[live]
-            # same[:, j]: the step repeats history step j (to rounding; that one not zero)
-            v = hdp[live]
+            # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
+            slots = (nh[live][:, None] - 1 - back[None]) % 3
+            v = hdp[live[:, None], slots]
             same = (np.any(v != 0, axis=-1)
                     & np.all(np.abs(dp[:, None] - v) <= 1e-9 * np.abs(v), axis=-1)
-                    & (np.arange(3)[None] >= 3 - nh[live][:, None]))
+                    & (back[None] < nh[live][:, None]))
             # polynomial extrapolation along a repeated parameter step: the error of the
             # cubic is fourth order in the step, so that one Newton correction, at most tol,
             # reaches rounding (the quadratic's third order leaves a second one)
@@ -510,18 +513,17 @@ class Batch:
             sec = ~cubic & ~quad & same[:, 2]
             rest = ~(cubic | quad | sec)
             q = pred[0]
+            h = lambda i, j: hq[live[i], slots[i, 2 - j]]       # noqa: E731 - entry j
             if cubic.any():
                 i = np.nonzero(cubic)[0]
-                q0, h = q[i], hq[live[i]]
-                q1, q2 = h[:, 2], h[:, 1]
-                q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h[:, 0])
+                q0, q1, q2 = q[i], h(i, 0), h(i, 1)
+                q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
             if quad.any():
                 i = np.nonzero(quad)[0]
-                h = hq[live[i]]
-                q[i] = 3 * (q[i] - h[:, 2]) + h[:, 1]
+                q[i] = 3 * (q[i] - h(i, 0)) + h(i, 1)
             if sec.any():
                 i = np.nonzero(sec)[0]
-                q[i] = 2 * q[i] - hq[live[i], 2]
+                q[i] = 2 * q[i] - h(i, 0)
             if rest.any() and self.tangent is not None:
                 # any other step (a chain's head, a factorial's next row): first order in the
                 # step, with the nominal's exact sensitivities (elementwise: a BLAS product
@@ -532,14 +534,18 @@ class Batch:
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
             got = np.nonzero(ok)[0]
             cs = live[got]
-            hq[cs, :2] = hq[cs, 1:]
-            hq[cs, 2] = state[0][cs]
-            hdp[cs, :2] = hdp[cs, 1:]
-            hdp[cs, 2] = dp[got]
-            nh[cs] = np.minimum(nh[cs] + 1, 3)
+            hq[cs, nh[cs] % 3] = state[0][cs]
+            hdp[cs, nh[cs] % 3] = dp[got]
+            nh[cs] += 1
             here[cs] = targets[got]
-            for a, new in zip(state + [sign], (Qn, Qdn, Qddn, sgn)):
-                a[cs] = new[got]
+            if len(cs) == C and (cs == np.arange(C)).all():
+                # every chain moved: the solutions are the new state (not written into after:
+                # a later step copies into the state, and the solutions are read before that)
+                state[:] = Qn, Qdn, Qddn
+                sign[...] = sgn
+            else:
+                for a, new in zip(state + [sign], (Qn, Qdn, Qddn, sgn)):
+                    a[cs] = new[got]
             return ok, (Qn, Qdn, Qddn), s
 
         def advance(live, targets):
