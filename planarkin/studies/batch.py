@@ -496,8 +496,10 @@ class Batch:
             # copies (fancy indexing); the velocities and accelerations only for the pass
             # that starts from them (System.solve_batch's; the others solve them afresh)
             full = self.kernel() is None and self.fused is None
-            pred = [a[live] if full or j == 0 else None for j, a in enumerate(state)]
             live = np.asarray(live, dtype=int)
+            every = len(live) == C and (live == np.arange(C)).all()
+            pred = [(a.copy() if every else a[live]) if full or j == 0 else None
+                    for j, a in enumerate(state)]
             dp = targets - here[live]
             # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
             slots = (nh[live][:, None] - 1 - back[None]) % 3
@@ -514,7 +516,20 @@ class Batch:
             rest = ~(cubic | quad | sec)
             q = pred[0]
             h = lambda i, j: hq[live[i], slots[i, 2 - j]]       # noqa: E731 - entry j
-            if cubic.any():
+            if cubic.any() and every and (slots == slots[0]).all():
+                # the usual case, the chains in lockstep: views of the history, no copies
+                # (the chains whose step is another get their prediction below)
+                q1, q2, q3 = (hq[:, slots[0, 2 - j]] for j in range(3))
+                r = np.subtract(q, q1)
+                r *= 3
+                r += q                              # q0 + 3 (q0 - q1), as below
+                t = np.subtract(q1, q2)
+                t *= 3
+                r -= t
+                np.subtract(q2, q3, out=t)
+                r += t
+                np.copyto(q, r, where=cubic[:, None, None])
+            elif cubic.any():
                 i = np.nonzero(cubic)[0]
                 q0, q1, q2 = q[i], h(i, 0), h(i, 1)
                 q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
@@ -531,14 +546,18 @@ class Batch:
                 i = np.nonzero(rest)[0]
                 q[i] = q[i] + (self.tangent[None] * dp[i][:, None, None, :]).sum(axis=-1)
             vals = [dict(zip(keys, map(float, p))) for p in targets]
-            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
+            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live])
             got = np.nonzero(ok)[0]
             cs = live[got]
-            hq[cs, nh[cs] % 3] = state[0][cs]
+            moved = len(cs) == C and (cs == np.arange(C)).all()
+            if moved and (nh == nh[0]).all():
+                hq[:, nh[0] % 3] = state[0]
+            else:
+                hq[cs, nh[cs] % 3] = state[0][cs]
             hdp[cs, nh[cs] % 3] = dp[got]
             nh[cs] += 1
             here[cs] = targets[got]
-            if len(cs) == C and (cs == np.arange(C)).all():
+            if moved:
                 # every chain moved: the solutions are the new state (not written into after:
                 # a later step copies into the state, and the solutions are read before that)
                 state[:] = Qn, Qdn, Qddn
