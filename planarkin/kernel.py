@@ -16,6 +16,11 @@ It covers the kinds whose equations are the point-and-line formulas of reference
 unknowns and solve blocks (the path follower's merged ones) of up to KMAX; any other kind or a
 larger block keeps the numpy passes (pack returns None).
 
+For design studies (studies.batch: variants x grid times as one batch) pk_solve and pk_rows
+take per-point element parameters, an index per point into a table of parameter sets; pk_rows
+solves point by point, each to its own convergence, and takes the study's acceptance tests in
+the same pass (solve_rows).
+
 No dependency: the source below is compiled once with the system's C compiler (``cc``) into a
 per-user cache (PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin or ~/.cache/planarkin), keyed
 by the source's hash, and loaded with ctypes. The first run on a machine that meets a system the

@@ -12,7 +12,10 @@ Each variant is predicted from its predecessor in its chain (studies.warm.chains
 repeated parameter step by the cubic (quadratic, secant) through the previous solutions, otherwise
 (a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
-equal substeps. The solve is one Newton pass over the whole system for all variants x grid
+equal substeps. The solve is the compiled kernel's pk_rows where it covers the system
+(planarkin.kernel: each row a point with its variant's element parameters, Newton to its own
+convergence block by block, the acceptance tests below in the same pass), else, and as the
+reference (PLANARKIN_KERNEL=0), one Newton pass over the whole system for all variants x grid
 times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
 accepted only if every grid
 point passes the tests the path follower applies to a step: Newton converged, its first
