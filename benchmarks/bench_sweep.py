@@ -2,7 +2,7 @@
 planarkin against pylinkage with numba, the textbook solver and the closed form, in one run.
 
     python benchmarks/bench_sweep.py [--variants 10000] [--planarkin N] [--textbook 4]
-                                     [--pylinkage-python /tmp/benchvenv/bin/python]
+                                     [--pylinkage-python /tmp/benchvenv/bin/python] [--numpy]
 
 The sweep: the four-bar of benchmarks/models.py (crank a, coupler b, rocker c = 0.10, ground
 d = 0.10), a full factorial of sqrt(V) crank lengths a in [0.03, 0.05] times sqrt(V) coupler
@@ -16,7 +16,10 @@ and accelerations.
 * planarkin: `planarkin.studies.variants.Study.run` (what `planarkin sweep --jobs 1` runs: the
   variants batched, studies/batch.py, grid pass with P, V, A, a max metric) on all V variants,
   or with `--planarkin N` on N of them spread evenly over the factorial (a sparser sweep, whose
-  neighbours are farther apart); variants/s extrapolates.
+  neighbours are farther apart); variants/s extrapolates. The batch solves through the
+  compiled kernel (planarkin/kernel.py, pk_rows) where it is available; `--numpy` also times
+  the numpy passes (studies/fused.py, PLANARKIN_KERNEL=0: the reference route) on the same
+  variants, in the same run.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
 * closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
 
@@ -104,6 +107,8 @@ def main() -> None:
                     help="variants planarkin solves (default: all)")
     ap.add_argument("--textbook", type=int, default=4)
     ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
+    ap.add_argument("--numpy", action="store_true",
+                    help="also time planarkin's numpy passes (PLANARKIN_KERNEL=0)")
     args = ap.parse_args()
     side = int(round(args.variants ** 0.5))
     a_vals = np.linspace(0.03, 0.05, side)
@@ -147,6 +152,25 @@ def main() -> None:
             err = max(err, abs(o.metrics[0] - ref) / abs(ref))
         print(f"planarkin: {ok}/{len(sub)} ok, max relative error of max:rocker.phi against the "
               f"closed form {err:.1e}")
+        if args.numpy:
+            saved = os.environ.get("PLANARKIN_KERNEL")
+            os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
+            try:
+                t0, c0 = time.perf_counter(), time.process_time()
+                ref = study.run(sub)
+                key = "planarkin, numpy passes (PLANARKIN_KERNEL=0)"
+                rates[key] = len(sub) / (time.perf_counter() - t0)
+                cpu[key] = len(sub) / (time.process_time() - c0)
+            finally:
+                if saved is None:
+                    del os.environ["PLANARKIN_KERNEL"]
+                else:
+                    os.environ["PLANARKIN_KERNEL"] = saved
+            same = all(a.status == b.status for a, b in zip(out, ref))
+            dev = max((abs(x - y) / max(abs(y), 1e-300) for a, b in zip(out, ref)
+                       for x, y in zip(a.metrics, b.metrics) if a.status == "ok"), default=0.0)
+            print(f"planarkin kernel vs numpy passes: statuses equal {same}, largest relative "
+                  f"metric difference {dev:.1e}")
 
     # textbook
     import textbook

@@ -30,6 +30,11 @@ never on what earlier runs left in the cache: identical input gives identical by
 machine. A compiler that fails leaves a marker (``.failed``, with its message) so that later
 runs do not try again. Without a compiler, with an unwritable cache or with PLANARKIN_KERNEL=0
 the numpy passes run instead: same results to rounding (tests/test_perstep.py).
+
+For design studies (studies.batch: variants x grid times as one batch) pk_rows takes
+per-point element parameters, an index per point into a table of parameter sets; pk_rows
+solves point by point, each to its own convergence, and takes the study's acceptance tests in
+the same pass (solve_rows).
 """
 
 from __future__ import annotations
@@ -583,6 +588,272 @@ void pk_layout(int N, int W, int n, int P, int order, const double *unit, double
         }
     }
 }
+
+/* pk_rows (below) builds a block's matrix from its rows' gradients */
+/* The block's matrix from its rows' gradients gr (kb x 6); rpos (m x 6): where each gradient
+   entry of a row goes in its block's row (-1: another block's column) */
+static void block_matrix(int kb, const int32_t *rows, const int32_t *rpos, const double *gr,
+                         double *J)
+{
+    int rp, k;
+    for (k = 0; k < kb * kb; k++) J[k] = 0.0;
+    for (rp = 0; rp < kb; rp++) {
+        const int32_t *pos = rpos + 6 * rows[rp];
+        for (k = 0; k < 6; k++) if (pos[k] >= 0) J[rp * kb + pos[k]] = gr[rp * 6 + k];
+    }
+}
+
+/* the element parameters of point i: eprm (E x 8) shared by all points, or with vrow (N) the
+   table vprm (V x ne x 8) of parameter sets, row vrow[i] (a design study's variants) */
+#define EPRM(i) (vrow ? vprm + (size_t)vrow[i] * 8 * ne : eprm)
+
+/* pk_solve's arguments and results, point by point (a design study, studies.batch): each point
+   solves its blocks in order, each block by Newton until that point's own correction is at
+   most tol (so a point's result does not depend on the other points of the batch), 1 x 1 and
+   2 x 2 blocks inverted in closed form (as studies.fused), then its velocities and
+   accelerations as pk_solve. Always order 2; R: |Phi| of the rows outside the blocks only (or
+   NULL: none). trow (N): the row of T, NU and FDD that point i reads (a study's grid times,
+   the same for every variant), NULL: row i.
+   With good (N) not NULL, studies.batch's acceptance tests of every point (Batch.accept is
+   the numpy reference), while its numbers are at hand: good[i] = converged, finite Q, Qd, Qdd
+   (W columns), first correction at most kappa sigma_min, 1 / min(smin) at most cond_max and
+   every fine-block sign equal to sign0's (N, nfine); perr[i] = the Taylor predictor error
+   (studies.warm._predictor_error, forwards and backwards, first n columns) of the interval
+   from the point before, when that is the same variant (vrow) at the grid time before
+   (times tg, indexed as T), else 0. */
+int pk_rows(int N, int W, int m, int nb, int nblk,
+            const int32_t *ekind, const int32_t *ebi, const int32_t *ebj, const double *eprm,
+            const int32_t *rowel, const int32_t *roweq,
+            const int32_t *bk, const int32_t *boff, const int32_t *baff,
+            const int32_t *bcols, const int32_t *brows,
+            double *Q, double *Qd, double *Qdd, const double *T, const double *NU,
+            const double *FDD, int maxit, double tol, int full, int order,
+            int64_t *iters, uint8_t *conv, double *ratio, double *sign, double *smin,
+            const uint8_t *inblk, double *R, const int32_t *rcol, const int32_t *rpos,
+            int nfine, const int32_t *bfirst, const int32_t *bnf, const int32_t *bfo,
+            const int32_t *bfs, const int32_t *vrow, const double *vprm, int ne,
+            const int32_t *trow, const double *tg, const double *sign0, double kappa,
+            double cond_max, uint8_t *good, double *perr)
+{
+    int nbb = nb + 1, i, b, it, rp, a, k, mo;
+    int n = W - 3, total = 0;
+    for (b = 0; b < nblk; b++) total += bk[b] * bk[b];
+    int nrow = boff[nblk - 1] + bk[nblk - 1];
+    double *C = malloc(sizeof(double) * nbb), *S = malloc(sizeof(double) * nbb);
+    double *GR = malloc(sizeof(double) * (size_t)nrow * 6);
+    double *MB = malloc(sizeof(double) * (size_t)(total > 0 ? total : 1));
+    double *J = malloc(sizeof(double) * KMAX * KMAX);
+    double *WK = malloc(sizeof(double) * 2 * KMAX * KMAX);
+    int *keep = malloc(sizeof(int) * nblk), *mof = malloc(sizeof(int) * nblk);
+    double *jerk = malloc(sizeof(double) * (n > 0 ? n : 1));  /* the last interval's dA */
+    int jerk_ok = 0;                                           /* it is the one before */
+    if (!C || !S || !GR || !MB || !J || !WK || !keep || !mof || !jerk) {
+        free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof);
+        free(jerk);
+        return -1;
+    }
+    (void)order;
+    /* keep[b]: the block's Newton matrix is the one at the converged positions, exactly, and
+       serves the velocities and accelerations: an affine block (one iteration) whose rows'
+       gradients do not depend on its unknowns (revolute, x, y: on the angles only; angle:
+       constant) nor, for the revolute, x and y, on an angle among them */
+    for (b = 0, mo = 0; b < nblk; b++) {
+        keep[b] = baff[b];
+        mof[b] = mo;
+        mo += bk[b] * bk[b];
+        for (rp = 0; rp < bk[b] && keep[b]; rp++) {
+            int e = rowel[brows[boff[b] + rp]], kd = ekind[e];
+            if (kd != 3 && kd != 1 && kd != 4 && kd != 5) keep[b] = 0;
+            else if (kd != 3)
+                for (a = 0; a < bk[b]; a++) {
+                    int c = bcols[boff[b] + a];
+                    if (c == 3 * ebi[e] + 2 || c == 3 * ebj[e] + 2) keep[b] = 0;
+                }
+        }
+    }
+    for (i = 0; i < N; i++) {
+        double *q = Q + (size_t)i * W, *qd = Qd + (size_t)i * W, *qdd = Qdd + (size_t)i * W;
+        size_t ti = (size_t)(trow ? trow[i] : i) * m;
+        const double *ep = EPRM(i), *t = T + ti;
+        double *sgn = sign + (size_t)i * nfine, *sm = smin + (size_t)i * nblk;
+        double rat = 0.0;
+        int its = 0, ok = 1, row, lev;
+        for (b = 0; b < nbb; b++) {   /* (the ground's angle is 0: no call) */
+            double ph = q[3 * b + 2];
+            if (ph == 0.0) { C[b] = 1.0; S[b] = 0.0; } else { C[b] = cos(ph); S[b] = sin(ph); }
+        }
+        /* positions: block by block, Newton to this point's convergence */
+        for (b = 0; b < nblk; b++) {
+            int kb = bk[b];
+            const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
+            double r[KMAX], *gr = GR + 6 * boff[b], *Mi = MB + mof[b], sz = INFINITY;
+            for (it = 0; it < maxit; it++) {
+                int refactor = (it == 0) || (full && !baff[b]);
+                for (rp = 0; rp < kb; rp++) {
+                    int e = rowel[rows[rp]];
+                    row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[rows[rp]], q, C, S, 0,
+                             refactor ? 3 : 1, r + rp, gr + 6 * rp, 0);
+                    r[rp] -= t[rows[rp]];
+                }
+                if (refactor) {
+                    double sg, s0;
+                    block_matrix(kb, rows, rpos, gr, J);
+                    if (kb == 1) {
+                        Mi[0] = 1.0 / J[0];
+                        sg = (J[0] > 0) - (J[0] < 0);
+                        if (J[0] != J[0]) sg = NAN;
+                        s0 = fabs(J[0]);
+                    } else if (kb == 2) {
+                        double det = J[0] * J[3] - J[1] * J[2], rd = 1.0 / det;
+                        Mi[0] = J[3] * rd; Mi[1] = -J[1] * rd; Mi[2] = -J[2] * rd;
+                        Mi[3] = J[0] * rd;
+                        sg = (det > 0) - (det < 0);
+                        if (det != det) sg = NAN;
+                        double nf = sqrt(J[0] * J[0] + J[1] * J[1] + J[2] * J[2] + J[3] * J[3])
+                                    * fabs(rd);
+                        s0 = (isfinite(nf) && det != 0) ? 1.0 / nf : 0.0;
+                    } else {
+                        int okk = invert(kb, J, Mi, &sg, WK);
+                        double f = 0.0;
+                        for (a = 0; a < kb * kb; a++) f += Mi[a] * Mi[a];
+                        s0 = okk ? 1.0 / sqrt(f) : 0.0;
+                    }
+                    if (it == 0) {
+                        sm[b] = s0;
+                        if (bnf[b] == 1) sgn[bfirst[b]] = sg;
+                        else {   /* a merged block: the signs of its fine blocks */
+                            int f, o = 0;
+                            for (f = 0; f < bnf[b]; f++) {
+                                int sz_ = bfs[bfo[b] + f], u, v;
+                                double sub[KFINE * KFINE], subinv[KFINE * KFINE], sf;
+                                if (sz_ == 1) {
+                                    double j = J[o * kb + o];
+                                    sf = (j > 0) - (j < 0);
+                                    if (j != j) sf = NAN;
+                                } else {
+                                    for (u = 0; u < sz_; u++) for (v = 0; v < sz_; v++)
+                                        sub[u * sz_ + v] = J[(o + u) * kb + o + v];
+                                    invert(sz_, sub, subinv, &sf, WK);
+                                }
+                                sgn[bfirst[b] + f] = sf;
+                                o += sz_;
+                            }
+                        }
+                    }
+                }
+                sz = 0.0;
+                for (a = 0; a < kb; a++) {
+                    double dx = 0.0;
+                    for (k = 0; k < kb; k++) dx += Mi[a * kb + k] * r[k];
+                    q[cols[a]] -= dx;
+                    double ad = fabs(dx);
+                    if (ad > sz || ad != ad) sz = ad;
+                    if (cols[a] % 3 == 2) {
+                        C[cols[a] / 3] = cos(q[cols[a]]);
+                        S[cols[a] / 3] = sin(q[cols[a]]);
+                    }
+                }
+                if (!isfinite(sz)) sz = INFINITY;
+                if (it == 0) {
+                    double v = sm[b] > 0 ? sz / sm[b] : INFINITY;
+                    if (v > rat || v != v) rat = v;
+                }
+                if (its < it + 1) its = it + 1;
+                if (baff[b]) { sz = isfinite(sz) ? 0.0 : INFINITY; break; }
+                if (sz <= tol) break;
+            }
+            ok = ok && (sz <= tol);
+        }
+        iters[i] = its; conv[i] = ok; ratio[i] = rat;
+        /* |Phi| of the rows outside the blocks (left out as redundant); nan: not computed */
+        for (row = 0; row < m && R; row++) {
+            if (inblk[row]) { R[(size_t)i * m + row] = NAN; continue; }
+            double g;
+            int e = rowel[row];
+            row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[row], q, C, S, 0, 1, &g, 0, 0);
+            R[(size_t)i * m + row] = fabs(g - t[row]);
+        }
+        /* velocities, accelerations: forward substitution through the blocks with the
+           diagonal blocks at the converged positions (pk_solve's) */
+        for (a = 0; a < W; a++) { qd[a] = 0.0; qdd[a] = 0.0; }   /* ground columns too */
+        for (lev = 1; lev <= 2; lev++) {
+            double *X = lev == 1 ? qd : qdd;
+            for (b = 0; b < nblk; b++) {
+                int kb = bk[b];
+                const int32_t *cols = bcols + boff[b], *rows = brows + boff[b];
+                double *gr = GR + 6 * boff[b], *M = MB + mof[b], r[KMAX], sg, gam;
+                if (lev == 1 && !keep[b]) {
+                    for (rp = 0; rp < kb; rp++) {
+                        int e = rowel[rows[rp]];
+                        double g;
+                        row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[rows[rp]], q, C, S,
+                                 0, 2, &g, gr + 6 * rp, 0);
+                    }
+                    block_matrix(kb, rows, rpos, gr, J);
+                    if (kb == 1) M[0] = 1.0 / J[0];
+                    else if (kb == 2) {
+                        double rd = 1.0 / (J[0] * J[3] - J[1] * J[2]);
+                        M[0] = J[3] * rd; M[1] = -J[1] * rd; M[2] = -J[2] * rd; M[3] = J[0] * rd;
+                    } else invert(kb, J, M, &sg, WK);
+                }
+                for (rp = 0; rp < kb; rp++) {
+                    int row = rows[rp], e = rowel[row];
+                    double acc;
+                    if (lev == 1) acc = NU[ti + row];
+                    else {
+                        row_eval(ekind[e], ebi[e], ebj[e], ep + 8 * e, roweq[row], q, C, S, qd,
+                                 4, 0, 0, &gam);
+                        acc = gam + FDD[ti + row];
+                    }
+                    const int32_t *rc = rcol + 6 * row;
+                    const double *g6 = gr + 6 * rp;
+                    acc -= (g6[0] * X[rc[0]] + g6[1] * X[rc[1]]) + (g6[2] * X[rc[2]]
+                           + g6[3] * X[rc[3]]) + (g6[4] * X[rc[4]] + g6[5] * X[rc[5]]);
+                    r[rp] = acc;
+                }
+                for (a = 0; a < kb; a++) {
+                    double x = 0.0;
+                    for (k = 0; k < kb; k++) x += M[a * kb + k] * r[k];
+                    X[cols[a]] = x;
+                }
+            }
+        }
+        if (!good) continue;
+        /* the acceptance tests of the point, and of the interval from the point before */
+        {
+            int g = conv[i] && ratio[i] <= kappa, c;
+            double lo = INFINITY, e = 0.0;
+            for (c = 0; c < W && g; c++) g = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
+            for (c = 0; c < nblk; c++) if (sm[c] < lo || sm[c] != sm[c]) lo = sm[c];
+            if (lo != lo) g = 0;
+            else if (g) g = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
+            for (c = 0; c < nfine && g; c++) g = sgn[c] == sign0[(size_t)i * nfine + c];
+            good[i] = g;
+            size_t k1 = trow ? trow[i] : i, k0 = i > 0 ? (trow ? trow[i - 1] : i - 1) : 0;
+            if (i > 0 && k1 == k0 + 1 && (!vrow || vrow[i] == vrow[i - 1])) {
+                double h = tg[k1] - tg[k0], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
+                const double *q0 = q - W, *d0 = qd - W, *a0 = qdd - W;
+                int nan = 0;
+                for (c = 0; c < n; c++) {
+                    double dA = (qdd[c] - a0[c]) / h, j3 = jerk_ok ? jerk[c] : 0.0;
+                    double ef = fabs(q[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
+                    double eb = fabs(q[c] - h * qd[c] + hh * qdd[c] - h3 * dA - q0[c]);
+                    double x = ef > eb ? ef : eb;
+                    jerk[c] = dA;
+                    e = x > e ? x : e;
+                    nan |= (ef != ef) | (eb != eb);
+                }
+                jerk_ok = 1;
+                perr[i] = nan ? NAN : e;
+            } else {
+                jerk_ok = 0;
+                perr[i] = 0.0;
+            }
+        }
+    }
+    free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof); free(jerk);
+    return 0;
+}
 """
 
 _state: dict = {}        # "lib": the loaded library; "failed": compiling did not work
@@ -642,6 +913,13 @@ def library(build: bool = True):
     fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
                    + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
                    + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 7)
+    lib.pk_rows.restype = ctypes.c_int
+    lib.pk_rows.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
+                            + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
+                            + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4
+                            + [ctypes.c_void_p] * 2 + [ctypes.c_int]
+                            + [ctypes.c_void_p] * 3 + [ctypes.c_double] * 2
+                            + [ctypes.c_void_p] * 2)
     lib.pk_hermite.restype = None
     lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
     lib.pk_layout.restype = None
@@ -790,6 +1068,86 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
         if Wk is not X:
             X[...] = Wk
     return iters, conv, ratio, sign, smin, R, rmax, cond
+
+
+def table(cm, params) -> np.ndarray:
+    """(V, E, 8) element parameters of V parameter sets in pack's layout: params holds, per
+    group of cm.groups (in order), the arrays name -> (V, K, 2) of its K instances' 2-vectors
+    (si, sj, vi, vj), the model's own where a name is missing."""
+    V = next((a.shape[0] for p in params for a in p.values()), 1)
+    parts = []
+    for G, p in zip(cm.groups, params):
+        code = _CODES[type(G.kind).__name__]
+        out = np.zeros((V, len(G), 8))
+        for name in _PARAMS[code]:
+            at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+            out[:, :, at:at + 2] = p.get(name, G.params[name])
+        parts.append(out)
+    return np.concatenate(parts, axis=1)
+
+
+def _rows(rows, table, N, P):
+    if rows is None:
+        return None, None
+    rows = np.ascontiguousarray(rows, dtype=np.int32)
+    table = np.ascontiguousarray(table, dtype=float)
+    if rows.shape != (N,) or table.shape[1:] != P.arrays[3].shape or (
+            N and not 0 <= rows.min() <= rows.max() < len(table)):
+        raise ValueError("planarkin kernel: per-point parameter rows out of the table")
+    return rows, table
+
+
+def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
+               trow=None, accept=None):
+    """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
+    each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
+    drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
+    i reads row trow[i]; rows, table: per-point element parameters as for `solve`. Returns
+    (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array given when
+    it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0, kappa,
+    cond_max), the acceptance tests of studies.batch (see pk_rows): good (N,) bool and perr
+    (N,), the path error of the interval from the point before (grid times tg, indexed as
+    T); None: not tested (good, perr None)."""
+    N, W = Q.shape
+    if maxit < 1:
+        raise ValueError("planarkin kernel: at least one Newton iteration")
+    rows, table = _rows(rows, table, N, P)
+    Q = np.ascontiguousarray(Q, dtype=float)
+    Qd, Qdd = np.empty((N, W)), np.empty((N, W))         # pk_rows writes every column
+    drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
+    if trow is not None:
+        trow = np.ascontiguousarray(trow, dtype=np.int32)
+        if trow.shape != (N,) or (N and not 0 <= trow.min() <= trow.max() < len(drv[0])):
+            raise ValueError("planarkin kernel: driver rows out of the tables")
+    elif len(drv[0]) != N:
+        raise ValueError("planarkin kernel: one driver row per point wanted")
+    iters = np.empty(N, dtype=np.int64)
+    conv = np.empty(N, dtype=np.uint8)
+    ratio = np.empty(N)
+    sign = np.empty((N, P.nfine))
+    smin = np.empty((N, P.nblk))
+    good = perr = sign0 = tg = None
+    kappa = cond_max = 0.0
+    if accept is not None:
+        tg, sign0, kappa, cond_max = accept
+        tg = np.ascontiguousarray(tg, dtype=float)
+        sign0 = np.ascontiguousarray(sign0, dtype=float)
+        if sign0.shape != (N, P.nfine) or len(tg) != len(drv[0]):
+            raise ValueError("planarkin kernel: acceptance arrays do not match")
+        good = np.empty(N, dtype=np.uint8)
+        perr = np.empty(N)
+    ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
+    rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
+                     ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),
+                     1, 2, ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin),
+                     ptr(P.tail[0]), None, ptr(P.tail[1]), ptr(P.tail[2]), P.nfine,
+                     *[ptr(a) for a in P.fine], ptr(rows), ptr(table), P.arrays[3].shape[0],
+                     ptr(trow), ptr(tg), ptr(sign0), float(kappa), float(cond_max), ptr(good),
+                     ptr(perr))
+    if rc != 0:
+        raise MemoryError("planarkin kernel: out of memory")
+    return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+            None if good is None else good.view(bool), perr)
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:

@@ -131,3 +131,124 @@ def test_the_fused_pass_equals_the_block_by_block_solve(path, spread):
     assert np.allclose(got[0], exact, rtol=0, atol=1e-12)
     assert np.array_equal(fi.sign, info.sign)
     assert np.allclose(fi.smin, info.smin, rtol=1e-10, atol=0)
+
+
+# -- the compiled kernel's route (planarkin.kernel: pk_rows) against the numpy reference --------
+
+def _kernel_or_skip():
+    from planarkin import kernel
+    lib = kernel.library()
+    if lib is None:
+        pytest.skip("no C compiler: the kernel route is not available")
+    return kernel, lib
+
+
+def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
+    # the same sweep both ways in one process (PLANARKIN_KERNEL is read per call): every
+    # status and failure kind exactly, metrics to 1e-12; a = 0.08 cannot be assembled, 0.17
+    # locks up (its time: the per-variant follower's, whose own passes follow the same switch
+    # and place the event to ~1e-11)
+    kernel, _ = _kernel_or_skip()
+    from planarkin.studies.fused import Fused
+    s = Study(FB, analysis={"steps": STEPS},
+              metrics=["max:rocker.phi", "stroke:rocker.phi", "max:P.x", "min:P.y", "dev:P",
+                       "absmax:rocker.alpha", "max:P.vy", "min:coupler.omega"])
+    s.chain, s.group = 4, 2
+    variants = (factorial([Range("a", 0.03, 0.05, 4), Range("b", 0.11, 0.13, 3)])
+                + [{"a": 0.08, "b": 0.12}, {"a": 0.17, "b": 0.12}, {"a": 0.041, "b": 0.12},
+                   {"a": 0.06, "b": 0.12}, {"a": 0.065, "b": 0.125}])
+    calls = {"kernel": 0, "fused": 0}
+    rows, fsolve = kernel.solve_rows, Fused.solve
+
+    def count(name, f):
+        def g(*a, **k):
+            calls[name] += 1
+            return f(*a, **k)
+        return g
+    monkeypatch.setattr(kernel, "solve_rows", count("kernel", rows))
+    monkeypatch.setattr(Fused, "solve", count("fused", fsolve))
+    fast = s.run(variants)
+    assert calls == {"kernel": calls["kernel"], "fused": 0} and calls["kernel"] > 0
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    ref = s.run(variants)
+    assert calls["fused"] > 0
+    assert [(o.status, o.kind) for o in fast] == [(o.status, o.kind) for o in ref]
+    assert [(o.status, o.kind) for o in fast][12:14] == [("invalid", ""), ("failed", "lock-up")]
+    for f, r in zip(fast, ref):
+        if f.status == "ok":
+            assert np.allclose(f.metrics, r.metrics, rtol=1e-12, atol=1e-15), (f, r)
+        else:
+            assert np.isnan(f.metrics).all() and np.isnan(r.metrics).all()
+        assert (np.isnan(f.t) and np.isnan(r.t)) or abs(f.t - r.t) <= 1e-9
+
+
+@pytest.fixture(scope="module")
+def solved(study):
+    """Three variants solved by the kernel from the nominal's solution, with the predecessor
+    signs of the nominal (variant 1's flipped at one grid time), and what accept needs."""
+    kernel, _ = _kernel_or_skip()
+    from planarkin.studies.batch import COND_WARN, KAPPA
+    B = study.batch([{"a": 0.04, "b": 0.12}])
+    Q0, _, _, sg0 = B.nominal
+    vals = [{"a": 0.0401, "b": 0.12}, {"a": 0.04, "b": 0.1202}, {"a": 0.0399, "b": 0.1199}]
+    groups, targets, s, env, ok = B.numbers(vals)
+    V, T = len(vals), len(Q0)
+    Q = np.repeat(Q0[None], V, axis=0)
+    sign = np.repeat(sg0[None], V, axis=0)
+    sign[1, 7, 0] *= -1
+    k = B.kernel()
+    return B, groups, targets, env, Q, sign, s, (kernel, k, KAPPA, COND_WARN)
+
+
+def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
+    B, groups, targets, env, Q, sign, s, (kernel, k, _, _) = solved
+    V, T = Q.shape[:2]
+    Qr, Qdr, Qddr, info, good, perr = B.solve_kernel(k, groups, targets, env, Q, sign)
+    tol = B.study.opts.path_tol
+    ok_kernel = good.reshape(V, T).all(axis=1) & (perr.reshape(V, T) <= tol).all(axis=1)
+    ok_numpy = B.accept(Qr, Qdr, Qddr, info, sign, np.ones(V, dtype=bool), s)[4]
+    assert ok_kernel.tolist() == ok_numpy.tolist() == [True, False, True]
+    assert good.reshape(V, T)[1].tolist() == [t != 7 for t in range(T)]
+    # the path errors: warm._predictor_error's (h * h * h here, numpy's h ** 3 there)
+    ref = batchmod._path_errors(B.grid, *(a.reshape(V, T, -1) for a in (Qr, Qdr, Qddr)), B.cm.n)
+    got = perr.reshape(V, T)
+    assert (got[:, 0] == 0).all() and np.allclose(got[:, 1:], ref, rtol=1e-9, atol=1e-18)
+    # a point that cannot converge (nan): refused, and the path test of its intervals too
+    Qbad = Q.copy()
+    Qbad[2, 50, :] = np.nan
+    _, Qdb, Qddb, infob, goodb, perrb = B.solve_kernel(k, groups, targets, env, Qbad, sign)
+    assert not goodb.reshape(V, T)[2, 50] and goodb.reshape(V, T)[0].all()
+    assert np.isnan(perrb.reshape(V, T)[2, 51])
+
+
+def test_per_point_parameters_equal_a_solve_per_parameter_set(solved):
+    # pk_rows with a (V, E, 8) table and a variant index per point against pk_solve with each
+    # variant's parameters as the system's own
+    B, groups, targets, env, Q, sign, s, (kernel, k, _, _) = solved
+    lib, P = k
+    V, T, W = Q.shape
+    table = kernel.table(B.cm, groups)
+    rows = np.repeat(np.arange(V, dtype=np.int32), T)
+    drv = [a.reshape(V * T, -1) for a in B.drivers(targets, env)]
+    o = B.study.opts
+    ref = []
+    for v in range(V):
+        Pv = kernel.Packed(*P.arrays[:3], table[v], *P.arrays[4:], *P.tail, P.nfine, *P.fine,
+                           P.fixed)
+        X = [Q[v].copy(), np.zeros((T, W)), np.zeros((T, W))]
+        info = kernel.solve(lib, B.S, Pv, *X, *(a[v * T:(v + 1) * T] for a in drv), "full",
+                            o.tol, 8, 2)
+        ref.append((X, info))
+    out = kernel.solve_rows(lib, B.S, P, Q.reshape(V * T, W).copy(), *drv, o.tol, 8,
+                            rows=rows, table=table)
+    for v in range(V):
+        sl = slice(v * T, (v + 1) * T)
+        for a, b in zip(out[:3], ref[v][0]):
+            scale = np.abs(b).max(axis=0) + 1e-300
+            assert (np.abs(a[sl] - b) <= 1e-12 * scale).all()
+        inf = out[3:]
+        assert inf[1][sl].all() and np.array_equal(inf[3][sl], ref[v][1][3])
+        assert np.allclose(inf[4][sl], ref[v][1][4], rtol=1e-10, atol=0)
+    with pytest.raises(ValueError, match="out of the table"):
+        kernel.solve_rows(lib, B.S, P, Q.reshape(V * T, W).copy(), *drv, o.tol, 8,
+                          rows=rows + 1, table=table)

@@ -9,10 +9,13 @@ depend on the varied parameters are evaluated from the file's expressions for al
 once, in the nominal model's internal units.
 
 Each variant is predicted from its predecessor in its chain (studies.warm.chains): along a
-repeated parameter step by the quadratic (or secant) through the previous solutions, otherwise
+repeated parameter step by the cubic (quadratic, secant) through the previous solutions, otherwise
 (a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
-equal substeps. The solve is one Newton pass over the whole system for all variants x grid
+equal substeps. The solve is the compiled kernel's pk_rows where it covers the system
+(planarkin.kernel: each row a point with its variant's element parameters, Newton to its own
+convergence block by block, the acceptance tests below in the same pass), else, and as the
+reference (PLANARKIN_KERNEL=0), one Newton pass over the whole system for all variants x grid
 times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
 accepted only if every grid
 point passes the tests the path follower applies to a step: Newton converged, its first
@@ -128,7 +131,7 @@ class Batch:
                         entries.append((p.name, k, None, self._expr(node), scale))
                     else:
                         raise Unsupported(f"{el.label}: a varied parameter reaches {p.name}")
-                if el.role == "driver" and uses(keys.get("f")):
+                if el.role == "driver" and self._depends_t(keys.get("f")):
                     scale = {"length": 1 / self.L, "angle": self.af, None: 1.0}[kind.target_unit]
                     f = parse(_text(keys["f"]), self.order, allow_t=True)
                     self.fvar.append((int(G.rows[k, 0]), (f, f.diff("t"), f.diff("t").diff("t")),
@@ -153,6 +156,15 @@ class Batch:
         self.grid = study.opts.grid
         self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
+
+    def _depends_t(self, node) -> bool:
+        """_depends for a driver's f, a function of t: whether a varied parameter reaches it."""
+        if node is not None and node.kind not in ("seq", "map") and isinstance(node.value, str):
+            try:
+                return bool(parse(node.value, self.order, allow_t=True).names & self.dep)
+            except Exception:  # noqa: BLE001 - the validator has reported it for the nominal
+                return True
+        return node is not None and self._depends(node)
 
     def _expr(self, node):
         return parse(_text(node), self.order)
@@ -208,7 +220,9 @@ class Batch:
         """(Vn, T, m) targets, nu and f'' on the grid."""
         t = self.grid
         Vn = targets.shape[0]
-        base = self.S.driver_values(t)
+        if not hasattr(self, "_base"):
+            self._base = self.S.driver_values(t)
+        base = self._base
         T = targets[:, None, :] + (base[0] - self.cm.targets)[None]
         NU = np.repeat(base[1][None], Vn, axis=0)
         FDD = np.repeat(base[2][None], Vn, axis=0)
@@ -263,17 +277,27 @@ class Batch:
 
     def solve(self, values, Q, Qd, Qdd, sign):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
-        signs are sign (Vn, T, nfine). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
+        signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
+        kernel and studies.fused solve them afresh: None will do there). Returns (Q, Qd, Qdd,
+        sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values)
-        TT, NU, FDD = self.drivers(targets, env)
         n3 = Q.shape[2]
+        o = self.study.opts
+        k = self.kernel()
+        if k is not None:
+            Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign)
+            with np.errstate(invalid="ignore"):
+                ok &= good.reshape(Vn, T).all(axis=1) & (perr.reshape(Vn, T)
+                                                         <= o.path_tol).all(axis=1)
+            return (*(a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr)),
+                    info.sign.reshape(Vn, T, -1), ok, s)
+        TT, NU, FDD = self.drivers(targets, env)
         Qr = Q.reshape(Vn * T, n3).copy()
         if self.fused is not None:      # it solves the velocities and accelerations afresh
             Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
         else:
             Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
-        o = self.study.opts
         drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
@@ -287,6 +311,52 @@ class Batch:
             info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
                                  tol=o.tol, maxit=max(o.iterations, 8), order=2,
                                  drivers=drivers)
+        return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
+
+    def kernel(self):
+        """(library, packed system) of the compiled kernel (planarkin.kernel) where it covers
+        the system and is available (PLANARKIN_KERNEL read per call), else None: the numpy
+        passes (studies.fused, System.solve_batch) are the reference route."""
+        from .. import kernel
+        if kernel.disabled():
+            return None
+        if not hasattr(self, "_kpack"):
+            self._kpack = None if kernel.unavailable() else kernel.pack(self.S)
+        lib = kernel.library() if self._kpack is not None else None
+        return None if lib is None else (lib, self._kpack)
+
+    def solve_kernel(self, k, groups, targets, env, Q, sign):
+        """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
+        point, its variant's element parameters one row of a (Vn, E, 8) table, its drivers'
+        the grid time's row where no varied parameter reaches them; with the acceptance tests
+        of every row (those of `accept`, against the predecessors' signs sign) and the path
+        errors. Returns (Q, Qd, Qdd) (Vn T, n + 3), the diagnostics, good (Vn T,) and the path
+        errors (Vn T,) (each row's interval from the row before, 0 for a variant's first)."""
+        from .. import kernel
+        from ..system import BatchInfo
+        Vn, T, n3 = Q.shape
+        o = self.study.opts
+        Qr = Q.reshape(Vn * T, n3).copy()
+        rows = np.repeat(np.arange(Vn, dtype=np.int32), T)
+        table = kernel.table(self.cm, groups)
+        if self.tvar or self.fvar:
+            drv, trow = [a.reshape(Vn * T, -1) for a in self.drivers(targets, env)], None
+        else:       # drivers() of one variant: the same for all
+            drv = [a[0] for a in self.drivers(targets[:1], env)]
+            trow = np.tile(np.arange(T, dtype=np.int32), Vn)
+        tg = self.grid if trow is not None else np.tile(self.grid, Vn)
+        Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
+            k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN))
+        # good: finite positions too, with the velocities and accelerations
+        return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sg, smin), good, perr
+
+    def accept(self, Qr, Qdr, Qddr, info, sign, ok, s):
+        """Every acceptance test of a step on every row (see the module), then the Taylor path
+        test per variant. Returns (Q, Qd, Qdd, sign, ok, s) as solve."""
+        Vn, T = sign.shape[0], sign.shape[1]
+        n3 = Qr.shape[1]
+        o = self.study.opts
         with np.errstate(all="ignore"):
             cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
             good = (info.converged & (info.ratio <= KAPPA)
@@ -400,8 +470,9 @@ class Batch:
         """Outcomes of a group of chains (lists of variants), solved in lockstep.
 
         Predictions: a chain's head from the nominal, every next variant from its predecessor,
-        by the quadratic through the three previous solutions when the parameter step repeated
-        twice, the secant through two when once (a sweep along one parameter, the substeps),
+        by the cubic through the four previous solutions when the parameter step repeated three
+        times, the quadratic through three or the secant through two when twice or once (a
+        sweep along one parameter, the substeps),
         else (a head, a factorial's next row) to first order in the step with the nominal's
         exact sensitivities (the predecessor's solution itself where those do not apply); a
         step that fails is retried in SUBSTEPS equal steps."""
@@ -413,43 +484,90 @@ class Batch:
         rep = lambda a: np.repeat(a[None], C, axis=0)
         state = [rep(Q0), rep(Qd0), rep(Qdd0)]
         sign = rep(sg0)
-        # per chain the positions of the last two solutions before the current one and the
-        # parameter steps that led from each to the next: (Q, step) pairs, newest last
-        hist: list[list] = [[] for _ in range(C)]
-        here = [nominal.copy() for _ in range(C)]
+        # per chain the positions of the last three solutions before the current one and the
+        # parameter steps that led from each to the next, in a ring: entry j (0 the newest)
+        # in slot (nh - 1 - j) % 3, nh of them pushed so far
+        hq = np.zeros((C, 3) + Q0.shape)
+        hdp = np.zeros((C, 3, len(keys)))
+        nh = np.zeros(C, dtype=int)
+        back = np.arange(2, -1, -1)             # oldest first: entries 2, 1, 0
+        here = np.repeat(nominal[None], C, axis=0)
         alive = np.ones(C, dtype=bool)
-
-        def same(u, v) -> bool:
-            """Whether parameter step u repeats step v (to rounding; v not zero)."""
-            return any(v) and all(abs(a - b) <= 1e-9 * abs(b) for a, b in zip(u.tolist(),
-                                                                               v.tolist()))
 
         def step(live, targets):
             """Solve chains `live` at parameter vectors `targets` from their current state."""
-            pred = [a[live] for a in state]          # copies (fancy indexing)
-            for i, c in enumerate(live):
-                h = hist[c]
-                dp = targets[i] - here[c]
-                # polynomial extrapolation along a repeated parameter step: the error of the
-                # quadratic is third order in the step, so one Newton correction reaches
-                # rounding and its Jacobian serves the velocity solve (studies.fused)
-                if len(h) == 2 and same(dp, h[1][1]) and same(dp, h[0][1]):
-                    pred[0][i] = 3 * (state[0][c] - h[1][0]) + h[0][0]
-                elif h and same(dp, h[-1][1]):
-                    pred[0][i] = 2 * state[0][c] - h[-1][0]
-                elif self.tangent is not None:
-                    # any other step (a chain's head, a factorial's next row): first order in
-                    # the step, with the nominal's exact sensitivities
-                    pred[0][i] = state[0][c] + self.tangent @ dp
+            # copies (fancy indexing); the velocities and accelerations only for the pass
+            # that starts from them (System.solve_batch's; the others solve them afresh)
+            full = self.kernel() is None and self.fused is None
+            live = np.asarray(live, dtype=int)
+            every = len(live) == C and (live == np.arange(C)).all()
+            pred = [(a.copy() if every else a[live]) if full or j == 0 else None
+                    for j, a in enumerate(state)]
+            dp = targets - here[live]
+            # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
+            slots = (nh[live][:, None] - 1 - back[None]) % 3
+            v = hdp[live[:, None], slots]
+            same = (np.any(v != 0, axis=-1)
+                    & np.all(np.abs(dp[:, None] - v) <= 1e-9 * np.abs(v), axis=-1)
+                    & (back[None] < nh[live][:, None]))
+            # polynomial extrapolation along a repeated parameter step: the error of the
+            # cubic is fourth order in the step, so that one Newton correction, at most tol,
+            # reaches rounding (the quadratic's third order leaves a second one)
+            cubic = same.all(axis=1)
+            quad = ~cubic & same[:, 1] & same[:, 2]
+            sec = ~cubic & ~quad & same[:, 2]
+            rest = ~(cubic | quad | sec)
+            q = pred[0]
+            h = lambda i, j: hq[live[i], slots[i, 2 - j]]       # noqa: E731 - entry j
+            if cubic.any() and every and (slots == slots[0]).all():
+                # the usual case, the chains in lockstep: views of the history, no copies
+                # (the chains whose step is another get their prediction below)
+                q1, q2, q3 = (hq[:, slots[0, 2 - j]] for j in range(3))
+                r = np.subtract(q, q1)
+                r *= 3
+                r += q                              # q0 + 3 (q0 - q1), as below
+                t = np.subtract(q1, q2)
+                t *= 3
+                r -= t
+                np.subtract(q2, q3, out=t)
+                r += t
+                np.copyto(q, r, where=cubic[:, None, None])
+            elif cubic.any():
+                i = np.nonzero(cubic)[0]
+                q0, q1, q2 = q[i], h(i, 0), h(i, 1)
+                q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
+            if quad.any():
+                i = np.nonzero(quad)[0]
+                q[i] = 3 * (q[i] - h(i, 0)) + h(i, 1)
+            if sec.any():
+                i = np.nonzero(sec)[0]
+                q[i] = 2 * q[i] - h(i, 0)
+            if rest.any() and self.tangent is not None:
+                # any other step (a chain's head, a factorial's next row): first order in the
+                # step, with the nominal's exact sensitivities (elementwise: a BLAS product
+                # would wake its threads for a few numbers)
+                i = np.nonzero(rest)[0]
+                q[i] = q[i] + (self.tangent[None] * dp[i][:, None, None, :]).sum(axis=-1)
             vals = [dict(zip(keys, map(float, p))) for p in targets]
-            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign[live])
-            for i, c in enumerate(live):
-                if ok[i]:
-                    hist[c] = (hist[c] + [(state[0][c].copy(), targets[i] - here[c])])[-2:]
-                    for a, new in zip(state, (Qn, Qdn, Qddn)):
-                        a[c] = new[i]
-                    sign[c] = sgn[i]
-                    here[c] = targets[i].copy()
+            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live])
+            got = np.nonzero(ok)[0]
+            cs = live[got]
+            moved = len(cs) == C and (cs == np.arange(C)).all()
+            if moved and (nh == nh[0]).all():
+                hq[:, nh[0] % 3] = state[0]
+            else:
+                hq[cs, nh[cs] % 3] = state[0][cs]
+            hdp[cs, nh[cs] % 3] = dp[got]
+            nh[cs] += 1
+            here[cs] = targets[got]
+            if moved:
+                # every chain moved: the solutions are the new state (not written into after:
+                # a later step copies into the state, and the solutions are read before that)
+                state[:] = Qn, Qdn, Qddn
+                sign[...] = sgn
+            else:
+                for a, new in zip(state + [sign], (Qn, Qdn, Qddn, sgn)):
+                    a[cs] = new[got]
             return ok, (Qn, Qdn, Qddn), s
 
         def advance(live, targets):
@@ -458,7 +576,8 @@ class Batch:
             solutions and point offsets of the last attempt at the targets."""
             live = list(live)
             ok, sol, s = step(live, targets)
-            sol = [a.copy() for a in sol]
+            if not ok.all():        # the substeps' results go into these
+                sol = [a.copy() for a in sol]
             for nsub in SUBSTEPS:
                 bad = [i for i in range(len(live)) if not ok[i]]
                 if not bad:
