@@ -380,6 +380,17 @@ def print_figures_against(rows, baseline, repeat) -> None:
     print()
 
 
+def figures_report(baseline: Path, repeat: int, tmp: Path) -> dict:
+    """Each figure, forces.png and the png encoders, this plots.py against baseline's: printed,
+    and returned for --json."""
+    ab = figures_against(baseline.resolve(), FIGURE_EXAMPLES, repeat, tmp)
+    print_figures_against(ab, baseline, repeat)
+    ab = {"figures": ab, "forces": forces_against(baseline.resolve(), repeat, tmp),
+          "png": png_encoders(repeat, tmp)}
+    print_extras(ab["forces"], ab["png"], repeat)
+    return ab
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -406,12 +417,7 @@ def main() -> None:
         tmp = Path(tmp)
         ab = None
         if a.figures_baseline and a.only_figures:
-            ab = figures_against(a.figures_baseline.resolve(), FIGURE_EXAMPLES, a.repeat, tmp)
-            print_figures_against(ab, a.figures_baseline, a.repeat)
-            ab = {"figures": ab, "forces": forces_against(a.figures_baseline.resolve(),
-                                                          a.repeat, tmp),
-                  "png": png_encoders(a.repeat, tmp)}
-            print_extras(ab["forces"], ab["png"], a.repeat)
+            ab = figures_report(a.figures_baseline, a.repeat, tmp)
             if a.json:
                 a.json.write_text(json.dumps({"machine": info, "figures_against": ab}, indent=1))
             return
@@ -478,12 +484,7 @@ def main() -> None:
             print(f"  {r['model']:<14} {r['figure']:<20} {r['seconds']:.3f}  {r['cpu']:.3f}")
         if a.figures_baseline:          # (after in_process, which times matplotlib's import)
             print()
-            ab = figures_against(a.figures_baseline.resolve(), FIGURE_EXAMPLES, a.repeat, tmp)
-            print_figures_against(ab, a.figures_baseline, a.repeat)
-            ab = {"figures": ab, "forces": forces_against(a.figures_baseline.resolve(),
-                                                          a.repeat, tmp),
-                  "png": png_encoders(a.repeat, tmp)}
-            print_extras(ab["forces"], ab["png"], a.repeat)
+            ab = figures_report(a.figures_baseline, a.repeat, tmp)
     la = os.getloadavg()
     print(f"\nload avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}; total "
           f"{time.perf_counter() - t_all:.0f} s")
