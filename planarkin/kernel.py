@@ -956,9 +956,36 @@ def _compile(path: Path) -> bool:
                                                  + r.stderr[-4000:])
                 return False
             os.replace(out, path)
+        _prune(path)
         return True
     except (OSError, subprocess.SubprocessError):
         return False
+
+
+# Another source version's kernel (or marker) compiled longer ago than this is removed when a
+# new version is compiled: every planarkin version leaves one file, and nothing else removes
+# them. Younger ones stay, so that two installed versions used in turn do not compile each
+# other's away at every run (at most one recompile a week each).
+PRUNE_AFTER = 7 * 24 * 3600
+
+
+def _prune(path: Path, now: float | None = None) -> list[Path]:
+    """Remove the kernels and markers of other source versions in path's directory whose file
+    is older than PRUNE_AFTER (their modification time: when they were compiled). Returns the
+    files removed; a file that cannot be removed is left."""
+    import time
+    now = time.time() if now is None else now
+    gone = []
+    for f in path.parent.glob("kernel-*"):
+        if f.name in (path.name, _failed_marker(path).name) or f.suffix not in (".so", ".failed"):
+            continue
+        try:
+            if now - f.stat().st_mtime > PRUNE_AFTER:
+                f.unlink()
+                gone.append(f)
+        except OSError:
+            pass
+    return gone
 
 
 class Packed:

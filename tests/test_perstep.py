@@ -316,3 +316,22 @@ def test_refuse_keeps_finite_rows_whose_sum_overflows(monkeypatch):
     ch.residual[7] = 2 * residual_limit(an.opts)
     cut = refuse(an, ch)
     assert len(cut.t) == 7 and an.event.kind == "residual"
+
+
+def test_old_kernels_of_other_versions_are_pruned(tmp_path):
+    """Every source version leaves a kernel in the cache: compiling a new one removes other
+    versions' kernels and markers older than PRUNE_AFTER, keeps younger ones (two installed
+    versions used in turn) and every file that is not a kernel."""
+    path = tmp_path / "kernel-new-linux.so"
+    now = 1e9
+    files = {"kernel-new-linux.so": 0, "kernel-old-linux.so": kernel.PRUNE_AFTER + 1,
+             "kernel-old2-linux.failed": kernel.PRUNE_AFTER + 1,
+             "kernel-recent-linux.so": kernel.PRUNE_AFTER - 60,
+             "kernel-notes.txt": kernel.PRUNE_AFTER + 1, "other.so": kernel.PRUNE_AFTER + 1}
+    for name, age in files.items():
+        (tmp_path / name).write_bytes(b"x")
+        os.utime(tmp_path / name, (now - age, now - age))
+    gone = kernel._prune(path, now=now)
+    assert sorted(f.name for f in gone) == ["kernel-old-linux.so", "kernel-old2-linux.failed"]
+    assert sorted(f.name for f in tmp_path.iterdir()) == [
+        "kernel-new-linux.so", "kernel-notes.txt", "kernel-recent-linux.so", "other.so"]
