@@ -910,14 +910,13 @@ def library(build: bool = True):
         _state["failed"] = True
         return None
     fn.restype = ctypes.c_int
-    fn.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
-                   + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
-                   + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 7)
+    # the arguments pk_solve and pk_rows share (up to bfs), then each one's own
+    shared = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
+              + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
+              + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4)
+    fn.argtypes = shared + [ctypes.c_void_p] * 3                   # bfix, rmax, cond
     lib.pk_rows.restype = ctypes.c_int
-    lib.pk_rows.argtypes = ([ctypes.c_int] * 5 + [ctypes.c_void_p] * 11 + [ctypes.c_void_p] * 6
-                            + [ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_int]
-                            + [ctypes.c_void_p] * 9 + [ctypes.c_int] + [ctypes.c_void_p] * 4
-                            + [ctypes.c_void_p] * 2 + [ctypes.c_int]
+    lib.pk_rows.argtypes = (shared + [ctypes.c_void_p] * 2 + [ctypes.c_int]  # vrow, vprm, ne
                             + [ctypes.c_void_p] * 3 + [ctypes.c_double] * 2
                             + [ctypes.c_void_p] * 2)
     lib.pk_hermite.restype = None

@@ -276,27 +276,11 @@ def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch)
     flight (tests/test_plotworker.py: two, with a core free)."""
     import json
     from click.testing import CliRunner
-    from planarkin import results
+    from clitools import record_batch_events
     from planarkin.cli import main
     from planarkin.output import plotworker
     monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
-    events = []
-    solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
-
-    def stream(an, **kw):
-        events.append(("solve", an.cm.spec.name))
-        return solve(an, **kw)
-
-    def submitted(cm, *a, **kw):
-        events.append(("submit", cm.spec.name))
-        return submit(cm, *a, **kw)
-
-    def collected(ticket):
-        events.append(("collect", ""))
-        return collect(ticket)
-    monkeypatch.setattr(results, "stream", stream)
-    monkeypatch.setattr(plotworker, "submit", submitted)
-    monkeypatch.setattr(plotworker, "collect", collected)
+    events = record_batch_events(monkeypatch, lambda ticket: "")
     four_bar = ROOT / "mechanisms" / "four-bar.yaml"
     r = CliRunner().invoke(main, ["run", str(SLIDER_CRANK), str(four_bar), "--out",
                                   str(tmp_path), "--steps", "40"])

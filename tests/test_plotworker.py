@@ -105,25 +105,9 @@ def test_a_batch_keeps_two_jobs_in_flight_and_the_lines_in_order(idle, tmp_path,
     when a third model needs a drawer; the lines keep the models' order."""
     from click.testing import CliRunner
 
-    from planarkin import results
+    from clitools import record_batch_events
     from planarkin.cli import main
-    events = []
-    solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
-
-    def stream(an, **kw):
-        events.append(("solve", an.cm.spec.name))
-        return solve(an, **kw)
-
-    def submitted(cm, *a, **kw):
-        events.append(("submit", cm.spec.name))
-        return submit(cm, *a, **kw)
-
-    def collected(ticket):
-        events.append(("collect", ticket))
-        return collect(ticket)
-    monkeypatch.setattr(results, "stream", stream)
-    monkeypatch.setattr(plotworker, "submit", submitted)
-    monkeypatch.setattr(plotworker, "collect", collected)
+    events = record_batch_events(monkeypatch)
     r = CliRunner().invoke(main, ["run", *map(str, EXAMPLES), "--out", str(tmp_path),
                                   "--steps", "40"])
     assert r.exit_code == 0, r.output
