@@ -341,7 +341,10 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
         report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
-        summary = writer.finish(info, started=t0, defer=later and report.more)
+        # the line is printed as the directory is put in place (signals held meanwhile)
+        writer.on_commit = lambda s: _conclude(path, outdir, report, info, s, cycle,
+                                               time.perf_counter() - t0)
+        writer.finish(info, started=t0, defer=later and report.more)
     except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
         progress.close()
         _conclude_failed(e, path, outdir, writer, report, an, t0)
@@ -349,19 +352,17 @@ def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, a
     finally:
         progress.close()
     if writer.committed:
-        _conclude(path, outdir, report, info, summary, cycle, time.perf_counter() - t0)
         return
     spent = time.perf_counter() - t0
 
     def conclude():
         c0 = time.perf_counter()
+        writer.on_commit = lambda s: _conclude(path, outdir, report.report, info, s, cycle,
+                                               spent + time.perf_counter() - c0)
         try:
             writer.complete()
         except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
             _conclude_failed(e, path, outdir, writer, report.report, an, t0)
-            return
-        _conclude(path, outdir, report.report, info, summary, cycle,
-                  spent + time.perf_counter() - c0)
     report.waiting.append(conclude)
 
 
@@ -373,10 +374,13 @@ def _conclude_failed(e, path, outdir, writer, report, an, t0):
     if isinstance(e, WriteError):
         report.failed(path, f"{e}; {outdir}/ is left as it was")
         return
+    if isinstance(e, (KeyboardInterrupt, Interrupted)) and writer.reported:
+        raise e                         # in place and its line printed: the signal goes on
     if isinstance(e, (KeyboardInterrupt, Interrupted)):
         if not writer.committed:        # else: interrupted while plotting, already in place
             info = run_info(an)
             info.interrupted = _signame(e)
+            writer.on_commit = None     # its line is the interrupted one below
             try:
                 writer.finish(info, started=t0)
             except WriteError as w:
@@ -387,6 +391,10 @@ def _conclude_failed(e, path, outdir, writer, report, an, t0):
                            f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
                            f"{outdir}/" if rows else f"no rows -> {outdir}/")
         raise e
+    if isinstance(e, Exception) and writer.committed:     # a bug while printing its line
+        report.failed(path, f"internal error while reporting: {type(e).__name__}: {e} "
+                            f"(please report); {outdir}/ is in place")
+        return
     if isinstance(e, Exception):  # a bug must not become a traceback for the user
         writer.abort()
         report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "

@@ -373,3 +373,35 @@ def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group
     for d in done:                                         # every model on disk has its line
         assert f"m{d.name[1:]}.yaml" in stdout, (d, stdout)
     no_leftovers(out)
+
+
+SIGNAL_AS_THE_LINE_IS_PRINTED = """
+import os, signal, sys
+from planarkin import cli
+report_line = cli._conclude
+def conclude(*args, **kwargs):
+    os.kill(os.getpid(), signal.SIGTERM)     # the directory is in place, its line not printed
+    return report_line(*args, **kwargs)
+cli._conclude = conclude
+from planarkin.__main__ import entry
+sys.argv = ["planarkin"] + sys.argv[1:]
+entry()
+"""
+
+
+@pytest.mark.parametrize("plots", [["--no-plots"], []], ids=["no-plots", "plots"])
+def test_a_directory_in_place_always_has_its_line(tmp_path, plots):
+    """A signal that arrives as a model's directory has been put in place, before its report
+    line is printed, waits for the line: never a directory in place that the terminal (and the
+    count) does not mention."""
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-c", SIGNAL_AS_THE_LINE_IS_PRINTED, "run",
+                        str(ROOT / "mechanisms" / "slider-crank.yaml"), "--steps", "40", "--out",
+                        str(out), *plots], capture_output=True, text=True, env=_env(), cwd=ROOT,
+                       timeout=120)
+    assert "Traceback" not in r.stderr, r.stderr
+    assert r.returncode == 143, (r.stdout, r.stderr)
+    assert json.loads((out / "slider-crank" / "summary.json").read_text())["status"] == "ok"
+    assert any(ln.startswith("ok ") and "slider-crank.yaml" in ln
+               for ln in r.stdout.splitlines()), r.stdout
+    assert "1 ok" in r.stdout, r.stdout

@@ -93,6 +93,10 @@ class DirectoryWriter:
         self.rows = 0
         self.committed = False             # the directory is in place
         self.ticket = None                 # the plot job in the plot server, if any
+        # called with the summary as the directory is put in place, signals held (the CLI's
+        # report line: a signal then cannot leave a directory in place without its line)
+        self.on_commit = None
+        self.reported = False              # on_commit was called
         try:
             spec = cm.spec.output
             self.layout = Layout(cm, opts.order, spec.bodies, spec.points)
@@ -245,6 +249,9 @@ class DirectoryWriter:
                 write_json(self.out / "summary.json", summary)
                 self.dir.commit()
                 self.committed = True
+                if self.on_commit is not None and pending is None:
+                    self.reported = True
+                    self.on_commit(summary)
         except BaseException:
             if not self.committed:
                 self.abort()
