@@ -56,7 +56,7 @@ _CODES = {"Revolute": 1, "Translational": 2, "Angle": 3, "XDistance": 4, "YDista
 _PARAMS = {1: ("si", "sj"), 2: ("si", "sj", "vi", "vj"), 3: (), 4: ("si", "sj"),
            5: ("si", "sj"), 6: ("si", "sj"), 7: ("si", "vi", "sj"), 8: ("si", "vi", "sj")}
 
-SOURCE = r"""
+HELPERS = r"""
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -205,7 +205,10 @@ static int invert(int k, const double *J, double *inv, double *sign, double *wor
 /* NaN-propagating maximum, as numpy's max */
 INLINE double nanmax(double a, double v) { return (v > a || v != v) ? v : a; }
 
-/* One equation row of a block, unpacked once per block and call; rc: the columns of its
+"""
+
+# the rest of the kernel (kernelgen compiles HELPERS with its own functions)
+SOURCE = HELPERS + r"""/* One equation row of a block, unpacked once per block and call; rc: the columns of its
    gradient entries */
 typedef struct {
     int kind, bi, bj, eq, row;
@@ -748,7 +751,9 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
                     q[cols[a]] -= dx;
                     double ad = fabs(dx);
                     if (ad > sz || ad != ad) sz = ad;
-                    if (cols[a] % 3 == 2) {
+                    /* an angle that moved (one that did not keeps its cosine and sine,
+                       unless it is a zero, whose sine may be -0 and was taken as +0) */
+                    if (cols[a] % 3 == 2 && (dx != 0.0 || q[cols[a]] == 0.0)) {
                         C[cols[a] / 3] = cos(q[cols[a]]);
                         S[cols[a] / 3] = sin(q[cols[a]]);
                     }
@@ -932,8 +937,9 @@ def _failed_marker(path: Path) -> Path:
     return path.with_suffix(".failed")
 
 
-def _compile(path: Path) -> bool:
-    """cc -O2 into a temporary file beside path, renamed into place (concurrent runs). A
+def _compile(path: Path, source: str = SOURCE) -> bool:
+    """cc -O2 of source (the kernel's; kernelgen's adds a specialised pk_rows) into a temporary
+    file beside path, renamed into place (concurrent runs). A
     compiler that exists but fails leaves the marker, with its message, so that every later
     run does not pay for trying again (delete it to retry); no compiler at all costs nothing."""
     import subprocess
@@ -943,7 +949,7 @@ def _compile(path: Path) -> bool:
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
             src = Path(tmp) / "kernel.c"
-            src.write_text(SOURCE)
+            src.write_text(source)
             out = Path(tmp) / path.name
             # -ffp-contract=off: no fused multiply-adds where the target has them (the
             # operations are those of the numpy passes, rounded as they are)
@@ -1123,8 +1129,14 @@ def _rows(rows, table, N, P):
     return rows, table
 
 
+def _ground_zero(Q, n) -> bool:
+    """The ground's coordinates (columns n:) all +0, as pk_gen takes them (they always are)."""
+    g = Q[:, n:]
+    return not (g.any() or np.signbit(g).any())
+
+
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
-               trow=None, accept=None):
+               trow=None, accept=None, gen=None):
     """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
     each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
     drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
@@ -1133,7 +1145,8 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0, kappa,
     cond_max), the acceptance tests of studies.batch (see pk_rows): good (N,) bool and perr
     (N,), the path error of the interval from the point before (grid times tg, indexed as
-    T); None: not tested (good, perr None)."""
+    T); None: not tested (good, perr None). gen: pk_rows specialised to S's structure
+    (kernelgen.function), the same results bit for bit, where it applies."""
     N, W = Q.shape
     if maxit < 1:
         raise ValueError("planarkin kernel: at least one Newton iteration")
@@ -1163,6 +1176,13 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
         good = np.empty(N, dtype=np.uint8)
         perr = np.empty(N)
     ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
+    if gen is not None and W == S.cm.n + 3 and _ground_zero(Q, S.cm.n):
+        rc = gen(N, ptr(P.arrays[3]), ptr(rows), ptr(table), P.arrays[3].shape[0], ptr(trow),
+                 *[ptr(a) for a in drv], ptr(Q), ptr(Qd), ptr(Qdd), int(maxit), float(tol),
+                 ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin), ptr(tg), ptr(sign0),
+                 float(kappa), float(cond_max), ptr(good), ptr(perr))
+        return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+                None if good is None else good.view(bool), perr)
     rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
                      ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),
                      1, 2, ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin),

@@ -225,7 +225,7 @@ def test_per_point_parameters_equal_a_solve_per_parameter_set(solved):
     # pk_rows with a (V, E, 8) table and a variant index per point against pk_solve with each
     # variant's parameters as the system's own
     B, groups, targets, env, Q, sign, s, (kernel, k, _, _) = solved
-    lib, P = k
+    lib, P = k[:2]
     V, T, W = Q.shape
     table = kernel.table(B.cm, groups)
     rows = np.repeat(np.arange(V, dtype=np.int32), T)

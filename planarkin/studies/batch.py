@@ -314,16 +314,23 @@ class Batch:
         return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
 
     def kernel(self):
-        """(library, packed system) of the compiled kernel (planarkin.kernel) where it covers
-        the system and is available (PLANARKIN_KERNEL read per call), else None: the numpy
-        passes (studies.fused, System.solve_batch) are the reference route."""
-        from .. import kernel
+        """(library, packed system, pk_gen or None) of the compiled kernel (planarkin.kernel)
+        where it covers the system and is available (PLANARKIN_KERNEL read per call), else
+        None: the numpy passes (studies.fused, System.solve_batch) are the reference route.
+        pk_gen, pk_rows specialised to the system (planarkin.kernelgen; the same bits, in less
+        time): when compiled on this machine already, or compiled here when `specialise` is
+        set (Study.units sets it for studies large enough to pay for compiling)."""
+        from .. import kernel, kernelgen
         if kernel.disabled():
             return None
         if not hasattr(self, "_kpack"):
             self._kpack = None if kernel.unavailable() else kernel.pack(self.S)
         lib = kernel.library() if self._kpack is not None else None
-        return None if lib is None else (lib, self._kpack)
+        if lib is None:
+            return None
+        gen = kernelgen.function(self._kpack, self.cm.n + 3, self.cm.m, self.cm.nb,
+                                 build=getattr(self, "specialise", False))
+        return lib, self._kpack, gen
 
     def solve_kernel(self, k, groups, targets, env, Q, sign):
         """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
@@ -347,7 +354,7 @@ class Batch:
         tg = self.grid if trow is not None else np.tile(self.grid, Vn)
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
-            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN))
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2])
         # good: finite positions too, with the velocities and accelerations
         return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sg, smin), good, perr
 

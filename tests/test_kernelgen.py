@@ -1,0 +1,175 @@
+"""pk_rows specialised to a system's structure (planarkin.kernelgen) gives pk_rows' results bit
+for bit: positions, velocities, accelerations, iteration counts, convergence, ratios, signs,
+sigma_min bounds, the acceptance tests and the path errors, on every kind and block size the
+kernel covers, with shared and per-point parameters, at predictions off the solution and at
+points that cannot converge."""
+
+import os
+
+import numpy as np
+import pytest
+
+import planarkin
+from planarkin import kernel, kernelgen
+from reference_models import WHITWORTH_PINSLOT_YAML
+
+ROOT = os.path.join(os.path.dirname(__file__), "..", "mechanisms")
+
+COMPONENTS = """
+name: components
+bodies:
+  a: {q: [0.3, 0.1, 0.2]}
+  b: {q: [0.8, 0.4, -0.3]}
+joints:
+  - {type: x, i: ground, j: a, si: [0.3, 0], sj: [0.02, 0.01], c: 0.01}
+  - {type: distance, i: a, j: b, si: [0.1, 0.05], sj: [-0.1, 0.0], c: 0.45}
+  - {type: y, i: a, j: b, si: [0, 0], sj: [0.05, 0], c: 0.3}
+drivers:
+  - {type: y, body: a, f: "0.1 + 0.05*sin(2*pi*t)"}
+  - {type: angle, body: a, f: "0.2 + 0.1*t"}
+  - {type: angle, i: a, j: b, f: "-0.5 + 0.3*t"}
+analysis: {start: 0, end: 1, steps: 24}
+"""
+
+SLIDE_DRIVEN = """
+name: slide-driven
+parameters: {a: 0.1, b: 0.3}
+bodies:
+  crank:  {q: [0, 0, 0.9]}
+  rod:    {q: [0.06, 0.08, -0.27]}
+  slider: {q: [0.35, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: crank, j: rod, si: [a, 0], sj: [0, 0]}
+  - {type: revolute, i: rod, j: slider, si: [b, 0], sj: [0, 0]}
+  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
+drivers:
+  - {type: slide, i: ground, j: slider, si: [0, 0], vi: [1, 0], f: "0.32 + 0.02*sin(2*pi*t)"}
+analysis: {start: 0, end: 1, steps: 60}
+"""
+
+
+def _system(source, merged=False, N=200):
+    """A model's grid System (merged: the path follower's) and predictions off its solution
+    at N times; the ground's columns zero, as the studies give them."""
+    m = planarkin.load(os.path.join(ROOT, source))     # a name in mechanisms/ or a path
+    from planarkin.options import resolve
+    from planarkin.results import prepare
+    an = prepare(m, resolve(m, {"steps": 100}, source="api"))
+    an.follow()
+    S = an.follower.systems[0][1 if merged else 0]
+    t = np.linspace(0.0, 1.0, N)
+    ch = an._dense(t)
+    Q0 = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
+    Q0 = Q0 + 1e-6 * np.sin(np.arange(Q0.size).reshape(Q0.shape))
+    Q0[:, S.n:] = 0.0
+    return S, t, Q0
+
+
+def _both(S, t, Q, rows=None, table=None, accept=True):
+    lib = kernel.library()
+    P = kernel.pack(S)
+    assert P is not None and kernelgen.applies(P)
+    gen = kernelgen.function(P, S.cm.n + 3, S.cm.m, S.nb)
+    assert gen is not None
+    T, NU, FDD = S.driver_values(t)
+    sign0 = kernel.solve_rows(lib, S, P, Q.copy(), T, NU, FDD, 1e-12, 8, rows=rows,
+                              table=table)[6].copy()
+    sign0[::7] *= -1                            # some rows refused by the sign test
+    out = []
+    for g in (None, gen):
+        acc = (t, sign0, 1e-2, 1e8) if accept else None
+        out.append(kernel.solve_rows(lib, S, P, Q.copy(), T, NU, FDD, 1e-12, 8, rows=rows,
+                                     table=table, accept=acc, gen=g))
+    for a, b in zip(*out):
+        if a is None:
+            assert b is None
+        else:
+            assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
+    return out[1]
+
+
+CASES = [("four-bar.yaml", False), ("slider-crank.yaml", False), ("klann-leg.yaml", False),
+         ("trammel.yaml", False), ("boom.yaml", False), ("quick-return.yaml", False),
+         ("jansen-leg.yaml", False), ("boom.yaml", True), ("trammel.yaml", True),
+         ("four-bar.yaml", True)]
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    saved = os.environ.get("PLANARKIN_CACHE")
+    os.environ["PLANARKIN_CACHE"] = str(tmp_path_factory.mktemp("kernelgen"))
+    kernel._state.clear()
+    kernelgen._libs.clear()
+    if kernel.library(build=True) is None:
+        pytest.skip("no C compiler: the numpy passes run")
+    yield
+    if saved is None:
+        del os.environ["PLANARKIN_CACHE"]
+    else:
+        os.environ["PLANARKIN_CACHE"] = saved
+    kernel._state.clear()
+    kernelgen._libs.clear()
+
+
+def _load_text(text, tmp_path):
+    p = tmp_path / "m.yaml"
+    p.write_text(text)
+    return str(p)
+
+
+@pytest.mark.parametrize("name,merged", CASES, ids=[f"{n[:-5]}{'-merged' if m else ''}"
+                                                    for n, m in CASES])
+def test_specialised_kernel_equals_pk_rows_bit_for_bit(name, merged, compiled):
+    S, t, Q = _system(name, merged)
+    if merged:
+        P = kernel.pack(S)
+        assert max(P.fine[1]) > 1, "a merged block of several fine ones"
+    out = _both(S, t, Q)
+    assert out[4].all() and out[8].any() and not out[8].all()
+
+
+@pytest.mark.parametrize("text", [COMPONENTS, SLIDE_DRIVEN, WHITWORTH_PINSLOT_YAML],
+                         ids=["x-y-distance-angle", "slide-translational", "pin-slot"])
+@pytest.mark.parametrize("merged", [False, True], ids=["grid", "merged"])
+def test_every_kind_bit_for_bit(text, merged, compiled, tmp_path):
+    S, t, Q = _system(_load_text(text, tmp_path), merged)
+    kinds = set(kernel.pack(S).arrays[0].tolist())
+    out = _both(S, t, Q)
+    assert out[4].all()
+    assert kinds & {4, 5, 6, 7, 8}
+
+
+def test_per_point_parameters_and_failing_points_bit_for_bit(compiled):
+    S, t, Q = _system("four-bar.yaml")
+    P = kernel.pack(S)
+    N = len(t)
+    table = np.repeat(P.arrays[3][None], 3, axis=0)
+    table[1, :, 0] *= 1.001
+    table[2, :, 2] *= 0.999
+    rows = (np.arange(N) % 3).astype(np.int32)
+    rows[N // 2:] = 2                       # runs of one variant: the path errors
+    Q = Q.copy()
+    Q[5] = np.nan                           # cannot converge
+    Q[9, 3] = 1e6                           # far off: Newton's limit
+    out = _both(S, t, Q, rows=rows, table=table)
+    assert not out[4][5] and not out[8][5]
+    _both(S, t, Q, rows=rows, table=table, accept=False)
+
+
+def test_a_block_larger_than_kgen_keeps_pk_rows(compiled):
+    S, _, _ = _system("jansen-leg.yaml", merged=True)
+    P = kernel.pack(S)
+    assert P is not None and int(P.arrays[6].max()) > kernelgen.KGEN
+    assert not kernelgen.applies(P) and kernelgen.function(P, S.cm.n + 3, S.cm.m, S.nb) is None
+
+
+def test_the_source_names_its_structure_and_is_cached_by_it(compiled):
+    S1, _, _ = _system("four-bar.yaml")
+    S2, _, _ = _system("slider-crank.yaml")
+    P1, P2 = kernel.pack(S1), kernel.pack(S2)
+    f1 = kernelgen.function(P1, S1.cm.n + 3, S1.cm.m, S1.nb)
+    assert kernelgen.function(P1, S1.cm.n + 3, S1.cm.m, S1.nb) is f1
+    assert P1.gen_key[2] != kernelgen.function(P2, S2.cm.n + 3, S2.cm.m, S2.nb) and \
+        P1.gen_key[2] != P2.gen_key[2]
+    assert P1.gen_key[2].exists() and P1.gen_key[2].name.startswith("kernel-gen-")
