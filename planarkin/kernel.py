@@ -535,6 +535,22 @@ int pk_solve(int N, int W, int m, int nb, int nblk,
     return 0;
 }
 
+/* a design study's prediction along a repeated parameter step (studies.batch): the cubic
+   q0 + 3 (q0 - q1) - 3 (q1 - q2) + (q2 - q3) through the last four solutions, element by
+   element in the order of the numpy lines it replaces (the same bits) */
+void pk_cubic(int64_t n, const double *q0, const double *q1, const double *q2, const double *q3,
+              double *out)
+{
+    int64_t k;
+    for (k = 0; k < n; k++) {
+        double r = (q0[k] - q1[k]) * 3.0;
+        r += q0[k];
+        r -= (q1[k] - q2[k]) * 3.0;
+        r += q2[k] - q3[k];
+        out[k] = r;
+    }
+}
+
 /* the grid pass's predictions: quintic Hermite interpolation (planarkin.solver.hermite5, same
    operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of W numbers */
 void pk_hermite(int N, int W, const double *t, const int64_t *idx, const double *Tn,
@@ -924,6 +940,8 @@ def library(build: bool = True):
     lib.pk_rows.argtypes = (shared + [ctypes.c_void_p] * 2 + [ctypes.c_int]  # vrow, vprm, ne
                             + [ctypes.c_void_p] * 3 + [ctypes.c_double] * 2
                             + [ctypes.c_void_p] * 2)
+    lib.pk_cubic.restype = None
+    lib.pk_cubic.argtypes = [ctypes.c_int64] + [ctypes.c_void_p] * 5
     lib.pk_hermite.restype = None
     lib.pk_hermite.argtypes = [ctypes.c_int] * 2 + [ctypes.c_void_p] * 7
     lib.pk_layout.restype = None

@@ -173,3 +173,21 @@ def test_the_source_names_its_structure_and_is_cached_by_it(compiled):
     assert P1.gen_key[2] != kernelgen.function(P2, S2.cm.n + 3, S2.cm.m, S2.nb) and \
         P1.gen_key[2] != P2.gen_key[2]
     assert P1.gen_key[2].exists() and P1.gen_key[2].name.startswith("kernel-gen-")
+
+
+def test_the_kernels_cubic_prediction_equals_the_numpy_lines(compiled):
+    # studies.batch predicts chains in lockstep by pk_cubic where the kernel is, else by numpy
+    rng = np.random.default_rng(7)
+    q0, q1, q2, q3 = (rng.standard_normal((16, 37, 12)) * 10.0 ** rng.integers(-3, 4)
+                      for _ in range(4))
+    r = np.subtract(q0, q1)
+    r *= 3
+    r += q0
+    t = np.subtract(q1, q2)
+    t *= 3
+    r -= t
+    np.subtract(q2, q3, out=t)
+    r += t
+    out = np.empty_like(q0)
+    kernel.library().pk_cubic(out.size, *(a.ctypes.data for a in (q0, q1, q2, q3, out)))
+    assert np.array_equal(out, r)

@@ -493,8 +493,8 @@ class Batch:
         sign = rep(sg0)
         # per chain the positions of the last three solutions before the current one and the
         # parameter steps that led from each to the next, in a ring: entry j (0 the newest)
-        # in slot (nh - 1 - j) % 3, nh of them pushed so far
-        hq = np.zeros((C, 3) + Q0.shape)
+        # in slot (nh - 1 - j) % 3, nh of them pushed so far (slot-major: hq[slot] one array)
+        hq = np.zeros((3, C) + Q0.shape)
         hdp = np.zeros((C, 3, len(keys)))
         nh = np.zeros(C, dtype=int)
         back = np.arange(2, -1, -1)             # oldest first: entries 2, 1, 0
@@ -505,11 +505,12 @@ class Batch:
             """Solve chains `live` at parameter vectors `targets` from their current state."""
             # copies (fancy indexing); the velocities and accelerations only for the pass
             # that starts from them (System.solve_batch's; the others solve them afresh)
-            full = self.kernel() is None and self.fused is None
+            k = self.kernel()
+            full = k is None and self.fused is None
             live = np.asarray(live, dtype=int)
             every = len(live) == C and (live == np.arange(C)).all()
-            pred = [(a.copy() if every else a[live]) if full or j == 0 else None
-                    for j, a in enumerate(state)]
+            pred = [None] + [(a.copy() if every else a[live]) if full else None
+                             for a in state[1:]]
             dp = targets - here[live]
             # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
             slots = (nh[live][:, None] - 1 - back[None]) % 3
@@ -524,25 +525,34 @@ class Batch:
             quad = ~cubic & same[:, 1] & same[:, 2]
             sec = ~cubic & ~quad & same[:, 2]
             rest = ~(cubic | quad | sec)
-            q = pred[0]
-            h = lambda i, j: hq[live[i], slots[i, 2 - j]]       # noqa: E731 - entry j
-            if cubic.any() and every and (slots == slots[0]).all():
-                # the usual case, the chains in lockstep: views of the history, no copies
-                # (the chains whose step is another get their prediction below)
-                q1, q2, q3 = (hq[:, slots[0, 2 - j]] for j in range(3))
-                r = np.subtract(q, q1)
-                r *= 3
-                r += q                              # q0 + 3 (q0 - q1), as below
-                t = np.subtract(q1, q2)
-                t *= 3
-                r -= t
-                np.subtract(q2, q3, out=t)
-                r += t
-                np.copyto(q, r, where=cubic[:, None, None])
-            elif cubic.any():
-                i = np.nonzero(cubic)[0]
-                q0, q1, q2 = q[i], h(i, 0), h(i, 1)
-                q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
+            lockstep = every and (slots == slots[0]).all()
+            h = lambda i, j: hq[slots[i, 2 - j], live[i]]       # noqa: E731 - entry j
+            if k is not None and lockstep and cubic.all():
+                # the usual case: all chains in lockstep along their repeated step, the cubic
+                # in one pass of the kernel (the operations of the numpy lines below: the
+                # same bits)
+                q = pred[0] = np.empty_like(state[0])
+                k[0].pk_cubic(q.size, *(a.ctypes.data for a in (
+                    state[0], *(hq[slots[0, 2 - j]] for j in range(3)), q)))
+            else:
+                q = pred[0] = state[0].copy() if every else state[0][live]
+                if cubic.any() and lockstep:
+                    # the chains in lockstep: views of the history, no copies (the chains
+                    # whose step is another get their prediction below)
+                    q1, q2, q3 = (hq[slots[0, 2 - j]] for j in range(3))
+                    r = np.subtract(q, q1)
+                    r *= 3
+                    r += q                              # q0 + 3 (q0 - q1), as below
+                    t = np.subtract(q1, q2)
+                    t *= 3
+                    r -= t
+                    np.subtract(q2, q3, out=t)
+                    r += t
+                    np.copyto(q, r, where=cubic[:, None, None])
+                elif cubic.any():
+                    i = np.nonzero(cubic)[0]
+                    q0, q1, q2 = q[i], h(i, 0), h(i, 1)
+                    q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
             if quad.any():
                 i = np.nonzero(quad)[0]
                 q[i] = 3 * (q[i] - h(i, 0)) + h(i, 1)
@@ -553,17 +563,23 @@ class Batch:
                 # any other step (a chain's head, a factorial's next row): first order in the
                 # step, with the nominal's exact sensitivities (elementwise: a BLAS product
                 # would wake its threads for a few numbers)
+                # summed in parameter order, one array pass per parameter (a sum over a
+                # last axis of 2-3 numbers is numpy's slowest reduction)
                 i = np.nonzero(rest)[0]
-                q[i] = q[i] + (self.tangent[None] * dp[i][:, None, None, :]).sum(axis=-1)
+                d = dp[i][:, None, None, :]
+                acc = self.tangent[None, ..., 0] * d[..., 0]
+                for j in range(1, d.shape[-1]):
+                    acc += self.tangent[None, ..., j] * d[..., j]
+                q[i] = q[i] + acc
             vals = [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live])
             got = np.nonzero(ok)[0]
             cs = live[got]
             moved = len(cs) == C and (cs == np.arange(C)).all()
             if moved and (nh == nh[0]).all():
-                hq[:, nh[0] % 3] = state[0]
+                hq[nh[0] % 3] = state[0]
             else:
-                hq[cs, nh[cs] % 3] = state[0][cs]
+                hq[nh[cs] % 3, cs] = state[0][cs]
             hdp[cs, nh[cs] % 3] = dp[got]
             nh[cs] += 1
             here[cs] = targets[got]
