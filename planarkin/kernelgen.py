@@ -284,9 +284,12 @@ def function(P: kernel.Packed, W: int, m: int, nb: int, build: bool = True):
     """The compiled pk_gen of this structure (a ctypes function), or None: the kernel
     unavailable, the structure not covered (applies), not yet compiled and build False, or
     compiling failed (a marker, as kernel.library's)."""
+    key = getattr(P, "gen_key", None)     # the source and its path, once per packed system
+    if key is not None and key[0] == (W, m, nb) and key[2].name in _libs \
+            and not kernel.disabled():
+        return _libs[key[2].name]
     if kernel.unavailable() or not applies(P):
         return None
-    key = getattr(P, "gen_key", None)     # the source and its path, once per packed system
     if key is None or key[0] != (W, m, nb):
         src = kernel.HELPERS + source(P, W, m, nb)
         key = P.gen_key = ((W, m, nb), src, _path(src))

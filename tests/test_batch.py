@@ -83,7 +83,8 @@ def test_a_chain_steps_to_every_variant_at_once_rows_and_heads_included(study, m
     assert B.tangent is not None
     calls = []
     orig = B.solve
-    monkeypatch.setattr(B, "solve", lambda vals, *a: calls.append(len(vals)) or orig(vals, *a))
+    monkeypatch.setattr(B, "solve", lambda vals, Q, *a, **k: calls.append(len(Q))
+                        or orig(vals, Q, *a, **k))
     out = study.run(variants)
     assert [o.status for o in out] == ["ok"] * 12
     assert calls == [2, 2, 2, 2, 1, 1, 1, 1]       # 3 chains of 4, in units of 2 chains
@@ -252,3 +253,23 @@ def test_per_point_parameters_equal_a_solve_per_parameter_set(solved):
     with pytest.raises(ValueError, match="out of the table"):
         kernel.solve_rows(lib, B.S, P, Q.reshape(V * T, W).copy(), *drv, o.tol, 8,
                           rows=rows + 1, table=table)
+
+
+def test_a_units_numbers_taken_by_row_equal_the_numbers_of_those_variants(tmp_path):
+    # run_group evaluates the file's expressions once for all variants of a unit and takes
+    # each step's rows: the same bits as evaluating them for the step's variants alone
+    text = open(FB).read().replace("d: 0.10 ", "d: 0.10\n  e: sin(a / b) * c + b**2 ").replace(
+        "sj: [c, 0]}    # C", "sj: [c + e - sin(a / b) * c - b**2, 0]}    # C")
+    path = tmp_path / "fb.yaml"
+    path.write_text(text)
+    B = Study(str(path), analysis={"steps": STEPS}).batch([{"a": 0.04, "b": 0.12}])
+    assert B is not None and "e" in B.dep
+    vals = [{"a": 0.03 + 0.001 * i, "b": 0.11 + 0.0007 * i} for i in range(23)]
+    pre = B.numbers(vals)
+    idx = np.array([3, 17, 4, 22, 0])
+    got, want = B.take(pre, idx), B.numbers([vals[i] for i in idx])
+    for g, w in zip(got[0], want[0]):
+        assert g.keys() == w.keys() and all(np.array_equal(g[k], w[k]) for k in g)
+    for a, b in zip(got[1:3] + (got[4],), want[1:3] + (want[4],)):
+        assert np.array_equal(a, b)
+    assert all(np.array_equal(got[3][k], want[3][k]) for k in want[3])

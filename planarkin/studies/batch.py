@@ -275,13 +275,21 @@ class Batch:
             keys.append({e[0] for e in entries})
         return out, keys
 
-    def solve(self, values, Q, Qd, Qdd, sign):
+    def take(self, num, idx):
+        """Variants idx (an index array) of numbers()' arrays: the same numbers (numbers()
+        works element by element), without evaluating the file's expressions again."""
+        groups, targets, s, env, ok = num
+        return ([{k: a[idx] for k, a in g.items()} for g in groups], targets[idx], s[idx],
+                {k: v[idx] for k, v in env.items()}, ok[idx])
+
+    def solve(self, values, Q, Qd, Qdd, sign, num=None):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
-        kernel and studies.fused solve them afresh: None will do there). Returns (Q, Qd, Qdd,
-        sign, ok (Vn,), s (Vn, P, 2))."""
+        kernel and studies.fused solve them afresh: None will do there). num: their numbers()
+        when known (values is then not read). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P,
+        2))."""
         Vn, T = Q.shape[0], Q.shape[1]
-        groups, targets, s, env, ok = self.numbers(values)
+        groups, targets, s, env, ok = self.numbers(values) if num is None else num
         n3 = Q.shape[2]
         o = self.study.opts
         k = self.kernel()
@@ -344,14 +352,19 @@ class Batch:
         Vn, T, n3 = Q.shape
         o = self.study.opts
         Qr = Q.reshape(Vn * T, n3).copy()
-        rows = np.repeat(np.arange(Vn, dtype=np.int32), T)
         table = kernel.table(self.cm, groups)
+        # per batch size: each row's variant, grid time (row of the driver tables) and time
+        cache = self.__dict__.setdefault("_rowcache", {})
+        if Vn not in cache:
+            cache[Vn] = (np.repeat(np.arange(Vn, dtype=np.int32), T),
+                         np.tile(np.arange(T, dtype=np.int32), Vn), np.tile(self.grid, Vn))
+        rows, trow, tg = cache[Vn]
         if self.tvar or self.fvar:
             drv, trow = [a.reshape(Vn * T, -1) for a in self.drivers(targets, env)], None
-        else:       # drivers() of one variant: the same for all
-            drv = [a[0] for a in self.drivers(targets[:1], env)]
-            trow = np.tile(np.arange(T, dtype=np.int32), Vn)
-        tg = self.grid if trow is not None else np.tile(self.grid, Vn)
+        else:       # drivers() of one variant: the same for all (computed once)
+            if "_drv1" not in self.__dict__:
+                self._drv1 = [a[0] for a in self.drivers(targets[:1], env)]
+            drv, tg = self._drv1, self.grid
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
             trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2])
@@ -501,8 +514,9 @@ class Batch:
         here = np.repeat(nominal[None], C, axis=0)
         alive = np.ones(C, dtype=bool)
 
-        def step(live, targets):
-            """Solve chains `live` at parameter vectors `targets` from their current state."""
+        def step(live, targets, at=None):
+            """Solve chains `live` at parameter vectors `targets` from their current state;
+            at: the targets' rows in the unit's numbers (pre), when they are variants."""
             # copies (fancy indexing); the velocities and accelerations only for the pass
             # that starts from them (System.solve_batch's; the others solve them afresh)
             k = self.kernel()
@@ -571,8 +585,9 @@ class Batch:
                 for j in range(1, d.shape[-1]):
                     acc += self.tangent[None, ..., j] * d[..., j]
                 q[i] = q[i] + acc
-            vals = [dict(zip(keys, map(float, p))) for p in targets]
-            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live])
+            vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
+            Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
+                                                   num=None if at is None else self.take(pre, at))
             got = np.nonzero(ok)[0]
             cs = live[got]
             moved = len(cs) == C and (cs == np.arange(C)).all()
@@ -593,12 +608,13 @@ class Batch:
                     a[cs] = new[got]
             return ok, (Qn, Qdn, Qddn), s
 
-        def advance(live, targets):
-            """Step chains live to targets; those that fail retry in SUBSTEPS equal parameter
-            steps each (as the path follower splits a step). Returns ok (len(live),), the
-            solutions and point offsets of the last attempt at the targets."""
+        def advance(live, targets, at):
+            """Step chains live to targets (the unit's variants at: rows of pre); those that
+            fail retry in SUBSTEPS equal parameter steps each (as the path follower splits a
+            step). Returns ok (len(live),), the solutions and point offsets of the last attempt
+            at the targets."""
             live = list(live)
-            ok, sol, s = step(live, targets)
+            ok, sol, s = step(live, targets, at)
             if not ok.all():        # the substeps' results go into these
                 sol = [a.copy() for a in sol]
             for nsub in SUBSTEPS:
@@ -627,9 +643,13 @@ class Batch:
                                 s[bad[i]] = sk[j]
             return ok, sol, s
 
+        # the numbers of every variant of the unit, evaluated once; chain c's variant j is
+        # row first[c] + j
+        pre = self.numbers([v for ch in chains_values for v in ch])
+        first = np.cumsum([0] + [len(ch) for ch in chains_values[:-1]])
         heads = np.array([[ch[0][k] for k in keys] for ch in chains_values])
         live = list(range(C))
-        ok, sol, s = advance(live, heads)
+        ok, sol, s = advance(live, heads, first)
         alive[:] = ok
         live = [c for c in live if alive[c]]
         out: list[list] = [[None] * len(ch) for ch in chains_values]
@@ -643,7 +663,7 @@ class Batch:
             if not live:
                 break
             tg = np.array([[chains_values[c][j][k] for k in keys] for c in live])
-            ok, sol, s = advance(live, tg)
+            ok, sol, s = advance(live, tg, first[live] + j)
             met = self.metrics(*sol, s)
             for i, c in enumerate(live):
                 if ok[i]:
