@@ -1147,14 +1147,8 @@ def _rows(rows, table, N, P):
     return rows, table
 
 
-def _ground_zero(Q, n) -> bool:
-    """The ground's coordinates (columns n:) all +0, as pk_gen takes them (they always are)."""
-    g = Q[:, n:]
-    return not (g.any() or np.signbit(g).any())
-
-
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
-               trow=None, accept=None, gen=None):
+               trow=None, accept=None, gen=None, hist=None):
     """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
     each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
     drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
@@ -1164,12 +1158,18 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     cond_max), the acceptance tests of studies.batch (see pk_rows): good (N,) bool and perr
     (N,), the path error of the interval from the point before (grid times tg, indexed as
     T); None: not tested (good, perr None). gen: pk_rows specialised to S's structure
-    (kernelgen.function), the same results bit for bit, where it applies."""
+    (kernelgen.function), the same results bit for bit, where it applies. hist: three arrays
+    shaped as Q, the solutions before Q: the predictions are then the cubic of pk_cubic
+    through them, and Q is not written (the positions are a new array)."""
     N, W = Q.shape
     if maxit < 1:
         raise ValueError("planarkin kernel: at least one Newton iteration")
     rows, table = _rows(rows, table, N, P)
     Q = np.ascontiguousarray(Q, dtype=float)
+    if hist is not None:
+        hist = [np.ascontiguousarray(h, dtype=float) for h in hist]
+        if len(hist) != 3 or any(h.shape != Q.shape for h in hist):
+            raise ValueError("planarkin kernel: three history arrays shaped as Q wanted")
     Qd, Qdd = np.empty((N, W)), np.empty((N, W))         # pk_rows writes every column
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     if trow is not None:
@@ -1194,13 +1194,20 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
         good = np.empty(N, dtype=np.uint8)
         perr = np.empty(N)
     ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
-    if gen is not None and W == S.cm.n + 3 and _ground_zero(Q, S.cm.n):
+    out = Q if hist is None else np.empty((N, W))
+    if gen is not None and W == S.cm.n + 3:
         rc = gen(N, ptr(P.arrays[3]), ptr(rows), ptr(table), P.arrays[3].shape[0], ptr(trow),
-                 *[ptr(a) for a in drv], ptr(Q), ptr(Qd), ptr(Qdd), int(maxit), float(tol),
-                 ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin), ptr(tg), ptr(sign0),
-                 float(kappa), float(cond_max), ptr(good), ptr(perr))
-        return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
-                None if good is None else good.view(bool), perr)
+                 *[ptr(a) for a in drv], ptr(Q), *(ptr(h) for h in hist or (None,) * 3),
+                 ptr(out), ptr(Qd), ptr(Qdd), int(maxit), float(tol), ptr(iters), ptr(conv),
+                 ptr(ratio), ptr(sign), ptr(smin), ptr(tg), ptr(sign0), float(kappa),
+                 float(cond_max), ptr(good), ptr(perr))
+        if rc == 0:
+            return (out, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+                    None if good is None else good.view(bool), perr)
+    # (rc -2: a ground coordinate not +0; nothing was written)
+    if hist is not None:
+        lib.pk_cubic(out.size, ptr(Q), *(ptr(h) for h in hist), ptr(out))
+    Q = out
     rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
                      ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),
                      1, 2, ptr(iters), ptr(conv), ptr(ratio), ptr(sign), ptr(smin),

@@ -26,6 +26,7 @@ from . import kernel
 
 SIGNATURE = """int pk_gen(int N, const double *eprm, const int32_t *vrow, const double *vprm, int ne,
            const int32_t *trow, const double *T, const double *NU, const double *FDD,
+           const double *Qin, const double *H1, const double *H2, const double *H3,
            double *Q, double *Qd, double *Qdd, int maxit, double tol, int64_t *iters,
            uint8_t *conv, double *ratio, double *sign, double *smin, const double *tg,
            const double *sign0, double kappa, double cond_max, uint8_t *good, double *perr)"""
@@ -92,6 +93,15 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     emit(f"    double jerk[{max(n, 1)}];")
     emit("    int jerk_ok = 0, i, it, k, a;")
     emit("    (void)it; (void)a;")
+    # the ground's coordinates are the constants +0 here: a point whose are not (never in a
+    # study) is left to pk_rows, before anything is written
+    emit("    for (i = 0; i < N; i++)")
+    emit("        for (k = 0; k < 4; k++) {")
+    emit("            const double *X = k == 0 ? Qin : k == 1 ? H1 : k == 2 ? H2 : H3, *g;")
+    emit("            if (!X) break;")
+    emit(f"            g = X + (size_t)i * {W} + {n};")
+    emit("            for (a = 0; a < 3; a++) if (g[a] != 0.0 || signbit(g[a])) return -2;")
+    emit("        }")
     emit("    for (i = 0; i < N; i++) {")
     emit(f"        double q[{W}], qd[{W}], qdd[{W}], C[{nb + 1}], S[{nb + 1}], g_, gam_;")
     for b in range(nblk):
@@ -105,7 +115,13 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     emit("        double rat = 0.0;")
     emit("        int its = 0, ok = 1;")
     emit("        (void)g_; (void)gam_;")
-    emit(f"        for (a = 0; a < {n}; a++) q[a] = Qi[a];")
+    # the prediction: Qin's row, or with the history H1-H3 the cubic of kernel.pk_cubic
+    emit(f"        {{ const double *q0 = Qin + (size_t)i * {W};")
+    emit(f"        if (H1) {{ const double *h1 = H1 + (size_t)i * {W}, *h2 = H2 + (size_t)i * "
+         f"{W}, *h3 = H3 + (size_t)i * {W};")
+    emit(f"            for (a = 0; a < {n}; a++) {{ double r = (q0[a] - h1[a]) * 3.0; "
+         "r += q0[a]; r -= (h1[a] - h2[a]) * 3.0; r += h2[a] - h3[a]; q[a] = r; } }")
+    emit(f"        else for (a = 0; a < {n}; a++) q[a] = q0[a]; }}")
     emit(f"        q[{n}] = 0.0; q[{n + 1}] = 0.0; q[{n + 2}] = 0.0;   /* the ground */")
     for b in range(nb):
         emit(f"        if (q[{3 * b + 2}] == 0.0) {{ C[{b}] = 1.0; S[{b}] = 0.0; }} "
@@ -311,7 +327,7 @@ def function(P: kernel.Packed, W: int, m: int, nb: int, build: bool = True):
         return None
     fn.restype = ctypes.c_int
     fn.argtypes = ([ctypes.c_int] + [ctypes.c_void_p] * 3 + [ctypes.c_int]
-                   + [ctypes.c_void_p] * 7 + [ctypes.c_int, ctypes.c_double]
+                   + [ctypes.c_void_p] * 11 + [ctypes.c_int, ctypes.c_double]
                    + [ctypes.c_void_p] * 7 + [ctypes.c_double] * 2 + [ctypes.c_void_p] * 2)
     _libs[key] = fn
     return fn

@@ -282,19 +282,21 @@ class Batch:
         return ([{k: a[idx] for k, a in g.items()} for g in groups], targets[idx], s[idx],
                 {k: v[idx] for k, v in env.items()}, ok[idx])
 
-    def solve(self, values, Q, Qd, Qdd, sign, num=None):
+    def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
         kernel and studies.fused solve them afresh: None will do there). num: their numbers()
-        when known (values is then not read). Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P,
-        2))."""
+        when known (values is then not read). hist (the kernel's route only): the three
+        solutions before Q, the predictions then the cubic through the four (Q not written).
+        Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values) if num is None else num
         n3 = Q.shape[2]
         o = self.study.opts
         k = self.kernel()
         if k is not None:
-            Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign)
+            Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign,
+                                                                hist)
             with np.errstate(invalid="ignore"):
                 ok &= good.reshape(Vn, T).all(axis=1) & (perr.reshape(Vn, T)
                                                          <= o.path_tol).all(axis=1)
@@ -340,18 +342,23 @@ class Batch:
                                  build=getattr(self, "specialise", False))
         return lib, self._kpack, gen
 
-    def solve_kernel(self, k, groups, targets, env, Q, sign):
+    def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None):
         """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
         point, its variant's element parameters one row of a (Vn, E, 8) table, its drivers'
         the grid time's row where no varied parameter reaches them; with the acceptance tests
         of every row (those of `accept`, against the predecessors' signs sign) and the path
         errors. Returns (Q, Qd, Qdd) (Vn T, n + 3), the diagnostics, good (Vn T,) and the path
-        errors (Vn T,) (each row's interval from the row before, 0 for a variant's first)."""
+        errors (Vn T,) (each row's interval from the row before, 0 for a variant's first).
+        hist: as for solve."""
         from .. import kernel
         from ..system import BatchInfo
         Vn, T, n3 = Q.shape
         o = self.study.opts
-        Qr = Q.reshape(Vn * T, n3).copy()
+        Qr = Q.reshape(Vn * T, n3)
+        if hist is None:
+            Qr = Qr.copy()
+        else:
+            hist = [h.reshape(Vn * T, n3) for h in hist]
         table = kernel.table(self.cm, groups)
         # per batch size: each row's variant, grid time (row of the driver tables) and time
         cache = self.__dict__.setdefault("_rowcache", {})
@@ -367,7 +374,8 @@ class Batch:
             drv, tg = self._drv1, self.grid
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
-            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2])
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2],
+            hist=hist)
         # good: finite positions too, with the velocities and accelerations
         return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sg, smin), good, perr
 
@@ -506,8 +514,9 @@ class Batch:
         sign = rep(sg0)
         # per chain the positions of the last three solutions before the current one and the
         # parameter steps that led from each to the next, in a ring: entry j (0 the newest)
-        # in slot (nh - 1 - j) % 3, nh of them pushed so far (slot-major: hq[slot] one array)
-        hq = np.zeros((3, C) + Q0.shape)
+        # in slot (nh - 1 - j) % 3, nh of them pushed so far (hq[slot] one (C, T, n + 3)
+        # array: when every chain moves, the state before the step becomes the slot's array)
+        hq = [np.zeros((C,) + Q0.shape) for _ in range(3)]
         hdp = np.zeros((C, 3, len(keys)))
         nh = np.zeros(C, dtype=int)
         back = np.arange(2, -1, -1)             # oldest first: entries 2, 1, 0
@@ -540,14 +549,14 @@ class Batch:
             sec = ~cubic & ~quad & same[:, 2]
             rest = ~(cubic | quad | sec)
             lockstep = every and (slots == slots[0]).all()
-            h = lambda i, j: hq[slots[i, 2 - j], live[i]]       # noqa: E731 - entry j
+            h = lambda i, j: np.stack([hq[slots[a, 2 - j]][live[a]] for a in i])  # noqa: E731
+            hist = None
             if k is not None and lockstep and cubic.all():
                 # the usual case: all chains in lockstep along their repeated step, the cubic
-                # in one pass of the kernel (the operations of the numpy lines below: the
-                # same bits)
-                q = pred[0] = np.empty_like(state[0])
-                k[0].pk_cubic(q.size, *(a.ctypes.data for a in (
-                    state[0], *(hq[slots[0, 2 - j]] for j in range(3)), q)))
+                # computed by the kernel as it reads the rows (pk_cubic's: the operations of
+                # the numpy lines below, the same bits)
+                pred[0] = state[0]
+                hist = [hq[slots[0, 2 - j]] for j in range(3)]
             else:
                 q = pred[0] = state[0].copy() if every else state[0][live]
                 if cubic.any() and lockstep:
@@ -587,14 +596,16 @@ class Batch:
                 q[i] = q[i] + acc
             vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
-                                                   num=None if at is None else self.take(pre, at))
+                                                   num=None if at is None else self.take(pre, at),
+                                                   hist=hist)
             got = np.nonzero(ok)[0]
             cs = live[got]
             moved = len(cs) == C and (cs == np.arange(C)).all()
             if moved and (nh == nh[0]).all():
-                hq[nh[0] % 3] = state[0]
+                hq[nh[0] % 3] = state[0]        # (not written into after: see below)
             else:
-                hq[nh[cs] % 3, cs] = state[0][cs]
+                for c in cs:
+                    hq[nh[c] % 3][c] = state[0][c]
             hdp[cs, nh[cs] % 3] = dp[got]
             nh[cs] += 1
             here[cs] = targets[got]
