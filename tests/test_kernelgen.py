@@ -191,3 +191,34 @@ def test_the_kernels_cubic_prediction_equals_the_numpy_lines(compiled):
     out = np.empty_like(q0)
     kernel.library().pk_cubic(out.size, *(a.ctypes.data for a in (q0, q1, q2, q3, out)))
     assert np.array_equal(out, r)
+
+
+def test_predicting_from_the_history_equals_predicting_first(compiled):
+    # solve_rows(hist=...) (the cubic computed as the kernel reads each row) against pk_cubic
+    # then solve_rows, on both kernels; Q itself is not written
+    S, t, Q = _system("four-bar.yaml")
+    P = kernel.pack(S)
+    lib = kernel.library()
+    gen = kernelgen.function(P, S.cm.n + 3, S.cm.m, S.nb)
+    T, NU, FDD = S.driver_values(t)
+    rng = np.random.default_rng(3)
+    hist = []
+    for k in (1, 2, 3):
+        h = Q + 1e-5 * k * rng.standard_normal(Q.shape)
+        h[:, S.n:] = 0.0
+        hist.append(h)
+    pred = np.empty_like(Q)
+    lib.pk_cubic(Q.size, *(a.ctypes.data for a in (Q, *hist, pred)))
+    ref = kernel.solve_rows(lib, S, P, pred.copy(), T, NU, FDD, 1e-12, 8)
+    keep = Q.copy()
+    for g in (None, gen):
+        out = kernel.solve_rows(lib, S, P, Q, T, NU, FDD, 1e-12, 8, gen=g, hist=hist)
+        assert np.array_equal(Q, keep)
+        for a, b in zip(out, ref):
+            assert (a is None and b is None) or np.array_equal(a, b, equal_nan=True)
+    # a ground coordinate that is not +0 (never in a study): pk_gen declines, pk_rows solves
+    Qg = Q.copy()
+    Qg[4, S.n + 1] = -0.0
+    a = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8, gen=gen)
+    b = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8)
+    assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b) if x is not None)
