@@ -888,7 +888,18 @@ def _cache_dir() -> Path:
     return Path(base) / "planarkin"
 
 
-_TAG = hashlib.sha256(SOURCE.encode()).hexdigest()[:16]
+# -ffp-contract=off: no fused multiply-adds where the target has them (the operations are
+# those of the numpy passes, rounded as they are); -fno-math-errno: sqrt inline (errno is
+# never read), the same results
+CFLAGS = ("-O2", "-ffp-contract=off", "-fno-math-errno")
+
+
+def tag(source: str) -> str:
+    """A kernel's name in the cache: the hash of its source and flags."""
+    return hashlib.sha256((source + " ".join(CFLAGS)).encode()).hexdigest()[:16]
+
+
+_TAG = tag(SOURCE)
 
 
 def _path() -> Path:
@@ -969,9 +980,7 @@ def _compile(path: Path, source: str = SOURCE) -> bool:
             src = Path(tmp) / "kernel.c"
             src.write_text(source)
             out = Path(tmp) / path.name
-            # -ffp-contract=off: no fused multiply-adds where the target has them (the
-            # operations are those of the numpy passes, rounded as they are)
-            r = subprocess.run([cc, "-O2", "-ffp-contract=off", "-fPIC", "-shared", "-o",
+            r = subprocess.run([cc, *CFLAGS, "-fPIC", "-shared", "-o",
                                 str(out), str(src), "-lm"],
                                capture_output=True, timeout=120)
             if r.returncode != 0 or not out.exists():
@@ -1158,7 +1167,9 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     cond_max), the acceptance tests of studies.batch (see pk_rows): good (N,) bool and perr
     (N,), the path error of the interval from the point before (grid times tg, indexed as
     T); None: not tested (good, perr None). gen: pk_rows specialised to S's structure
-    (kernelgen.function), the same results bit for bit, where it applies. hist: three arrays
+    (kernelgen.function), the same results bit for bit where it applies (it takes the ground's
+    coordinates as +0, as they are in every study: a point with other bits there is not
+    converged and not good). hist: three arrays
     shaped as Q, the solutions before Q: the predictions are then the cubic of pk_cubic
     through them, and Q is not written (the positions are a new array)."""
     N, W = Q.shape
@@ -1201,10 +1212,8 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
                  ptr(out), ptr(Qd), ptr(Qdd), int(maxit), float(tol), ptr(iters), ptr(conv),
                  ptr(ratio), ptr(sign), ptr(smin), ptr(tg), ptr(sign0), float(kappa),
                  float(cond_max), ptr(good), ptr(perr))
-        if rc == 0:
-            return (out, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
-                    None if good is None else good.view(bool), perr)
-    # (rc -2: a ground coordinate not +0; nothing was written)
+        return (out, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+                None if good is None else good.view(bool), perr)
     if hist is not None:
         lib.pk_cubic(out.size, ptr(Q), *(ptr(h) for h in hist), ptr(out))
     Q = out

@@ -150,7 +150,7 @@ def test_per_point_parameters_and_failing_points_bit_for_bit(compiled):
     rows = (np.arange(N) % 3).astype(np.int32)
     rows[N // 2:] = 2                       # runs of one variant: the path errors
     Q = Q.copy()
-    Q[5] = np.nan                           # cannot converge
+    Q[5, :S.n] = np.nan                     # cannot converge
     Q[9, 3] = 1e6                           # far off: Newton's limit
     out = _both(S, t, Q, rows=rows, table=table)
     assert not out[4][5] and not out[8][5]
@@ -216,9 +216,19 @@ def test_predicting_from_the_history_equals_predicting_first(compiled):
         assert np.array_equal(Q, keep)
         for a, b in zip(out, ref):
             assert (a is None and b is None) or np.array_equal(a, b, equal_nan=True)
-    # a ground coordinate that is not +0 (never in a study): pk_gen declines, pk_rows solves
-    Qg = Q.copy()
-    Qg[4, S.n + 1] = -0.0
-    a = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8, gen=gen)
-    b = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8)
-    assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b) if x is not None)
+    # a ground coordinate that is not +0 (never in a study): that point is refused, the
+    # others are pk_rows' bits
+    for at, value in (((4, S.n + 1), -0.0), ((9, S.n), 1e-3)):
+        sign0 = ref[6].copy()
+        acc = (t, sign0, 1e-2, 1e8)
+        Qg = Q.copy()
+        Qg[at] = value
+        a = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8, gen=gen, accept=acc)
+        b = kernel.solve_rows(lib, S, P, Qg.copy(), T, NU, FDD, 1e-12, 8, accept=acc)
+        assert not a[4][at[0]] and not a[8][at[0]] and b[4][at[0]]
+        rest = np.arange(len(Q)) != at[0]
+        nxt = rest.copy()
+        nxt[at[0] + 1] = False              # its successor's path error reads it
+        for x, y in zip(a[:8], b[:8]):
+            assert np.array_equal(x[rest], y[rest], equal_nan=True)
+        assert np.array_equal(a[8][nxt], b[8][nxt]) and np.array_equal(a[9][nxt], b[9][nxt])
