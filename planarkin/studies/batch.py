@@ -282,18 +282,20 @@ class Batch:
         return ([{k: a[idx] for k, a in g.items()} for g in groups], targets[idx], s[idx],
                 {k: v[idx] for k, v in env.items()}, ok[idx])
 
-    def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None):
+    def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None, k=False):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
         kernel and studies.fused solve them afresh: None will do there). num: their numbers()
         when known (values is then not read). hist (the kernel's route only): the three
         solutions before Q, the predictions then the cubic through the four (Q not written).
-        Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
+        k: self.kernel() when the caller has it. Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn,
+        P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values) if num is None else num
         n3 = Q.shape[2]
         o = self.study.opts
-        k = self.kernel()
+        if k is False:
+            k = self.kernel()
         if k is not None:
             Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign,
                                                                 hist)
@@ -418,6 +420,13 @@ class Batch:
         from .warm import _predictor_error
         if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
+
+    def tangent_columns(self):
+        """self.tangent's columns (one (T, n + 3) array per varied parameter), contiguous."""
+        if "_tcols" not in self.__dict__:
+            self._tcols = [np.ascontiguousarray(self.tangent[..., j])
+                           for j in range(self.tangent.shape[-1])]
+        return self._tcols
 
     def _tangent(self, res):
         """(T, n + 3, k) exact dq/dp of the nominal positions on the grid, internal units per
@@ -549,7 +558,20 @@ class Batch:
             sec = ~cubic & ~quad & same[:, 2]
             rest = ~(cubic | quad | sec)
             lockstep = every and (slots == slots[0]).all()
-            h = lambda i, j: np.stack([hq[slots[a, 2 - j]][live[a]] for a in i])  # noqa: E731
+            def h(i, j):
+                """History entry j of chains i (live positions): the slot's array itself
+                when they are all the chains, in lockstep."""
+                if lockstep and len(i) == C:
+                    return hq[slots[0, 2 - j]]
+                return np.stack([hq[slots[a, 2 - j]][live[a]] for a in i])
+
+            def rows(mask):
+                """The live positions of mask: a slice when it is all of them (no copies)."""
+                return slice(None) if mask.all() else np.nonzero(mask)[0]
+
+            def index(i):
+                return np.arange(len(live)) if isinstance(i, slice) else i
+
             hist = None
             if k is not None and lockstep and cubic.all():
                 # the usual case: all chains in lockstep along their repeated step, the cubic
@@ -577,27 +599,28 @@ class Batch:
                     q0, q1, q2 = q[i], h(i, 0), h(i, 1)
                     q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
             if quad.any():
-                i = np.nonzero(quad)[0]
-                q[i] = 3 * (q[i] - h(i, 0)) + h(i, 1)
+                i = rows(quad)
+                q[i] = 3 * (q[i] - h(index(i), 0)) + h(index(i), 1)
             if sec.any():
-                i = np.nonzero(sec)[0]
-                q[i] = 2 * q[i] - h(i, 0)
+                i = rows(sec)
+                q[i] = 2 * q[i] - h(index(i), 0)
             if rest.any() and self.tangent is not None:
                 # any other step (a chain's head, a factorial's next row): first order in the
                 # step, with the nominal's exact sensitivities (elementwise: a BLAS product
                 # would wake its threads for a few numbers)
                 # summed in parameter order, one array pass per parameter (a sum over a
                 # last axis of 2-3 numbers is numpy's slowest reduction)
-                i = np.nonzero(rest)[0]
+                i = rows(rest)
                 d = dp[i][:, None, None, :]
-                acc = self.tangent[None, ..., 0] * d[..., 0]
+                tang = self.tangent_columns()
+                acc = tang[0][None] * d[..., 0]
                 for j in range(1, d.shape[-1]):
-                    acc += self.tangent[None, ..., j] * d[..., j]
+                    acc += tang[j][None] * d[..., j]
                 q[i] = q[i] + acc
             vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
                                                    num=None if at is None else self.take(pre, at),
-                                                   hist=hist)
+                                                   hist=hist, k=k)
             got = np.nonzero(ok)[0]
             cs = live[got]
             moved = len(cs) == C and (cs == np.arange(C)).all()
