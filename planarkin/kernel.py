@@ -1169,18 +1169,22 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     T); None: not tested (good, perr None). gen: pk_rows specialised to S's structure
     (kernelgen.function), the same results bit for bit where it applies (it takes the ground's
     coordinates as +0, as they are in every study: a point with other bits there is not
-    converged and not good). hist: three arrays
-    shaped as Q, the solutions before Q: the predictions are then the cubic of pk_cubic
-    through them, and Q is not written (the positions are a new array)."""
+    converged and not good). hist: (H0, H1, H2, H3, cub), four arrays shaped as Q (the last
+    four solutions, newest first) and cub (N,) bool: the prediction of point i is then the
+    cubic of pk_cubic through the rows of H0-H3 where cub[i], else Q's row, and Q is not
+    written (the positions are a new array)."""
     N, W = Q.shape
     if maxit < 1:
         raise ValueError("planarkin kernel: at least one Newton iteration")
     rows, table = _rows(rows, table, N, P)
     Q = np.ascontiguousarray(Q, dtype=float)
     if hist is not None:
-        hist = [np.ascontiguousarray(h, dtype=float) for h in hist]
-        if len(hist) != 3 or any(h.shape != Q.shape for h in hist):
-            raise ValueError("planarkin kernel: three history arrays shaped as Q wanted")
+        cub = np.ascontiguousarray(hist[4], dtype=np.uint8)
+        hist = [np.ascontiguousarray(h, dtype=float) for h in hist[:4]]
+        if any(h.shape != Q.shape for h in hist) or cub.shape != (N,):
+            raise ValueError("planarkin kernel: four history arrays shaped as Q and a flag "
+                             "per point wanted")
+        hist.append(cub)
     Qd, Qdd = np.empty((N, W)), np.empty((N, W))         # pk_rows writes every column
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     if trow is not None:
@@ -1208,14 +1212,16 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     out = Q if hist is None else np.empty((N, W))
     if gen is not None and W == S.cm.n + 3:
         rc = gen(N, ptr(P.arrays[3]), ptr(rows), ptr(table), P.arrays[3].shape[0], ptr(trow),
-                 *[ptr(a) for a in drv], ptr(Q), *(ptr(h) for h in hist or (None,) * 3),
+                 *[ptr(a) for a in drv], ptr(Q), *(ptr(h) for h in hist or (None,) * 5),
                  ptr(out), ptr(Qd), ptr(Qdd), int(maxit), float(tol), ptr(iters), ptr(conv),
                  ptr(ratio), ptr(sign), ptr(smin), ptr(tg), ptr(sign0), float(kappa),
                  float(cond_max), ptr(good), ptr(perr))
         return (out, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
                 None if good is None else good.view(bool), perr)
     if hist is not None:
-        lib.pk_cubic(out.size, ptr(Q), *(ptr(h) for h in hist), ptr(out))
+        lib.pk_cubic(out.size, *(ptr(h) for h in hist[:4]), ptr(out))
+        keep = ~hist[4].view(bool)
+        out[keep] = Q[keep]
     Q = out
     rc = lib.pk_rows(N, W, S.cm.m, S.nb, P.nblk, *[ptr(a) for a in P.arrays],
                      ptr(Q), ptr(Qd), ptr(Qdd), *[ptr(a) for a in drv], int(maxit), float(tol),

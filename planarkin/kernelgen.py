@@ -25,7 +25,8 @@ from . import kernel
 
 SIGNATURE = """int pk_gen(int N, const double *eprm, const int32_t *vrow, const double *vprm, int ne,
            const int32_t *trow, const double *T, const double *NU, const double *FDD,
-           const double *Qin, const double *H1, const double *H2, const double *H3,
+           const double *Qin, const double *H0, const double *H1, const double *H2,
+           const double *H3, const uint8_t *cub,
            double *Q, double *Qd, double *Qdd, int maxit, double tol, int64_t *iters,
            uint8_t *conv, double *ratio, double *sign, double *smin, const double *tg,
            const double *sign0, double kappa, double cond_max, uint8_t *good, double *perr)"""
@@ -107,19 +108,19 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     emit("        double rat = 0.0;")
     emit("        int its = 0, ok = 1;")
     emit("        (void)g_; (void)gam_;")
-    # the prediction: Qin's row, or with the history H1-H3 the cubic of kernel.pk_cubic; the
-    # ground's coordinates are the constants +0 here (as in every study): a point whose input
-    # has other bits there is refused (gbad), not solved as another ground
+    # the prediction: Qin's row, or where cub[i] the cubic of kernel.pk_cubic through the rows
+    # of H0-H3; the ground's coordinates are the constants +0 here (as in every study): a
+    # point whose input has other bits there is refused (gbad), not solved as another ground
     emit("        uint64_t gbad;")
-    emit(f"        {{ const double *q0 = Qin + (size_t)i * {W};")
-    emit(f"        gbad = ground_bits(q0 + {n});")
-    emit(f"        if (H1) {{ const double *h1 = H1 + (size_t)i * {W}, *h2 = H2 + (size_t)i * "
-         f"{W}, *h3 = H3 + (size_t)i * {W};")
-    emit(f"            gbad |= ground_bits(h1 + {n}) | ground_bits(h2 + {n}) | "
-         f"ground_bits(h3 + {n});")
-    emit(f"            for (a = 0; a < {n}; a++) {{ double r = (q0[a] - h1[a]) * 3.0; "
-         "r += q0[a]; r -= (h1[a] - h2[a]) * 3.0; r += h2[a] - h3[a]; q[a] = r; } }")
-    emit(f"        else for (a = 0; a < {n}; a++) q[a] = q0[a]; }}")
+    emit(f"        if (H0 && cub[i]) {{ const double *h0 = H0 + (size_t)i * {W}, "
+         f"*h1 = H1 + (size_t)i * {W}, *h2 = H2 + (size_t)i * {W}, *h3 = H3 + (size_t)i * {W};")
+    emit(f"            gbad = ground_bits(h0 + {n}) | ground_bits(h1 + {n}) | "
+         f"ground_bits(h2 + {n}) | ground_bits(h3 + {n});")
+    emit(f"            for (a = 0; a < {n}; a++) {{ double r = (h0[a] - h1[a]) * 3.0; "
+         "r += h0[a]; r -= (h1[a] - h2[a]) * 3.0; r += h2[a] - h3[a]; q[a] = r; } }")
+    emit(f"        else {{ const double *q0 = Qin + (size_t)i * {W};")
+    emit(f"            gbad = ground_bits(q0 + {n});")
+    emit(f"            for (a = 0; a < {n}; a++) q[a] = q0[a]; }}")
     emit(f"        q[{n}] = 0.0; q[{n + 1}] = 0.0; q[{n + 2}] = 0.0;   /* the ground */")
     for b in range(nb):
         emit(f"        if (q[{3 * b + 2}] == 0.0) {{ C[{b}] = 1.0; S[{b}] = 0.0; }} "
@@ -325,7 +326,7 @@ def function(P: kernel.Packed, W: int, m: int, nb: int, build: bool = True):
         return None
     fn.restype = ctypes.c_int
     fn.argtypes = ([ctypes.c_int] + [ctypes.c_void_p] * 3 + [ctypes.c_int]
-                   + [ctypes.c_void_p] * 11 + [ctypes.c_int, ctypes.c_double]
+                   + [ctypes.c_void_p] * 13 + [ctypes.c_int, ctypes.c_double]
                    + [ctypes.c_void_p] * 7 + [ctypes.c_double] * 2 + [ctypes.c_void_p] * 2)
     _libs[key] = fn
     return fn

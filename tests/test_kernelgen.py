@@ -209,11 +209,16 @@ def test_predicting_from_the_history_equals_predicting_first(compiled):
         hist.append(h)
     pred = np.empty_like(Q)
     lib.pk_cubic(Q.size, *(a.ctypes.data for a in (Q, *hist, pred)))
+    cub = np.arange(len(Q)) % 5 != 3            # the others: Qin's rows
+    direct = Q + 1e-7
+    direct[:, S.n:] = 0.0
+    pred[~cub] = direct[~cub]
     ref = kernel.solve_rows(lib, S, P, pred.copy(), T, NU, FDD, 1e-12, 8)
-    keep = Q.copy()
+    keep = [a.copy() for a in (Q, direct, *hist)]
     for g in (None, gen):
-        out = kernel.solve_rows(lib, S, P, Q, T, NU, FDD, 1e-12, 8, gen=g, hist=hist)
-        assert np.array_equal(Q, keep)
+        out = kernel.solve_rows(lib, S, P, direct, T, NU, FDD, 1e-12, 8, gen=g,
+                                hist=(Q, *hist, cub))
+        assert all(np.array_equal(a, b) for a, b in zip(keep, (Q, direct, *hist)))
         for a, b in zip(out, ref):
             assert (a is None and b is None) or np.array_equal(a, b, equal_nan=True)
     # a ground coordinate that is not +0 (never in a study): that point is refused, the

@@ -286,8 +286,9 @@ class Batch:
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
         kernel and studies.fused solve them afresh: None will do there). num: their numbers()
-        when known (values is then not read). hist (the kernel's route only): the three
-        solutions before Q, the predictions then the cubic through the four (Q not written).
+        when known (values is then not read). hist (the kernel's route only): the last four
+        solutions (Vn, T, n + 3) each and a flag per row: the predictions of the rows flagged
+        are the cubic through the four, the others Q's rows (Q is not written).
         k: self.kernel() when the caller has it. Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn,
         P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
@@ -360,7 +361,7 @@ class Batch:
         if hist is None:
             Qr = Qr.copy()
         else:
-            hist = [h.reshape(Vn * T, n3) for h in hist]
+            hist = [h.reshape(Vn * T, n3) for h in hist[:4]] + [hist[4]]
         table = kernel.table(self.cm, groups)
         # per batch size: each row's variant, grid time (row of the driver tables) and time
         cache = self.__dict__.setdefault("_rowcache", {})
@@ -573,14 +574,19 @@ class Batch:
                 return np.arange(len(live)) if isinstance(i, slice) else i
 
             hist = None
-            if k is not None and lockstep and cubic.all():
-                # the usual case: all chains in lockstep along their repeated step, the cubic
-                # computed by the kernel as it reads the rows (pk_cubic's: the operations of
-                # the numpy lines below, the same bits)
-                pred[0] = state[0]
-                hist = [hq[slots[0, 2 - j]] for j in range(3)]
+            if k is not None and lockstep and cubic.any():
+                # the usual case, the chains in lockstep: the cubic chains' predictions
+                # computed by the kernel as it reads their rows (pk_cubic's: the operations of
+                # the numpy lines below, the same bits), the others' below into q
+                base = state[0]
+                hist = [base] + [hq[slots[0, 2 - j]] for j in range(3)] + [
+                    np.repeat(cubic, base.shape[1])]
+                q = pred[0] = base
+                if not cubic.all():         # the others start as the state, as below
+                    q = pred[0] = np.empty_like(base)
+                    q[~cubic] = base[~cubic]
             else:
-                q = pred[0] = state[0].copy() if every else state[0][live]
+                q = base = pred[0] = state[0].copy() if every else state[0][live]
                 if cubic.any() and lockstep:
                     # the chains in lockstep: views of the history, no copies (the chains
                     # whose step is another get their prediction below)
@@ -600,10 +606,10 @@ class Batch:
                     q[i] = q0 + 3 * (q0 - q1) - 3 * (q1 - q2) + (q2 - h(i, 2))
             if quad.any():
                 i = rows(quad)
-                q[i] = 3 * (q[i] - h(index(i), 0)) + h(index(i), 1)
+                q[i] = 3 * (base[i] - h(index(i), 0)) + h(index(i), 1)
             if sec.any():
                 i = rows(sec)
-                q[i] = 2 * q[i] - h(index(i), 0)
+                q[i] = 2 * base[i] - h(index(i), 0)
             if rest.any() and self.tangent is not None:
                 # any other step (a chain's head, a factorial's next row): first order in the
                 # step, with the nominal's exact sensitivities (elementwise: a BLAS product
@@ -616,7 +622,7 @@ class Batch:
                 acc = tang[0][None] * d[..., 0]
                 for j in range(1, d.shape[-1]):
                     acc += tang[j][None] * d[..., j]
-                q[i] = q[i] + acc
+                q[i] = base[i] + acc
             vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
                                                    num=None if at is None else self.take(pre, at),
