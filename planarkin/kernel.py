@@ -1156,8 +1156,19 @@ def _rows(rows, table, N, P):
     return rows, table
 
 
+def _buffer(work, name, shape, dtype=float):
+    """An array for a result: from work (a dict kept by the caller between calls) when it has
+    one of this shape and type, else a new one (kept there)."""
+    if work is None:
+        return np.empty(shape, dtype=dtype)
+    a = work.get(name)
+    if a is None or a.shape != shape or a.dtype != dtype:
+        a = work[name] = np.empty(shape, dtype=dtype)
+    return a
+
+
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
-               trow=None, accept=None, gen=None, hist=None):
+               trow=None, accept=None, gen=None, hist=None, work=None, out=None):
     """pk_rows: full Newton for the positions of N points from the predictions Q (N, n + 3),
     each point to its own convergence, then velocities and accelerations. T, NU, FDD: the
     drivers' targets, nu and f'' (N, m), or with trow (N,) int32 tables (K, m) of which point
@@ -1172,7 +1183,10 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     converged and not good). hist: (H0, H1, H2, H3, cub), four arrays shaped as Q (the last
     four solutions, newest first) and cub (N,) bool: the prediction of point i is then the
     cubic of pk_cubic through the rows of H0-H3 where cub[i], else Q's row, and Q is not
-    written (the positions are a new array)."""
+    written (the positions are a new array). work: a dict the caller keeps between calls, whose
+    arrays then hold the diagnostics (iterations to perr: valid until the next call with it;
+    fresh arrays and page faults of half a megabyte each per call otherwise); out: arrays
+    (N, W) for the positions (with hist), velocities and accelerations."""
     N, W = Q.shape
     if maxit < 1:
         raise ValueError("planarkin kernel: at least one Newton iteration")
@@ -1185,7 +1199,13 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
             raise ValueError("planarkin kernel: four history arrays shaped as Q and a flag "
                              "per point wanted")
         hist.append(cub)
-    Qd, Qdd = np.empty((N, W)), np.empty((N, W))         # pk_rows writes every column
+    if out is not None and all(a.shape == (N, W) and a.dtype == float and a.flags.c_contiguous
+                               for a in out):
+        Qo, Qd, Qdd = out
+    else:
+        Qo = np.empty((N, W)) if hist is not None else None
+        Qd, Qdd = np.empty((N, W)), np.empty((N, W))
+    # (pk_rows writes every column)
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     if trow is not None:
         trow = np.ascontiguousarray(trow, dtype=np.int32)
@@ -1193,11 +1213,11 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
             raise ValueError("planarkin kernel: driver rows out of the tables")
     elif len(drv[0]) != N:
         raise ValueError("planarkin kernel: one driver row per point wanted")
-    iters = np.empty(N, dtype=np.int64)
-    conv = np.empty(N, dtype=np.uint8)
-    ratio = np.empty(N)
-    sign = np.empty((N, P.nfine))
-    smin = np.empty((N, P.nblk))
+    iters = _buffer(work, "iters", (N,), np.int64)
+    conv = _buffer(work, "conv", (N,), np.uint8)
+    ratio = _buffer(work, "ratio", (N,))
+    sign = _buffer(work, "sign", (N, P.nfine))
+    smin = _buffer(work, "smin", (N, P.nblk))
     good = perr = sign0 = tg = None
     kappa = cond_max = 0.0
     if accept is not None:
@@ -1206,10 +1226,10 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
         sign0 = np.ascontiguousarray(sign0, dtype=float)
         if sign0.shape != (N, P.nfine) or len(tg) != len(drv[0]):
             raise ValueError("planarkin kernel: acceptance arrays do not match")
-        good = np.empty(N, dtype=np.uint8)
-        perr = np.empty(N)
+        good = _buffer(work, "good", (N,), np.uint8)
+        perr = _buffer(work, "perr", (N,))
     ptr = lambda a: None if a is None else a.ctypes.data         # noqa: E731
-    out = Q if hist is None else np.empty((N, W))
+    out = Q if hist is None else Qo
     if gen is not None and W == S.cm.n + 3:
         rc = gen(N, ptr(P.arrays[3]), ptr(rows), ptr(table), P.arrays[3].shape[0], ptr(trow),
                  *[ptr(a) for a in drv], ptr(Q), *(ptr(h) for h in hist or (None,) * 5),

@@ -282,15 +282,17 @@ class Batch:
         return ([{k: a[idx] for k, a in g.items()} for g in groups], targets[idx], s[idx],
                 {k: v[idx] for k, v in env.items()}, ok[idx])
 
-    def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None, k=False):
+    def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None, k=False, work=None,
+              out=None):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
         signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
         kernel and studies.fused solve them afresh: None will do there). num: their numbers()
         when known (values is then not read). hist (the kernel's route only): the last four
         solutions (Vn, T, n + 3) each and a flag per row: the predictions of the rows flagged
         are the cubic through the four, the others Q's rows (Q is not written).
-        k: self.kernel() when the caller has it. Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn,
-        P, 2))."""
+        k: self.kernel() when the caller has it. work, out: kernel.solve_rows' (buffers of
+        the kernel's results: the sign returned is then valid until the next call with work).
+        Returns (Q, Qd, Qdd, sign, ok (Vn,), s (Vn, P, 2))."""
         Vn, T = Q.shape[0], Q.shape[1]
         groups, targets, s, env, ok = self.numbers(values) if num is None else num
         n3 = Q.shape[2]
@@ -299,7 +301,7 @@ class Batch:
             k = self.kernel()
         if k is not None:
             Qr, Qdr, Qddr, info, good, perr = self.solve_kernel(k, groups, targets, env, Q, sign,
-                                                                hist)
+                                                                hist, work, out)
             with np.errstate(invalid="ignore"):
                 ok &= good.reshape(Vn, T).all(axis=1) & (perr.reshape(Vn, T)
                                                          <= o.path_tol).all(axis=1)
@@ -345,14 +347,14 @@ class Batch:
                                  build=getattr(self, "specialise", False))
         return lib, self._kpack, gen
 
-    def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None):
+    def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None, work=None, out=None):
         """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
         point, its variant's element parameters one row of a (Vn, E, 8) table, its drivers'
         the grid time's row where no varied parameter reaches them; with the acceptance tests
         of every row (those of `accept`, against the predecessors' signs sign) and the path
         errors. Returns (Q, Qd, Qdd) (Vn T, n + 3), the diagnostics, good (Vn T,) and the path
         errors (Vn T,) (each row's interval from the row before, 0 for a variant's first).
-        hist: as for solve."""
+        hist, work, out: as for solve."""
         from .. import kernel
         from ..system import BatchInfo
         Vn, T, n3 = Q.shape
@@ -378,7 +380,8 @@ class Batch:
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
             trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2],
-            hist=hist)
+            hist=hist, work=work, out=None if out is None else [a.reshape(Vn * T, n3)
+                                                                for a in out])
         # good: finite positions too, with the velocities and accelerations
         return Qr, Qdr, Qddr, BatchInfo(iters, conv, ratio, sg, smin), good, perr
 
@@ -532,6 +535,10 @@ class Batch:
         back = np.arange(2, -1, -1)             # oldest first: entries 2, 1, 0
         here = np.repeat(nominal[None], C, axis=0)
         alive = np.ones(C, dtype=bool)
+        # the kernel's buffers: its diagnostics (work), and arrays of the state and history
+        # that a step dropped (spare), for the next step's results: a fresh half megabyte
+        # costs its page faults at every step
+        work, spare = {}, []
 
         def step(live, targets, at=None):
             """Solve chains `live` at parameter vectors `targets` from their current state;
@@ -624,13 +631,15 @@ class Batch:
                     acc += tang[j][None] * d[..., j]
                 q[i] = base[i] + acc
             vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
+            out = [spare.pop() for _ in range(3)] if every and len(spare) >= 3 else None
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
                                                    num=None if at is None else self.take(pre, at),
-                                                   hist=hist, k=k)
+                                                   hist=hist, k=k, work=work, out=out)
             got = np.nonzero(ok)[0]
             cs = live[got]
             moved = len(cs) == C and (cs == np.arange(C)).all()
             if moved and (nh == nh[0]).all():
+                spare.append(hq[nh[0] % 3])
                 hq[nh[0] % 3] = state[0]        # (not written into after: see below)
             else:
                 for c in cs:
@@ -641,6 +650,8 @@ class Batch:
             if moved:
                 # every chain moved: the solutions are the new state (not written into after:
                 # a later step copies into the state, and the solutions are read before that)
+                if k is not None:           # (the others' results are not written into spares)
+                    spare.extend(state[1:])
                 state[:] = Qn, Qdn, Qddn
                 sign[...] = sgn
             else:
