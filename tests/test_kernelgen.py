@@ -237,3 +237,32 @@ def test_predicting_from_the_history_equals_predicting_first(compiled):
         for x, y in zip(a[:8], b[:8]):
             assert np.array_equal(x[rest], y[rest], equal_nan=True)
         assert np.array_equal(a[8][nxt], b[8][nxt]) and np.array_equal(a[9][nxt], b[9][nxt])
+
+
+def test_a_large_study_compiles_it_and_its_outcomes_are_pk_rows_bits(compiled, tmp_path,
+                                                                       monkeypatch):
+    # Study.units compiles the specialised kernel for a study of SPECIALISE_ROWS rows or more
+    # (before any worker starts); a smaller one on a machine without it runs pk_rows: the
+    # outcomes are the same bits either way
+    from planarkin.studies import variants as variantsmod
+    from planarkin.studies.sweep import Range, factorial
+    path = os.path.join(ROOT, "four-bar.yaml")
+    vs = factorial([Range("a", 0.035, 0.045, 5), Range("b", 0.115, 0.125, 4)])
+    metrics = ["max:rocker.phi", "min:P.y", "absmax:coupler.alpha"]
+
+    def outcomes(rows, cache):
+        monkeypatch.setattr(variantsmod, "SPECIALISE_ROWS", rows)
+        monkeypatch.setenv("PLANARKIN_CACHE", str(cache))
+        kernel._state.clear()
+        kernelgen._libs.clear()
+        s = variantsmod.Study(path, analysis={"steps": 180}, metrics=metrics)
+        s.units(vs)
+        B = s.batch(vs)
+        gen = B.kernel()[2]
+        return s.run(vs), gen, sorted(p.name for p in cache.glob("kernel-gen-*.so"))
+
+    big, gen, files = outcomes(len(vs) * 181, tmp_path / "a")
+    assert gen is not None and len(files) == 1
+    small, gen, files = outcomes(len(vs) * 181 + 1, tmp_path / "b")
+    assert gen is None and files == []
+    assert [o.status for o in big] == ["ok"] * len(vs) and repr(big) == repr(small)

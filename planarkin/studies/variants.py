@@ -251,7 +251,8 @@ class Study:
         B = self.batch(variants)
         per = self.group if B is not None else 1
         if B is not None and len(variants) * len(B.grid) >= SPECIALISE_ROWS:
-            B.specialise = True         # worth compiling pk_gen for (studies.batch.kernel)
+            B.specialise = True         # worth compiling pk_gen for (studies.batch.kernel):
+            B.kernel()                  # here, before any worker process starts
         return [chs[k:k + per] for k in range(0, len(chs), per)]
 
     def batch(self, variants):
