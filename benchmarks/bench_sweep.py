@@ -3,6 +3,7 @@ planarkin against pylinkage with numba, the textbook solver and the closed form,
 
     python benchmarks/bench_sweep.py [--variants 10000] [--planarkin N] [--textbook 4]
                                      [--pylinkage-python /tmp/benchvenv/bin/python] [--numpy]
+                                     [--generic]
 
 The sweep: the four-bar of benchmarks/models.py (crank a, coupler b, rocker c = 0.10, ground
 d = 0.10), a full factorial of sqrt(V) crank lengths a in [0.03, 0.05] times sqrt(V) coupler
@@ -17,9 +18,11 @@ and accelerations.
   variants batched, studies/batch.py, grid pass with P, V, A, a max metric) on all V variants,
   or with `--planarkin N` on N of them spread evenly over the factorial (a sparser sweep, whose
   neighbours are farther apart); variants/s extrapolates. The batch solves through the
-  compiled kernel (planarkin/kernel.py, pk_rows) where it is available; `--numpy` also times
-  the numpy passes (studies/fused.py, PLANARKIN_KERNEL=0: the reference route) on the same
-  variants, in the same run.
+  compiled kernel where it is available: pk_gen, the kernel written out for the four-bar's
+  structure (planarkin/kernelgen.py, compiled by the warm-up run when the machine has not got
+  it yet); `--generic` also times the generic pk_rows (planarkin/kernel.py) on the same
+  variants and checks that the outcomes are the same bits; `--numpy` also times the numpy
+  passes (studies/fused.py, PLANARKIN_KERNEL=0: the reference route), in the same run.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
 * closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
 
@@ -109,6 +112,8 @@ def main() -> None:
     ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--numpy", action="store_true",
                     help="also time planarkin's numpy passes (PLANARKIN_KERNEL=0)")
+    ap.add_argument("--generic", action="store_true",
+                    help="also time the generic kernel pk_rows (pk_gen not used)")
     args = ap.parse_args()
     side = int(round(args.variants ** 0.5))
     a_vals = np.linspace(0.03, 0.05, side)
@@ -137,7 +142,12 @@ def main() -> None:
         path.write_text(models.four_bar_yaml())
         study = Study(str(path), metrics=["max:rocker.phi"])
         sub = [variants[i] for i in np.linspace(0, len(variants) - 1, npk).astype(int)]
+        study.units(sub)            # compiles pk_gen for this structure when it is large enough
         study.run(sub[:2])
+        from planarkin import kernelgen
+        k = study.batch(sub).kernel()
+        route = "none (numpy passes)" if k is None else "pk_gen" if k[2] else "pk_rows"
+        print(f"planarkin kernel: {route}")
         t0, c0 = time.perf_counter(), time.process_time()
         out = study.run(sub)
         el = time.perf_counter() - t0
@@ -152,6 +162,19 @@ def main() -> None:
             err = max(err, abs(o.metrics[0] - ref) / abs(ref))
         print(f"planarkin: {ok}/{len(sub)} ok, max relative error of max:rocker.phi against the "
               f"closed form {err:.1e}")
+        if args.generic:
+            real = kernelgen.function
+            kernelgen.function = lambda *a, **k: None          # pk_rows only
+            try:
+                t0, c0 = time.perf_counter(), time.process_time()
+                plain = study.run(sub)
+                key = "planarkin, generic kernel pk_rows"
+                rates[key] = len(sub) / (time.perf_counter() - t0)
+                cpu[key] = len(sub) / (time.process_time() - c0)
+            finally:
+                kernelgen.function = real
+            print(f"planarkin pk_gen vs pk_rows: outcomes the same bits: "
+                  f"{repr(plain) == repr(out)}")
         if args.numpy:
             saved = os.environ.get("PLANARKIN_KERNEL")
             os.environ["PLANARKIN_KERNEL"] = "0"        # read per call

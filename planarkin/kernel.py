@@ -207,8 +207,9 @@ INLINE double nanmax(double a, double v) { return (v > a || v != v) ? v : a; }
 
 """
 
-# the rest of the kernel (kernelgen compiles HELPERS with its own functions)
-SOURCE = HELPERS + r"""/* One equation row of a block, unpacked once per block and call; rc: the columns of its
+# the rest of the kernel (kernelgen compiles HELPERS with its own function)
+SOURCE = HELPERS + r"""
+/* One equation row of a block, unpacked once per block and call; rc: the columns of its
    gradient entries */
 typedef struct {
     int kind, bi, bj, eq, row;

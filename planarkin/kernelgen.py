@@ -23,8 +23,8 @@ import sys
 
 from . import kernel
 
-SIGNATURE = """int pk_gen(int N, const double *eprm, const int32_t *vrow, const double *vprm, int ne,
-           const int32_t *trow, const double *T, const double *NU, const double *FDD,
+SIGNATURE = """int pk_gen(int N, const double *eprm, const int32_t *vrow, const double *vprm,
+           int ne, const int32_t *trow, const double *T, const double *NU, const double *FDD,
            const double *Qin, const double *H0, const double *H1, const double *H2,
            const double *H3, const uint8_t *cub,
            double *Q, double *Qd, double *Qdd, int maxit, double tol, int64_t *iters,
