@@ -148,12 +148,17 @@ def main() -> None:
         k = study.batch(sub).kernel()
         route = "none (numpy passes)" if k is None else "pk_gen" if k[2] else "pk_rows"
         print(f"planarkin kernel: {route}")
-        t0, c0 = time.perf_counter(), time.process_time()
-        out = study.run(sub)
-        el = time.perf_counter() - t0
+
+        def timed(key):
+            """study.run(sub), its rates under key (wall and CPU)."""
+            t0, c0 = time.perf_counter(), time.process_time()
+            res = study.run(sub)
+            rates[key] = len(sub) / (time.perf_counter() - t0)
+            cpu[key] = len(sub) / (time.process_time() - c0)
+            return res
+
+        out = timed("planarkin Study.run (sweep --jobs 1)")
         ok = sum(o.status == "ok" for o in out)
-        rates["planarkin Study.run (sweep --jobs 1)"] = len(sub) / el
-        cpu["planarkin Study.run (sweep --jobs 1)"] = len(sub) / (time.process_time() - c0)
         # accuracy: the metric against the closed form
         err = 0.0
         for v, o in zip(sub, out):
@@ -166,11 +171,7 @@ def main() -> None:
             real = kernelgen.function
             kernelgen.function = lambda *a, **k: None          # pk_rows only
             try:
-                t0, c0 = time.perf_counter(), time.process_time()
-                plain = study.run(sub)
-                key = "planarkin, generic kernel pk_rows"
-                rates[key] = len(sub) / (time.perf_counter() - t0)
-                cpu[key] = len(sub) / (time.process_time() - c0)
+                plain = timed("planarkin, generic kernel pk_rows")
             finally:
                 kernelgen.function = real
             print(f"planarkin pk_gen vs pk_rows: outcomes the same bits: "
@@ -179,11 +180,7 @@ def main() -> None:
             saved = os.environ.get("PLANARKIN_KERNEL")
             os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
             try:
-                t0, c0 = time.perf_counter(), time.process_time()
-                ref = study.run(sub)
-                key = "planarkin, numpy passes (PLANARKIN_KERNEL=0)"
-                rates[key] = len(sub) / (time.perf_counter() - t0)
-                cpu[key] = len(sub) / (time.process_time() - c0)
+                ref = timed("planarkin, numpy passes (PLANARKIN_KERNEL=0)")
             finally:
                 if saved is None:
                     del os.environ["PLANARKIN_KERNEL"]

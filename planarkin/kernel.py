@@ -205,6 +205,51 @@ static int invert(int k, const double *J, double *inv, double *sign, double *wor
 /* NaN-propagating maximum, as numpy's max */
 INLINE double nanmax(double a, double v) { return (v > a || v != v) ? v : a; }
 
+/* studies.batch's acceptance tests of point i (Batch.accept is the numpy reference), while its
+   numbers are at hand: good[i] = converged, finite q, qd, qdd (W columns: the point's rows of the
+   results, the rows before them the point before's), first correction at most kappa sigma_min,
+   1 / min(sm) at most cond_max and every fine-block sign sgn equal to sign0's; perr[i] = the
+   Taylor predictor error (studies.warm._predictor_error, forwards and backwards, first n
+   columns) of the interval from the point before when that is the same variant (vrow) at the
+   grid time before (times tg, indexed by trow), else 0. jerk, jerk_ok: the last interval's
+   change of acceleration, carried from point to point. Shared by pk_rows and kernelgen's
+   pk_gen (the same bits). */
+INLINE void accept_point(int i, int W, int n, int nblk, int nfine, const double *q,
+                         const double *qd, const double *qdd, const double *sm, const double *sgn,
+                         int conv, double ratio, const int32_t *trow, const int32_t *vrow,
+                         const double *tg, const double *sign0, double kappa, double cond_max,
+                         double *jerk, int *jerk_ok, uint8_t *good, double *perr)
+{
+    int g = conv && ratio <= kappa, c;
+    double lo = INFINITY, e = 0.0;
+    for (c = 0; c < W && g; c++) g = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
+    for (c = 0; c < nblk; c++) if (sm[c] < lo || sm[c] != sm[c]) lo = sm[c];
+    if (lo != lo) g = 0;
+    else if (g) g = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
+    for (c = 0; c < nfine && g; c++) g = sgn[c] == sign0[(size_t)i * nfine + c];
+    good[i] = g;
+    size_t k1 = trow ? trow[i] : i, k0 = i > 0 ? (trow ? trow[i - 1] : i - 1) : 0;
+    if (i > 0 && k1 == k0 + 1 && (!vrow || vrow[i] == vrow[i - 1])) {
+        double h = tg[k1] - tg[k0], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
+        const double *q0 = q - W, *d0 = qd - W, *a0 = qdd - W;
+        int nan = 0;
+        for (c = 0; c < n; c++) {
+            double dA = (qdd[c] - a0[c]) / h, j3 = *jerk_ok ? jerk[c] : 0.0;
+            double ef = fabs(q[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
+            double eb = fabs(q[c] - h * qd[c] + hh * qdd[c] - h3 * dA - q0[c]);
+            double x = ef > eb ? ef : eb;
+            jerk[c] = dA;
+            e = x > e ? x : e;
+            nan |= (ef != ef) | (eb != eb);
+        }
+        *jerk_ok = 1;
+        perr[i] = nan ? NAN : e;
+    } else {
+        *jerk_ok = 0;
+        perr[i] = 0.0;
+    }
+}
+
 """
 
 # the rest of the kernel (kernelgen compiles HELPERS with its own function)
@@ -841,37 +886,8 @@ int pk_rows(int N, int W, int m, int nb, int nblk,
             }
         }
         if (!good) continue;
-        /* the acceptance tests of the point, and of the interval from the point before */
-        {
-            int g = conv[i] && ratio[i] <= kappa, c;
-            double lo = INFINITY, e = 0.0;
-            for (c = 0; c < W && g; c++) g = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
-            for (c = 0; c < nblk; c++) if (sm[c] < lo || sm[c] != sm[c]) lo = sm[c];
-            if (lo != lo) g = 0;
-            else if (g) g = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
-            for (c = 0; c < nfine && g; c++) g = sgn[c] == sign0[(size_t)i * nfine + c];
-            good[i] = g;
-            size_t k1 = trow ? trow[i] : i, k0 = i > 0 ? (trow ? trow[i - 1] : i - 1) : 0;
-            if (i > 0 && k1 == k0 + 1 && (!vrow || vrow[i] == vrow[i - 1])) {
-                double h = tg[k1] - tg[k0], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
-                const double *q0 = q - W, *d0 = qd - W, *a0 = qdd - W;
-                int nan = 0;
-                for (c = 0; c < n; c++) {
-                    double dA = (qdd[c] - a0[c]) / h, j3 = jerk_ok ? jerk[c] : 0.0;
-                    double ef = fabs(q[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
-                    double eb = fabs(q[c] - h * qd[c] + hh * qdd[c] - h3 * dA - q0[c]);
-                    double x = ef > eb ? ef : eb;
-                    jerk[c] = dA;
-                    e = x > e ? x : e;
-                    nan |= (ef != ef) | (eb != eb);
-                }
-                jerk_ok = 1;
-                perr[i] = nan ? NAN : e;
-            } else {
-                jerk_ok = 0;
-                perr[i] = 0.0;
-            }
-        }
+        accept_point(i, W, n, nblk, nfine, q, qd, qdd, sm, sgn, conv[i], ratio[i], trow, vrow, tg,
+                     sign0, kappa, cond_max, jerk, &jerk_ok, good, perr);
     }
     free(C); free(S); free(GR); free(MB); free(J); free(WK); free(keep); free(mof); free(jerk);
     return 0;

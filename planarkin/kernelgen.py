@@ -252,36 +252,8 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     emit(f"        for (a = 0; a < {W}; a++) {{ Qi[a] = q[a]; Qdi[a] = qd[a]; Qddi[a] = qdd[a]; }}")
     emit("        if (!good) continue;")
     # the acceptance tests of the point, and of the interval from the point before (pk_rows')
-    emit(f"""        {{
-            int g = conv[i] && ratio[i] <= kappa, c;
-            double lo = INFINITY, e = 0.0;
-            for (c = 0; c < {W} && g; c++) g = isfinite(q[c]) && isfinite(qd[c]) && isfinite(qdd[c]);
-            for (c = 0; c < {nblk}; c++) if (sm[c] < lo || sm[c] != sm[c]) lo = sm[c];
-            if (lo != lo) g = 0;
-            else if (g) g = 1.0 / (lo > 1e-300 ? lo : 1e-300) <= cond_max;
-            for (c = 0; c < {nfine} && g; c++) g = sgn[c] == sign0[(size_t)i * {nfine} + c];
-            good[i] = g;
-            size_t k1 = trow ? trow[i] : i, k0 = i > 0 ? (trow ? trow[i - 1] : i - 1) : 0;
-            if (i > 0 && k1 == k0 + 1 && (!vrow || vrow[i] == vrow[i - 1])) {{
-                double h = tg[k1] - tg[k0], hh = 0.5 * h * h, h3 = h * h * h / 6.0;
-                const double *q0 = Qi - {W}, *d0 = Qdi - {W}, *a0 = Qddi - {W};
-                int nan = 0;
-                for (c = 0; c < {n}; c++) {{
-                    double dA = (qdd[c] - a0[c]) / h, j3 = jerk_ok ? jerk[c] : 0.0;
-                    double ef = fabs(q[c] - (q0[c] + h * d0[c] + hh * a0[c] + h3 * j3));
-                    double eb = fabs(q[c] - h * qd[c] + hh * qdd[c] - h3 * dA - q0[c]);
-                    double x = ef > eb ? ef : eb;
-                    jerk[c] = dA;
-                    e = x > e ? x : e;
-                    nan |= (ef != ef) | (eb != eb);
-                }}
-                jerk_ok = 1;
-                perr[i] = nan ? NAN : e;
-            }} else {{
-                jerk_ok = 0;
-                perr[i] = 0.0;
-            }}
-        }}""")
+    emit(f"        accept_point(i, {W}, {n}, {nblk}, {nfine}, Qi, Qdi, Qddi, sm, sgn, conv[i], "
+         "ratio[i], trow, vrow, tg, sign0, kappa, cond_max, jerk, &jerk_ok, good, perr);")
     emit("    }")
     emit("    return 0;")
     emit("}")
