@@ -1217,7 +1217,8 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
                              "per point wanted")
         hist.append(cub)
     if out is not None and all(a.shape == (N, W) and a.dtype == float and a.flags.c_contiguous
-                               for a in out):
+                               and not any(np.may_share_memory(a, x) for x in [Q, *(hist or [])])
+                               for a in out) and len({a.ctypes.data for a in out}) == 3:
         Qo, Qd, Qdd = out
     else:
         Qo = np.empty((N, W)) if hist is not None else None

@@ -273,3 +273,23 @@ def test_a_units_numbers_taken_by_row_equal_the_numbers_of_those_variants(tmp_pa
     for a, b in zip(got[1:3] + (got[4],), want[1:3] + (want[4],)):
         assert np.array_equal(a, b)
     assert all(np.array_equal(got[3][k], want[3][k]) for k in want[3])
+
+
+def test_the_first_order_prediction_is_numpys_sum_in_its_bits(study):
+    # the heads, a factorial's rows and every sampled variant start from it: the same bits as
+    # (tangent * dp).sum(axis=-1) for any number of varied parameters (numpy adds left to
+    # right below 8 numbers, pairwise from 8)
+    B = study.batch([{"a": 0.04, "b": 0.12}])
+    rng = np.random.default_rng(11)
+    T, W = B.tangent.shape[:2]
+    saved = B.tangent
+    try:
+        for k in range(1, 13):
+            B.tangent = rng.standard_normal((T, W, k))
+            B.__dict__.pop("_tcols", None)
+            dp = rng.standard_normal((5, k)) * 1e-3
+            want = (B.tangent[None] * dp[:, None, None, :]).sum(axis=-1)
+            assert np.array_equal(B.first_order(dp), want), k
+    finally:
+        B.tangent = saved
+        B.__dict__.pop("_tcols", None)

@@ -425,12 +425,25 @@ class Batch:
         if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
 
-    def tangent_columns(self):
-        """self.tangent's columns (one (T, n + 3) array per varied parameter), contiguous."""
+    # numpy sums a last axis of fewer than this many numbers left to right (pairwise above)
+    _SEQUENTIAL = 8
+
+    def first_order(self, dp) -> np.ndarray:
+        """(len(dp), T, n + 3): the first-order change of the nominal's positions for parameter
+        steps dp (len(dp), k), (tangent * dp).sum(axis=-1), in its bits: elementwise (a BLAS
+        product would wake its threads for a few numbers), and below 8 parameters one array
+        pass per parameter over contiguous columns (numpy's sum over a last axis of 2-3
+        numbers is its slowest reduction; it adds them left to right there, as here)."""
+        d = dp[:, None, None, :]
+        if dp.shape[1] >= self._SEQUENTIAL:
+            return (self.tangent[None] * d).sum(axis=-1)
         if "_tcols" not in self.__dict__:
             self._tcols = [np.ascontiguousarray(self.tangent[..., j])
                            for j in range(self.tangent.shape[-1])]
-        return self._tcols
+        acc = self._tcols[0][None] * d[..., 0]
+        for j in range(1, dp.shape[1]):
+            acc += self._tcols[j][None] * d[..., j]
+        return acc
 
     def _tangent(self, res):
         """(T, n + 3, k) exact dq/dp of the nominal positions on the grid, internal units per
@@ -619,17 +632,9 @@ class Batch:
                 q[i] = 2 * base[i] - h(index(i), 0)
             if rest.any() and self.tangent is not None:
                 # any other step (a chain's head, a factorial's next row): first order in the
-                # step, with the nominal's exact sensitivities (elementwise: a BLAS product
-                # would wake its threads for a few numbers)
-                # summed in parameter order, one array pass per parameter (a sum over a
-                # last axis of 2-3 numbers is numpy's slowest reduction)
+                # step, with the nominal's exact sensitivities
                 i = rows(rest)
-                d = dp[i][:, None, None, :]
-                tang = self.tangent_columns()
-                acc = tang[0][None] * d[..., 0]
-                for j in range(1, d.shape[-1]):
-                    acc += tang[j][None] * d[..., j]
-                q[i] = base[i] + acc
+                q[i] = base[i] + self.first_order(dp[i])
             vals = None if at is not None else [dict(zip(keys, map(float, p))) for p in targets]
             out = [spare.pop() for _ in range(3)] if every and len(spare) >= 3 else None
             Qn, Qdn, Qddn, sgn, ok, s = self.solve(vals, *pred, sign if every else sign[live],
