@@ -8,7 +8,8 @@ process of its own (`PYTHONPATH` = the checkout), which loads the models once an
 warm-up call each (that compiles the kernel of its source version into the cache if missing);
 then, round by round, the parent lets each worker in turn time --calls calls of every model.
 Printed per model: the best round's CPU and wall time per call for both, and the ratio this
-checkout / baseline (the issue's rule: a 360-step run must not get slower).
+checkout / baseline (the issue's rule: a 360-step run must not get slower). The workers run
+OpenBLAS on one thread, as `planarkin run` does, unless OPENBLAS_NUM_THREADS is set.
 """
 
 from __future__ import annotations
@@ -58,7 +59,11 @@ def main(argv=None):
     trees = {"this": root, "baseline": Path(a.baseline).resolve()}
     workers = {}
     for name, tree in trees.items():
+        # OpenBLAS on one thread, as the command sets it (planarkin/__main__.py): its idle
+        # threads' spinning counts as the process's CPU time and scattered the figures
+        # by +-25% between runs
         env = dict(os.environ, PYTHONPATH=str(tree))
+        env.setdefault("OPENBLAS_NUM_THREADS", "1")
         w = subprocess.Popen([sys.executable, "-c", WORKER, json.dumps(paths), str(a.calls)],
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
                              cwd=str(tree))
