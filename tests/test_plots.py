@@ -660,3 +660,50 @@ def test_a_drawing_failure_is_reported_and_the_tables_kept(tmp_path):
     summary = json.loads((tmp_path / "four-bar" / "summary.json").read_text())
     assert summary["status"] == "ok" and (tmp_path / "four-bar" / "bodies.csv").exists()
     assert [w["kind"] for w in summary["warnings"]] == ["plots"]
+
+
+def _flat_face_touches_its_cam(m, r):
+    """At every grid time the follower's drawn face is tangent to the cam's drawn working
+    surface: no surface point beyond the face line, the nearest on it (to the polyline's
+    sampling), and that point on the drawn segment."""
+    sc = plots._Scene(m, r._chunk)
+    faces = [(b, f) for b in range(sc.nb) for f in sc.faces[b]]
+    assert len(faces) == 1
+    bj, F = faces[0]
+    G = next(G for G in m.groups if G.kind.name in ("cam", "cam-rocker"))
+    bi = int(G.bodies[0, 0])
+    surface = max(sc.dashed[bi], key=len)            # the working surface (181 points)
+    span = sc.span
+    for row in range(0, len(sc.t), 7):
+        X, Y = sc.to_global(bj, F, [row])
+        a, b = np.array([X[0, 0], Y[0, 0]]), np.array([X[0, 1], Y[0, 1]])
+        u = (b - a) / np.hypot(*(b - a))
+        Sx, Sy = sc.to_global(bi, surface, [row])
+        S = np.c_[Sx[0], Sy[0]]
+        d = (S - a) @ np.array([-u[1], u[0]])
+        d *= np.sign(np.median(d))                      # the cam's side of the face: > 0
+        assert d.min() >= -1e-9 * span and d.min() <= 2e-4 * span, (row, d.min() / span)
+        along = (S[np.argmin(d)] - a) @ u
+        assert 0 < along < np.hypot(*(b - a))
+
+
+def test_a_flat_faced_rocker_is_drawn_with_its_face_on_the_cam():
+    _flat_face_touches_its_cam(*_run("flat-rocker-cam"))
+
+
+def _offset_cam(tmp_path, follower):
+    from test_machine_elements import OFFSET_CAM
+    p = tmp_path / "cam.yaml"
+    p.write_text(OFFSET_CAM.format(e=0, off=0, follower=follower).replace("[e, 35, 0]",
+                                                                          "[0, 30, 0]"))
+    m = planarkin.load(p)
+    return m, planarkin.solve(m)
+
+
+def test_a_flat_faced_translating_follower_is_drawn_with_its_face_on_the_cam(tmp_path):
+    _flat_face_touches_its_cam(*_offset_cam(tmp_path, "flat: true"))
+
+
+def test_a_roller_follower_has_no_face(tmp_path):
+    m, r = _offset_cam(tmp_path, "roller: rr")
+    assert not any(plots._Scene(m, r._chunk).faces)

@@ -727,7 +727,7 @@ class _Scene:
         self.point_colors = _point_palette(len(cm.point_names))
         q = data.q
         self.x, self.y = q[:, 0::3], q[:, 1::3]
-        phi = q[:, 2::3] * cm.angle_factor
+        phi = self.phi = q[:, 2::3] * cm.angle_factor
         self.c, self.s = np.cos(phi), np.sin(phi)
         attach, joint_pts, slides, slide_dir, revolutes, gears = self._elements(cm)
 
@@ -767,6 +767,7 @@ class _Scene:
         slide_dir = {}                                  # body -> body-frame slide direction
         revolutes, gears = [], []
         self.outlines = []                              # (body, body-frame dashed polyline)
+        self.faces_out = []                             # (body, body-frame solid line)
         for G in sorted(cm.groups, key=lambda G: G.kind.name in MACHINE_OUTLINES):
             kind = G.kind.name
             par = G.params
@@ -800,6 +801,9 @@ class _Scene:
                     gears += [(bi, par["ri"][k] * L, bk), (bj, par["rj"][k] * L, bk)]
                 if kind in MACHINE_OUTLINES:
                     self.outlines += MACHINE_OUTLINES[kind](G, k, L, revolutes, ground)
+                face = MACHINE_FACES[kind](G, k, L, self.phi) if kind in MACHINE_FACES else None
+                if face is not None:
+                    self.faces_out.append(face)
         for b, s in zip(cm.point_body, cm.point_s):
             if int(b) != ground:
                 attach[int(b)].append(np.asarray(s) * L)
@@ -811,6 +815,7 @@ class _Scene:
         self.fills = [None] * nb                        # (k, 2) polygon vertices
         self.bars = [None] * nb                         # (2, 2) thick line
         self.dashed = [[] for _ in range(nb)]           # body-fixed dashed polylines
+        self.faces = [[] for _ in range(nb)]            # body-fixed solid lines (flat faces)
         geared = {b for b, _, _ in gears}
         for b, P in enumerate(attach):
             if len(P) == 1:
@@ -844,6 +849,9 @@ class _Scene:
         for b, poly in self.outlines:
             if b != nb:
                 self.dashed[b].append(poly)
+        for b, poly in self.faces_out:
+            if b != nb:
+                self.faces[b].append(poly)
 
     def _slides(self, slides):
         """Slide axes on ground (self.axes, global) and slots on moving bodies (dashed), along
@@ -887,7 +895,7 @@ class _Scene:
         parts = [np.asarray(p, float).reshape(-1, 2) for p in self.axes + self.traces]
         parts += [np.array([p - (size, 1.6 * size), p + (size, 0.0)]) for p in self.pivots]
         for b in range(self.nb):
-            for V in [self.fills[b], self.bars[b]] + self.dashed[b]:
+            for V in [self.fills[b], self.bars[b]] + self.dashed[b] + self.faces[b]:
                 if V is not None:
                     X, Y = self.to_global(b, V)
                     parts.append(np.c_[X.ravel(), Y.ravel()])
@@ -997,6 +1005,10 @@ class _Drawing:
             for poly in scene.dashed[b]:
                 self.parts.append((line(color=c, lw=1.0, ls="--", alpha=alpha,
                                         zorder=zorder + 0.1), b, poly, "line"))
+            for poly in scene.faces[b]:
+                self.parts.append((line(color=c, lw=0.75 * width, alpha=alpha,
+                                        solid_capstyle="butt", zorder=zorder + 0.15), b, poly,
+                                   "line"))
         edge = color if color is not None else "0.15"
         self.links = [line(color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)
                       for _ in scene.links]
@@ -1593,3 +1605,48 @@ def _slot(G, k, L, revolutes, ground):
 
 MACHINE_OUTLINES = {"belt": _belt, "gear-mesh": _discs, "roll-disc": _discs, "rack-pinion": _pinion,
                     "roll-line": _pinion, "cam": _cam, "cam-rocker": _cam, "curve-slot": _slot}
+
+
+def _face(G, k, L, phi):
+    """cam, cam-rocker with flat: true: the follower's flat face, a solid line on it (body
+    frame, user units) over every point of contact of the law's range, with a margin, and the
+    face's own point sj (a corner of the body's outline); None for other followers. The contact point c and the face's point w (the pitch
+    point of the profile) both lie on the face: its position along the face, seen from the
+    cam, is (c - w)^T e for the face's direction e there. phi: the bodies' angles (rad) at the
+    grid times (a translating follower's face direction on its body: the angle between it and
+    the frame its axis is given in, constant)."""
+    from ..elements.cam import instance, profile
+    par = instance(G, k)
+    if not par.get("flat", 0.0) > 0.5:
+        return None
+    bj, bk = int(G.bodies[k, 1]), int(G.bodies[k, 2])
+    lo, hi = par["range"]
+    if not np.isfinite(lo):
+        lo, hi = 0.0, 2 * np.pi
+    th = np.linspace(lo, hi, 361)
+    P = profile(G.kind.name, par, th)
+    dx, dy = P["surface_x"] - P["pitch_x"], P["surface_y"] - P["pitch_y"]   # cam frame
+    ang = lambda b: phi[0, b] if b < phi.shape[1] else 0.0              # noqa: E731 - ground
+    if G.kind.name == "cam-rocker":
+        a = np.asarray(par["sj"], float) - np.asarray(par["pj"], float)
+        f = np.asarray(par["face"], float)
+        f = a / np.hypot(*a) if not np.isfinite(f).all() else f / np.hypot(*f)
+        e = par["rest"] + par["psi"](th)[0] + np.arctan2(f[1], f[0]) - th     # e's angle
+    else:       # the face perpendicular to the travel u: along R u, on j at a fixed angle
+        u = np.asarray(par["vk"], float)
+        rel = ang(bk) - ang(bj)
+        n = np.array([-u[1], u[0]]) / np.hypot(*u)
+        f = np.array([np.cos(rel) * n[0] - np.sin(rel) * n[1],
+                      np.sin(rel) * n[0] + np.cos(rel) * n[1]])
+        e = np.arctan2(n[1], n[0]) - th
+    xi = dx * np.cos(e) + dy * np.sin(e)
+    if not np.isfinite(xi).all():
+        return None
+    a0, a1 = xi.min(), xi.max()
+    pad = 0.15 * (a1 - a0) + 0.05 * np.hypot(*np.c_[P["surface_x"], P["surface_y"]].T).max()
+    a0, a1 = min(a0 - pad, 0.0), max(a1 + pad, 0.0)     # from the face's point on: the body
+    sj = np.asarray(par["sj"], float)
+    return bj, np.array([sj + a0 * f, sj + a1 * f]) * L
+
+
+MACHINE_FACES = {"cam": _face, "cam-rocker": _face}
