@@ -283,3 +283,93 @@ def test_lower_orders_write_what_they_can(fourbar):
         for k in lo:
             if k != "t":
                 assert np.array_equal(lo[k], M[k], equal_nan=True), k
+
+
+# -- jerk (up_to: jerk): every measure's third derivative, a ratio's second -----------------------
+
+def _d6(a, h):
+    """Sixth-order central difference of a column over a uniform grid (rows 3 .. N-4)."""
+    return (a[6:] - 9 * a[5:-1] + 45 * a[4:-2] - 45 * a[2:-4] + 9 * a[1:-5] - a[:-6]) / (60 * h)
+
+
+def _jerk_run(text, name):
+    res = planarkin.solve(planarkin.load(name, text=text), steps=1500, up_to="jerk")
+    assert res.success
+    return res, res.table("measures.csv")
+
+
+def _fourbar_text():
+    text = R.FOURBAR_DEG_YAML.replace('f: "360*t"', f'f: "{WOBBLY_DEG}"')
+    text = text.replace("- {type: revolute, i: coupler, j: rocker",
+                        "- {type: revolute, name: B, i: coupler, j: rocker")
+    text = text.replace("points:\n", "points:" + FOURBAR_MEASURES.split("measures:")[0], 1)
+    return text.replace("analysis:", "measures:" + FOURBAR_MEASURES.split("measures:")[1]
+                        + "analysis:")
+
+
+@pytest.mark.parametrize("which", ["four-bar", "slider-crank"])
+def test_measure_jerks_are_the_derivatives_of_their_exact_accelerations(which):
+    # each .jerk column (and a ratio's .accel) against a sixth-order difference of the exact
+    # column below it over a fine grid: independent of the chain-rule formulas. (The advantage
+    # ma = 1 / vr, the same formula with the measures swapped, is infinite at the rocker's
+    # dead points, where a difference quotient means nothing: vr stands for both.)
+    if which == "four-bar":
+        res, M = _jerk_run(_fourbar_text(), "fb.yaml")
+        names = ["reach", "crank", "rocker", "coupler", "knee", "pinB", "mu"]
+        ratios = ["vr"]
+    else:
+        text = R.slider_crank_yaml("2*pi*t + 0.3*sin(2*pi*t)").replace(
+            "- {type: translational, i: ground", "- {type: translational, name: piston, "
+                                                 "i: ground").replace(
+            "points:\n", "points:" + SLIDER_MEASURES_POINTS, 1).replace(
+            "analysis:", "measures:\n  stroke: {joint: piston}\n"
+                         "  psi: {transmission: [A, B], guide: piston}\n"
+                         "  OB: {distance: [O, B]}\n  crank: {angle: crank}\n"
+                         "  vr: {ratio: [crank, stroke]}\nanalysis:")
+        res, M = _jerk_run(text, "sc.yaml")
+        names = ["stroke", "psi", "OB", "crank"]
+        ratios = ["vr"]
+    h = res.t[1] - res.t[0]
+    for n in names:
+        scale = np.abs(M[n + ".jerk"]).max()
+        assert scale > 0, n
+        # unsigned angles (psi, mu) have a kink where they touch 0: rows whose difference
+        # stencil spans one are left out
+        v = np.abs(M[n])
+        away = np.min([v[k:len(v) - 6 + k] for k in range(7)], axis=0) > 1e-3 * v.max()
+        err = np.abs(M[n + ".jerk"][3:-3] - _d6(M[n + ".accel"], h))[away].max() / scale
+        assert err < 1e-8 and away.mean() > 0.9, (n, err, away.mean())
+    for n in ratios:
+        assert n + ".jerk" not in M
+        a = M[n + ".accel"]
+        err = np.abs(a[3:-3] - _d6(M[n + ".rate"], h)).max() / np.abs(a).max()
+        assert err < 1e-8, (n, err)
+
+
+def test_measure_jerks_against_closed_forms():
+    # the crank: theta''' of theta = 2 pi t + 0.3 sin 2 pi t; the rocker and the knee: the
+    # body jerks (checked against closed forms in test_jerk.py); a ratio's acceleration from the
+    # closed-form rocker derivatives
+    res, M = _jerk_run(_fourbar_text(), "fb.yaml")
+    w = 2 * np.pi
+    _close(M["crank.jerk"], np.degrees(-0.3 * w ** 3 * np.cos(w * res.t)))
+    rocker, coupler = res.body("rocker"), res.body("coupler")
+    _close(M["rocker.jerk"], rocker["jphi"])
+    _close(M["knee.jerk"], rocker["jphi"] - coupler["jphi"])
+    th, thd, thdd = R.wobbly(res.t)
+    th3 = -0.3 * w ** 3 * np.cos(w * res.t)
+    w4, al4, j4 = (np.radians(rocker[k]) for k in ("omega", "alpha", "jphi"))
+    n1 = al4 * thd - w4 * thdd
+    _close(M["vr.accel"], (j4 * thd - w4 * th3) / thd ** 2 - 2 * n1 * thdd / thd ** 3)
+    assert "ma.accel" in M and "ma.jerk" not in M
+
+
+def test_measures_csv_names_the_jerk_columns(tmp_path):
+    res = planarkin.solve(planarkin.load("fb.yaml", text=_fourbar_text()), steps=60,
+                          up_to="jerk")
+    res.write(tmp_path / "out", plots=None)
+    csv = next((tmp_path / "out").rglob("measures.csv"))
+    header = csv.read_text().splitlines()[0].split(",")
+    assert "reach.jerk [m/s^3]" in header and "mu.jerk [deg/s^3]" in header
+    assert "vr.accel [1/s^2]" in header and not any(h.startswith("vr.jerk") for h in header)
+    assert header.index("reach.jerk [m/s^3]") == header.index("reach.accel [m/s^2]") + 1

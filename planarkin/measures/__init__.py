@@ -18,10 +18,12 @@ body or link names or ground, joints are joint names; a sketch's revolutes are n
     ma:      {advantage: [crank, rocker]}  ideal mechanical advantage crank' / rocker'
 
 Every value comes with .rate and .accel (d/dt, d2/dt2) from the exact q, q', q'' by the chain
-rule -- no finite differences; a ratio or an advantage has only .rate (its second derivative
-would need the jerk). Written to measures.csv (``t [s]``, then ``<name> [unit]``,
-``<name>.rate [unit/s]``, ``<name>.accel [unit/s^2]``), plotted in measures.png, and summarised
-(limit positions, stroke, time ratio) in summary.json under ``cycle``.
+rule -- no finite differences -- and with up_to: jerk with .jerk (d3/dt3) from the jerks too;
+a ratio or an advantage has .rate, and .accel only with the jerks (its second derivative needs
+the measures' third). Written to measures.csv (``t [s]``, then ``<name> [unit]``,
+``<name>.rate [unit/s]``, ``<name>.accel [unit/s^2]``, ``<name>.jerk [unit/s^3]``), plotted in
+measures.png, and summarised (limit positions, stroke, time ratio) in summary.json under
+``cycle``.
 """
 
 from __future__ import annotations
@@ -163,13 +165,17 @@ def read_measures(v, node, points: list[str], joints: dict) -> tuple[MeasureSpec
 # -- exact kinematics --------------------------------------------------------------------------
 
 def _body(ch, cm, b, s=(0.0, 0.0)):
-    """Position, velocity, acceleration (N, 2) of body-fixed point s (internal length units / L
-    scaled back to user units) of body b (index; nb = ground); phi, omega, alpha in radians."""
+    """Position, velocity, acceleration and jerk (N, 2) of body-fixed point s (internal length
+    units / L scaled back to user units) of body b (index; nb = ground), then phi, omega, alpha
+    and the angle's jerk in radians; the two jerks None without ch.qddd (the point's:
+    r''' + phi''' R s - 3 omega alpha s - omega^3 R s, with s turned to the global frame)."""
     N = len(ch.t)
+    jerk = ch.qddd is not None
     if b == cm.nb:
         z = np.zeros((N, 2))
         p = z + np.asarray(s) * cm.L
-        return p, z, z.copy(), np.zeros(N), np.zeros(N), np.zeros(N)
+        return (p, z, z.copy(), z.copy() if jerk else None, np.zeros(N), np.zeros(N),
+                np.zeros(N), np.zeros(N) if jerk else None)
     af = cm.angle_factor
     phi = ch.q[:, 3 * b + 2] * af
     w = ch.qd[:, 3 * b + 2] * af
@@ -181,12 +187,23 @@ def _body(ch, cm, b, s=(0.0, 0.0)):
     v = np.stack([ch.qd[:, 3 * b] - w * gy, ch.qd[:, 3 * b + 1] + w * gx], axis=1)
     a = np.stack([ch.qdd[:, 3 * b] - al * gy - w * w * gx,
                   ch.qdd[:, 3 * b + 1] + al * gx - w * w * gy], axis=1)
-    return p, v, a, phi, w, al
+    if not jerk:
+        return p, v, a, None, phi, w, al, None
+    je = ch.qddd[:, 3 * b + 2] * af
+    w3, wa = w * w * w, 3.0 * w * al
+    j = np.stack([ch.qddd[:, 3 * b] - je * gy - wa * gx + w3 * gy,
+                  ch.qddd[:, 3 * b + 1] + je * gx - wa * gy - w3 * gx], axis=1)
+    return p, v, a, j, phi, w, al, je
 
 
 def _point(ch, cm, name):
     k = cm.point_names.index(name)
-    return _body(ch, cm, int(cm.point_body[k]), cm.point_s[k])[:3]
+    return _body(ch, cm, int(cm.point_body[k]), cm.point_s[k])[:4]
+
+
+def _diff(P, Q):
+    """Q - P of (position, velocity, acceleration, jerk) tuples (a jerk None: None)."""
+    return tuple(None if p is None or q is None else q - p for p, q in zip(P, Q))
 
 
 def _cross(a, b):
@@ -197,41 +214,57 @@ def _dot(a, b):
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]
 
 
-def _atan2(c, c1, c2, d, d1, d2):
-    """theta = atan2(c, d) and its exact first and second derivatives from those of c and d."""
+def _atan2(c, c1, c2, d, d1, d2, c3=None, d3=None):
+    """theta = atan2(c, d) and its exact first, second and (given c3, d3) third derivatives
+    from those of c and d (the third None without them)."""
     r2 = c * c + d * d
     num = d * c1 - c * d1                       # d/dt of atan2: (d c' - c d') / r2
     th1 = num / r2
     num1 = d * c2 - c * d2                      # (d c' - c d')' = d c'' - c d''
     r21 = 2 * (c * c1 + d * d1)
     th2 = num1 / r2 - num * r21 / (r2 * r2)
-    return np.arctan2(c, d), th1, th2
+    th3 = None
+    if c3 is not None and d3 is not None:
+        num2 = d1 * c2 + d * c3 - c1 * d2 - c * d3              # (d c'' - c d'')'
+        r22 = 2 * (c1 * c1 + c * c2 + d1 * d1 + d * d2)         # (r^2)''
+        th3 = (num2 / r2 - 2 * num1 * r21 / (r2 * r2) - num * r22 / (r2 * r2)
+               + 2 * num * r21 * r21 / (r2 * r2 * r2))
+    return np.arctan2(c, d), th1, th2, th3
 
 
-def _vector_angle(u, u1, u2):
-    """Angle of the vector u(t) (N, 2) with derivatives."""
-    return _atan2(u[:, 1], u1[:, 1], u2[:, 1], u[:, 0], u1[:, 0], u2[:, 0])
+def _vector_angle(u, u1, u2, u3=None):
+    """Angle of the vector u(t) (N, 2) with derivatives (the third given u3)."""
+    return _atan2(u[:, 1], u1[:, 1], u2[:, 1], u[:, 0], u1[:, 0], u2[:, 0],
+                  None if u3 is None else u3[:, 1], None if u3 is None else u3[:, 0])
 
 
-def _angle_between(u, u1, u2, w, w1, w2, acute=False):
-    """Unsigned angle between vectors u and w in [0, pi] (acute: between lines, [0, pi/2])."""
+def _angle_between(u, u1, u2, u3, w, w1, w2, w3, acute=False):
+    """Unsigned angle between vectors u and w in [0, pi] (acute: between lines, [0, pi/2]);
+    u3, w3 the vectors' third derivatives or None."""
     c = _cross(u, w)
     c1 = _cross(u1, w) + _cross(u, w1)
     c2 = _cross(u2, w) + 2 * _cross(u1, w1) + _cross(u, w2)
     d = _dot(u, w)
     d1 = _dot(u1, w) + _dot(u, w1)
     d2 = _dot(u2, w) + 2 * _dot(u1, w1) + _dot(u, w2)
+    c3 = d3 = None
+    if u3 is not None and w3 is not None:
+        c3 = _cross(u3, w) + 3 * _cross(u2, w1) + 3 * _cross(u1, w2) + _cross(u, w3)
+        d3 = _dot(u3, w) + 3 * _dot(u2, w1) + 3 * _dot(u1, w2) + _dot(u, w3)
     sc = np.where(c < 0, -1.0, 1.0)
     sd = np.where(d < 0, -1.0, 1.0) if acute else 1.0
-    return _atan2(sc * c, sc * c1, sc * c2, sd * d, sd * d1, sd * d2)
+    return _atan2(sc * c, sc * c1, sc * c2, sd * d, sd * d1, sd * d2,
+                  None if c3 is None else sc * c3, None if d3 is None else sd * d3)
 
 
 def _distance(P, Q):
-    r, r1, r2 = (Q[k] - P[k] for k in range(3))
+    r, r1, r2, r3 = _diff(P, Q)
     d = np.hypot(r[:, 0], r[:, 1])
     d1 = _dot(r, r1) / d
     d2 = (_dot(r1, r1) + _dot(r, r2) - d1 * d1) / d
-    return d, d1, d2
+    # d d'' = r'.r' + r.r'' - d'^2 differentiated: d' d'' + d d''' = 3 r'.r'' + r.r''' - 2 d' d''
+    d3 = None if r3 is None else (3 * _dot(r1, r2) + _dot(r, r3) - 3 * d1 * d2) / d
+    return d, d1, d2, d3
 
 
 def _slide(ch, cm, el_index):
@@ -240,26 +273,27 @@ def _slide(ch, cm, el_index):
     bi, bj = (int(x) for x in g.bodies[k, :2])
     Pi = _body(ch, cm, bi, g.params["si"][k])
     Pj = _body(ch, cm, bj, g.params["sj"][k])
-    vi = g.params["vi"][k]
-    phi, w, al = Pi[3], Pi[4], Pi[5]
+    u, u1, u2, u3 = _axis(g.params["vi"][k], *Pi[4:])
+    h, h1, h2, h3 = _diff(Pi[:4], Pj[:4])
+    third = None if u3 is None or h3 is None else \
+        _dot(u3, h) + 3 * _dot(u2, h1) + 3 * _dot(u1, h2) + _dot(u, h3)
+    return (_dot(u, h), _dot(u1, h) + _dot(u, h1), _dot(u2, h) + 2 * _dot(u1, h1) + _dot(u, h2),
+            third)
+
+
+def _axis(vi, phi, w, al, je):
+    """The direction u = A(phi) vi (N, 2) on a body turning by phi, and its derivatives u' =
+    w R u, u'' = al R u - w^2 u, u''' = (je - w^3) R u - 3 w al u (None without je)."""
     c, s = np.cos(phi), np.sin(phi)
     u = np.stack([c * vi[0] - s * vi[1], s * vi[0] + c * vi[1]], axis=1)
     Ru = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    u1 = w[:, None] * Ru
-    u2 = al[:, None] * Ru - (w * w)[:, None] * u
-    h, h1, h2 = (Pj[m] - Pi[m] for m in range(3))
-    return _dot(u, h), _dot(u1, h) + _dot(u, h1), _dot(u2, h) + 2 * _dot(u1, h1) + _dot(u, h2)
+    u3 = None if je is None else (je - w * w * w)[:, None] * Ru - (3.0 * w * al)[:, None] * u
+    return u, w[:, None] * Ru, al[:, None] * Ru - (w * w)[:, None] * u, u3
 
 
 def _guide_axis(ch, cm, el_index):
     g, k = _group_of(cm, el_index)
-    bi = int(g.bodies[k, 0])
-    vi = g.params["vi"][k]
-    _, _, _, phi, w, al = _body(ch, cm, bi)
-    c, s = np.cos(phi), np.sin(phi)
-    u = np.stack([c * vi[0] - s * vi[1], s * vi[0] + c * vi[1]], axis=1)
-    Ru = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    return u, w[:, None] * Ru, al[:, None] * Ru - (w * w)[:, None] * u
+    return _axis(g.params["vi"][k], *_body(ch, cm, int(g.bodies[k, 0]))[4:])
 
 
 def _group_of(cm, el_index):
@@ -279,52 +313,59 @@ def _body_index(cm, name):
 
 
 def evaluate(cm, ch, m: MeasureSpec, done: dict):
-    """(value, rate, accel) arrays (N,) of measure m in user units; accel None for ratios."""
+    """(value, rate, accel, jerk) arrays (N,) of measure m in user units; the jerk None without
+    ch.qddd; a ratio's accel None without it too, its jerk always None."""
     af = cm.angle_factor
     deg = 1.0 / af                          # radians -> user angle unit
+    levels = (ch.q, ch.qd, ch.qdd, ch.qddd)
+
+    def angle(b):
+        """Body b's angle and its derivatives (ground: 0)."""
+        return tuple(None if X is None else np.zeros(len(ch.t)) if b == cm.nb
+                     else X[:, 3 * b + 2] for X in levels)
+
+    def relative(i, j):
+        return _diff(angle(i), angle(j))
+
+    def scaled(th):
+        return tuple(None if x is None else x * deg for x in th)
+
     if m.kind == "distance":
         return _distance(_point(ch, cm, m.refs[0]), _point(ch, cm, m.refs[1]))
     if m.kind == "angle" and len(m.refs) == 1:
-        b = _body_index(cm, m.refs[0])
-        if b == cm.nb:
-            z = np.zeros(len(ch.t))
-            return z, z, z
-        return ch.q[:, 3 * b + 2], ch.qd[:, 3 * b + 2], ch.qdd[:, 3 * b + 2]
+        return angle(_body_index(cm, m.refs[0]))
     if m.kind == "angle":
-        P, Q = _point(ch, cm, m.refs[0]), _point(ch, cm, m.refs[1])
-        th = _vector_angle(*(Q[k] - P[k] for k in range(3)))
-        return tuple(x * deg for x in th)
+        return scaled(_vector_angle(*_diff(_point(ch, cm, m.refs[0]),
+                                           _point(ch, cm, m.refs[1]))))
     if m.kind == "between":
-        a, b = (_body_index(cm, r) for r in m.refs)
-        col = lambda X, k: np.zeros(len(ch.t)) if k == cm.nb else X[:, 3 * k + 2]
-        return tuple(col(X, b) - col(X, a) for X in (ch.q, ch.qd, ch.qdd))
+        return relative(*(_body_index(cm, r) for r in m.refs))
     if m.kind == "joint":
         idx = next(k for k, el in enumerate(cm.spec.elements)
                    if el.role == "joint" and el.name == m.refs[0])
         el = cm.spec.elements[idx]
         if el.kind == "revolute":
-            i, j = (_body_index(cm, b) for b in el.bodies)
-            col = lambda X, k: np.zeros(len(ch.t)) if k == cm.nb else X[:, 3 * k + 2]
-            return tuple(col(X, j) - col(X, i) for X in (ch.q, ch.qd, ch.qdd))
+            return relative(*(_body_index(cm, b) for b in el.bodies))
         return _slide(ch, cm, idx)
     if m.kind == "transmission":
-        B, C = _point(ch, cm, m.refs[0]), _point(ch, cm, m.refs[1])
-        u = tuple(B[k] - C[k] for k in range(3))
+        C = _point(ch, cm, m.refs[1])
+        u = _diff(C, _point(ch, cm, m.refs[0]))
         if m.guide is not None:
             idx = next(k for k, el in enumerate(cm.spec.elements)
                        if el.role == "joint" and el.name == m.guide)
-            g = _guide_axis(ch, cm, idx)
-            return tuple(x * deg for x in _angle_between(*u, *g, acute=True))
-        D = _point(ch, cm, m.refs[2])
-        w = tuple(D[k] - C[k] for k in range(3))
-        return tuple(x * deg for x in _angle_between(*u, *w))
+            return scaled(_angle_between(*u, *_guide_axis(ch, cm, idx), acute=True))
+        return scaled(_angle_between(*u, *_diff(C, _point(ch, cm, m.refs[2]))))
     a, b = done[m.refs[0]], done[m.refs[1]]
     if m.kind == "advantage":
         a, b = b, a
     with np.errstate(divide="ignore", invalid="ignore"):
         r = b[1] / a[1]
-        r1 = (b[2] * a[1] - b[1] * a[2]) / (a[1] * a[1])
-    return r, r1, None
+        n1 = b[2] * a[1] - b[1] * a[2]      # (b'/a')' = (b'' a' - b' a'') / a'^2
+        r1 = n1 / (a[1] * a[1])
+        r2 = None
+        if a[3] is not None and b[3] is not None:       # (n1 / a'^2)', n1' = b''' a' - b' a'''
+            r2 = (b[3] * a[1] - b[1] * a[3]) / (a[1] * a[1]) \
+                - 2 * n1 * a[2] / (a[1] * a[1] * a[1])
+    return r, r1, r2, None
 
 
 def unit_of(cm, m: MeasureSpec, units: dict) -> str:
@@ -343,12 +384,12 @@ def unit_of(cm, m: MeasureSpec, units: dict) -> str:
 
 
 def _orders(m: MeasureSpec, order: int) -> tuple[int, ...]:
-    """The derivative orders of m that can be written with q up to `order` (a ratio of rates
-    needs q' for its value and q'' for its rate, and has no acceleration). Measures stop at the
-    acceleration: up_to: jerk adds jerk columns to bodies and points only."""
-    order = min(order, 2)
+    """The derivative orders of m that can be written with q up to `order` (3: the jerk; a
+    ratio of rates needs q' for its value, q'' for its rate and the jerk for its acceleration,
+    and has no jerk column)."""
+    order = min(order, 3)
     if m.kind in ("ratio", "advantage"):
-        return tuple(k for k in (0, 1) if k + 1 <= order)
+        return tuple(k for k in (0, 1, 2) if k + 1 <= order)
     return tuple(range(order + 1))
 
 
@@ -358,8 +399,8 @@ def columns(cm, measures, order: int = 2) -> list[tuple[str, str, int, int]]:
     out = []
     for k, m in enumerate(measures):
         u = units[m.name] = unit_of(cm, m, units)
-        suffix = ("", ".rate", ".accel")
-        per = ("", "/s", "/s^2")
+        suffix = ("", ".rate", ".accel", ".jerk")
+        per = ("", "/s", "/s^2", "/s^3")
         for d in _orders(m, order):
             unit = (u + per[d]) if u != "-" or d == 0 else ("1" + per[d])
             out.append((m.name + suffix[d], unit, d, k))
