@@ -64,3 +64,37 @@ def test_run_jobs_writes_the_same_directories(tmp_path):
         r = run_cli("compare", tmp_path / "1" / m, tmp_path / "2" / m, "--rtol", "0", "--atol",
                     "0")
         assert r.returncode == 0, r.stdout
+
+
+_WORKER = r"""
+import os, signal
+from planarkin.__main__ import _quiet_exit
+for s in (signal.SIGINT, signal.SIGTERM):      # as the command's start-up installs them
+    signal.signal(s, _quiet_exit)
+from planarkin.studies import execute
+codes = []
+for sig in (signal.SIGTERM, signal.SIGINT):
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:                                # a study worker: the pool's initializer
+        execute._init(None)
+        os.write(w, b"x")
+        while True:
+            signal.pause()
+    os.read(r, 1)
+    os.kill(pid, sig)
+    codes.append(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))
+print("exit codes", codes)
+"""
+
+
+def test_study_workers_end_quietly_on_the_pools_terminate_and_on_ctrl_c():
+    # the pool's terminate() at the end of every --jobs study sends its workers SIGTERM, and a
+    # Ctrl-C reaches them all; they used to inherit the command's start-up handler and print
+    # "interrupted while starting: nothing was written" beside a finished sweep (3 of 8 runs)
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", _WORKER], capture_output=True, text=True,
+                       timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == "exit codes [143, 130]\n" and r.stderr == "", (r.stdout, r.stderr)

@@ -24,6 +24,17 @@ def cores() -> int:
 def _init(study) -> None:
     global _STUDY
     _STUDY = study
+    # a worker forked from the command inherits its start-up handlers, which print
+    # "interrupted while starting" (planarkin/__main__.py): the pool's terminate() at the end
+    # of every study sends SIGTERM, and a Ctrl-C reaches the whole process group, so a worker
+    # ends quietly on either (the parent reports the interruption once)
+    import signal
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, _quiet)
+
+
+def _quiet(signum, frame):
+    os._exit(128 + signum)
 
 
 def _unit(unit):
