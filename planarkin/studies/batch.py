@@ -14,7 +14,9 @@ repeated parameter step by the cubic (quadratic, secant) through the previous so
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
 equal substeps. The solve is the compiled kernel's pk_rows where it covers the system
 (planarkin.kernel: each row a point with its variant's element parameters, Newton to its own
-convergence block by block, the acceptance tests below in the same pass), else, and as the
+convergence block by block, the acceptance tests below and the cubic prediction in the same
+pass; or pk_gen, the same written out for the system's structure, planarkin.kernelgen, the same
+bits in less time), else, and as the
 reference (PLANARKIN_KERNEL=0), one Newton pass over the whole system for all variants x grid
 times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
 accepted only if every grid
