@@ -70,6 +70,8 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     bfirst, bnf, bfo, bfs = P.fine
     nblk, nfine, n = P.nblk, P.nfine, W - 3
     keep = keep_blocks(P)
+    blocks = [(int(bk[b]), [int(c) for c in bcols[boff[b]:boff[b] + bk[b]]],
+               [int(r) for r in brows[boff[b]:boff[b] + bk[b]]]) for b in range(nblk)]
     L: list[str] = []
     emit = L.append
 
@@ -77,6 +79,11 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
         e = int(rowel[row])
         return (f"row_eval({int(ekind[e])}, {int(ebi[e])}, {int(ebj[e])}, ep + {8 * e}, "
                 f"{int(roweq[row])}, q, C, S, {qd}, {want}, {g}, {gr}, {gam});")
+
+    def accumulate(x, M, kb, a):
+        """x += row a of the block's inverse M (kb x kb) times r, in column order."""
+        for k in range(kb):
+            emit(f"        {x} += {M}[{a * kb + k}] * r[{k}];")
 
     def matrix(b, kb, rows, J, gr):
         """J from the rows' gradients, as block_matrix (of a repeated position the last)."""
@@ -127,10 +134,7 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
              f"else {{ C[{b}] = cos(q[{3 * b + 2}]); S[{b}] = sin(q[{3 * b + 2}]); }}")
     emit(f"        C[{nb}] = 1.0; S[{nb}] = 0.0;")
     # positions: block by block, Newton to this point's convergence
-    for b in range(nblk):
-        kb = int(bk[b])
-        cols = [int(c) for c in bcols[boff[b]:boff[b] + kb]]
-        rows = [int(r) for r in brows[boff[b]:boff[b] + kb]]
+    for b, (kb, cols, rows) in enumerate(blocks):
         gr, Mi = f"gr{b}", f"M{b}"
         emit(f"        {{   /* block {b}: columns {cols}, rows {rows} */")
         emit(f"        double r[{kb}], J[{kb * kb}], sz = INFINITY, sg, s0;")
@@ -184,8 +188,7 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
         emit("        sz = 0.0;")
         for a, c in enumerate(cols):
             emit("        { double dx = 0.0, ad;")
-            for k in range(kb):
-                emit(f"        dx += {Mi}[{a * kb + k}] * r[{k}];")
+            accumulate("dx", Mi, kb, a)
             emit(f"        q[{c}] -= dx;")
             emit("        ad = fabs(dx);")
             emit("        if (ad > sz || ad != ad) sz = ad;")
@@ -211,10 +214,7 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     # velocities, accelerations: forward substitution through the blocks
     emit(f"        for (a = 0; a < {W}; a++) {{ qd[a] = 0.0; qdd[a] = 0.0; }}")
     for lev, X in ((1, "qd"), (2, "qdd")):
-        for b in range(nblk):
-            kb = int(bk[b])
-            cols = [int(c) for c in bcols[boff[b]:boff[b] + kb]]
-            rows = [int(r) for r in brows[boff[b]:boff[b] + kb]]
+        for b, (kb, cols, rows) in enumerate(blocks):
             gr, M = f"gr{b}", f"M{b}"
             emit(f"        {{   /* block {b}, {'velocities' if lev == 1 else 'accelerations'} */")
             emit(f"        double r[{kb}], acc;")
@@ -245,8 +245,7 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
                 emit(f"        r[{rp}] = acc;")
             for a, c in enumerate(cols):
                 emit("        { double x = 0.0;")
-                for k in range(kb):
-                    emit(f"        x += {M}[{a * kb + k}] * r[{k}];")
+                accumulate("x", M, kb, a)
                 emit(f"        {X}[{c}] = x; }}")
             emit("        }")
     emit(f"        for (a = 0; a < {W}; a++) {{ Qi[a] = q[a]; Qdi[a] = qd[a]; Qddi[a] = qdd[a]; }}")

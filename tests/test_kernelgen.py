@@ -12,6 +12,7 @@ import pytest
 import planarkin
 from planarkin import kernel, kernelgen
 from reference_models import WHITWORTH_PINSLOT_YAML
+from test_forces import SLIDE_DRIVEN          # slide driver, translational joint
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "mechanisms")
 
@@ -29,23 +30,6 @@ drivers:
   - {type: angle, body: a, f: "0.2 + 0.1*t"}
   - {type: angle, i: a, j: b, f: "-0.5 + 0.3*t"}
 analysis: {start: 0, end: 1, steps: 24}
-"""
-
-SLIDE_DRIVEN = """
-name: slide-driven
-parameters: {a: 0.1, b: 0.3}
-bodies:
-  crank:  {q: [0, 0, 0.9]}
-  rod:    {q: [0.06, 0.08, -0.27]}
-  slider: {q: [0.35, 0, 0]}
-joints:
-  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
-  - {type: revolute, i: crank, j: rod, si: [a, 0], sj: [0, 0]}
-  - {type: revolute, i: rod, j: slider, si: [b, 0], sj: [0, 0]}
-  - {type: translational, i: ground, j: slider, si: [0, 0], sj: [0, 0], vi: [1, 0], vj: [1, 0]}
-drivers:
-  - {type: slide, i: ground, j: slider, si: [0, 0], vi: [1, 0], f: "0.32 + 0.02*sin(2*pi*t)"}
-analysis: {start: 0, end: 1, steps: 60}
 """
 
 
