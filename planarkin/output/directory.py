@@ -73,7 +73,24 @@ def _on_signal(signum, frame):
     if _held:
         _pending = signum
         return
+    if _in_finalizer(frame):
+        # an exception raised inside a __del__ (the garbage collector ran one, e.g. of a
+        # multiprocessing connection, when the signal came) is printed as "Exception ignored"
+        # with its traceback and dropped, and the run would go on: the signal is sent again
+        # once the finalizer has returned
+        import threading
+        threading.Timer(0.005, os.kill, (os.getpid(), signum)).start()
+        return
     _raise_for(signum)
+
+
+def _in_finalizer(frame) -> bool:
+    """Whether frame runs inside a __del__ method."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 @contextlib.contextmanager
