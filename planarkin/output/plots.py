@@ -1610,11 +1610,12 @@ MACHINE_OUTLINES = {"belt": _belt, "gear-mesh": _discs, "roll-disc": _discs, "ra
 def _face(G, k, L, phi):
     """cam, cam-rocker with flat: true: the follower's flat face, a solid line on it (body
     frame, user units) over every point of contact of the law's range, with a margin, and the
-    face's own point sj (a corner of the body's outline); None for other followers. The contact point c and the face's point w (the pitch
-    point of the profile) both lie on the face: its position along the face, seen from the
-    cam, is (c - w)^T e for the face's direction e there. phi: the bodies' angles (rad) at the
-    grid times (a translating follower's face direction on its body: the angle between it and
-    the frame its axis is given in, constant)."""
+    face's own point sj (a corner of the body's outline); None for other followers. The
+    contact point c and the face's point w (the pitch point of the profile) both lie on the
+    face: its position along the face, seen from the cam, is (c - w)^T e for the face's
+    direction e there. phi: the bodies' angles (rad) at the grid times (a translating
+    follower's face direction on its body: the angle between it and the frame its axis is
+    given in, constant)."""
     from ..elements.cam import instance, profile
     par = instance(G, k)
     if not par.get("flat", 0.0) > 0.5:
