@@ -148,6 +148,10 @@ INLINE void row_eval(int kind, int bi, int bj, const double *p, int eq, const do
                                  + nx * kx + ny * ky;
         }
         return; }
+    default:  /* (pack admits no other kind: every output is written on every path) */
+        if (want & 1) *g = NAN;
+        if (want & 4) *gam = NAN;
+        return;
     }
 }
 
@@ -347,11 +351,11 @@ INLINE void rates(int kb, const Row *rw, const int32_t *cols, int nj, const int 
     }
     if (kb == 2) solve2(J, r, cols, qd);
     else apply(kb, Mi, r, cols, qd);
-    if (have)        /* the residuals, and gamma at the same time (the same terms) */
+    if (have)        /* the residuals, and gamma at the same time (the same terms; unused
+                        below order 2) */
         for (rp = 0; rp < kb; rp++) {
             const Row *w = rw + rp;
-            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, order >= 2 ? 5 : 1, &g,
-                     0, gm + rp);
+            row_eval(w->kind, w->bi, w->bj, w->p, w->eq, q, c, s, qd, 5, &g, 0, gm + rp);
             Ri[w->row] = fabs(g - t[w->row]);
         }
     if (order < 2) return;

@@ -102,6 +102,7 @@ def source(P: kernel.Packed, W: int, m: int, nb: int) -> str:
     emit(f"    double jerk[{max(n, 1)}];")
     emit("    int jerk_ok = 0, i, it, k, a;")
     emit("    (void)it; (void)a;")
+    emit("    if (maxit < 1) maxit = 1;     /* (solve_rows refuses fewer: one iteration at least) */")
     emit("    for (i = 0; i < N; i++) {")
     emit(f"        double q[{W}], qd[{W}], qdd[{W}], C[{nb + 1}], S[{nb + 1}], g_, gam_;")
     for b in range(nblk):

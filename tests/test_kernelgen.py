@@ -250,3 +250,25 @@ def test_a_large_study_compiles_it_and_its_outcomes_are_pk_rows_bits(compiled, t
     small, gen, files = outcomes(len(vs) * 181 + 1, tmp_path / "b")
     assert gen is None and files == []
     assert [o.status for o in big] == ["ok"] * len(vs) and repr(big) == repr(small)
+
+
+def test_the_kernels_compile_without_warnings(compiled, tmp_path):
+    # -Wall -Wextra at -O2 (where gcc's maybe-uninitialized analysis runs), the generated
+    # source of a system with 1 x 1, 2 x 2 and 4 x 4 blocks included
+    import shutil
+    import subprocess
+    cc = os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        pytest.skip("no C compiler")
+    sources = [("kernel.c", kernel.SOURCE)]
+    for model in ("four-bar.yaml", "klann-leg.yaml"):
+        S, _, _ = _system(model)
+        sources.append((model + ".c", kernel.HELPERS + kernelgen.source(
+            kernel.pack(S), S.cm.n + 3, S.cm.m, S.nb)))
+    for name, src in sources:
+        path = tmp_path / name
+        path.write_text(src)
+        r = subprocess.run([cc, *kernel.CFLAGS, "-Wall", "-Wextra", "-Wno-unused-function",
+                            "-fPIC", "-c", "-o", str(path.with_suffix(".o")), str(path)],
+                           capture_output=True, text=True)
+        assert r.returncode == 0 and "warning" not in r.stderr, (name, r.stderr[-2000:])
