@@ -2,6 +2,7 @@
 
 import csv
 import math
+import os
 
 import numpy as np
 import pytest
@@ -153,3 +154,33 @@ def test_sweep_csv_cells_are_the_tables_shortest_round_trip_text():
     for v in vals:
         assert _cell(v) == format_value(float(v)), v
     assert _cell(float("nan")) == "" and _cell(7) == "7" and _cell('a "b", c') == '"a ""b"", c"'
+
+
+def test_a_sweeps_files_are_replaced_all_or_none(tmp_path, monkeypatch):
+    # the files of a study command go into place together: a rerun without plots removes the
+    # earlier run's plot (it described another sweep); an error while writing leaves the
+    # earlier files as they were; no temporary is left either way, and a killed run's
+    # temporaries are removed by the next run
+    from planarkin.studies import sweep as sweepmod
+    study = Study("mechanisms/four-bar.yaml", analysis={"steps": 24}, metrics=["max:rocker.phi"])
+    run_sweep(study, [Range("a", 0.035, 0.045, 3)], tmp_path, plots="png")
+    assert (tmp_path / "sweep.png").exists()
+    run_sweep(study, [Range("b", 0.115, 0.125, 2)], tmp_path, plots=None)
+    assert not (tmp_path / "sweep.png").exists()
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert "sweep.csv" in before and not any(n.startswith(".") for n in before)
+
+    def broken(path, *a):
+        path.write_bytes(b"half")
+        raise OSError("disk full")
+    monkeypatch.setattr(sweepmod, "write_parquet", broken)
+    with pytest.raises(OSError, match="disk full"):
+        run_sweep(study, [Range("a", 0.03, 0.05, 4)], tmp_path, plots=None)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    monkeypatch.undo()
+    dead = tmp_path / ".tmp-999999999-sweep.csv"       # no such process
+    alive = tmp_path / f".tmp-{os.getppid()}-sweep.csv"  # another run still writing
+    dead.write_text("x")
+    alive.write_text("x")
+    run_sweep(study, [Range("a", 0.03, 0.05, 2)], tmp_path, plots=None)
+    assert not dead.exists() and alive.exists()

@@ -10,6 +10,7 @@ and returns its outcomes, collected in variant order.
 from __future__ import annotations
 
 import os
+import sys
 
 _STUDY = None       # the worker process's Study (set once by the Pool initializer)
 
@@ -21,7 +22,7 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def _init(study) -> None:
+def _init(study, parent: int | None = None) -> None:
     global _STUDY
     _STUDY = study
     # a worker forked from the command inherits its start-up handlers, which print
@@ -31,6 +32,17 @@ def _init(study) -> None:
     import signal
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, _quiet)
+    # and it dies with the parent: a SIGTERM to the parent alone ends it at once, and a worker
+    # left running would finish its unit and print a BrokenPipeError traceback for each
+    # result it could no longer send (Linux: PR_SET_PDEATHSIG; elsewhere it ends at the pipe)
+    if parent is not None and sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+        if os.getppid() != parent:          # the parent died before prctl took effect
+            os._exit(0)
 
 
 def _quiet(signum, frame):
@@ -64,7 +76,8 @@ def run_processes(study, variants, jobs: int):
         return study.run(variants)
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     out = []
-    with ctx.Pool(min(jobs, len(parts)), initializer=_init, initargs=(study,)) as pool:
+    with ctx.Pool(min(jobs, len(parts)), initializer=_init,
+                  initargs=(study, os.getpid())) as pool:
         for res in pool.imap(_unit, parts):        # in order, as they arrive
             out += res
     return out

@@ -10,8 +10,10 @@ seeded with S, so the same seed gives the same variants bit for bit).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,6 +114,52 @@ def write_csv(path: Path, head: list[str], table: list[list]) -> None:
             f.write(",".join(_cell(x) for x in row) + "\n")
 
 
+PLOT_FORMATS = ("png", "svg", "pdf")
+
+
+@contextlib.contextmanager
+def staged(outdir: Path, family: tuple[str, ...]):
+    """A study command's files in outdir (a directory it may share with `planarkin run`'s
+    results), all or none: stage(name) gives the temporary path to write name to; at the end
+    all are renamed into place together, signals held, and the family's files this run did
+    not write (the plot of an earlier run, now run with --no-plots; sweep.parquet without a
+    Parquet library) are removed. An error or interruption before that leaves the earlier
+    files as they were; temporaries of a killed run are removed by the next."""
+    from ..output.directory import held_signals
+    outdir.mkdir(parents=True, exist_ok=True)
+    for old in outdir.glob(".tmp-*-*"):
+        m = re.match(r"\.tmp-(\d+)-(.+)$", old.name)
+        if m and m.group(2) in family and not _alive(int(m.group(1))):
+            old.unlink(missing_ok=True)
+    tmp: dict[str, Path] = {}
+
+    def stage(name: str) -> Path:
+        tmp[name] = outdir / f".tmp-{os.getpid()}-{name}"   # (the suffix stays the format)
+        return tmp[name]
+
+    try:
+        yield stage
+        with held_signals():
+            for name, path in tmp.items():
+                os.replace(path, outdir / name)
+            for name in family:
+                if name not in tmp:
+                    (outdir / name).unlink(missing_ok=True)
+    finally:
+        for path in tmp.values():
+            path.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return pid != os.getpid()
+
+
 def write_parquet(path: Path, head: list[str], table: list[list]) -> str | None:
     """sweep.parquet through pyarrow or polars when one is importable; returns the library used
     or None."""
@@ -153,19 +201,21 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     names = [r.name for r in ranges]
     head = header(study, names)
     table = rows(study, variants, outcomes)
-    outdir.mkdir(parents=True, exist_ok=True)
     files = [outdir / "sweep.csv"]
-    write_csv(files[0], head, table)
-    if write_parquet(outdir / "sweep.parquet", head, table):
-        files.append(outdir / "sweep.parquet")
-    if plots:
-        from .plots import sweep_plot
-        P = np.array([[v[n] for n in names] for v in variants])
-        M = np.array([o.metrics for o in outcomes], dtype=float).reshape(len(outcomes), -1)
-        grid = [r.values() for r in ranges] if samples is None else None
-        title = (f"{study.nominal.spec.name}: {len(variants)} variants "
-                 + ("(full factorial)" if samples is None else f"(Latin hypercube, seed {seed})"))
-        files.append(sweep_plot(outdir / f"sweep.{plots}", names, P,
-                                [o.status for o in outcomes], [m.label for m in study.metrics],
-                                M, grid, title))
+    family = ("sweep.csv", "sweep.parquet") + tuple(f"sweep.{f}" for f in PLOT_FORMATS)
+    with staged(outdir, family) as stage:
+        write_csv(stage("sweep.csv"), head, table)
+        if write_parquet(stage("sweep.parquet"), head, table):
+            files.append(outdir / "sweep.parquet")
+        if plots:
+            from .plots import sweep_plot
+            P = np.array([[v[n] for n in names] for v in variants])
+            M = np.array([o.metrics for o in outcomes], dtype=float).reshape(len(outcomes), -1)
+            grid = [r.values() for r in ranges] if samples is None else None
+            title = (f"{study.nominal.spec.name}: {len(variants)} variants "
+                     + ("(full factorial)" if samples is None
+                        else f"(Latin hypercube, seed {seed})"))
+            sweep_plot(stage(f"sweep.{plots}"), names, P, [o.status for o in outcomes],
+                       [m.label for m in study.metrics], M, grid, title)
+            files.append(outdir / f"sweep.{plots}")
     return SweepResult(variants, outcomes, files)

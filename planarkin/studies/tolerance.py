@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .sweep import write_csv
+from .sweep import PLOT_FORMATS, staged, write_csv
 from .variants import Outcome, Study
 
 PERCENTILES = (1, 5, 50, 95, 99)
@@ -113,25 +113,28 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
         for q in PERCENTILES:
             st[q] = float(np.percentile(y, q)) if len(y) else math.nan
         stats.append(st)
-    outdir.mkdir(parents=True, exist_ok=True)
-    files = [outdir / "tolerance.csv", outdir / "samples.csv", outdir / "sensitivities.csv"]
+    base = ["tolerance.csv", "samples.csv", "sensitivities.csv"]
+    files = [outdir / f for f in base]
     labels = [m.label for m in study.metrics]
     head = (["output", "nominal", "mean", "std", "first_order_std", "samples_ok"]
             + [f"p{q}" for q in PERCENTILES] + [f"d/d{p}" for p in names])
-    write_csv(files[0], head, [[lab, nominal[i], stats[i]["mean"], stats[i]["std"], fo[i],
-                                stats[i]["ok"]] + [stats[i][q] for q in PERCENTILES]
-                               + list(G[i]) for i, lab in enumerate(labels)])
-    write_csv(files[1], ["sample"] + names + ["status", "kind", "t [s]", "message"] + labels,
-              [[k + 1] + list(v.values()) + [o.status, o.kind, o.t, o.message] + list(o.metrics)
-               for k, (v, o) in enumerate(zip(variants, outcomes))])
-    _write_sensitivities(files[2], study, nominal_res, names)
-    if plots:
-        from .plots import tolerance_plot
-        title = (f"{study.nominal.spec.name}: {samples} samples ({dist}, seed {seed}), "
-                 + ", ".join(f"sigma {p} = {sigma[p]:g}" for p in names))
-        files.append(tolerance_plot(outdir / f"tolerance.{plots}", labels, Y, list(nominal),
-                                    list(fo), {q: [st[q] for st in stats] for q in (5, 95)},
-                                    title))
+    family = tuple(base) + tuple(f"tolerance.{f}" for f in PLOT_FORMATS)
+    with staged(outdir, family) as stage:
+        write_csv(stage(base[0]), head,
+                  [[lab, nominal[i], stats[i]["mean"], stats[i]["std"], fo[i], stats[i]["ok"]]
+                   + [stats[i][q] for q in PERCENTILES] + list(G[i])
+                   for i, lab in enumerate(labels)])
+        write_csv(stage(base[1]), ["sample"] + names + ["status", "kind", "t [s]", "message"]
+                  + labels, [[k + 1] + list(v.values()) + [o.status, o.kind, o.t, o.message]
+                             + list(o.metrics) for k, (v, o) in enumerate(zip(variants, outcomes))])
+        _write_sensitivities(stage(base[2]), study, nominal_res, names)
+        if plots:
+            from .plots import tolerance_plot
+            title = (f"{study.nominal.spec.name}: {samples} samples ({dist}, seed {seed}), "
+                     + ", ".join(f"sigma {p} = {sigma[p]:g}" for p in names))
+            tolerance_plot(stage(f"tolerance.{plots}"), labels, Y, list(nominal), list(fo),
+                           {q: [st[q] for st in stats] for q in (5, 95)}, title)
+            files.append(outdir / f"tolerance.{plots}")
     return ToleranceResult(names, variants, outcomes, nominal, G, fo, stats, files)
 
 
