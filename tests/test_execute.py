@@ -98,3 +98,45 @@ def test_study_workers_end_quietly_on_the_pools_terminate_and_on_ctrl_c():
                        timeout=60)
     assert r.returncode == 0, r.stderr
     assert r.stdout == "exit codes [143, 130]\n" and r.stderr == "", (r.stdout, r.stderr)
+
+
+def test_a_sigterm_to_the_parent_alone_ends_the_workers_quietly(tmp_path):
+    # the parent of `sweep --jobs 2` ends at once on SIGTERM; its workers used to finish their
+    # unit and print a BrokenPipeError traceback for each result they could not send
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    p = subprocess.Popen([sys.executable, "-m", "planarkin", "sweep", FB, "--vary",
+                          "a=0.03:0.05:30", "--vary", "b=0.11:0.13:30", "--metric",
+                          "max:rocker.phi", "--jobs", "2", "--no-plots", "--steps", "720",
+                          "--out", str(tmp_path)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    children = f"/proc/{p.pid}/task/{p.pid}/children"
+    deadline = time.time() + 60
+    kids = []
+    while time.time() < deadline and p.poll() is None:
+        try:
+            kids = [int(k) for k in open(children).read().split()]
+        except OSError:
+            kids = []
+        if len(kids) >= 2:
+            break
+        time.sleep(0.01)
+    if len(kids) < 2:
+        pytest.skip("the workers did not start (no /proc, or the sweep ended first)")
+    time.sleep(0.2)
+    p.send_signal(signal.SIGTERM)
+    out, err = p.communicate(timeout=60)
+    time.sleep(0.5)
+    alive = []
+    for k in kids:
+        try:
+            os.kill(k, 0)
+            alive.append(k)
+        except ProcessLookupError:
+            pass
+    assert p.returncode == 128 + signal.SIGTERM and alive == [], (p.returncode, alive)
+    assert "Traceback" not in err and "Traceback" not in out, err[-2000:]
+    assert not list(tmp_path.rglob("sweep.csv"))
