@@ -103,17 +103,25 @@ def test_study_workers_end_quietly_on_the_pools_terminate_and_on_ctrl_c():
 def test_a_sigterm_to_the_parent_alone_ends_the_workers_quietly(tmp_path):
     # the parent of `sweep --jobs 2` ends at once on SIGTERM; its workers used to finish their
     # unit and print a BrokenPipeError traceback for each result they could not send
-    import os
     import signal
     import subprocess
     import sys
     import time
     p = subprocess.Popen([sys.executable, "-m", "planarkin", "sweep", FB, "--vary",
-                          "a=0.03:0.05:30", "--vary", "b=0.11:0.13:30", "--metric",
-                          "max:rocker.phi", "--jobs", "2", "--no-plots", "--steps", "720",
+                          "a=0.03:0.05:60", "--vary", "b=0.11:0.13:60", "--metric",
+                          "max:rocker.phi", "--jobs", "2", "--no-plots", "--steps", "2880",
                           "--out", str(tmp_path)], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
     children = f"/proc/{p.pid}/task/{p.pid}/children"
+
+    def cpu(pid):
+        """CPU ticks used so far (utime + stime)."""
+        try:
+            return sum(int(x) for x in open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1]
+                       .split()[11:13])
+        except OSError:
+            return 0
+
     deadline = time.time() + 60
     kids = []
     while time.time() < deadline and p.poll() is None:
@@ -121,22 +129,26 @@ def test_a_sigterm_to_the_parent_alone_ends_the_workers_quietly(tmp_path):
             kids = [int(k) for k in open(children).read().split()]
         except OSError:
             kids = []
-        if len(kids) >= 2:
+        if len(kids) >= 2 and all(cpu(k) >= 5 for k in kids):    # both inside a unit
             break
         time.sleep(0.01)
-    if len(kids) < 2:
+    if len(kids) < 2 or p.poll() is not None:
         pytest.skip("the workers did not start (no /proc, or the sweep ended first)")
-    time.sleep(0.2)
     p.send_signal(signal.SIGTERM)
     out, err = p.communicate(timeout=60)
-    time.sleep(0.5)
-    alive = []
-    for k in kids:
+    def running(pid):
+        """Not ended: neither gone nor a zombie (an orphan's zombie waits for PID 1 to reap
+        it, which here may take a while)."""
         try:
-            os.kill(k, 0)
-            alive.append(k)
-        except ProcessLookupError:
-            pass
+            state = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            return False
+        return state not in ("Z", "X")
+
+    deadline = time.time() + 5
+    while any(running(k) for k in kids) and time.time() < deadline:
+        time.sleep(0.05)
+    alive = [k for k in kids if running(k)]
     assert p.returncode == 128 + signal.SIGTERM and alive == [], (p.returncode, alive)
     assert "Traceback" not in err and "Traceback" not in out, err[-2000:]
     assert not list(tmp_path.rglob("sweep.csv"))
