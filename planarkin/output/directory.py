@@ -69,7 +69,7 @@ def _raise_for(signum: int):
 
 
 def _on_signal(signum, frame):
-    global _pending
+    global _pending, _deferred
     if _held:
         _pending = signum
         return
@@ -77,11 +77,28 @@ def _on_signal(signum, frame):
         # an exception raised inside a __del__ (the garbage collector ran one, e.g. of a
         # multiprocessing connection, when the signal came) is printed as "Exception ignored"
         # with its traceback and dropped, and the run would go on: the signal is sent again
-        # once the finalizer has returned
+        # once the finalizer has returned, if the run is still interruptible by then (else it
+        # came as the run ended, and the run is over)
         import threading
-        threading.Timer(0.005, os.kill, (os.getpid(), signum)).start()
+        _deferred = signum
+        threading.Timer(0.005, _resend, (signum,)).start()
         return
     _raise_for(signum)
+
+
+_deferred: int | None = None       # a signal that came during a finalizer, to be sent again
+
+
+def _drop_deferred():
+    global _deferred
+    _deferred = None
+
+
+def _resend(signum: int):
+    global _deferred
+    if _deferred == signum and signal.getsignal(signum) is _on_signal:
+        _deferred = None
+        os.kill(os.getpid(), signum)
 
 
 def _in_finalizer(frame) -> bool:
@@ -106,6 +123,7 @@ def interruptible():
     try:
         yield
     finally:
+        _drop_deferred()
         for s, h in old.items():
             signal.signal(s, h)
 
