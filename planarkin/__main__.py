@@ -31,7 +31,15 @@ def entry():
     if plotworker.wanted(sys.argv[1:]):
         plotworker.start(early=True)    # matplotlib's import overlaps click's, numpy's ...
     from .cli import main
-    main()
+    try:
+        main()
+    finally:
+        # the command is over, its files in place and its processes joined (an interrupted
+        # run leaves by os._exit before this): a signal from here on, while the interpreter
+        # shuts down, would meet the default handler once Python has reset it and kill a
+        # finished run (exit -15, seen as an intermittent test failure): it is ignored
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_IGN)
 
 
 if __name__ == "__main__":

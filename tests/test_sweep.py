@@ -177,6 +177,12 @@ def test_a_sweeps_files_are_replaced_all_or_none(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="disk full"):
         run_sweep(study, [Range("a", 0.03, 0.05, 4)], tmp_path, plots=None)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    # without a Parquet library nothing is written to sweep.parquet's temporary: the earlier
+    # sweep's sweep.parquet goes (it describes another sweep), the rest is put in place
+    monkeypatch.setattr(sweepmod, "write_parquet", lambda path, head, table: None)
+    had = (tmp_path / "sweep.parquet").exists()
+    run_sweep(study, [Range("a", 0.03, 0.05, 3)], tmp_path, plots=None)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.csv"], had
     monkeypatch.undo()
     dead = tmp_path / ".tmp-999999999-sweep.csv"       # no such process
     alive = tmp_path / f".tmp-{os.getppid()}-sweep.csv"  # another run still writing

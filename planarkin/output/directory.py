@@ -81,7 +81,9 @@ def _on_signal(signum, frame):
         # came as the run ended, and the run is over)
         import threading
         _deferred = signum
-        threading.Timer(0.005, _resend, (signum,)).start()
+        timer = threading.Timer(0.005, _resend, (signum,))
+        timer.daemon = True
+        timer.start()
         return
     _raise_for(signum)
 

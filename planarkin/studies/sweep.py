@@ -140,10 +140,13 @@ def staged(outdir: Path, family: tuple[str, ...]):
     try:
         yield stage
         with held_signals():
+            written = set()
             for name, path in tmp.items():
-                os.replace(path, outdir / name)
+                if path.exists():       # (staged but not written: sweep.parquet without a
+                    os.replace(path, outdir / name)     # Parquet library)
+                    written.add(name)
             for name in family:
-                if name not in tmp:
+                if name not in written:
                     (outdir / name).unlink(missing_ok=True)
     finally:
         for path in tmp.values():
