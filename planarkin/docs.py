@@ -32,22 +32,24 @@ def _kind_keys(name: str, k) -> list[str]:
 
 
 def kinds_table() -> str:
-    """One row per kind: joint/driver, keys, summary and equations."""
+    """One row per kind: where it may be used, its keys and what it is (the equations are in
+    kinds_reference, one section per kind)."""
     lines = [BEGIN, "",
-             "| type | joint | driver | keys (besides i, j) | equations |",
-             "|---|---|---|---|---|"]
+             "| type | use | keys (besides i, j) | what it is |",
+             "|---|---|---|---|"]
     for name, k in KINDS.items():
-        eqs = []
-        if k.joint:
-            eqs.append(f"joint: `{k.equations}`")
-        if k.driver:
-            eqs.append(f"driver: `{k.driver_equations}`")
-        cell = (k.summary + "<br>" + "<br>".join(eqs)).replace("|", "\\|")
-        lines.append(f"| [`{name}`](#kind-{name}) | {'yes' if k.joint else '-'} | "
-                     f"{'yes' if k.driver else '-'} | {', '.join(_kind_keys(name, k)) or '-'} | "
-                     f"{cell} |")
+        use = ", ".join(w for w, ok in (("joint", k.joint), ("driver", k.driver)) if ok)
+        lines.append(f"| [`{name}`](#kind-{name}) | {use} | "
+                     f"{_cell(', '.join(_kind_keys(name, k)) or '-')} | {_cell(k.summary)} |")
     lines += ["", END]
     return "\n".join(lines)
+
+
+def _cell(text: str) -> str:
+    """Text for a table cell: a | outside code spans is escaped (Python-Markdown's tables, as
+    mkdocs renders them, take a | inside a code span as text)."""
+    parts = text.split("`")
+    return "`".join(p if k % 2 else p.replace("|", "\\|") for k, p in enumerate(parts))
 
 
 # How the reaction on body i follows from the columns written for body j, where a kind needs
@@ -118,8 +120,7 @@ def kinds_reference() -> str:
             rows.append(("at", "global", "instead of the points", k.at_form))
         if rows:
             s += ["| key | unit | required | meaning |", "|---|---|---|---|"]
-            s += [f"| `{a}` | {b} | {c} | {d.replace('|', chr(92) + '|')} |"
-                  for a, b, c, d in rows]
+            s += [f"| `{a}` | {b} | {c} | {_cell(d)} |" for a, b, c, d in rows]
             s.append("")
         s += [f"- {o}" for o in _outputs(name, k)]
         if k.joint:
@@ -142,7 +143,7 @@ def options_table() -> str:
     for o in OPTIONS.values():
         key = "`output: up_to`" if o.name == "up_to" else f"`{o.name}`"
         flag = f"`{o.flag}`" + (f" / `--no-{o.flag[2:]}`" if o.kind == "bool" else "")
-        lines.append(f"| {key} | {flag} | {_option_default(o)} | {o.doc}; {o.rule()} |")
+        lines.append(f"| {key} | {flag} | {_option_default(o)} | {_cell(o.doc)}; {_cell(o.rule())} |")
     lines += ["", OPTIONS_END]
     return "\n".join(lines)
 
@@ -255,26 +256,47 @@ LOAD_DOCS = {
 }
 
 
-def _md(text: str) -> str:
-    return text.replace("|", "\\|")
+KEY_GROUPS = (
+    ("The model", ("name", "units", "parameters")),
+    ("Bodies, joints, drivers and points", ("bodies", "joints", "drivers", "points")),
+    ("Sketch form", ("ground", "links", "sliders", "slots", "lengths")),
+    ("Analysis", ("analysis",)),
+    ("Output", ("output", "measures")),
+    ("Assembly", ("assembly",)),
+    ("Forces", ("bodies.<b>.mass, .inertia, .cm", "gravity", "loads")),
+)
+
+
+def _group(key: str) -> str:
+    for title, heads in KEY_GROUPS:
+        if key in heads:
+            return title
+    for title, heads in KEY_GROUPS:
+        if key.split(".")[0].split("[")[0] in heads:
+            return title
+    raise KeyError(key)
 
 
 def keys_table() -> str:
-    """Every model-file key: the KEYS above, the analysis options and the load kinds."""
+    """Every model-file key, grouped under headings: the KEYS above, the analysis options and the
+    load kinds."""
     from .forces.keys import LOAD_KEYS
     from .options import OPTIONS
-    lines = ["| key | meaning |", "|---|---|"]
+    rows = {title: [] for title, _ in KEY_GROUPS}
     for key, doc in KEYS.items():
-        lines.append(f"| `{key}` | {_md(doc)} |")
+        rows[_group(key)].append(f"| `{key}` | {_cell(doc)} |")
         if key == "analysis":
             for o in OPTIONS.values():
                 if o.name != "up_to":
-                    lines.append(f"| `analysis.{o.name}` | {_md(o.doc)} (default "
-                                 f"{_option_default(o)}; `{o.flag}`) |")
+                    rows["Analysis"].append(f"| `analysis.{o.name}` | {_cell(o.doc)} (default "
+                                            f"{_option_default(o)}; `{o.flag}`) |")
     for kind, keys in LOAD_KEYS.items():
-        lines.append(f"| `loads[]` `{kind}` | {_md(LOAD_DOCS[kind])}; keys: "
-                     f"{', '.join(keys)} |")
-    return "\n".join(lines)
+        rows["Forces"].append(f"| `loads[]` `{kind}` | {_cell(LOAD_DOCS[kind])}; keys: "
+                              f"{', '.join(keys)} |")
+    out = []
+    for title, lines in rows.items():
+        out += [f"## {title}", "", "| key | meaning |", "|---|---|", *lines, ""]
+    return "\n".join(out).rstrip("\n")
 
 
 def _default(v) -> str:

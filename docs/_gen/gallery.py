@@ -58,7 +58,8 @@ def main():
             index += [f"## [{name}]({name}.md)", "", about, ""]
             if figs:
                 index += [f"[![{name}: {figs[0].stem}]({name}/{figs[0].name})]({name}.md)", ""]
-            page = [f"# {name}", "", about, "",
+            page = [f"# {name}", "", f"[Gallery](index.md) / `mechanisms/{path.name}`", "",
+                    about, "",
                     f"`planarkin run mechanisms/{path.name}` (status: **{status}**)", "",
                     f'??? example "mechanisms/{path.name}"', "", "    ```yaml"]
             page += [f"    {line}".rstrip() for line in path.read_text().splitlines()]
