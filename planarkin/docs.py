@@ -66,8 +66,10 @@ REACTION_NOTES = {
     "angle": "-torque",
     "gear": "torque on i = (ri / rj) torque; the carrier k takes -(both)",
 }
-GENERAL_REACTION = ("the force on i is -(fx, fy); the moment on i balances j's about the same "
-                    "point (the carrier or frame k, where the kind has one, takes the rest)")
+GENERAL_REACTION = ("-(fx, fy), and about the same point -torque: the reactions on i and j "
+                    "balance")
+GENERAL_REACTION_3 = ("the reactions on i, j and the frame or carrier k balance (zero total "
+                      "force and moment); the columns give j's, the other two are not written")
 
 
 def _outputs(name: str, k) -> list[str]:
@@ -124,7 +126,8 @@ def kinds_reference() -> str:
             s.append("")
         s += [f"- {o}" for o in _outputs(name, k)]
         if k.joint:
-            s.append(f"- reaction on i: {REACTION_NOTES.get(name, GENERAL_REACTION)}")
+            general = GENERAL_REACTION_3 if k.nbody == 3 else GENERAL_REACTION
+            s.append(f"- reaction on i: {REACTION_NOTES.get(name, general)}")
         parts.append("\n".join(s))
     return "\n\n".join(parts)
 
