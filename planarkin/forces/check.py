@@ -12,39 +12,83 @@ from __future__ import annotations
 import numpy as np
 
 from ..solver import Event
-from .output import _MEMO, forces_table
+from .output import _MEMO, CONTACT_KINDS, forces_table
+from .solve import Kinetostatics
+
+
+def _applied_only(cm):
+    """A Kinetostatics used only for its applied and inertia forces (any n rows will do)."""
+    return Kinetostatics(cm, rows=np.arange(cm.n), dense=True)
 
 
 class RowCheck:
     """check(an, chunk) -> (row index, message) of the first row to refuse, or None; adds the
-    lift-off warnings to the analysis' warnings. The computed rows are handed to the writer's
-    forces table (output._MEMO), so that they are computed once."""
+    lift-off warnings to the analysis' warnings.
+
+    A model with cams has its whole forces table computed here (the contact forces decide
+    lift-off); the rows are handed to the writer's forces table (output._MEMO), so that they
+    are computed once. Other models have only their applied forces computed (loads, springs,
+    gravity and inertia: what can make a force row non-finite when the motion is finite; the
+    multipliers solve a regular system with it), at a fraction of the table's cost."""
 
     def __init__(self, cm, opts):
         self.cm = cm
-        self.table = forces_table(cm, opts)
-        self.header = self.table.header
-        self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
         self.lift: dict = {}                      # column -> [Event, min, t_min]
+        self.K = None
+        self.contacts = []
+        if any(el.kind in CONTACT_KINDS for el in cm.spec.joints):
+            self.table = forces_table(cm, opts)
+            self.header = self.table.header
+            self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
 
     def __call__(self, an, ch):
+        if not self.contacts:
+            return self._applied(ch)
         X = self.table.compute(ch)
+        _MEMO.clear()                             # one chunk's rows at most are held
         _MEMO[id(self.cm)] = (ch.t, X)
         stop = None
         fin = np.isfinite(X).all(axis=1)
         if not fin.all():
             i = int(np.argmax(~fin))
             cols = [h.split(" [", 1)[0] for h, v in zip(self.header, X[i]) if not np.isfinite(v)]
-            shown = ", ".join(cols[:4]) + (f" and {len(cols) - 4} more" if len(cols) > 4 else "")
-            stop = (i, f"non-finite forces at t = {float(ch.t[i]):.10g} s ({shown}): a load, "
-                       f"spring or mass that is not finite there (a square root of a negative "
-                       f"number, a pole, a spring of zero length?); rows are written up to the "
-                       f"one before")
+            stop = (i, self._message(float(ch.t[i]), cols))
             X = X[:i]
             _MEMO.pop(id(self.cm), None)          # the writer gets a cut chunk: new arrays
         for k in self.contacts:
             self._lift_off(an, X[:, 0], X[:, k], self.header[k])
         return stop
+
+    def _applied(self, ch):
+        """The first row whose applied or inertia forces are not finite."""
+        cm = self.cm
+        if self.K is None:
+            self.K = _applied_only(cm)
+        K = self.K
+        unit = np.tile([1.0, 1.0, cm.angle_factor], cm.nb)
+        with np.errstate(all="ignore"):
+            QA, Qin = K.generalised_forces(np.asarray(ch.t, float), ch.q * unit, ch.qd * unit,
+                                           ch.qdd * unit)
+            bad = ~(np.isfinite(QA).all(axis=1) & np.isfinite(Qin).all(axis=1))
+        if not bad.any():
+            return None
+        i = int(np.argmax(bad))
+        t = float(ch.t[i])
+        names = []
+        for ld in cm.spec.forces.loads:
+            if ld.kind in ("force", "torque"):
+                with np.errstate(all="ignore"):
+                    v = [np.asarray(f(np.array([t])), float) for f in ld.f]
+                if not all(np.isfinite(x).all() for x in v):
+                    names.append(ld.name or f"load {ld.index} ({ld.kind} {'-'.join(ld.bodies)})")
+        return i, self._message(t, names or ["an applied force (a spring of zero length?)"])
+
+    @staticmethod
+    def _message(t, cols):
+        shown = ", ".join(cols[:4]) + (f" and {len(cols) - 4} more" if len(cols) > 4 else "")
+        return (f"non-finite forces at t = {t:.10g} s ({shown}): a load, spring or mass that is "
+                f"not finite there (a square root of a negative number, a pole, a spring of zero "
+                f"length?); rows are written up to the one before")
 
     def _lift_off(self, an, t, f, header):
         if not len(f) or not (f < 0).any():
