@@ -44,9 +44,10 @@ class DerivedTable:
 
 def row_checks(cm, opts) -> list:
     """The rooms' checks of every chunk before it is written (a room's optional
-    ``row_checks(cm, opts)``): callables check(analysis, chunk) -> (row index, message) of the
-    first row the room refuses (a non-finite force), or None; results.refuse stops the run
-    there as at a non-finite coordinate."""
+    ``row_checks(cm, opts)``): callables check(analysis, chunk) -> (row index, message[, event
+    kind]) of the first row the room refuses (a non-finite force: 'non-finite', the default; a
+    cam past its law's range: 'range'), or None; results.refuse stops the run there as at a
+    non-finite coordinate."""
     out: list = []
     for name in ROOMS:
         f = getattr(importlib.import_module(name), "row_checks", None)

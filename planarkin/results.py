@@ -298,7 +298,7 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
     return stream(prepare(cm, opts), sink, progress)
 
 
-REFUSALS = ("non-finite", "residual")
+REFUSALS = ("non-finite", "residual", "range")   # range: a room's check (a cam past its law)
 
 
 def residual_limit(opts: Options) -> float:
@@ -320,8 +320,8 @@ def refuse(an: Analysis, ch: Chunk) -> Chunk:
     for check in checks:
         cut = check(an, ch) if len(ch.t) else None
         if cut is not None:
-            i, msg = cut
-            an.event = Event("non-finite", float(ch.t[i]), msg)
+            i, msg, kind = (tuple(cut) + ("non-finite",))[:3]
+            an.event = Event(kind, float(ch.t[i]), msg)
             an.t_stop = float(ch.t[i])
             ch = _take(ch, np.arange(i))
     return ch

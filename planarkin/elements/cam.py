@@ -568,6 +568,48 @@ def _check_flat_rocker(par, P, th, deg, unit) -> list[str]:
     return msgs
 
 
+# -- the angles a law describes: refused past its range --------------------------------------------
+
+RANGE_TOL = 1e-9        # rad: a cam angle this far past its law's range is still in it (rounding)
+
+
+def row_checks(cm, opts) -> list:
+    """[check(an, chunk)] for the cams whose law has a `range:`: the law and its profile were
+    checked over that range only (a full-turn law over the whole turn), so a row whose cam angle
+    lies outside it is refused, the run stopping there, as a full-turn law that does not close
+    is refused before the run (issue 21, item 4)."""
+    out = []
+    nb, af, au = cm.nb, cm.angle_factor, cm.spec.angle_unit
+    for G in cm.groups:
+        if G.kind.name not in ("cam", "cam-rocker"):
+            continue
+        for k in range(len(G)):
+            lo, hi = (float(x) for x in G.params["range"][k])
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                continue
+            el = cm.element_of_row(int(G.rows[k, 0]))
+            bi, bk = int(G.bodies[k, 0]), int(G.bodies[k, 2])
+            out.append(_range_check(el.label, bi, bk, nb, lo, hi, af, au))
+    return out
+
+
+def _range_check(label, bi, bk, nb, lo, hi, af, au):
+    def check(an, ch):
+        th = ch.q[:, 3 * bi + 2] - (ch.q[:, 3 * bk + 2] if bk != nb else 0.0)
+        x = th * af
+        bad = ~((x >= lo - RANGE_TOL) & (x <= hi + RANGE_TOL))
+        if not bad.any():
+            return None
+        i = int(np.argmax(bad))
+        return (i, f"{label}: the cam angle theta = {th[i]:.6g} {au} at t = "
+                   f"{float(ch.t[i]):.10g} s is outside the law's range [{lo / af:g}, "
+                   f"{hi / af:g}] {au}: the law and its profile are checked over that range "
+                   f"only; give the law over every angle the cam turns through (its range, "
+                   f"or a full turn), or end the analysis sooner; rows are written up to the "
+                   f"one before", "range")
+    return check
+
+
 # -- cam-<name>.csv: the room of planarkin.derived ------------------------------------------------
 
 def derived_tables(cm, opts) -> list:
