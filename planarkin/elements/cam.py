@@ -24,6 +24,7 @@ angle unit); its derivatives are the exact symbolic ones of `planarkin.expr`.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -47,14 +48,20 @@ class Law:
     def __init__(self, text, values, a: float = 1.0, b: float = 1.0):
         self.text = text if isinstance(text, str) else repr(text)
         self.values = {k: float(v) for k, v in values.items() if k != VAR}
-        e = parse(text, list(self.values) + [VAR])
-        d1 = e.diff(VAR)
-        self.exprs = (e, d1, d1.diff(VAR))
+        e = parse(text, list(self.values) + [VAR])          # messages speak of theta
+        # evaluated as a function of t, the name the switch rules of planarkin.expr resolve
+        # at rounding level (SIDE_RULE: a knot within 8 ulp of theta is at theta, right-hand)
+        self.var = VAR
+        if "t" not in self.values and isinstance(text, str):
+            e = parse(re.sub(rf"\b{VAR}\b", "t", text), list(self.values) + ["t"])
+            self.var = "t"
+        d1 = e.diff(self.var)
+        self.exprs = (e, d1, d1.diff(self.var))
         self.a, self.b = a, b
 
     def scaled(self, out_per_user: float, angle_factor: float) -> "Law":
         law = Law.__new__(Law)
-        law.text, law.values, law.exprs = self.text, self.values, self.exprs
+        law.text, law.values, law.exprs, law.var = self.text, self.values, self.exprs, self.var
         law.a, law.b = 1.0 / angle_factor, out_per_user
         return law
 
@@ -63,9 +70,9 @@ class Law:
         others are None). orders may include 3 (the jerk's d3/dtheta3, then a 4-tuple)."""
         theta = np.asarray(theta, dtype=float)
         env = dict(self.values)
-        env[VAR] = self.a * theta
+        env[self.var] = self.a * theta
         if 3 in orders and len(self.exprs) == 3:          # only runs asking for jerk need it
-            self.exprs = self.exprs + (self.exprs[2].diff(VAR),)
+            self.exprs = self.exprs + (self.exprs[2].diff(self.var),)
         out = [None] * (4 if 3 in orders else 3)
         for o in orders:
             f = np.broadcast_to(np.asarray(self.exprs[o].evaluate(env), float), theta.shape)
