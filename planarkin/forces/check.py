@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..elements import KINDS
 from ..solver import Event
 from .output import _MEMO, CONTACT_KINDS, forces_table
 from .solve import Kinetostatics
@@ -36,7 +37,9 @@ class RowCheck:
         self.lift: dict = {}                      # column -> [Event, min, t_min]
         self.K = None
         self.contacts = []
-        if any(el.kind in CONTACT_KINDS for el in cm.spec.joints):
+        from .solve import physical_kind
+        if any(el.kind in CONTACT_KINDS or physical_kind(KINDS[el.kind])
+               for el in cm.spec.joints):
             self.table = forces_table(cm, opts)
             self.header = self.table.header
             self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
@@ -53,6 +56,8 @@ class RowCheck:
             i = int(np.argmax(~fin))
             cols = [h.split(" [", 1)[0] for h, v in zip(self.header, X[i]) if not np.isfinite(v)]
             stop = (i, self._message(float(ch.t[i]), cols))
+            if self._applied(_row(ch, i)) is None:
+                stop = (i, self._undetermined(float(ch.t[i]), cols))
             X = X[:i]
             _MEMO.pop(id(self.cm), None)          # the writer gets a cut chunk: new arrays
         for k in self.contacts:
@@ -84,6 +89,15 @@ class RowCheck:
         return i, self._message(t, names or ["an applied force (a spring of zero length?)"])
 
     @staticmethod
+    def _undetermined(t, cols):
+        names = list(dict.fromkeys(c.rsplit(".", 1)[0] for c in cols))
+        return (f"the reaction of {', '.join(names[:3])} at t = {t:.10g} s is not determined: "
+                f"the joints its parts turn or slide on cannot take its contact force (a gear or "
+                f"pulley whose revolute joint to its carrier is not its centre, a cam whose "
+                f"revolute joint is not at sk, a follower not guided along vk?); rows are "
+                f"written up to the one before")
+
+    @staticmethod
     def _message(t, cols):
         shown = ", ".join(cols[:4]) + (f" and {len(cols) - 4} more" if len(cols) > 4 else "")
         return (f"non-finite forces at t = {t:.10g} s ({shown}): a load, spring or mass that is "
@@ -109,3 +123,13 @@ class RowCheck:
                       f"reaches {low:.4g} {unit} at t = {tl:.6g} s: the follower would lift off "
                       f"the cam there (the cam joint holds it as if glued); a spring must press "
                       f"it on with at least {-low:.4g} {unit} more there")
+
+
+def _row(ch, i):
+    """Chunk ch's row i alone (t, q, qd, qdd: what _applied reads)."""
+    class _One:
+        pass
+    one = _One()
+    one.t = ch.t[i:i + 1]
+    one.q, one.qd, one.qdd = ch.q[i:i + 1], ch.qd[i:i + 1], ch.qdd[i:i + 1]
+    return one

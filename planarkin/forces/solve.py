@@ -202,10 +202,10 @@ class Kinetostatics:
 
     def _machine(self, F, grads, lam0, solve):
         """(lambda, moved): the multipliers with the machine elements' physical reactions (module
-        docstring), and the element indices whose own multipliers moved by more than MACHINE_TOL
-        (their reaction there is not what the bearings alone can take: not trusted)."""
+        docstring), and {element index: (N,) rows} where its own multipliers moved by more than
+        MACHINE_TOL (its reaction there is not what the bearings alone can take: refused, NaN)."""
         if not self.machine:
-            return lam0, set()
+            return lam0, {}
         cm = self.cm
         N = lam0.shape[0]
         own = np.concatenate([cm.groups[gi].rows.ravel() for gi in self.machine])
@@ -228,7 +228,10 @@ class Kinetostatics:
         with np.errstate(invalid="ignore"):
             scale = np.maximum(np.abs(lam).max(axis=1), 1e-300)
             off = np.abs(lam[:, own] - lam0[:, own]) > MACHINE_TOL * scale[:, None]
-        moved = {int(cm.row_element[r]) for r in own[off.any(axis=0)]}
+        moved: dict = {}
+        for c in np.flatnonzero(off.any(axis=0)):
+            e = int(cm.row_element[own[c]])
+            moved[e] = moved.get(e, np.zeros(N, bool)) | off[:, c]
         return lam, moved
 
 
@@ -283,11 +286,12 @@ class Forces:
     torque on j for angle drivers, force on j along the driven coordinate otherwise.
     power(d): effort times the driver's rate f'(t) (W when lengths are m).
     ground(): (fx, fy, torque about the origin) that all joints and drivers exert on the ground.
-    moved: elements whose own multipliers changed when their physical reaction was put in (the
-    reaction is then not one the bearings alone take; see solve's module docstring).
+    moved: {element: (N,) rows} where its own multipliers changed when its physical reaction
+    was put in (the reaction is then not one the bearings alone take, see the module docstring:
+    its reaction there is NaN, and the forces room's row check refuses the row).
     """
 
-    def __init__(self, K: Kinetostatics, t, p, lam, NU, grads, QA, Qin, F=None, moved=()):
+    def __init__(self, K: Kinetostatics, t, p, lam, NU, grads, QA, Qin, F=None, moved=None):
         self.K = K
         self.t = t
         self.p = p
@@ -295,7 +299,7 @@ class Forces:
         self.NU = NU
         self.QA = QA
         self.Qin = Qin
-        self.moved = set(moved)
+        self.moved = dict(moved or {})
         cm = K.cm
         if F is None:
             F = make_frame(np.hstack([p / K.S[:cm.n], np.zeros((len(t), 3))]))
@@ -354,6 +358,9 @@ class Forces:
         if P is not None:
             x, y, _ = self._pose(int(G.bodies[k, slot]))
             mo = mo - ((P[0] - x) * fy - (P[1] - y) * fx)
+        if e in self.moved:
+            bad = self.moved[e]
+            fx, fy, mo = (np.where(bad, np.nan, v) for v in (fx, fy, mo))
         return fx, fy, mo
 
     def contact(self, e: int):
