@@ -283,3 +283,23 @@ def test_every_kind_states_its_reaction_sign():
                                                           if not k.reaction_sign]
     table = reaction_table()
     assert all(f"`{n}`" in table for n in KINDS)
+
+
+def test_belt_pretension_loads_both_runs():
+    # pretension 100 N, tension difference 125 N: slack 100 - 62.5 = 37.5 N, tight 162.5 N
+    text = BELT.replace("ri: 0.05, rj: 0.125}", "ri: 0.05, rj: 0.125, pretension: 100}")
+    cm, res, F = forces_of(text)
+    c, r1, r2 = 0.4, 0.05, 0.125
+    sb = (r1 - r2) / c
+    want = np.zeros(2)
+    for side, T in ((1.0, 162.5), (-1.0, 37.5)):
+        m = np.array([sb, side * math.sqrt(1 - sb * sb)])
+        Ti, Tj = r1 * m, np.array([c, 0.0]) + r2 * m
+        want += T * (Ti - Tj) / np.hypot(*(Ti - Tj))
+    fx, fy, mo = F.reaction(2, 1)
+    assert np.abs(fx - want[0]).max() <= 1e-12 * 200 and np.abs(fy - want[1]).max() <= 1e-12 * 200
+    assert np.abs(mo - 15.625).max() <= 1e-12 * 15.625
+    assert newton_euler(cm, res, F) <= 1e-9
+    with pytest.raises(planarkin.InputError) as e:
+        load(BELT.replace("ri: 0.05, rj: 0.125}", "ri: 0.05, rj: 0.125, pretension: -1}"))
+    assert "pretension must not be negative, not -1" in str(e.value)

@@ -180,10 +180,11 @@ class Kind:
     #    force, positive while the parts press on each other (lift-off where it turns negative).
     reaction_sign: str = ""
 
-    def reaction_setup(self, G: Group, pivots: dict):
+    def reaction_setup(self, G: Group, pivots: dict, L: float):
         """What `reaction` needs beyond the group's parameters, from the rest of the model:
         pivots maps (body, other body) -> the revolute's point on body (body frame, internal
-        units), see `pivots`. None when the kind needs nothing."""
+        units), see `pivots`; L the model's length (a force parameter in user units times L is
+        one in internal units). None when the kind needs nothing."""
         return None
 
     def reaction(self, G: Group, F: Frame, lam: np.ndarray, setup):

@@ -75,7 +75,7 @@ class Gear(Kind):
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 
-    def reaction_setup(self, G, pivots):
+    def reaction_setup(self, G, pivots, L):
         return carrier_centres(G, pivots)
 
     def reaction_point(self, G, F, setup):

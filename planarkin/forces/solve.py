@@ -95,7 +95,7 @@ class Kinetostatics:
         L = cm.L
         self.S = np.tile([L, L, 1.0], cm.nb + 1)          # physical per internal, ground too
         piv = pivots(cm.groups)
-        self.setups = [G.kind.reaction_setup(G, piv) for G in cm.groups]
+        self.setups = [G.kind.reaction_setup(G, piv, cm.L) for G in cm.groups]
         self.machine = [gi for gi, G in enumerate(cm.groups) if physical_kind(G.kind)]
         self.dense = cm.n <= DENSE_MAX if dense is None else dense
         self.blocked = None
