@@ -100,3 +100,25 @@ def test_contact_force_column_is_signed_and_in_forces_csv():
     th = 2 * np.pi * res.t
     want = 0.05 + 0.5 * (2 * np.pi) ** 2 * 0.01 * np.cos(th) / 2
     assert np.abs(c - want).max() <= 1e-12
+
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.parametrize("model", ["flat-rocker-cam", "roller-rocker"])
+def test_rocker_contact_sign_follows_the_pressing_torque(model):
+    """A counter-clockwise torque on these rockers turns them towards the cam: the contact force
+    is positive (pressing); the opposite torque pulls the rocker off: negative, warned."""
+    import test_machine_elements as tm
+    base = tm.ROCKER if model == "roller-rocker" else (ROOT / "mechanisms" /
+                                                        f"{model}.yaml").read_text()
+    body = "arm" if model == "roller-rocker" else "rocker"
+    for T in (1000.0, -1000.0):
+        text = base + f'loads:\n  - {{type: torque, body: {body}, f: "{T}"}}\n'
+        res = planarkin.solve(planarkin.load("m.yaml", text=text))
+        assert res.success, res.message
+        name = "swing" if model == "roller-rocker" else "rocker"
+        c = res.table("forces.csv")[f"{name}.contact"]
+        assert (np.sign(c) == np.sign(T)).all()
+        lift = [w for w in res.warnings if w.kind == "lift-off"]
+        assert len(lift) == (T < 0)
