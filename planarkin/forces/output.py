@@ -244,10 +244,11 @@ def cycle_contact(section: dict | None) -> dict:
     return dict((section or {}).get("contact", {}))
 
 
-def format_contact(section: dict | None) -> list[str]:
-    """Report lines of the smallest contact force of every cam (for --report cycle)."""
+def format_contact(contact: dict | None) -> list[str]:
+    """Report lines of the smallest contact force of every cam (for --report cycle), from the
+    dict cycle_contact gives."""
     out = []
-    for name, rec in cycle_contact(section).items():
+    for name, rec in (contact or {}).items():
         if rec["min"] is None:
             continue
         out.append(f"         {name}: min contact force {rec['min']:.6g} {rec['unit']} at t = "
