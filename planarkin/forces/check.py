@@ -43,6 +43,8 @@ class RowCheck:
             self.table = forces_table(cm, opts)
             self.header = self.table.header
             self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
+            from .output import column_name
+            self.labels = {column_name(el): el.label for el in cm.spec.joints}
 
     def __call__(self, an, ch):
         if not self.contacts:
@@ -119,7 +121,7 @@ class RowCheck:
         if f[j] < rec[1]:
             rec[1], rec[2] = float(f[j]), float(t[j])
         ev, low, tl = rec
-        ev.message = (f"{name}: the cam's contact force turns negative at t = {ev.t:.6g} s and "
+        ev.message = (f"{self.labels.get(name, name)}: the cam's contact force turns negative at t = {ev.t:.6g} s and "
                       f"reaches {low:.4g} {unit} at t = {tl:.6g} s: the follower would lift off "
                       f"the cam there (the cam joint holds it as if glued); a spring must press "
                       f"it on with at least {-low:.4g} {unit} more there")
