@@ -169,8 +169,8 @@ CAM_SIGN = (
     "about the follower's point sj (for a flat face the contact force times the contact's "
     "offset along the face). The cam i gets minus the force at the same point, the frame k "
     "nothing (the cam's bearing and the follower's guide or pivot take the rest). "
-    "contact.force: its normal component, positive while the cam presses on the follower; "
-    "negative where the joint holds the follower on the cam (it would lift off)")
+    "<name>.contact: its normal component, positive while the cam presses on the follower; "
+    "negative where the joint holds the follower on the cam (it would lift off: warned)")
 
 
 class _CamReaction:

@@ -131,9 +131,9 @@ class Distance(Kind):
     target_unit = "length"
     at_form = "[[x1, y1], [x2, y2]]: global positions of the point on i and the point on j"
     reaction_sign = (
-        'fx, fy: the force on j at P_j along the line P_i -> P_j (positive along it: the link '
-        "pushes j away, in compression); i gets minus it. As a driver (.force) the actuator's "
-        'force on j along P_i -> P_j, positive pushing apart')
+        'fx, fy: the force on j at P_j, along the line P_i -> P_j (pointing from P_i to P_j '
+        "when the link pushes j away, in compression); i gets minus it at P_i. As a driver "
+        "(.force) the actuator's force on j along P_i -> P_j, positive pushing apart")
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..elements import KINDS
 from ..solver import Event
-from .output import _MEMO, CONTACT_KINDS, forces_table
+from .output import ROWS_MEMO, CONTACT_KINDS, forces_table
 from .solve import Kinetostatics
 
 
@@ -27,7 +27,7 @@ class RowCheck:
     lift-off warnings to the analysis' warnings.
 
     A model with cams has its whole forces table computed here (the contact forces decide
-    lift-off); the rows are handed to the writer's forces table (output._MEMO), so that they
+    lift-off); the rows are handed to the writer's forces table (output.ROWS_MEMO), so that they
     are computed once. Other models have only their applied forces computed (loads, springs,
     gravity and inertia: what can make a force row non-finite when the motion is finite; the
     multipliers solve a regular system with it), at a fraction of the table's cost."""
@@ -50,8 +50,8 @@ class RowCheck:
         if not self.contacts:
             return self._applied(ch)
         X = self.table.compute(ch)
-        _MEMO.clear()                             # one chunk's rows at most are held
-        _MEMO[id(self.cm)] = (ch.t, X)
+        ROWS_MEMO.clear()                             # one chunk's rows at most are held
+        ROWS_MEMO[id(self.cm)] = (ch.t, X)
         stop = None
         fin = np.isfinite(X).all(axis=1)
         if not fin.all():
@@ -61,7 +61,7 @@ class RowCheck:
             if self._applied(_row(ch, i)) is None:
                 stop = (i, self._undetermined(float(ch.t[i]), cols))
             X = X[:i]
-            _MEMO.pop(id(self.cm), None)          # the writer gets a cut chunk: new arrays
+            ROWS_MEMO.pop(id(self.cm), None)          # the writer gets a cut chunk: new arrays
         for k in self.contacts:
             self._lift_off(an, X[:, 0], X[:, k], self.header[k])
         return stop

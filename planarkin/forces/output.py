@@ -114,7 +114,7 @@ def forces_table(cm, opts) -> DerivedTable | None:
     per = K.points_per_solve
 
     def compute(ch) -> np.ndarray:
-        memo = _MEMO.pop(id(cm), None)          # the rows the refusal check computed already
+        memo = ROWS_MEMO.pop(id(cm), None)          # the rows the refusal check computed already
         if memo is not None and memo[0] is ch.t:
             return memo[1]
         N = len(ch.t)
@@ -158,7 +158,7 @@ LIFT_OFF_NOTE = ("a cam joint is bilateral: it holds the follower on the cam as 
 
 # a non-finite value in a written row: the run stops there (planarkin.forces.check); a column's
 # peak and RMS then never hide it
-_MEMO: dict = {}
+ROWS_MEMO: dict = {}
 
 
 class Accumulator:
