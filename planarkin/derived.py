@@ -42,6 +42,20 @@ class DerivedTable:
     plot: Callable[..., list] | None = None
 
 
+def row_checks(cm, opts) -> list:
+    """The rooms' checks of every chunk before it is written (a room's optional
+    ``row_checks(cm, opts)``): callables check(analysis, chunk) -> (row index, message[, event
+    kind]) of the first row the room refuses (a non-finite force: 'non-finite', the default; a
+    cam past its law's range: 'range'), or None; results.refuse stops the run there as at a
+    non-finite coordinate."""
+    out: list = []
+    for name in ROOMS:
+        f = getattr(importlib.import_module(name), "row_checks", None)
+        if f is not None:
+            out += f(cm, opts)
+    return out
+
+
 def derived_tables(cm, opts) -> list[DerivedTable]:
     """Every derived table the model asks for, in room order."""
     out: list[DerivedTable] = []

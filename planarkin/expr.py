@@ -228,6 +228,15 @@ def _memoised(f, key: str, vals: dict):
     return r
 
 
+SIDE_RULE = (
+    "A grid time within 8 units in the last place of a driver's breakpoint, and a cam angle "
+    "within 8 units in the last place of a knot of its law (a segment's end, a table's "
+    "point), is taken to be at it. There velocity, acceleration and jerk are the right-hand "
+    "limits (the values just after), for drivers and cam laws alike and for every kind of "
+    "law (motion:, table: or an expression); only a row at the run's end time takes the "
+    "left-hand limit of a driver's breakpoint there. Position is continuous at every knot, so "
+    "only the derivatives that jump (a follower's acceleration where harmonic meets a dwell, "
+    "the jerk wherever the acceleration has a corner) depend on this rule.")
 _EPS = float(np.finfo(float).eps)
 _PREFILTER = 1e-7   # |d| below this (relative) is looked at closely for a switch at rounding level
 # a switch resolved from the derivatives of its argument may meet switches there in turn (a law
@@ -380,13 +389,15 @@ def _evaluate(exprs: tuple, env: Mapping, side: int = 0) -> list:
                 with np.errstate(all="ignore"):
                     out.append(float(e._fn(True)(vals)))
         return out
+    # side 0 is the rule at breakpoints (SIDE_RULE): a switch within 8 ulp of the argument is
+    # at it, and there the right-hand limit holds, as at a driver's breakpoint row
+    side = side or 1
     if not arrays:  # a scalar through a switch: the one-sided rules live on the numpy path
-        out = _core(exprs, {n: np.array([v]) for n, v in vals.items()}, side, False, None,
-                    average=side == 0)
+        out = _core(exprs, {n: np.array([v]) for n, v in vals.items()}, side, False, None)
         return [float(o[0]) for o in out]
     shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
     flat = {n: np.broadcast_to(a, shape).reshape(-1) for n, a in arrays.items()}
-    out = _core(exprs, {**vals, **flat}, side, False, None, average=side == 0)
+    out = _core(exprs, {**vals, **flat}, side, False, None)
     return [o.reshape(shape) for o in out]
 
 
@@ -919,8 +930,9 @@ class TimeFunction:
         side: +1 / -1 the limits from the right / left, which differ from each other only at a
         breakpoint (see `breakpoints`): every switch (abs, sign, where, min, max, clip, mod, a
         law's or table's knot) whose switching value lies at t, or within rounding of t (8 ulp),
-        takes the branch of that side. side 0: at a switch exactly at t, the mean of the two
-        one-sided limits (so smooth compositions such as abs(t-a)**2 are exact at a); elsewhere
+        takes the branch of that side. side 0 (the default): SIDE_RULE, the right-hand limit at
+        a switch within 8 ulp of t (smooth compositions such as abs(t-a)**2 are exact at a, both
+        sides agreeing there); elsewhere
         the plain value."""
         return tuple(_evaluate((self.expr, self.first, self.second), {"t": t}, side))
 

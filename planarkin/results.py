@@ -298,7 +298,7 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
     return stream(prepare(cm, opts), sink, progress)
 
 
-REFUSALS = ("non-finite", "residual")
+REFUSALS = ("non-finite", "residual", "range")   # range: a room's check (a cam past its law)
 
 
 def residual_limit(opts: Options) -> float:
@@ -310,7 +310,24 @@ def residual_limit(opts: Options) -> float:
 def refuse(an: Analysis, ch: Chunk) -> Chunk:
     """Results are refused rather than written when they are not what they claim: the chunk is
     cut before the first row with a non-finite time or value, or a residual above
-    residual_limit, and the run stops there (an event of kind 'non-finite' or 'residual')."""
+    residual_limit, or a row a room refuses (a non-finite force: derived.row_checks), and the
+    run stops there (an event of kind 'non-finite' or 'residual')."""
+    ch = _refuse_rows(an, ch)
+    checks = getattr(an, "row_checks", None)
+    if checks is None:
+        from .derived import row_checks
+        checks = an.row_checks = row_checks(an.cm, an.opts)
+    for check in checks:
+        cut = check(an, ch) if len(ch.t) else None
+        if cut is not None:
+            i, msg, kind = (tuple(cut) + ("non-finite",))[:3]
+            an.event = Event(kind, float(ch.t[i]), msg)
+            an.t_stop = float(ch.t[i])
+            ch = _take(ch, np.arange(i))
+    return ch
+
+
+def _refuse_rows(an: Analysis, ch: Chunk) -> Chunk:
     arrays = [a for a in (ch.q, ch.qd, ch.qdd, ch.qddd) if a is not None]
     limit = residual_limit(an.opts)
     points = [a for a in (ch.p, ch.pd, ch.pdd, ch.pddd) if a is not None]

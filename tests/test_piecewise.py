@@ -77,7 +77,7 @@ def test_sqrt_of_a_square_is_a_kink_with_finite_one_sided_velocities():
     f = tf("sqrt((t - 0.5)**2)")
     assert f.derivatives(0.5, -1) == (0.0, -1.0, 0.0)
     assert f.derivatives(0.5, +1) == (0.0, 1.0, 0.0)
-    assert f.derivatives(0.5) == (0.0, 0.0, 0.0)  # side 0 at the kink: the mean of the sides
+    assert f.derivatives(0.5) == (0.0, 1.0, 0.0)  # side 0 at the kink: the right-hand limit
     assert np.isfinite(f.derivatives(np.linspace(0, 1, 101))).all()
     [bp] = f.breakpoints(0.0, 1.0)
     assert bp.t == 0.5 and bp.jump == (0.0, 2.0, 0.0)
@@ -98,12 +98,13 @@ def test_kinks_and_smooth_compositions():
 
 def test_sign_and_floor_are_one_sided_at_their_switch():
     f = tf("sign(t - 0.25)")
-    assert f(0.25, -1) == -1.0 and f(0.25, 1) == 1.0 and f(0.25) == 0.0
+    # side 0: the rule at breakpoints (expr.SIDE_RULE), the right-hand limit
+    assert f(0.25, -1) == -1.0 and f(0.25, 1) == 1.0 and f(0.25) == 1.0
     g = tf("floor(4*t)")
     assert g(0.5, -1) == 1.0 and g(0.5, 1) == 2.0
     # a switch whose value is within rounding of t: 0.3/0.1 = 2.9999999999999996
     h = tf("floor(t/0.1)")
-    assert h(0.3, -1) == 2.0 and h(0.3, 1) == 3.0
+    assert h(0.3, -1) == 2.0 and h(0.3, 1) == 3.0 and h(0.3) == 3.0
 
 
 # ---- breakpoints ------------------------------------------------------------------------------

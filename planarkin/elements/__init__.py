@@ -25,4 +25,16 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
 JOINT_KINDS = {name: k for name, k in KINDS.items() if k.joint}
 DRIVER_KINDS = {name: k for name, k in KINDS.items() if k.driver}
 
-__all__ = ["KINDS", "JOINT_KINDS", "DRIVER_KINDS", "Frame", "Group", "Kind", "Param"]
+
+
+def reaction_table() -> str:
+    """The sign conventions of the reactions in forces.csv, one row per kind (markdown), from
+    each kind's reaction_sign: what the docs print beside the kinds table."""
+    lines = ["| type | forces.csv columns and signs |", "|---|---|"]
+    for name, k in KINDS.items():
+        lines.append(f"| `{name}` | {k.reaction_sign.replace('|', chr(92) + '|')} |")
+    return "\n".join(lines)
+
+
+__all__ = ["KINDS", "JOINT_KINDS", "DRIVER_KINDS", "Frame", "Group", "Kind", "Param",
+           "reaction_table"]

@@ -166,6 +166,49 @@ class Kind:
         neq constant targets) or None when the kind needs nothing (targets from c or 0)."""
         return None
 
+    # -- reactions (the forces room, planarkin.forces) ---------------------------------------
+    # 1. `reaction_sign`: what the kind's reaction columns in forces.csv mean and their signs
+    #    (the docs' table of sign conventions is made from it, `reaction_table`).
+    # 2. A kind whose constraint force -g_q^T lambda is not the force its parts exchange on the
+    #    machine (a cam written as a motion law, a gear pair as a ratio of angles) gives the
+    #    physical one by `reaction`: a contact force where the contact is, on i and j only.
+    #    It must differ from -g_q^T lambda by a generalised force that does no work on any
+    #    motion the other joints allow (the bearings take the difference), so that lambda of
+    #    the kind's own rows is the same either way (planarkin.forces.solve checks it).
+    # 3. `reaction_point`: the point of body j about which the moment column is written.
+    # 4. `contact_force`: for contacts that hold only by pressing (cams), the signed normal
+    #    force, positive while the parts press on each other (lift-off where it turns negative).
+    reaction_sign: str = ""
+
+    def reaction_setup(self, G: Group, pivots: dict, L: float):
+        """What `reaction` needs beyond the group's parameters, from the rest of the model:
+        pivots maps (body, other body) -> the revolute's point on body (body frame, internal
+        units), see `pivots`; L the model's length (a force parameter in user units times L is
+        one in internal units). None when the kind needs nothing."""
+        return None
+
+    def reaction(self, G: Group, F: Frame, lam: np.ndarray, setup):
+        """(N, K, nbody, 3) generalised force of each instance on each of its bodies (force
+        x, y, moment about the body frame's origin; internal units, as -g_q^T lambda) from its
+        multipliers lam (N, K, neq), or None when -g_q^T lambda is the physical force."""
+        return None
+
+    def reaction_point(self, G: Group, F: Frame, setup):
+        """Global (x, y), two (N, K) arrays (internal units), of the point of body j about which
+        the reaction's moment is written: sj where the kind has it, else None (the moment is
+        about body j's frame origin)."""
+        if "sj" not in G.params:
+            return None
+        bj = G.bodies[:, 1]
+        sx, sy = rotate(F, bj, G.params["sj"][:, 0], G.params["sj"][:, 1])
+        x, y = body_xy(F, bj)
+        return x + sx, y + sy
+
+    def contact_force(self, G: Group, F: Frame, lam: np.ndarray, setup):
+        """(N, K) signed normal contact force (internal units), positive while the parts press
+        on each other, for unilateral contacts modelled as bilateral; None for other kinds."""
+        return None
+
     def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
         """Problems of one instance that only its compiled parameters show (a cam profile that
         undercuts): messages in user units, reported as errors at the element's line."""
@@ -250,3 +293,32 @@ def _param_array(v) -> np.ndarray:
     """Numbers become a float array; objects (a cam's motion law) stay an object array."""
     a = np.asarray(v)
     return a if a.dtype == object else a.astype(float)
+
+
+def pivots(groups) -> dict:
+    """(body, other) -> the point (2,) on body (its frame, internal units) of the first revolute
+    joint between the two bodies: where a gear or a pulley turns on its carrier."""
+    out: dict = {}
+    for G in groups:
+        if G.kind.name != "revolute":
+            continue
+        for (bi, bj), si, sj in zip(G.bodies, G.params["si"], G.params["sj"]):
+            out.setdefault((int(bi), int(bj)), np.asarray(si, float))
+            out.setdefault((int(bj), int(bi)), np.asarray(sj, float))
+    return out
+
+
+def force_at(F: Frame, bodies, px, py, fx, fy, out, slot, sign=1.0):
+    """Add the force sign * (fx, fy) acting at the global point (px, py) (all (N, K)) to slot of
+    out (N, K, nbody, 3): force and its moment about each body's frame origin."""
+    x, y = body_xy(F, bodies)
+    out[:, :, slot, 0] += sign * fx
+    out[:, :, slot, 1] += sign * fy
+    out[:, :, slot, 2] += sign * ((px - x) * fy - (py - y) * fx)
+
+
+def gradient_force(G: Group, F: Frame, lam: np.ndarray) -> np.ndarray:
+    """-g_q^T lambda per body: (N, K, nbody, 3) from lam (N, K, neq)."""
+    g = G.grad(F)
+    N, K = lam.shape[:2]
+    return -np.einsum("nke,nkec->nkc", lam, g).reshape(N, K, G.kind.nbody, 3)

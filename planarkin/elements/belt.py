@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Param
-from .gear import Gear
+from .base import Param, force_at, gradient_force
+from .gear import Gear, carrier_centres, global_point
 
 
 class Belt(Gear):
@@ -26,11 +26,72 @@ class Belt(Gear):
         Param("rj", "length", "pitch radius of pulley j, > 0"),
         Param("crossed", "flag", "true: a crossed belt (the pulleys turn opposite ways)",
               required=False, default=False),
+        Param("pretension", "real", "tension of both runs at rest, >= 0 (force: N with lengths "
+              "in m); only the forces on the shafts depend on it", required=False, default=0.0),
     )
     summary = ("belt or chain drive on fixed centres or a common carrier k (default ground); "
                "`crossed: true` for a crossed belt (1 equation)")
     equations = ("ri (phi_i - phi_k) -+ rj (phi_j - phi_k) - c0 = 0 (- open, + crossed; c0 from "
                  "the given body angles)")
+
+    reaction_sign = (
+        "fx, fy: the pull of both runs on pulley j (global), each along its run towards pulley "
+        "i: the tension difference dT = |T_j| / rj (T_j the belt's torque on j) is split as "
+        "slack = max(pretension - dT/2, 0), tight = slack + dT (without pretension the slack run "
+        "carries nothing and the tight one dT); torque: their moment about j's centre (its "
+        "revolute joint to the carrier k), counter-clockwise positive. Pulley i gets minus the "
+        "force with the same moment about that point; the carrier nothing")
+
+    def diagnose(self, arrays, L, af, lu, au):
+        T0 = float(arrays["pretension"])
+        if not T0 >= 0:
+            return [f"pretension must not be negative, not {T0:g} (the tension of both runs at "
+                    f"rest)"]
+        return []
+
+    def reaction(self, G, F, lam, setup):
+        """Each run's tension along its tangent line, on i and j only (reaction_sign). Of the
+        two runs (tangent lines of the pitch circles: outer for an open belt, crossing for a
+        crossed one) the tight one is the run whose pull turns pulley j the way the belt's
+        torque on j does."""
+        out = gradient_force(G, F, lam)
+        ok = setup["ok"]
+        if not ok.any():
+            return out
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        xi, yi = global_point(F, bi, np.nan_to_num(setup["ci"]))
+        xj, yj = global_point(F, bj, np.nan_to_num(setup["cj"]))
+        ri, rj = G.params["ri"], G.params["rj"]
+        crossed = G.params["crossed"] > 0.5
+        sig = np.where(crossed, -1.0, 1.0)                  # side of j's tangent point
+        dx, dy = xj - xi, yj - yi
+        dist = np.hypot(dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ex, ey = dx / dist, dy / dist
+            sb = np.where(crossed, ri + rj, ri - rj) / dist
+        cb = np.sqrt(np.maximum(1.0 - sb * sb, 0.0))
+        Mj = -lam[..., 0] * self._radii(G)[1]               # the belt's torque on j
+        phys = np.zeros_like(out)
+        # the + run (m = cb R e + sb e): its pull -T t on j at c_j + sig rj m has the moment
+        # -T sig rj (m x t) about c_j; m x t = -1 for this run
+        mu_plus = sig * 1.0
+        tight = np.where(mu_plus * Mj >= 0, 1.0, -1.0)
+        dT = np.abs(Mj) / rj
+        slack = np.maximum(setup["pretension"] - 0.5 * dT, 0.0)
+        for side, T in ((tight, slack + dT), (-tight, slack)):
+            mx, my = -side * cb * ey + sb * ex, side * cb * ex + sb * ey
+            tix, tiy = xi + ri * mx, yi + ri * my
+            tjx, tjy = xj + sig * rj * mx, yj + sig * rj * my
+            run = np.hypot(tjx - tix, tjy - tiy)
+            fx, fy = -T * (tjx - tix) / run, -T * (tjy - tiy) / run
+            force_at(F, bj, tjx, tjy, fx, fy, phys, 1)
+            force_at(F, bi, tix, tiy, fx, fy, phys, 0, -1.0)
+        return np.where(ok[None, :, None, None], phys, out)
+
+    def reaction_setup(self, G, pivots, L):
+        out = carrier_centres(G, pivots)
+        out["pretension"] = G.params["pretension"] * L          # internal force units
+        return out
 
     @staticmethod
     def _radii(G):

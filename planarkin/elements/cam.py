@@ -24,12 +24,13 @@ angle unit); its derivatives are the exact symbolic ones of `planarkin.expr`.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
 from ..expr import parse
 from . import jerk as J
-from .base import Kind, Param, omega, relative_velocity, rotate
+from .base import Kind, Param, body_xy, force_at, omega, relative_velocity, rotate
 
 VAR = "theta"
 DEFAULT_LIMIT = {"cam": math.radians(30.0), "cam-rocker": math.radians(45.0)}
@@ -47,14 +48,20 @@ class Law:
     def __init__(self, text, values, a: float = 1.0, b: float = 1.0):
         self.text = text if isinstance(text, str) else repr(text)
         self.values = {k: float(v) for k, v in values.items() if k != VAR}
-        e = parse(text, list(self.values) + [VAR])
-        d1 = e.diff(VAR)
-        self.exprs = (e, d1, d1.diff(VAR))
+        e = parse(text, list(self.values) + [VAR])          # messages speak of theta
+        # evaluated as a function of t, the name the switch rules of planarkin.expr resolve
+        # at rounding level (SIDE_RULE: a knot within 8 ulp of theta is at theta, right-hand)
+        self.var = VAR
+        if "t" not in self.values and isinstance(text, str):
+            e = parse(re.sub(rf"\b{VAR}\b", "t", text), list(self.values) + ["t"])
+            self.var = "t"
+        d1 = e.diff(self.var)
+        self.exprs = (e, d1, d1.diff(self.var))
         self.a, self.b = a, b
 
     def scaled(self, out_per_user: float, angle_factor: float) -> "Law":
         law = Law.__new__(Law)
-        law.text, law.values, law.exprs = self.text, self.values, self.exprs
+        law.text, law.values, law.exprs, law.var = self.text, self.values, self.exprs, self.var
         law.a, law.b = 1.0 / angle_factor, out_per_user
         return law
 
@@ -63,9 +70,9 @@ class Law:
         others are None). orders may include 3 (the jerk's d3/dtheta3, then a 4-tuple)."""
         theta = np.asarray(theta, dtype=float)
         env = dict(self.values)
-        env[VAR] = self.a * theta
+        env[self.var] = self.a * theta
         if 3 in orders and len(self.exprs) == 3:          # only runs asking for jerk need it
-            self.exprs = self.exprs + (self.exprs[2].diff(VAR),)
+            self.exprs = self.exprs + (self.exprs[2].diff(self.var),)
         out = [None] * (4 if 3 in orders else 3)
         for o in orders:
             f = np.broadcast_to(np.asarray(self.exprs[o].evaluate(env), float), theta.shape)
@@ -156,9 +163,57 @@ _COMMON = (
 )
 _REST = (Param("rest", "real", "s0 (cam) or psi0 (cam-rocker), from the geometry"),)
 
+CAM_SIGN = (
+    "fx, fy: the contact force on the follower j (global), along the common normal at the "
+    "point of contact (through the roller's centre; normal to a flat face); torque: its moment "
+    "about the follower's point sj (for a flat face the contact force times the contact's "
+    "offset along the face). The cam i gets minus the force at the same point, the frame k "
+    "nothing (the cam's bearing and the follower's guide or pivot take the rest). "
+    "<name>.contact: its normal component, positive while the cam presses on the follower; "
+    "negative where the joint holds the follower on the cam (it would lift off: warned)")
 
-class Cam(Kind):
+
+class _CamReaction:
+    """The contact force of the cams: on the follower f N at the contact C, minus that on the
+    cam, N the unit normal from the cam to the follower. The law's constraint has a force
+    along the follower's travel (translating: -lambda u at sj; rocker: the torque -lambda about
+    the pivot), and the follower's guide (pivot) takes every other part of f N; so f is the
+    one whose part along the travel (moment about the pivot) is the constraint's."""
+
+    def _contact(self, G, F, lam):
+        """(f, Cx, Cy, Nx, Ny), (N, K) each, global, internal units."""
+        bi, bj, bk = G.bodies[:, 0], G.bodies[:, 1], G.bodies[:, 2]
+        th, _ = _cam_angle(G, F)
+        N, K = th.shape
+        cx, cy, nx, ny = (np.empty((N, K)) for _ in range(4))
+        for k in range(K):
+            P = profile(self.name, instance(G, k), th[:, k])
+            cx[:, k], cy[:, k] = P["contact_x"], P["contact_y"]
+            nx[:, k], ny[:, k] = P["normal_x"], P["normal_y"]
+        sk = G.params["sk"]
+        ox, oy = rotate(F, bk, sk[:, 0], sk[:, 1])
+        xk, yk = body_xy(F, bk)
+        Cx, Cy = rotate(F, bk, cx, cy)
+        Cx, Cy = Cx + xk + ox, Cy + yk + oy
+        Nx, Ny = rotate(F, bk, nx, ny)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = -lam[..., 0] / self._lever(G, F, Cx, Cy, Nx, Ny)
+        return f, Cx, Cy, Nx, Ny
+
+    def reaction(self, G, F, lam, setup):
+        f, Cx, Cy, Nx, Ny = self._contact(G, F, lam)
+        out = np.zeros((F.q.shape[0], len(G), 3, 3))
+        force_at(F, G.bodies[:, 1], Cx, Cy, f * Nx, f * Ny, out, 1)
+        force_at(F, G.bodies[:, 0], Cx, Cy, f * Nx, f * Ny, out, 0, -1.0)
+        return out
+
+    def contact_force(self, G, F, lam, setup):
+        return self._contact(G, F, lam)[0]
+
+
+class Cam(_CamReaction, Kind):
     name = "cam"
+    reaction_sign = CAM_SIGN
     sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
     params = (
@@ -234,6 +289,11 @@ class Cam(Kind):
     def diagnose(self, arrays, L, af, lu, au):
         return check(self.name, arrays, L, af, lu, au)
 
+    def _lever(self, G, F, Cx, Cy, Nx, Ny):
+        """N^T u: the part of a unit contact force along the follower's travel."""
+        ux, uy = rotate(F, G.bodies[:, 2], G.params["vk"][:, 0], G.params["vk"][:, 1])
+        return Nx * ux + Ny * uy
+
     def prepare(self, arrays, poses):
         if arrays["flat"] > 0.5:
             s0 = float(arrays["base"])
@@ -244,8 +304,9 @@ class Cam(Kind):
         return {"rest": np.float64(s0), "theta0": poses[0][2] - poses[2][2]}, [s0]
 
 
-class CamRocker(Kind):
+class CamRocker(_CamReaction, Kind):
     name = "cam-rocker"
+    reaction_sign = CAM_SIGN
     sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
     params = (
@@ -293,6 +354,13 @@ class CamRocker(Kind):
 
     def diagnose(self, arrays, L, af, lu, au):
         return check(self.name, arrays, L, af, lu, au)
+
+    def _lever(self, G, F, Cx, Cy, Nx, Ny):
+        """(C - pivot) x N: the moment of a unit contact force about the rocker's pivot."""
+        bj = G.bodies[:, 1]
+        x, y = body_xy(F, bj)
+        px, py = rotate(F, bj, G.params["pj"][:, 0], G.params["pj"][:, 1])
+        return (Cx - x - px) * Ny - (Cy - y - py) * Nx
 
     def prepare(self, arrays, poses):
         th0 = poses[0][2] - poses[2][2]
@@ -358,16 +426,20 @@ def profile(kind: str, par: dict, theta) -> dict:
         sx, sy = _rot(c, sn, fx, fy)
         rho_s = d + s2
         pressure = np.zeros_like(theta)
+        contact = (fx, fy, mx, my)
     elif kind == "cam-rocker" and par.get("flat", 0.0) > 0.5:
-        sx, sy, rho_s, pressure = _flat_rocker(par, theta, ang, p1, p2, D)
+        sx, sy, rho_s, pressure, contact = _flat_rocker(par, theta, ang, p1, p2, D)
     else:
         nxc, nyc = _rot(c, sn, Nx, Ny)
         sx, sy = px - roller * nxc, py - roller * nyc
         rho_s = rho - roller
         dot = np.abs(mx * Nx + my * Ny)
         pressure = np.arctan2(np.abs(mx * Ny - my * Nx), dot)
+        contact = (wx - roller * Nx, wy - roller * Ny, Nx, Ny)
     return {"value": value, "pitch_x": px, "pitch_y": py, "surface_x": sx, "surface_y": sy,
-            "rho_pitch": rho, "rho_surface": rho_s, "pressure": pressure}
+            "rho_pitch": rho, "rho_surface": rho_s, "pressure": pressure,
+            "contact_x": contact[0], "contact_y": contact[1], "normal_x": contact[2],
+            "normal_y": contact[3]}
 
 
 def _flat_rocker(par, theta, ang, p1, p2, D):
@@ -402,7 +474,7 @@ def _flat_rocker(par, theta, ang, p1, p2, D):
     rho_s = sigma * (h + hgg)
     vx, vy = -(Yy - D[1]), Yx - D[0]                      # R (Y - D)
     pressure = np.arctan2(np.abs(vx * my - vy * mx), np.abs(vx * mx + vy * my))
-    return sx, sy, rho_s, pressure
+    return sx, sy, rho_s, pressure, (Yx, Yy, sigma * mx, sigma * my)
 
 
 def instance(G, k: int) -> dict:
@@ -501,6 +573,48 @@ def _check_flat_rocker(par, P, th, deg, unit) -> list[str]:
                     f"{deg(th[k])}, more than pressure_limit = {deg(lim)}; move the pivot, spread "
                     f"the swing over a larger cam angle or raise pressure_limit")
     return msgs
+
+
+# -- the angles a law describes: refused past its range --------------------------------------------
+
+RANGE_TOL = 1e-9        # rad: a cam angle this far past its law's range is still in it (rounding)
+
+
+def row_checks(cm, opts) -> list:
+    """[check(an, chunk)] for the cams whose law has a `range:`: the law and its profile were
+    checked over that range only (a full-turn law over the whole turn), so a row whose cam angle
+    lies outside it is refused, the run stopping there, as a full-turn law that does not close
+    is refused before the run (issue 21, item 4)."""
+    out = []
+    nb, af, au = cm.nb, cm.angle_factor, cm.spec.angle_unit
+    for G in cm.groups:
+        if G.kind.name not in ("cam", "cam-rocker"):
+            continue
+        for k in range(len(G)):
+            lo, hi = (float(x) for x in G.params["range"][k])
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                continue
+            el = cm.element_of_row(int(G.rows[k, 0]))
+            bi, bk = int(G.bodies[k, 0]), int(G.bodies[k, 2])
+            out.append(_range_check(el.label, bi, bk, nb, lo, hi, af, au))
+    return out
+
+
+def _range_check(label, bi, bk, nb, lo, hi, af, au):
+    def check(an, ch):
+        th = ch.q[:, 3 * bi + 2] - (ch.q[:, 3 * bk + 2] if bk != nb else 0.0)
+        x = th * af
+        bad = ~((x >= lo - RANGE_TOL) & (x <= hi + RANGE_TOL))
+        if not bad.any():
+            return None
+        i = int(np.argmax(bad))
+        return (i, f"{label}: the cam angle theta = {th[i]:.6g} {au} at t = "
+                   f"{float(ch.t[i]):.10g} s is outside the law's range [{lo / af:g}, "
+                   f"{hi / af:g}] {au}: the law and its profile are checked over that range "
+                   f"only; give the law over every angle the cam turns through (its range, "
+                   f"or a full turn), or end the analysis sooner; rows are written up to the "
+                   f"one before", "range")
+    return check
 
 
 # -- cam-<name>.csv: the room of planarkin.derived ------------------------------------------------

@@ -152,6 +152,9 @@ class CurveSlot(Kind):
         Param("closed", "flag", "true: a closed table curve (a periodic spline); a circle or a "
               "chain of segments is closed by its geometry", required=False, default=False),
     )
+    reaction_sign = (
+        'fx, fy: the force of the curve (body i) on the pin j, normal to the curve at the pin (no '
+        'friction); no moment about the pin. Body i gets minus it')
     summary = ("pin sj of j follows a curve of body i (a curved slot, a track): exact lines and "
                "arcs, or a table of points interpolated by a quintic spline (1 equation)")
     equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"

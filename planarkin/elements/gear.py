@@ -7,9 +7,50 @@ The phase constant is fixed by the body angles given in the model (the gears mes
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .base import Kind, Param
+from .base import Kind, Param, body_xy, force_at, gradient_force, rotate
+
+DEFAULT_PRESSURE_ANGLE = math.radians(20.0)      # the standard involute tooth
+PRESSURE_ANGLE = Param("pressure_angle", "angle", "pressure angle of the teeth, 0 to 45 deg "
+                       "(the tooth force's angle to the pitch circles' tangent; default 20 deg)",
+                       required=False, default=None)
+
+
+def pressure_tan(G) -> np.ndarray:
+    """(K,) tan of every instance's pressure angle (the default where none is given)."""
+    a = G.params["pressure_angle"]
+    return np.tan(np.where(np.isfinite(a), a, DEFAULT_PRESSURE_ANGLE))
+
+
+def check_pressure_angle(arrays, af, au) -> list:
+    """The pressure angle's range, as messages (user units)."""
+    a = float(arrays["pressure_angle"])
+    if math.isfinite(a) and not 0.0 <= a <= math.radians(45.0) + 1e-12:
+        return [f"pressure_angle must be between 0 and {math.radians(45.0) / af:g} {au}, not "
+                f"{a / af:g} {au} (involute teeth: 14.5, 20 or 25 deg)"]
+    return []
+
+
+def carrier_centres(G, pivots):
+    """{'ci', 'cj'}: (K, 2) the centres of i and j in their own frames, their revolute joints
+    to the carrier k (NaN where there is none), and 'ok' (K,) where both are known."""
+    K = len(G)
+    ci, cj = np.full((K, 2), np.nan), np.full((K, 2), np.nan)
+    for k, (bi, bj, bk) in enumerate(G.bodies):
+        a, b = pivots.get((int(bi), int(bk))), pivots.get((int(bj), int(bk)))
+        if a is not None and b is not None:
+            ci[k], cj[k] = a, b
+    return {"ci": ci, "cj": cj, "ok": np.isfinite(ci).all(axis=1) & np.isfinite(cj).all(axis=1)}
+
+
+def global_point(F, b, s):
+    """Global (x, y), (N, K), of body-frame points s (K, 2) of bodies b (K,)."""
+    x, y = body_xy(F, b)
+    sx, sy = rotate(F, b, s[:, 0], s[:, 1])
+    return x + sx, y + sy
 
 
 class Gear(Kind):
@@ -22,6 +63,49 @@ class Gear(Kind):
     summary = ("gear pair on fixed centres or a common carrier k (default ground): "
                "ri (phi_i - phi_k) + rj (phi_j - phi_k) = c (1 equation)")
     equations = "ri (phi_i - phi_k) + rj (phi_j - phi_k) - c0 = 0 (c0 from the given body angles)"
+    params = params + (PRESSURE_ANGLE,)
+    reaction_sign = (
+        "fx, fy: the tooth force on gear j (global), along the line of action through the pitch "
+        "point (the relative pole of i and j on the line of their centres, their revolute joints "
+        "to the carrier k): its tangential part F_t = T_j / rj, its radial part |F_t| tan"
+        "(pressure_angle) pushing the gears apart; torque: its moment about j's centre (the "
+        "torque the teeth put on j, counter-clockwise positive). Gear i gets minus the force at "
+        "the same point; the carrier nothing (its bearings take the rest)")
+
+    def diagnose(self, arrays, L, af, lu, au):
+        return check_pressure_angle(arrays, af, au)
+
+    def reaction_setup(self, G, pivots, L):
+        return carrier_centres(G, pivots)
+
+    def reaction_point(self, G, F, setup):
+        x, y = body_xy(F, G.bodies[:, 1])
+        cx, cy = global_point(F, G.bodies[:, 1], np.nan_to_num(setup["cj"]))
+        ok = setup["ok"]
+        return np.where(ok, cx, x), np.where(ok, cy, y)
+
+    def reaction(self, G, F, lam, setup):
+        out = gradient_force(G, F, lam)
+        ok = setup["ok"]
+        if not ok.any():
+            return out
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        xi, yi = global_point(F, bi, np.nan_to_num(setup["ci"]))
+        xj, yj = global_point(F, bj, np.nan_to_num(setup["cj"]))
+        ri, rj = self._radii(G)
+        S = ri + rj
+        dx, dy = xj - xi, yj - yi
+        dist = np.hypot(dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ex, ey = dx / dist, dy / dist
+        px, py = xi + ri * dx / S, yi + ri * dy / S          # the pitch point, relative pole
+        ft = lam[..., 0] * S / dist                           # along R e on j
+        fr = np.abs(ft) * pressure_tan(G) * np.sign(S)        # along e on j: apart
+        fx, fy = -ft * ey + fr * ex, ft * ex + fr * ey
+        phys = np.zeros_like(out)
+        force_at(F, bj, px, py, fx, fy, phys, 1)
+        force_at(F, bi, px, py, fx, fy, phys, 0, -1.0)
+        return np.where(ok[None, :, None, None], phys, out)
 
     @staticmethod
     def _radii(G):

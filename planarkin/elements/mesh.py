@@ -21,7 +21,8 @@ import math
 import numpy as np
 
 from . import jerk as J
-from .base import Kind, Param, relative_point, relative_velocity, omega
+from .base import Kind, Param, force_at, gradient_force, relative_point, relative_velocity, omega
+from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 
 _PARAMS = (
     Param("si", "point", "centre of gear (disc) i on body i in its frame"),
@@ -73,6 +74,31 @@ class GearMesh(Kind):
                "without slip; the centre distance comes from other joints (1 equation)")
     equations = ("e_perp(theta*)^T (P_j - P_i) = 0, theta* = (ri phi_i + rj phi_j + c0) / "
                  "(ri + rj), c0 as drawn")
+    params = _PARAMS + (PRESSURE_ANGLE,)
+    reaction_sign = (
+        "fx, fy: the tooth force on gear j (global), along the line of action through the pitch "
+        "point: the tangential part (the constraint's own force) and the radial part |F_t| tan"
+        "(pressure_angle) pushing the gears apart; torque: its moment about j's centre sj, "
+        "counter-clockwise positive. Gear i gets minus the force at the same point")
+
+    def diagnose(self, arrays, L, af, lu, au):
+        return check_pressure_angle(arrays, af, au)
+
+    def reaction(self, G, F, lam, setup):
+        """The constraint's force is the tangential tooth force at the pitch point P_j - rj e;
+        the radial part, along e on j, is carried by the joints that hold the centre distance."""
+        out = gradient_force(G, F, lam)
+        th, _, _ = _theta(G, F)
+        ex, ey = np.cos(th), np.sin(th)
+        six, siy, sjx, sjy, _, _ = relative_point(G, F)
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        rj = G.params["rj"]
+        px = F.q[:, 3 * bj] + sjx - rj * ex
+        py = F.q[:, 3 * bj + 1] + sjy - rj * ey
+        fr = np.hypot(out[:, :, 1, 0], out[:, :, 1, 1]) * pressure_tan(G)
+        force_at(F, bj, px, py, fr * ex, fr * ey, out, 1)
+        force_at(F, bi, px, py, fr * ex, fr * ey, out, 0, -1.0)
+        return out
 
     def g(self, G, F):
         th, _, _ = _theta(G, F)
@@ -120,6 +146,10 @@ class RollDisc(Kind):
     neq = 2
     params = _PARAMS
     derived = _PHASE
+    reaction_sign = (
+        'fx, fy: the contact force of disc i on disc j at their contact point (global): the '
+        'normal part along the line of centres and the tangential traction; torque: its moment '
+        "about j's centre sj. Disc i gets minus it at the same point")
     summary = ("disc j rolls without slipping on disc i, outside (ri, rj > 0) or inside (the "
                "outer radius negative); also keeps the centre distance |ri + rj| (2 equations)")
     equations = "P_j - P_i - (ri + rj) e(theta*) = 0, theta* as for gear-mesh"

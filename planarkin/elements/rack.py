@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param, relative_velocity
+from .base import Kind, Param, force_at, gradient_force, relative_velocity
+from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 from .translational import _along_jerk, _line, _normal_gamma, _normal_jerk, _normal_row
 
 
@@ -82,6 +83,31 @@ class RackPinion(Kind):
                "distance comes from other joints (1 equation)")
     equations = ("u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) - c0 = 0 (sigma: the pinion's side "
                  "of the pitch line, c0: as drawn)")
+    params = _PARAMS + (PRESSURE_ANGLE,)
+    reaction_sign = (
+        "fx, fy: the tooth force on the pinion j (global), along the line of action through the "
+        "pitch point (on the pitch line below the pinion's centre): its part along the rack "
+        "(the constraint's own force) and |F_t| tan(pressure_angle) pushing the pinion away "
+        "from the rack; torque: its moment about the pinion's centre sj, counter-clockwise "
+        "positive. The rack i gets minus the force at the same point")
+
+    def diagnose(self, arrays, L, af, lu, au):
+        return check_pressure_angle(arrays, af, au)
+
+    def reaction(self, G, F, lam, setup):
+        """The constraint's force is the tooth force along the pitch line at the pitch point
+        P_j - sigma r n_i; the radial part, along sigma n_i on the pinion, is carried by the
+        joints that hold the centre distance (pinion bearing, rack guide)."""
+        out = gradient_force(G, F, lam)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        sr = G.params["side"] * G.params["r"]
+        px = F.q[:, 3 * bj] + sjx - sr * nx
+        py = F.q[:, 3 * bj + 1] + sjy - sr * ny
+        fr = np.hypot(out[:, :, 1, 0], out[:, :, 1, 1]) * pressure_tan(G) * G.params["side"]
+        force_at(F, bj, px, py, fr * nx, fr * ny, out, 1)
+        force_at(F, bi, px, py, fr * nx, fr * ny, out, 0, -1.0)
+        return out
 
     def g(self, G, F):
         return _along(G, F)[..., None]
@@ -108,6 +134,11 @@ class RollLine(Kind):
     neq = 2
     params = _PARAMS
     derived = _SIDE
+    reaction_sign = (
+        'fx, fy: the contact force of the line (body i) on the disc j at the contact point '
+        '(global): its normal part along sigma n_i (positive pressing the disc away from the '
+        'line) and its tangential part (the traction that keeps it rolling); torque: its moment '
+        "about the disc's centre sj. The line gets minus it at the same point")
     summary = ("disc j of radius r rolls without slipping on a line of body i (a wheel on a "
                "road; a rack and pinion that also keeps the centre distance) (2 equations)")
     equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "

@@ -19,6 +19,9 @@ class Revolute(Kind):
         Param("sj", "point", "joint point on body j in its frame"),
     )
     at_form = "[x, y]: the joint's global position at the assembly pose"
+    reaction_sign = (
+        'fx, fy: the force of body i on body j at the pin (global); no moment about the pin. Body '
+        'i gets minus it')
     summary = "pin joint: point si of i and point sj of j coincide (2 equations)"
     equations = "r_i + A_i s'_i - r_j - A_j s'_j = 0"
 

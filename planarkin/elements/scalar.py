@@ -23,6 +23,9 @@ class Angle(Kind):
     params = ()
     target = "c"
     target_unit = "angle"
+    reaction_sign = (
+        'torque: the moment body i exerts on body j (counter-clockwise positive), a pure moment; '
+        "i gets minus it. As a driver (.torque) the actuator's torque on j")
     summary = "relative angle: phi_j - phi_i = c (1 equation)"
     equations = "phi_j - phi_i - c = 0"
     driver_equations = "phi_j - phi_i - f(t) = 0"
@@ -97,6 +100,10 @@ class _Component(Kind):
 class XDistance(_Component):
     name = "x"
     axis = 0
+    reaction_sign = (
+        'fx: the force on j at P_j along the global x axis (fy = 0); i gets minus it at P_i (a '
+        "couple about P_j when the points differ in y). As a driver (.force) the actuator's force "
+        'on j along +x')
     summary = "x of P_j - P_i = c (1 equation); with i: ground, the absolute x of a point"
     equations = "x_j + (A_j s'_j)_x - x_i - (A_i s'_i)_x - c = 0"
     driver_equations = "x_j + (A_j s'_j)_x - x_i - (A_i s'_i)_x - f(t) = 0"
@@ -105,6 +112,9 @@ class XDistance(_Component):
 class YDistance(_Component):
     name = "y"
     axis = 1
+    reaction_sign = (
+        'fy: the force on j at P_j along the global y axis (fx = 0); i gets minus it at P_i. As a '
+        "driver (.force) the actuator's force on j along +y")
     summary = "y of P_j - P_i = c (1 equation); with i: ground, the absolute y of a point"
     equations = "y_j + (A_j s'_j)_y - y_i - (A_i s'_i)_y - c = 0"
     driver_equations = "y_j + (A_j s'_j)_y - y_i - (A_i s'_i)_y - f(t) = 0"
@@ -120,6 +130,10 @@ class Distance(Kind):
     target = "c"
     target_unit = "length"
     at_form = "[[x1, y1], [x2, y2]]: global positions of the point on i and the point on j"
+    reaction_sign = (
+        'fx, fy: the force on j at P_j, along the line P_i -> P_j (pointing from P_i to P_j '
+        "when the link pushes j away, in compression); i gets minus it at P_i. As a driver "
+        "(.force) the actuator's force on j along P_i -> P_j, positive pushing apart")
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"

@@ -77,6 +77,10 @@ class Translational(Kind):
         Param("vj", "vector", "axis direction on body j in its frame"),
     )
     at_form = "[x, y] with axis: [dx, dy]: a global point of the sliding axis and its direction"
+    reaction_sign = (
+        'fx, fy: the force of body i on body j (global), normal to the axis (no friction); '
+        "torque: the moment of i on j about j's point sj, counter-clockwise positive. Body i gets "
+        'minus both')
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
     equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
 
@@ -120,6 +124,9 @@ class PinSlot(Kind):
     target = "c"
     target_unit = "length"
     at_form = "[x, y] with axis: [dx, dy]: the pin's global position and the slot direction"
+    reaction_sign = (
+        'fx, fy: the force of the slot (body i) on the pin (body j), normal to the slot line; no '
+        'moment about the pin. Body i gets minus it')
     summary = ("pin-in-slot (revolute-translational composite): pin sj of j stays on the slot line "
                "of i, at signed offset c (default 0) (1 equation)")
     equations = "n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - c = 0"
@@ -158,6 +165,9 @@ class Slide(Kind):
     )
     target = "c"
     target_unit = "length"
+    reaction_sign = (
+        'driver only: effort (.force): what the actuator exerts on body j along the slide axis '
+        'u_i, positive along +u_i; the actuator pushes i back as much')
     summary = "slide along an axis: u_i^T (P_j - P_i) = f(t) (1 equation)"
     driver_equations = "u_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - f(t) = 0"
 

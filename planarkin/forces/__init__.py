@@ -17,3 +17,13 @@ def derived_tables(cm, opts):
         return []
     from .output import forces_table
     return [forces_table(cm, opts)]
+
+
+def row_checks(cm, opts):
+    """[the check of every chunk before it is written] (planarkin.forces.check) when the model
+    has forces, else []."""
+    from .model import has_forces
+    if not has_forces(cm) or opts.order < 2:
+        return []
+    from .check import RowCheck
+    return [RowCheck(cm, opts)]

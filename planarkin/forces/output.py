@@ -28,6 +28,11 @@ SINGULAR_NOTE = ("near a singular configuration (see the near-singular warnings)
                  "sensitive to the geometry")
 
 
+# kinds with a signed normal contact force (Kind.contact_force): bilateral joints standing for
+# contacts that only press; forces.csv gets <name>.contact, positive while pressing
+CONTACT_KINDS = ("cam", "cam-rocker")
+
+
 def column_name(el) -> str:
     """The element's name, or its message label made CSV-safe."""
     if el.name:
@@ -56,7 +61,7 @@ def _redundancy(cm):
 
 def columns(cm, left_out=frozenset()):
     """[(header, getter(Forces) -> (N,) array, role)] in table order (t excluded); role is
-    'effort', 'reaction', 'power' or 'shaking'."""
+    'effort', 'reaction', 'contact', 'power' or 'shaking'."""
     u = unit_names(cm.spec.length_unit)
     spec = cm.spec
     nj = len(spec.joints)
@@ -84,6 +89,10 @@ def columns(cm, left_out=frozenset()):
             unit = u["torque" if c == "torque" else "force"]
             out.append((f"{names[e]}.{c} [{unit}]",
                         lambda F, e=e, k=comp[c]: F.reaction(e, 1)[k], "reaction"))
+    for e, el in enumerate(spec.joints):
+        if e not in left_out and el.kind in CONTACT_KINDS:
+            out.append((f"{names[e]}.contact [{u['force']}]", lambda F, e=e: F.contact(e),
+                        "contact"))
     for d, el in enumerate(spec.drivers):
         if nj + d in left_out:
             continue
@@ -105,6 +114,9 @@ def forces_table(cm, opts) -> DerivedTable | None:
     per = K.points_per_solve
 
     def compute(ch) -> np.ndarray:
+        memo = ROWS_MEMO.pop(id(cm), None)          # the rows the refusal check computed already
+        if memo is not None and memo[0] is ch.t:
+            return memo[1]
         N = len(ch.t)
         X = np.empty((N, len(header)))
         X[:, 0] = ch.t
@@ -125,31 +137,50 @@ def forces_table(cm, opts) -> DerivedTable | None:
         notes.append("redundant constraints have no unique reaction; left out of forces.csv: "
                      + "; ".join(labels))
     efforts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "effort"]
+    contacts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "contact"]
+    if contacts:
+        notes.append(LIFT_OFF_NOTE)
     units = unit_names(cm.spec.length_unit)
     units["length"] = cm.spec.length_unit
 
     def accumulator():
-        return Accumulator(header, efforts, notes, labels, units)
+        return Accumulator(header, efforts, notes, labels, units, contacts)
 
     from .plot import forces_plot
     return DerivedTable("forces.csv", header, compute, section="forces", accumulator=accumulator,
                         plot=forces_plot)
 
 
-class Accumulator:
-    """Peak (largest |value|, signed, and when) of every force column; RMS of driver efforts."""
+LIFT_OFF_NOTE = ("a cam joint is bilateral: it holds the follower on the cam as if glued. "
+                 "<name>.contact is the normal contact force, positive while the cam presses on "
+                 "the follower; where it is negative the follower would lift off (see contact."
+                 "<name>.min and the lift-off warning): a spring must add at least that much")
 
-    def __init__(self, header, efforts, notes, left_out, units):
+# a non-finite value in a written row: the run stops there (planarkin.forces.check); a column's
+# peak and RMS then never hide it
+ROWS_MEMO: dict = {}
+
+
+class Accumulator:
+    """Peak (largest |value|, signed, and when) of every force column; RMS of driver efforts;
+    the smallest contact force of every cam (and when). A non-finite value makes its column's
+    peak and RMS null with the first time it occurred (never skipped)."""
+
+    def __init__(self, header, efforts, notes, left_out, units, contacts=()):
         self.header = header
         self.efforts = efforts
         self.notes = notes
         self.left_out = left_out
         self.units = units
+        self.contacts = list(contacts)
         k = len(header) - 1
         self.peak = np.full(k, -1.0)
         self.value = np.zeros(k)
         self.when = np.zeros(k)
         self.sq = np.zeros(k)
+        self.bad = np.full(k, np.nan)           # first time of a non-finite value
+        self.low = np.full(k, np.inf)
+        self.low_t = np.zeros(k)
         self.rows = 0
 
     def add(self, X: np.ndarray) -> None:
@@ -157,24 +188,70 @@ class Accumulator:
             return
         V = X[:, 1:]
         A = np.abs(V)
-        i = np.argmax(np.where(np.isnan(A), -1.0, A), axis=0)
+        fin = np.isfinite(V)
+        if not fin.all():
+            first = np.argmax(~fin, axis=0)
+            new = ~fin.all(axis=0) & np.isnan(self.bad)
+            self.bad[new] = X[first[new], 0]
+        i = np.argmax(np.where(fin, A, -1.0), axis=0)
         cols = np.arange(V.shape[1])
         better = A[i, cols] > self.peak
         self.peak[better] = A[i, cols][better]
         self.value[better] = V[i, cols][better]
         self.when[better] = X[i, 0][better]
-        self.sq += (V * V).sum(axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.sq += (V * V).sum(axis=0)
+        j = np.argmin(np.where(fin, V, np.inf), axis=0)
+        lower = V[j, cols] < self.low
+        self.low[lower] = V[j, cols][lower]
+        self.low_t[lower] = X[j, 0][lower]
         self.rows += len(X)
 
     def as_dict(self) -> dict:
         name = lambda k: self.header[k].split(" [", 1)[0]
-        return {
+
+        def peak(k):
+            if not np.isnan(self.bad[k]):
+                return {"value": None, "abs": None, "t": None,
+                        "non_finite_at": float(self.bad[k])}
+            return {"value": float(self.value[k]), "abs": float(self.peak[k]),
+                    "t": float(self.when[k])}
+
+        def rms(k):
+            if not self.rows or not np.isnan(self.bad[k - 1]):
+                return None
+            return float(np.sqrt(self.sq[k - 1] / self.rows))
+        out = {
             "units": self.units,
-            "peak": {name(k + 1): {"value": float(self.value[k]), "abs": float(self.peak[k]),
-                                   "t": float(self.when[k])} for k in range(len(self.peak))
-                     if self.rows},
-            "rms": {name(k): float(np.sqrt(self.sq[k - 1] / self.rows)) if self.rows else None
-                    for k in self.efforts},
+            "peak": {name(k + 1): peak(k) for k in range(len(self.peak)) if self.rows},
+            "rms": {name(k): rms(k) for k in self.efforts},
             "left_out": self.left_out,
             "notes": self.notes,
         }
+        if self.contacts:
+            out["contact"] = {
+                name(k).rsplit(".", 1)[0]: {
+                    "min": float(self.low[k - 1]) if self.rows and np.isfinite(self.low[k - 1])
+                    else None, "t": float(self.low_t[k - 1]),
+                    "lift_off": bool(self.low[k - 1] < 0), "unit": self.units["force"]}
+                for k in self.contacts}
+        return out
+
+
+def cycle_contact(section: dict | None) -> dict:
+    """The cycle figures' hook for planarkin.measures.cycle: {cam name: {"min", "t", "lift_off",
+    "unit"}} from summary.json's forces section (empty without cams or forces)."""
+    return dict((section or {}).get("contact", {}))
+
+
+def format_contact(contact: dict | None) -> list[str]:
+    """Report lines of the smallest contact force of every cam (for --report cycle), from the
+    dict cycle_contact gives."""
+    out = []
+    for name, rec in (contact or {}).items():
+        if rec["min"] is None:
+            continue
+        out.append(f"         {name}: min contact force {rec['min']:.6g} {rec['unit']} at t = "
+                   f"{rec['t']:.6g} s" + (" (negative: the follower would lift off)"
+                                          if rec["lift_off"] else ""))
+    return out

@@ -14,7 +14,20 @@ omega^2 s_c); it holds the quadratic-velocity term of the reference's coupled ma
 
 The reaction of an element (its rows k) on body b is the generalised force -S_b^-1 Phi^k_{z_b}^T
 lambda^k: a global force (fx, fy) and a moment about the body frame's origin, moved here to the
-element's point P (the point sj of body j, for kinds that have it): M_P = M_o - (P - r_b) x F.
+element's point P (`Kind.reaction_point`: the point sj of body j, for kinds that have it):
+M_P = M_o - (P - r_b) x F.
+
+Machine elements whose equations are not written at their contact (a cam as a motion law, a
+gear pair or a belt as a ratio of angles) give their physical reaction W^k(lambda^k) instead
+(`Kind.reaction`: the contact force where the contact is, on i and j only). It differs from
+-Phi^k_z^T lambda^k by D^k, a generalised force that does no work on the motions the other
+joints allow, so the equations of motion with the physical reactions,
+
+    Phi_z^T lambda = S (Q^A - Q^in) + sum_k D^k(lambda^k),
+
+have the same lambda^k on the machine elements' own rows, and the others (the bearings, the
+guides) take D: lambda = lambda_0 + Phi_z^-T D(lambda_0). That lambda^k is unchanged is checked
+(MACHINE_TOL); a model where it is not (a gear whose centre is not its bearing) is named.
 """
 
 from __future__ import annotations
@@ -22,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import KINDS
+from ..elements.base import Kind, make_frame, pivots
 from ..system import System
 from .model import ForceModel, force_model
 
@@ -34,14 +48,14 @@ JOINT_OUTPUT = {
     "x": ("fx", "fy"),
     "y": ("fx", "fy"),
     "angle": ("torque",),                # a pure moment
-    "gear": ("torque",),                 # pure moments on i, j and the carrier k
-    # machine elements: the force on j and its moment about j's point (sj) where the kind has
-    # one, else about j's frame origin (rolling contacts act at the contact, cams at the roller)
+    "gear": ("fx", "fy", "torque"),      # the tooth force, its moment about j's centre
+    # machine elements: the contact force on j and its moment about j's point (sj, a gear's or
+    # pulley's centre; Kind.reaction_point); the sign conventions are each kind's reaction_sign
     "rack-pinion": ("fx", "fy", "torque"),
     "roll-line": ("fx", "fy", "torque"),
     "gear-mesh": ("fx", "fy", "torque"),
     "roll-disc": ("fx", "fy", "torque"),
-    "belt": ("torque",),                 # pure moments on the pulleys and the carrier, like gear
+    "belt": ("fx", "fy", "torque"),      # the tight run's pull, its moment about j's centre
     "cam": ("fx", "fy", "torque"),
     "cam-rocker": ("fx", "fy", "torque"),
     "curve-slot": ("fx", "fy", "torque"),
@@ -53,6 +67,15 @@ SOLVE_ENTRIES = 1 << 21
 # block lower-triangular matrix is block upper-triangular
 DENSE_MAX = 60
 BLOCK_MERGE = 12        # solve blocks of up to this many unknowns (as the path follower's)
+MACHINE_TOL = 1e-9      # a machine element's own multipliers may change by this (relative to
+                        # the largest) when its physical reaction replaces -Phi^T lambda
+MACHINE_PASSES = 4      # corrections lambda_0 + Phi^-T D(lambda) at most (one suffices when
+                        # the bearings alone take D, as they do in every example)
+
+
+def physical_kind(kind) -> bool:
+    """Whether the kind gives its own physical reaction (Kind.reaction is overridden)."""
+    return type(kind).reaction is not Kind.reaction
 
 
 class Kinetostatics:
@@ -71,6 +94,9 @@ class Kinetostatics:
             raise ValueError(f"{len(self.rows)} active rows for {cm.n} coordinates")
         L = cm.L
         self.S = np.tile([L, L, 1.0], cm.nb + 1)          # physical per internal, ground too
+        piv = pivots(cm.groups)
+        self.setups = [G.kind.reaction_setup(G, piv, cm.L) for G in cm.groups]
+        self.machine = [gi for gi, G in enumerate(cm.groups) if physical_kind(G.kind)]
         self.dense = cm.n <= DENSE_MAX if dense is None else dense
         self.blocked = None
         if not self.dense:
@@ -167,9 +193,46 @@ class Kinetostatics:
         F = self.system.frame(Qz)
         grads = [G.grad(F) for G in cm.groups]
         rhs = self.S[:n] * (QA - Qin)
-        lam = self._dense(grads, rhs) if self.dense else self._blocks(F, rhs)
+        solve = (lambda r: self._dense(grads, r)) if self.dense else \
+            (lambda r: self._blocks(F, r))
+        lam0 = solve(rhs)
+        lam, moved = self._machine(F, grads, lam0, solve)
         _, NU, _ = self.system.driver_values(t)
-        return Forces(self, t, p, lam, NU, grads, QA, Qin)
+        return Forces(self, t, p, lam, NU, grads, QA, Qin, F, moved)
+
+    def _machine(self, F, grads, lam0, solve):
+        """(lambda, moved): the multipliers with the machine elements' physical reactions (module
+        docstring), and {element index: (N,) rows} where its own multipliers moved by more than
+        MACHINE_TOL (its reaction there is not what the bearings alone can take: refused, NaN)."""
+        if not self.machine:
+            return lam0, {}
+        cm = self.cm
+        N = lam0.shape[0]
+        own = np.concatenate([cm.groups[gi].rows.ravel() for gi in self.machine])
+        lam = lam0
+        for _ in range(MACHINE_PASSES):
+            D = np.zeros((N, cm.n + 3))
+            for gi in self.machine:
+                G = cm.groups[gi]
+                L = lam[:, G.rows]                                  # (N, K, neq)
+                W = G.kind.reaction(G, F, L, self.setups[gi])
+                Wg = -np.einsum("nke,nkec->nkc", L, grads[gi])
+                diff = W.reshape(Wg.shape) - Wg
+                np.add.at(D, (slice(None), G.cols.ravel()), diff.reshape(N, -1))
+            new = lam0 + solve(D[:, :cm.n])
+            with np.errstate(invalid="ignore"):
+                step = np.abs(new[:, own] - lam[:, own]).max(initial=0.0)
+            lam = new
+            if not step > MACHINE_TOL * max(np.abs(lam).max(initial=0.0), 1e-300):
+                break
+        with np.errstate(invalid="ignore"):
+            scale = np.maximum(np.abs(lam).max(axis=1), 1e-300)
+            off = np.abs(lam[:, own] - lam0[:, own]) > MACHINE_TOL * scale[:, None]
+        moved: dict = {}
+        for c in np.flatnonzero(off.any(axis=0)):
+            e = int(cm.row_element[own[c]])
+            moved[e] = moved.get(e, np.zeros(N, bool)) | off[:, c]
+        return lam, moved
 
 
     def _dense(self, grads, rhs) -> np.ndarray:
@@ -216,14 +279,19 @@ class Forces:
     """Forces at N states. lam: (N, m) multipliers (internal row units; zero on left-out rows).
 
     reaction(e, slot): (fx, fy, torque about the element's point) of element e (index into
-    spec.elements) on its body in position slot (0: i, 1: j, 2: k), three (N,) arrays.
+    spec.elements) on its body in position slot (0: i, 1: j, 2: k), three (N,) arrays: for a
+    machine element the physical contact force (Kind.reaction), for others -Phi^T lambda.
+    contact(e): the signed normal contact force of a cam (positive pressing), else None.
     effort(d): the effort of driver d (index into drivers): -lambda in the row's physical unit:
     torque on j for angle drivers, force on j along the driven coordinate otherwise.
     power(d): effort times the driver's rate f'(t) (W when lengths are m).
     ground(): (fx, fy, torque about the origin) that all joints and drivers exert on the ground.
+    moved: {element: (N,) rows} where its own multipliers changed when its physical reaction
+    was put in (the reaction is then not one the bearings alone take, see the module docstring:
+    its reaction there is NaN, and the forces room's row check refuses the row).
     """
 
-    def __init__(self, K: Kinetostatics, t, p, lam, NU, grads, QA, Qin):
+    def __init__(self, K: Kinetostatics, t, p, lam, NU, grads, QA, Qin, F=None, moved=None):
         self.K = K
         self.t = t
         self.p = p
@@ -231,7 +299,11 @@ class Forces:
         self.NU = NU
         self.QA = QA
         self.Qin = Qin
+        self.moved = dict(moved or {})
         cm = K.cm
+        if F is None:
+            F = make_frame(np.hstack([p / K.S[:cm.n], np.zeros((len(t), 3))]))
+        self.F = F
         self._where = {}
         for gi, G in enumerate(cm.groups):
             for k in range(len(G)):
@@ -239,21 +311,30 @@ class Forces:
         self._grads = grads
         self._cache: dict = {}
 
+    def _group(self, gi: int):
+        """(W (N, K, nbody, 3) generalised forces in physical units: fx, fy, moment about each
+        body frame's origin; reaction points (x, y) (N, K) physical, or None)."""
+        if gi not in self._cache:
+            K = self.K
+            G = K.cm.groups[gi]
+            lam = self.lam[:, G.rows]                                     # (N, K, neq)
+            W = G.kind.reaction(G, self.F, lam, K.setups[gi]) if gi in K.machine else None
+            if W is None:
+                W = -np.einsum("nke,nkec->nkc", lam, self._grads[gi])
+            N = len(self.t)
+            W = W.reshape(N, len(G), G.kind.nbody, 3) / K.S[G.cols].reshape(
+                len(G), G.kind.nbody, 3)
+            P = G.kind.reaction_point(G, self.F, K.setups[gi])
+            if P is not None:
+                P = (P[0] * K.cm.L, P[1] * K.cm.L)
+            self._cache[gi] = (W, P)
+        return self._cache[gi]
+
     def _general(self, e: int):
         """(N, nbody, 3) generalised force of element e on its bodies: fx, fy, moment about each
-        body frame's origin (physical units)."""
-        if e not in self._cache:
-            self._cache[e] = self._compute_general(e)
-        return self._cache[e]
-
-    def _compute_general(self, e: int):
-        cm = self.K.cm
+        body frame's origin (physical units), its group and index there."""
         gi, k = self._where[e]
-        G = cm.groups[gi]
-        g = self._grads[gi][:, k]                             # (N, neq, 3 nbody)
-        lam = self.lam[:, G.rows[k]]                          # (N, neq)
-        gen = -np.einsum("ne,nec->nc", lam, g) / self.K.S[G.cols[k]]
-        return gen.reshape(len(self.t), G.kind.nbody, 3), G, k
+        return self._group(gi)[0][:, k], self.K.cm.groups[gi], k
 
     def _pose(self, b: int):
         nb = self.K.cm.nb
@@ -263,17 +344,12 @@ class Forces:
         return self.p[:, 3 * b], self.p[:, 3 * b + 1], self.p[:, 3 * b + 2]
 
     def point(self, e: int):
-        """Global (x, y) of element e's reaction point: its point sj on body j (None for kinds
-        without one: their reactions are pure moments)."""
-        cm = self.K.cm
+        """Global (x, y) of element e's reaction point (Kind.reaction_point: its point sj on
+        body j, a gear's centre; None for kinds without one: the moment is about j's frame
+        origin)."""
         gi, k = self._where[e]
-        G = cm.groups[gi]
-        if "sj" not in G.params:
-            return None
-        sj = G.params["sj"][k] * cm.L
-        x, y, phi = self._pose(int(G.bodies[k, 1]))
-        c, s = np.cos(phi), np.sin(phi)
-        return x + c * sj[0] - s * sj[1], y + s * sj[0] + c * sj[1]
+        P = self._group(gi)[1]
+        return None if P is None else (P[0][:, k], P[1][:, k])
 
     def reaction(self, e: int, slot: int = 1):
         gen, G, k = self._general(e)
@@ -282,7 +358,19 @@ class Forces:
         if P is not None:
             x, y, _ = self._pose(int(G.bodies[k, slot]))
             mo = mo - ((P[0] - x) * fy - (P[1] - y) * fx)
+        if e in self.moved:
+            bad = self.moved[e]
+            fx, fy, mo = (np.where(bad, np.nan, v) for v in (fx, fy, mo))
         return fx, fy, mo
+
+    def contact(self, e: int):
+        """(N,) the signed normal contact force of element e (physical units), positive while
+        its parts press on each other, or None for kinds without one (Kind.contact_force)."""
+        gi, k = self._where[e]
+        K = self.K
+        G = K.cm.groups[gi]
+        f = G.kind.contact_force(G, self.F, self.lam[:, G.rows], K.setups[gi])
+        return None if f is None else f[:, k] / K.cm.L
 
     def effort(self, d: int) -> np.ndarray:
         cm = self.K.cm
