@@ -1069,5 +1069,8 @@ def validate(root: Node, file: str, overrides: dict | None = None) -> ModelSpec:
     """Validate the node tree of one model file; raises InputError with every problem found.
 
     overrides: parameter name -> number or expression text, replacing the file's values (the
-    parameters and numbers that depend on them are evaluated with the new values)."""
-    return _Validator(root, file, overrides).run()
+    parameters and numbers that depend on them are evaluated with the new values). Tables are
+    read from the model's folder only (planarkin.inputtable.confined)."""
+    from ..inputtable import confined
+    with confined(file):
+        return _Validator(root, file, overrides).run()
