@@ -104,3 +104,57 @@ def test_a_long_bad_cell_is_quoted_in_part(tmp_path):
     assert msg.endswith("'999999999999999999999999999999zzzzzzzzzz'... is not a number (write "
                         "numbers with the digits 0-9, no '_': e.g. 10, -0.5, 1.5e-3) (the table "
                         "of driver 1 (angle ground-a))")
+
+
+def test_a_table_over_the_row_budget_is_refused_while_it_is_read(tmp_path):
+    from planarkin.inputtable import MAX_ROWS
+    assert MAX_ROWS == 100_000      # 1e6 rows took 56 s before the analysis began
+    (tmp_path / "long.csv").write_text("".join(f"{k},0\n" for k in range(MAX_ROWS + 1)))
+    t0 = time.monotonic()
+    got = errors(model(tmp_path, "long.csv"))
+    assert time.monotonic() - t0 < 5
+    assert got == [f"{tmp_path}/long.csv:100001: error: the table has more than 100000 rows, the "
+                   f"most read here (the analysis would take minutes and gigabytes): thin it out "
+                   f"(the table of driver 1 (angle ground-a))"]
+
+
+def test_a_curve_table_has_a_smaller_budget(tmp_path):
+    # a curve-slot on 1e5 points ran 28 s in 1 GB (1e6: 292 s in 5.4 GB); 1e4 is the most read
+    (tmp_path / "c.csv").write_text("".join(f"{k},{k % 7}\n" for k in range(10_001)))
+    p = tmp_path / "m.yaml"
+    p.write_text("""\
+bodies:
+  crank: {q: [0, 0, 0]}
+  link:  {q: [0.1, 0, 0.9]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: revolute, i: crank, j: link, si: [0.1, 0], sj: [0, 0]}
+  - {type: curve-slot, name: slot, i: ground, j: link, sj: [0.35, 0], curve: {table: c.csv}}
+drivers:
+  - {type: angle, body: crank, f: "6.283*t"}
+""")
+    assert errors(p) == [f"{tmp_path}/c.csv:10001: error: the table has more than 10000 rows, the "
+                         f"most read here (the analysis would take minutes and gigabytes): thin "
+                         f"it out (the curve of joint 'slot' (curve-slot ground-link))"]
+
+
+def test_comment_lines_count_towards_a_budget_too(tmp_path):
+    (tmp_path / "c.csv").write_text("#\n" * 400_001 + "0,0\n1,1\n2,2\n3,3\n")
+    t0 = time.monotonic()
+    got = errors(model(tmp_path, "c.csv"))
+    assert time.monotonic() - t0 < 5
+    assert got == [f"{tmp_path}/c.csv:400001: error: the table has more than 400000 lines, "
+                   f"comments and blank lines included (the table of driver 1 (angle ground-a))"]
+
+
+def test_a_file_over_the_size_budget_is_refused_before_it_is_read(tmp_path):
+    with open(tmp_path / "big.csv", "wb") as f:
+        f.truncate(16 * 2**20 + 1)             # sparse: no time spent writing it
+    assert errors(model(tmp_path, "big.csv"))[0].endswith(
+        "the table is too large (16777217 bytes; at most 16777216)")
+
+
+def test_a_table_of_bad_lines_gives_a_screenful_not_a_line_each(tmp_path):
+    (tmp_path / "bad.csv").write_text("t,angle\n" + "x,0\n" * 5000)
+    got = errors(model(tmp_path, "bad.csv"))        # the old code gave 5000 errors
+    assert len(got) == 21 and got[-1].startswith(f"{tmp_path}/bad.csv:22: error: 'x' is not")
