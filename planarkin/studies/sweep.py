@@ -199,6 +199,10 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     """Run the variants (factorial of ranges, or samples of a Latin hypercube) and write
     sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
     in order (default: serially in this process)."""
+    from ..budget import check_study
+    count = math.prod(r.n for r in ranges) if samples is None else samples
+    check_study(study, count, len(ranges) + len(study.metrics),
+                "the N of each --vary" if samples is None else "--samples")
     variants = factorial(ranges) if samples is None else latin_hypercube(ranges, samples, seed)
     outcomes = (execute or Study.run)(study, variants)
     names = [r.name for r in ranges]
