@@ -20,7 +20,9 @@ import numpy as np
 
 from .diagnostics import Diagnostic, InputError
 from .model.compile import CompiledModel
+from .closure import short_loops
 from .linalg import one_blas_thread
+from .meshing import centre_distances
 from .system import System
 
 ASSEMBLED = 1e-10        # largest |Phi| (internal units) of an assembled pose
@@ -250,6 +252,17 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
         null = Vt[rank:] if m else np.eye(n)
         moving = _bodies_of(cm, np.abs(null).max(axis=0))
         useful = ndrv - len(drv)
+        if rank_k == mk and ndrv >= dof and not drv:
+            # enough drivers by count, the joints independent, yet a direction left free: the
+            # drivers lose their hold at this pose only (a four-bar folded flat at t = start)
+            raise InputError([Diagnostic(spec.file, line, (
+                f"at t = start = {t0:g} the mechanism is at a dead point or a change point: the "
+                f"joints leave {_plural(dof, 'degree')} of freedom and "
+                f"{_plural(ndrv, 'driver')} {'is' if ndrv == 1 else 'are'} given, but in this "
+                f"pose {', '.join(moving)} can move while the driver{'s stand' if ndrv > 1 else ' stands'} "
+                f"still (their pins "
+                f"are in line); start where the links are not in line (another analysis: "
+                f"start, or an offset in the driver's f) or change the dimensions"))])
         msg = (f"the mechanism has {_plural(dof, 'degree')} of freedom but "
                f"{_plural(useful, 'independent driver') if drv else _plural(ndrv, 'driver')}, so "
                f"its motion is not determined: add {_plural(free, 'driver')} (bodies free to "
@@ -275,7 +288,7 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
                              f"at the assembly pose): it is left out of the solve and checked at "
                              f"every step", severity="warning") for d in kin]
     redundant = kin
-    meshing = _centre_distances(cm, q)
+    meshing = centre_distances(cm, q)
     if any(d.severity == "error" for d in meshing):
         raise InputError([d for d in meshing if d.severity == "error"])
     warnings += meshing
@@ -315,6 +328,9 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
     spec = cm.spec
     t0 = spec.analysis.start
     n, m = cm.n, cm.m
+    short = short_loops(cm)        # links too short (or one too long) to close their loop
+    if short:
+        return short
     if n <= 300 and m >= n and len(spec.elements) <= 60:
         # later elements first: of a redundant set, the one written last is the one named
         violated = [e for e in range(len(spec.elements))
@@ -397,66 +413,6 @@ def _first_row(cm: CompiledModel, row: int) -> int:
     return int(np.nonzero(cm.row_element == el)[0][0])
 
 
-MESH_WARN = 1e-6      # relative centre-distance error of a gear pair that is worth a warning
-MESH_ERROR = 0.1      # ... and that no tooth form can take up: an error
-
-
-def _centre_distances(cm: CompiledModel, q: np.ndarray) -> list[Diagnostic]:
-    """Gears and belts at the assembled pose q: a gear pair's centre distance must be |ri + rj|
-    (a warning above MESH_WARN relative, an error above MESH_ERROR: the teeth cannot mesh),
-    belt pulleys must not overlap (an error). The centres of the kinds on a carrier (gear,
-    belt) are their revolute joints to the carrier k; a pair without them is not checked."""
-    from .elements.base import make_frame, rotate
-    L, lu, ground = cm.L, cm.spec.length_unit, cm.nb
-    F = make_frame(np.concatenate([q, np.zeros(3)])[None, :])
-    pivots = {}
-    for G in cm.groups:
-        if G.kind.name == "revolute":
-            for (bi, bj), si, sj in zip(G.bodies, G.params["si"], G.params["sj"]):
-                pivots.setdefault((int(bi), int(bj)), si)
-                pivots.setdefault((int(bj), int(bi)), sj)
-
-    def centre(b, s):
-        x, y = rotate(F, np.array([b]), s[0], s[1])
-        return np.array([F.q[0, 3 * b] + x[0, 0], F.q[0, 3 * b + 1] + y[0, 0]])
-
-    out = []
-    for G in cm.groups:
-        name = G.kind.name
-        if name not in ("gear", "gear-mesh", "belt"):
-            continue
-        for k in range(len(G)):
-            bi, bj = int(G.bodies[k, 0]), int(G.bodies[k, 1])
-            if name == "gear-mesh":
-                ci, cj = G.params["si"][k], G.params["sj"][k]
-            else:
-                bk = int(G.bodies[k, 2])
-                ci, cj = pivots.get((bi, bk)), pivots.get((bj, bk))
-                if ci is None or cj is None:
-                    continue
-            d = float(np.hypot(*(centre(bj, cj) - centre(bi, ci))))
-            ri, rj = float(G.params["ri"][k]), float(G.params["rj"][k])
-            row = int(G.rows[k, 0])
-            label = cm.element_of_row(row).label
-            if name == "belt":
-                if not d > ri + rj:
-                    out.append(_diag(cm, row, f"{label}: the pulleys overlap: their centres are "
-                                              f"{d * L:.6g} {lu} apart, not more than ri + rj = "
-                                              f"{(ri + rj) * L:.6g} {lu}"))
-                continue
-            want = abs(ri + rj)
-            dev = abs(d - want) / want
-            if dev > MESH_WARN:
-                grossly = dev > MESH_ERROR
-                out.append(_diag(cm, row, f"{label}: the centre distance is {d * L:.6g} {lu} but "
-                                          f"the pitch radii give |ri + rj| = {want * L:.6g} {lu}"
-                                          + (" (more than 10% off: the teeth cannot mesh); "
-                                             "correct the radii or the centres" if grossly else
-                                             "; the gears turn at the ratio of the radii all the "
-                                             "same"), "error" if grossly else "warning"))
-    return out
-
-
 def _newton_by_blocks(cm: CompiledModel, S: System):
     """Newton on each diagonal block in block order from the estimates at t = start: (Q (1,
     n + 3), residual (m,), BatchInfo)."""
@@ -486,7 +442,7 @@ def _assemble_blocks(cm: CompiledModel, S_all: System, sketched: bool) -> Assemb
             and (info.smin[0] >= BLOCKS_CLEAR).all()):
         return None
     q = Q[0, : cm.n].copy()
-    meshing = _centre_distances(cm, q)
+    meshing = centre_distances(cm, q)
     if any(d.severity == "error" for d in meshing):
         return None
     A = Assembly(q=q, residual=float(np.abs(r).max()), iterations=int(info.iterations[0]),

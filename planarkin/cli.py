@@ -636,8 +636,13 @@ def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, f
     outdir = Path(out) / Path(model_path).stem
     t0 = time.perf_counter()
     from .studies.execute import executor
-    res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
-                    plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+    from .diagnostics import InputError
+    try:
+        res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
+                        plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+    except InputError as e:         # the study's size (planarkin.budget.check_study)
+        report.invalid(model_path, e.diagnostics)
+        sys.exit(report.exit_code)
     c = res.counts()
     report.ok(model_path, f"{len(res.variants)} variants: {c['ok']} ok, {c['failed']} failed, "
                           f"{c['invalid']} invalid, {time.perf_counter() - t0:.2f} s -> "

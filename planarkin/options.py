@@ -333,3 +333,24 @@ def describe() -> str:
             else f"{o.default:g}" if isinstance(o.default, float) else str(o.default)
         rows.append(f"| `{o.name}` (`{o.flag}`) | {d} | {o.doc}; {o.rule()} |")
     return "\n".join(rows)
+
+
+def from_command_line() -> bool:
+    """Whether planarkin's own command line is running (a click context of planarkin.cli):
+    messages then name options as typed (--set a=0.1); API callers get the API's words."""
+    import sys
+    click = sys.modules.get("click")        # not imported: certainly not the command line
+    if click is None:
+        return False
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return False
+    callback = getattr(ctx.find_root().command, "callback", None)
+    return getattr(callback, "__module__", "") == "planarkin.cli"
+
+
+def override_word(key: str, value=None) -> str:
+    """How a parameter override is named in a message: `--set a=0.1` on the command line,
+    `parameter override a=0.1` from load(path, a=0.1) or a study's overrides."""
+    shown = key if value is None else f"{key}={value}"
+    return f"--set {shown}" if from_command_line() else f"parameter override {shown}"

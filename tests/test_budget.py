@@ -79,3 +79,37 @@ def test_driver_values_beyond_double_precision_are_refused(tmp_path, start, refu
             else run_cli(cmd, p)
         assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
         assert "double precision resolves only to" in r.stderr
+
+
+# -- study sizes (issue 21, item 14): refused before the first variant, with the figures -------
+@pytest.mark.parametrize("args, words", [
+    (["sweep", "--vary", "a=0.05:0.06:10000", "--vary", "b=0.3:0.4:10000"],
+     "a study of 100000000 variants of 101 grid rows each would take about 112 GB of memory and "
+     "350 h (the budget: 1 GB and 24 h): use fewer variants (the N of each --vary), or split it "
+     "into smaller studies"),
+    (["sweep", "--vary", "a=0.05:0.06", "--samples", "10000000"],
+     "a study of 10000000 variants of 101 grid rows each would take about 10.2 GB of memory and "
+     "35 h (the budget: 1 GB and 24 h): use fewer variants (--samples), or split it into "
+     "smaller studies"),
+    (["sweep", "--vary", "a=0.05:0.06:3", "--steps", "9000000"],
+     "a study of 3 variants of 9000001 grid rows each would take about 27.7 GB of memory and "
+     "162 s (the budget: 1 GB and 24 h): use fewer --steps (the variants solved together, up "
+     "to 16, hold every grid row)"),
+    (["tolerance", "--sigma", "a=0.001", "--samples", "10000000"],
+     "a study of 10000000 variants of 101 grid rows each would take about 11.2 GB of memory "
+     "and 35 h (the budget: 1 GB and 24 h): use fewer variants (--samples), or split it into "
+     "smaller studies"),
+])
+def test_a_study_too_large_is_refused_before_it_starts(tmp_path, args, words):
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    p = tmp_path / "m.yaml"
+    p.write_text(SLIDER.replace("steps: 360", "steps: 100"))
+    t0 = time.monotonic()
+    r = CliRunner().invoke(main, [args[0], str(p), *args[1:], "--no-plots", "--out",
+                                  str(tmp_path / "out")])
+    assert time.monotonic() - t0 < 5
+    assert r.exit_code == 2, r.output
+    assert f"{p}: error: {words}\n" in r.output
+    assert not (tmp_path / "out").exists()

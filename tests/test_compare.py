@@ -1,13 +1,15 @@
 """`planarkin compare`: the CI regression gate between two result directories."""
 
 import json
+import os
 import shutil
 
 import numpy as np
 import pytest
 
 from clitools import run_cli
-from planarkin.studies.compare import DIFFERS, SAME, UNUSABLE, compare_dirs, read_table
+from planarkin.studies.compare import (DIFFERS, SAME, UNUSABLE, compare_dirs, read_table,
+                                       report)
 
 
 @pytest.fixture(scope="module")
@@ -174,3 +176,28 @@ def test_sweep_parquet_text_columns_compare_like_the_csv(tmp_path):
     assert c.status == DIFFERS
     assert c.differences[0].format().startswith("sweep.parquet: status at row 2: 'invalid' "
                                                 "(new) vs 'failed' (golden)")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_or_device_is_refused_not_read(golden, tmp_path):
+    new = _copy(golden, tmp_path)
+    os.mkfifo(new / "extra.csv")                   # the old code blocked in open() for ever
+    c = compare_dirs(new, golden)
+    assert c.status == UNUSABLE
+    assert c.error == f"{new}/extra.csv: not a regular file (a FIFO, device or folder is not read)"
+    (new / "extra.csv").unlink()
+    (new / "summary.json").unlink()
+    (new / "summary.json").symlink_to("/dev/zero")
+    c = compare_dirs(new, golden)
+    assert c.status == UNUSABLE and c.error.endswith("summary.json: not a regular file (a FIFO, "
+                                                     "device or folder is not read)")
+
+
+def test_folders_without_summaries_say_that_no_status_was_compared(tmp_path):
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "x.csv").write_text("v [m]\n1.0\n")
+    c = compare_dirs(tmp_path / "a", tmp_path / "b")
+    assert report(c, 1e-9, 1e-12) == ["same: 1 tables, 1 columns, 1 values within rtol 1e-09, "
+                                      "atol 1e-12; neither directory holds summary.json, so no "
+                                      "run status was compared"]

@@ -38,21 +38,46 @@ def test_override_value_may_be_an_expression_of_earlier_parameters():
 def test_unknown_parameter_is_an_input_error_with_a_suggestion():
     with pytest.raises(planarkin.InputError) as e:
         planarkin.load(FB, aa=0.05)
-    assert str(e.value) == ("mechanisms/four-bar.yaml:7: error: --set aa: unknown parameter "
-                            "'aa'; did you mean 'a'?")
+    # API callers get the API's words, not the command line's --set (issue 21, item 19)
+    assert str(e.value) == ("mechanisms/four-bar.yaml:7: error: parameter override aa: unknown "
+                            "parameter 'aa'; did you mean 'a'?")
     with pytest.raises(planarkin.InputError) as e:
         planarkin.load("mechanisms/trammel.yaml", zz=1)
-    assert "--set zz: unknown parameter 'zz'" in str(e.value)
+    assert "parameter override zz: unknown parameter 'zz'" in str(e.value)
 
 
 def test_invalid_override_value_is_reported_at_the_parameter():
     with pytest.raises(planarkin.InputError) as e:
         planarkin.load(SC, b="3*c")
-    assert str(e.value).startswith("mechanisms/slider-crank.yaml:8: error: --set b=3*c: "
-                                   "parameter 'b': unknown name 'c'")
+    assert str(e.value).startswith("mechanisms/slider-crank.yaml:8: error: parameter override "
+                                   "b=3*c: parameter 'b': unknown name 'c'")
     with pytest.raises(planarkin.InputError) as e:
         planarkin.load(SC, a=[1])
-    assert "--set a=[1]: parameter 'a' must be a number or an expression" in str(e.value)
+    assert "parameter override a=[1]: parameter 'a' must be a number or an expression" in \
+        str(e.value)
+
+
+def test_the_command_line_in_process_still_says_set():
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    r = CliRunner().invoke(main, ["check", FB, "--set", "aa=1"])
+    assert r.exit_code == 2
+    assert r.stderr.startswith("mechanisms/four-bar.yaml:7: error: --set aa: unknown parameter "
+                               "'aa'; did you mean 'a'?\n")
+
+
+def test_a_broken_parameter_is_one_error_not_one_per_use():
+    # 'zz' is unknown: each number using a was reported too (8 errors, 7 of them consequences)
+    with pytest.raises(planarkin.InputError) as e:
+        planarkin.load(FB, a="zz")
+    assert [d.format() for d in e.value.diagnostics] == [
+        "mechanisms/four-bar.yaml:7: error: parameter override a=zz: parameter 'a': unknown name "
+        "'zz' in expression 'zz'"]
+    text = open(FB).read().replace("  a: 0.04 ", "  a: .nan ")
+    with pytest.raises(planarkin.InputError) as e:
+        planarkin.load(FB, text=text)
+    assert [d.format() for d in e.value.diagnostics] == [
+        "mechanisms/four-bar.yaml:7: error: parameter 'a': expression 'nan' is not finite (nan)"]
 
 
 def test_cli_set_on_run_check_and_the_summary_records_it(tmp_path):

@@ -190,3 +190,30 @@ def test_a_sweeps_files_are_replaced_all_or_none(tmp_path, monkeypatch):
     alive.write_text("x")
     run_sweep(study, [Range("a", 0.03, 0.05, 2)], tmp_path, plots=None)
     assert not dead.exists() and alive.exists()
+
+
+def test_grid_values_print_as_written(tmp_path):
+    # linspace gave 0.09999999999999999 and 0.12000000000000001 for a=0.02:0.12:6 (issue 21/17)
+    assert [repr(float(x)) for x in parse_range("a=0.02:0.12:6", True).values()] == \
+        ["0.02", "0.04", "0.06", "0.08", "0.1", "0.12"]
+    assert [repr(float(x)) for x in parse_range("a=0.1:0.2:11", True).values()] == \
+        ["0.1", "0.11", "0.12", "0.13", "0.14", "0.15", "0.16", "0.17", "0.18", "0.19", "0.2"]
+    assert parse_range("a=0:1:4", True).values().tolist() == [0.0, 1 / 3, 2 / 3, 1.0]
+    study = Study(FB, analysis={"steps": 4})
+    run_sweep(study, [parse_range("a=0.02:0.05:4", True)], tmp_path, plots=None)
+    col = [line.split(",")[1] for line in (tmp_path / "sweep.csv").read_text().splitlines()[1:]]
+    assert col == ["0.02", "0.03", "0.04", "0.05"]
+
+
+def test_a_grid_count_with_samples_and_a_metric_twice_are_refused(tmp_path):
+    from click.testing import CliRunner
+    from planarkin.cli import main
+    run = lambda *a: CliRunner().invoke(main, ["sweep", FB, "--out", str(tmp_path)] + list(a))
+    r = run("--vary", "a=0.02:0.05:3", "--samples", "5")       # the :3 was silently ignored
+    assert r.exit_code == 2
+    assert "'a=0.02:0.05:3': with --samples the range is sampled, so N is not used: write " \
+           "a=0.02:0.05" in r.stderr
+    r = run("--vary", "a=0.03:0.05:2", "--metric", "max:rocker.phi", "--metric", "max:rocker.phi")
+    assert r.exit_code == 2                                  # it was written twice
+    assert r.stderr == "mechanisms/four-bar.yaml: error: --metric max:rocker.phi is given " \
+                       "twice; give each metric once\n"

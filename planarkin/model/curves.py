@@ -125,7 +125,7 @@ def _segments(V, node, what: str):
 
 
 def _table(V, node, what: str):
-    from ..inputtable import TableError, read_columns
+    from ..inputtable import MAX_CURVE_POINTS, TableError, read_columns
     ref = V.table_ref(node, what, ("x", "y"), (), " of x, y points")
     if ref is None:
         return None
@@ -135,7 +135,7 @@ def _table(V, node, what: str):
     owner = what.rsplit(": curve", 1)[0]
     try:
         (x, y), lines = read_columns(path, [(cols.get("x"), 0, "x"), (cols.get("y"), 1, "y")],
-                                     increasing=False, min_rows=6)
+                                     increasing=False, min_rows=6, max_rows=MAX_CURVE_POINTS)
     except TableError as exc:
         V.table_errors(exc, node, what, shown, f"the curve of {owner}")
         return None

@@ -131,6 +131,7 @@ class Sketch:
                         f"lengths: {{A-B: 0.12}}, not {_type(node)}")
             return
         given: dict[str, dict[frozenset, tuple[float, int, str]]] = {}
+        seen: dict[frozenset, tuple[str, int]] = {}
         for key, val in node.value.items():
             line = node.key_lines[key]
             what = f"lengths: {key}"
@@ -143,6 +144,12 @@ class Sketch:
             if a == b:
                 v.err(line, f"{what}: the two points are the same")
                 continue
+            if frozenset(ab) in seen:     # B-C and C-B: one distance, given twice
+                k0, l0 = seen[frozenset(ab)]
+                v.err(line, f"{what}: the distance of {a} and {b} is already given as {k0} "
+                            f"(line {l0}); give each pair once")
+                continue
+            seen[frozenset(ab)] = (str(key), line)
             x = v.number(val, what)
             if x is None:
                 continue

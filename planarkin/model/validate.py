@@ -15,7 +15,7 @@ from typing import Any
 from ..diagnostics import Collector, did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
 from ..expr import ExprError, TimeFunction, evaluate_constant, function_names
-from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check
+from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check, override_word
 from .spec import (X_AXES, AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec,
                    x_axis_problem)
 from .spec import TABLE_FORMATS, table_format_problem
@@ -57,6 +57,7 @@ class _Validator:
         self.file = file
         self.C = Collector(file)
         self.params: dict[str, float] = {}
+        self.broken: set[str] = set()   # parameters reported invalid (uses: not again)
         self.overrides = dict(overrides or {})
         self.body_names: list[str] = []
         self.body_set: set[str] = set()
@@ -89,7 +90,8 @@ class _Validator:
         try:
             x = evaluate_constant(v if isinstance(v, str) else float(v), self.params)
         except ExprError as e:
-            self.err(node, f"{what}: {e}")
+            if not (isinstance(v, str) and self.broken & set(re.findall(r"[A-Za-z_]\w*", v))):
+                self.err(node, f"{what}: {e}")   # (else a consequence of a reported parameter)
             return None
         except OverflowError:
             self.err(node, f"{what}: the number {node.text} is too large")
@@ -300,7 +302,7 @@ class _Validator:
                     f" (parameters: {', '.join(known)})" if known else
                     " (the model has no parameters: section)")
                 self.err(node.line if node is not None else None,
-                         f"--set {key}: unknown parameter '{key}'{hint}")
+                         f"{override_word(key)}: unknown parameter '{key}'{hint}")
         for key, val in items:
             line = node.key_lines[key]
             if not self.identifier(key, line, "parameter"):
@@ -324,12 +326,14 @@ class _Validator:
                 x = self.number(val, f"parameter '{key}'")
             if x is not None:
                 self.params[key] = x
+            else:
+                self.broken.add(key)
 
 
     def override(self, key: str, value, node: Node) -> float | None:
         """The value of parameter key given by --set / load(key=...): a number or an expression
         of the parameters before it (reported at the parameter's line)."""
-        what = f"--set {key}={value}: parameter '{key}'"
+        what = f"{override_word(key, value)}: parameter '{key}'"
         if isinstance(value, bool) or not isinstance(value, (int, float, str)):
             self.err(node, f"{what} must be a number or an expression, not {value!r}")
             return None
@@ -1069,5 +1073,8 @@ def validate(root: Node, file: str, overrides: dict | None = None) -> ModelSpec:
     """Validate the node tree of one model file; raises InputError with every problem found.
 
     overrides: parameter name -> number or expression text, replacing the file's values (the
-    parameters and numbers that depend on them are evaluated with the new values)."""
-    return _Validator(root, file, overrides).run()
+    parameters and numbers that depend on them are evaluated with the new values). Tables are
+    read from the model's folder only (planarkin.inputtable.confined)."""
+    from ..inputtable import confined
+    with confined(file):
+        return _Validator(root, file, overrides).run()

@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -59,6 +60,7 @@ class Comparison:
     differences: list[Difference] = field(default_factory=list)   # worst first
     notes: list[str] = field(default_factory=list)                # e.g. summary status differs
     error: str | None = None                                      # why the input is unusable
+    summaries: bool = True          # both hold summary.json (False: statuses not compared)
 
 
 def read_table(path: Path) -> tuple[list[str], np.ndarray, dict]:
@@ -140,10 +142,31 @@ def _text(x: float) -> str:
     return "" if math.isnan(x) else repr(x)
 
 
+def _regular(p: Path) -> bool:
+    """Whether p is a regular file (after symbolic links): a FIFO would block the read for
+    ever and a device (/dev/zero) never end, so anything else is refused before it is opened."""
+    try:
+        return stat.S_ISREG(p.stat().st_mode)
+    except OSError:
+        return False
+
+
+def _tables(d: Path) -> set[str]:
+    names = set()
+    for p in d.iterdir():
+        if p.suffix in (".csv", ".parquet"):
+            if not _regular(p):
+                raise Unusable(f"{p}: not a regular file (a FIFO, device or folder is not read)")
+            names.add(p.name)
+    return names
+
+
 def _status(d: Path):
     p = d / "summary.json"
     if not p.exists():
         return None
+    if not _regular(p):
+        raise Unusable(f"{p}: not a regular file (a FIFO, device or folder is not read)")
     try:
         s = json.loads(p.read_text())
         return s["status"]
@@ -214,8 +237,7 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
         for d, what in ((new, "new"), (golden, "golden")):
             if not d.is_dir():
                 raise Unusable(f"{d}: no such directory (the {what} results)")
-        tn = {p.name for p in new.iterdir() if p.suffix in (".csv", ".parquet")}
-        tg = {p.name for p in golden.iterdir() if p.suffix in (".csv", ".parquet")}
+        tn, tg = _tables(new), _tables(golden)
         if tn != tg:
             parts = []
             if tg - tn:
@@ -230,6 +252,7 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
             raise Unusable(f"{new if sn is None else golden}/summary.json is missing")
         if sn != sg:
             out.notes.append(f"summary.json: status '{sn}' (new) vs '{sg}' (golden)")
+        out.summaries = sn is not None
         for name in sorted(tn):
             out.tables.append(name)
             compare_tables(name, read_table(new / name), read_table(golden / name), rtol, atol,
@@ -249,7 +272,8 @@ def report(c: Comparison, rtol: float, atol: float, show: int = 10) -> list[str]
     tol = f"rtol {rtol:g}, atol {atol:g}"
     if c.status == SAME:
         return [f"same: {len(c.tables)} tables, {c.columns} columns, {c.values} values within "
-                f"{tol}"]
+                f"{tol}" + ("" if c.summaries else "; neither directory holds summary.json, so "
+                                                   "no run status was compared")]
     lines = [f"differs: {len(c.differences)} of {c.columns} columns outside {tol}"
              + (f"; {'; '.join(c.notes)}" if c.notes else "")]
     lines += ["  " + d.format() for d in c.differences[:show]]

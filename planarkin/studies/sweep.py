@@ -11,17 +11,19 @@ seeded with S, so the same seed gives the same variants bit for bit).
 from __future__ import annotations
 
 import contextlib
+import decimal
 import itertools
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .variants import Outcome, Study
 
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z", re.ASCII)
 _RANGE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_\-]*)\s*=\s*([^:]+):([^:]+?)(?::([^:]+))?\s*$")
 
 
@@ -31,11 +33,21 @@ class Range:
     lo: float
     hi: float
     n: int | None        # grid points (None: sampled)
+    text: tuple = field(default=(), compare=False)   # (LO, HI) as written, when decimal
 
     def values(self) -> np.ndarray:
+        """The grid: LO + k (HI - LO) / (N - 1), k = 0..N-1, computed in decimal from the
+        numbers as written and rounded once, so that 0.1:0.2:11 gives 0.1, 0.11, ... 0.2 (each
+        the double nearest the decimal, printed as written; linspace gave 0.10999999999999999)."""
         if self.n == 1:
             return np.array([self.lo])
-        return np.linspace(self.lo, self.hi, self.n)
+        if not self.text:
+            return np.linspace(self.lo, self.hi, self.n)
+        with decimal.localcontext() as ctx:
+            ctx.prec = 50
+            lo, hi = (decimal.Decimal(x) for x in self.text)
+            step = (hi - lo) / (self.n - 1)
+            return np.array([float(lo + k * step) for k in range(self.n - 1)] + [float(hi)])
 
 
 def parse_range(text: str, need_count: bool) -> Range:
@@ -61,7 +73,12 @@ def parse_range(text: str, need_count: bool) -> Range:
             raise ValueError(f"'{text}': N must be at least 1")
     elif need_count:
         raise ValueError(f"'{text}': give the number of values, NAME=LO:HI:N (or use --samples)")
-    return Range(name, lo_v, hi_v, count)
+    if count is not None and not need_count:     # sampled: a grid's N would be ignored
+        raise ValueError(f"'{text}': with --samples the range is sampled, so N is not used: "
+                         f"write {name}={lo.strip()}:{hi.strip()}")
+    text = (lo.strip(), hi.strip())
+    decimal_text = all(_DECIMAL.match(x) for x in text)
+    return Range(name, lo_v, hi_v, count, text if decimal_text else ())
 
 
 def factorial(ranges: list[Range]) -> list[dict]:
@@ -199,6 +216,10 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     """Run the variants (factorial of ranges, or samples of a Latin hypercube) and write
     sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
     in order (default: serially in this process)."""
+    from ..budget import check_study
+    count = math.prod(r.n for r in ranges) if samples is None else samples
+    check_study(study, count, len(ranges) + len(study.metrics),
+                "the N of each --vary" if samples is None else "--samples")
     variants = factorial(ranges) if samples is None else latin_hypercube(ranges, samples, seed)
     outcomes = (execute or Study.run)(study, variants)
     names = [r.name for r in ranges]

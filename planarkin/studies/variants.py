@@ -106,6 +106,10 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
             name, unit = split_unit(h)
             cols.setdefault(name, (fname, k, unit))
     out, problems = [], []
+    if len(set(texts)) != len(texts):             # each would be a column of its own
+        twice = sorted({t for t in texts if list(texts).count(t) > 1})
+        problems.append(f"--metric {twice[0]} is given twice; give each metric once")
+        texts = list(dict.fromkeys(texts))
     for text in texts:
         kind, sep, col = text.partition(":")
         if kind == "dev" and sep:
