@@ -436,3 +436,133 @@ def test_a_signal_during_shutdown_leaves_a_finished_command_its_status():
                        timeout=60)
     assert r.returncode == 0 and r.stdout == "" and r.stderr == "", (r.returncode, r.stdout,
                                                                      r.stderr)
+
+
+# -- issue 18: the five failures of the old process model ----------------------------------------
+
+def _wait_for(pattern_dir: Path, pattern: str, p, seconds=60):
+    deadline = time.time() + seconds
+    while not list(pattern_dir.glob(pattern)) and p.poll() is None and time.time() < deadline:
+        time.sleep(0.002)
+    assert p.poll() is None, f"the run ended before {pattern} appeared: {p.communicate()}"
+
+
+def test_sigterm_to_the_process_group_of_a_plotting_run(tmp_path):
+    """What a CI timeout, systemd or `docker stop` sends: SIGTERM to every process of the
+    group, here while the default four-bar run draws its plots (the first figure is on disk).
+    Exit 143, no traceback (the plot server used to print one), a consistent directory that
+    says it was interrupted."""
+    out = tmp_path / "out"
+    p = subprocess.Popen(ENTRY + ["run", str(ROOT / "mechanisms" / "four-bar.yaml"), "--out",
+                                  str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                         start_new_session=True)
+    _wait_for(out, ".four-bar.tmp-*/bodies.png", p)
+    os.killpg(p.pid, signal.SIGTERM)
+    try:
+        stdout, stderr = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        pytest.fail("planarkin hung after the signal")
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    assert p.returncode == 143, (p.returncode, stdout, stderr)
+    s = assert_contract(out / "four-bar", ("interrupted",))
+    assert s["exit_code"] == 143 and s["time"]["rows_written"] == 361
+    no_leftovers(out)
+
+
+SWEEP = ["sweep", str(ROOT / "mechanisms" / "four-bar.yaml"), "--vary", "a=0.03:0.05:4",
+         "--metric", "max:rocker.phi", "--steps", "24", "--jobs", "1"]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_an_interrupted_sweep_leaves_no_staged_tables(tmp_path, sig):
+    """Interrupted while its files are staged (sweep.csv written, the plot being drawn): exit
+    130/143, one line, and neither a temporary nor a lock file is left (they used to pile up
+    in the result directory); the earlier sweep's files are as they were."""
+    out = tmp_path / "out"
+    assert run_cli(*SWEEP, "--out", out).returncode == 0
+    d = out / "four-bar"
+    before = {f.name: f.read_bytes() for f in d.iterdir()}
+    p = subprocess.Popen(ENTRY + SWEEP[:3] + ["a=0.03:0.05:5"] + SWEEP[4:] + ["--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                         cwd=ROOT)
+    _wait_for(d, ".tmp-*-sweep.csv", p)
+    p.send_signal(sig)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 128 + sig, (p.returncode, stdout, stderr)
+    assert "Traceback" not in stderr, stderr
+    assert stdout.startswith("interrupted "), stdout
+    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    no_leftovers(out)
+
+
+def test_run_and_the_studies_keep_each_others_files(tmp_path):
+    """A model's directory is shared: `run` owns its tables, plots and summary.json, the
+    studies own theirs (output.directory.STUDY_FILES). run after sweep used to delete
+    sweep.csv, tolerance.csv and samples.csv; sweep before run made run refuse the
+    directory."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    fb = str(ROOT / "mechanisms" / "four-bar.yaml")
+    run = ["run", fb, "--steps", "24", "--no-plots", "--out", str(tmp_path)]
+    tol = ["tolerance", fb, "--sigma", "a=1e-4", "--samples", "4", "--steps", "24", "--jobs",
+           "1", "--no-plots", "--out", str(tmp_path)]
+    d = tmp_path / "four-bar"
+    # sweep then run
+    assert CliRunner().invoke(main, SWEEP + ["--out", str(tmp_path)]).exit_code == 0
+    assert CliRunner().invoke(main, tol).exit_code == 0
+    studies = {f.name: f.read_bytes() for f in d.iterdir()}
+    assert {"sweep.csv", "sweep.png", "tolerance.csv", "samples.csv"} <= set(studies)
+    r = CliRunner().invoke(main, run)
+    assert r.exit_code == 0, r.output
+    s = json.loads((d / "summary.json").read_text())
+    names = {f.name for f in d.iterdir()}
+    assert names == set(s["files"]) | set(s["plots"]) | {"summary.json"} | set(studies)
+    assert {n: (d / n).read_bytes() for n in studies} == studies
+    # run again, then the studies again: each replaces its own files only
+    run_files = {n: (d / n).read_bytes() for n in names - set(studies)}
+    assert CliRunner().invoke(main, SWEEP[:3] + ["a=0.03:0.05:3"] + SWEEP[4:]
+                              + ["--out", str(tmp_path)]).exit_code == 0
+    assert {n: (d / n).read_bytes() for n in run_files} == run_files
+    assert (d / "sweep.csv").read_bytes() != studies["sweep.csv"]
+    assert (d / "tolerance.csv").read_bytes() == studies["tolerance.csv"]
+    assert_contract_ignoring_studies(d)
+    no_leftovers(tmp_path)
+
+
+def assert_contract_ignoring_studies(d: Path):
+    from planarkin.output.directory import STUDY_FILES
+    s = json.loads((d / "summary.json").read_text())
+    assert {p.name for p in d.iterdir()} - STUDY_FILES == \
+        set(s["files"]) | set(s["plots"]) | {"summary.json"}
+
+
+def test_no_lock_file_is_left_beside_the_results(tmp_path):
+    """After any run (ok, failed, invalid, refused as busy, a study) nothing hidden is left
+    beside the result directories: the lock exists only while a run writes."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    from planarkin.output.directory import ResultDirectory
+    lock = tmp_path / "lock.yaml"
+    lock.write_text(SLIDER.read_text().replace('{type: angle, body: crank, f: "2*pi*t"}',
+                                               '{type: x, i: ground, j: slider, '
+                                               'f: "0.35 + 0.1*t"}'))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(UNREACHABLE)
+    r = CliRunner().invoke(main, ["run", str(SLIDER), str(lock), str(bad), "--no-plots",
+                                  "--steps", "40", "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2, r.output
+    busy = ResultDirectory(tmp_path / "out" / "slider-crank")
+    try:
+        assert CliRunner().invoke(main, ["run", str(SLIDER), "--no-plots", "--out",
+                                         str(tmp_path / "out")]).exit_code == 2
+    finally:
+        busy.abandon()
+    assert CliRunner().invoke(main, SWEEP + ["--out", str(tmp_path / "out")]).exit_code == 0
+    hidden = [p.name for p in (tmp_path / "out").iterdir() if p.name.startswith(".")]
+    assert hidden == []
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["four-bar", "lock",
+                                                                     "slider-crank"]

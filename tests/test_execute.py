@@ -205,3 +205,40 @@ def test_a_worker_that_dies_ends_the_sweep_within_seconds(tmp_path):
     while any(_running(k) for k in kids) and time.time() < deadline:
         time.sleep(0.05)
     assert not [k for k in kids if _running(k)]
+
+
+def test_a_malformed_scheduler_address_is_refused_at_once_in_one_line():
+    """Exit 2 with one line, before the model is read (no Dask needed: it used to raise a
+    traceback from inside distributed)."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    for bad in ("foo", "tcp://", "tcp://host", "127.0.0.1:8786", "tcp://h:0", "tcp://h:99999",
+                "http://h:80"):
+        r = CliRunner().invoke(main, ["sweep", FB, "--vary", "a=0.03:0.05:2", "--scheduler",
+                                      bad, "--out", "/nonexistent/never-written"])
+        assert r.exit_code == 2, (bad, r.output)
+        assert r.output.count("\n") == 1 and "--scheduler" in r.output, r.output
+        assert "Traceback" not in r.output
+
+
+def test_an_unreachable_scheduler_fails_within_seconds_in_one_line(tmp_path):
+    """A closed port: exit 1 within a few seconds and one line (it used to wait 30 s and print
+    50 lines of traceback)."""
+    pytest.importorskip("distributed")
+    import socket
+    import subprocess
+    import sys
+    import time
+    with socket.socket() as s:                  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.time()
+    r = subprocess.run([sys.executable, "-m", "planarkin", "sweep", FB, "--vary",
+                        "a=0.03:0.05:2", "--steps", "12", "--scheduler",
+                        f"tcp://127.0.0.1:{port}", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=60)
+    assert time.time() - t0 < 15
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    assert r.stderr.count("\n") == 1 and "cannot reach the Dask scheduler" in r.stderr, r.stderr
+    assert not list(tmp_path.rglob("sweep.csv"))
