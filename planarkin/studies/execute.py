@@ -129,13 +129,14 @@ def _collect(futures, units) -> list:
     return out
 
 
-def _stop_workers(pool) -> None:
-    """End this pool's workers now (an interruption): the units running are not waited for."""
+def _stop_workers(pool, kill: bool = False) -> None:
+    """End this pool's workers now (an interruption): the units running are not waited for.
+    kill: SIGKILL (a `run --jobs` worker ignores SIGTERM between models), else SIGTERM."""
     import multiprocessing as mp
     pool.shutdown(wait=False, cancel_futures=True)
     for p in mp.active_children():
         if p.name.startswith(("ForkServerProcess", "SpawnProcess")):
-            p.terminate()
+            p.kill() if kill else p.terminate()
 
 
 def run_processes(study, variants, jobs: int):
@@ -293,8 +294,10 @@ def run_models(models, dirs, report, overrides, analysis, plots, animate, jobs: 
                     died(path)
                 except Exception:  # noqa: BLE001 - a worker that hung: its line is lost
                     pass
+            if not all(f.done() for f in futures):      # a worker that hung: ended now
+                _stop_workers(pool, kill=True)
         if report.signal is None:
             report.signal = signame(e)
-        pool.shutdown(wait=False, cancel_futures=True)
+        pool.shutdown(cancel_futures=True)      # the idle workers end: nothing outlives us
         raise
     pool.shutdown()
