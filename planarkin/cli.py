@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -15,28 +14,10 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem, x_axis_problem
+from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem
 from .options import OPTIONS
 from .report import Report
-
-
-def _load(path: str, report: Report, overrides: dict | None = None):
-    """Read, validate, compile; report diagnostics. Returns the model or None."""
-    from .diagnostics import Diagnostic, InputError
-    from . import load
-    try:
-        model = load(path, **(overrides or {}))
-        report.diagnostics(model.spec.warnings)
-        return model
-    except InputError as e:
-        report.invalid(path, e.diagnostics)
-    except (RecursionError, MemoryError) as e:
-        report.invalid(path, [Diagnostic(path, 1, f"the file is too deeply nested or too large "
-                                                   f"to read ({type(e).__name__})")])
-    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
-        report.invalid(path, [Diagnostic(path, 1, f"internal error while reading the model: "
-                                                   f"{type(e).__name__}: {e} (please report)")])
-    return None
+from .run import load_model as _load
 
 
 def _parse_set(ctx, param, values) -> dict:
@@ -56,25 +37,6 @@ def _set_option(f):
                         callback=_parse_set,
                         help="Override a parameter (repeatable); VALUE may be an expression of "
                              "the parameters before NAME.")(f)
-
-
-class _Progress:
-    """A progress bar on stderr for long runs, only when stderr is a terminal."""
-
-    def __init__(self, total: int, label: str):
-        self.bar = None
-        if total >= 200_000 and sys.stderr.isatty():
-            self.bar = click.progressbar(length=total, label=label, file=sys.stderr)
-            self.bar.__enter__()
-
-    def __call__(self, n: int) -> None:
-        if self.bar is not None:
-            self.bar.update(n)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-            self.bar = None
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -166,141 +128,17 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
                                      param_hint="'--table-format'")
     if animate_fps or animate_width:
         animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
-    from .output.directory import check_writable, interruptible, out_dirs, signame
+    from .output.directory import check_writable, out_dirs
+    from .run import run_models
+    problem = check_writable(Path(out))
+    if problem is not None:
+        raise click.BadParameter(problem, param_hint="'--out'")
     report = Report(quiet)
-    with interruptible():
-        try:
-            problem = check_writable(Path(out))
-            if problem is not None:
-                raise click.BadParameter(problem, param_hint="'--out'")
-            dirs = out_dirs(models, Path(out))
-            if jobs > 1 and len(models) > 1:
-                from .studies.execute import run_models
-                run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
-                           animate, jobs, table_format, x_axis)
-                models = ()
-            for path, outdir in zip(models, dirs):
-                model = _load(path, report, overrides)
-                if model is not None:
-                    _run_one(path, model, outdir, report, dict(analysis),
-                             None if no_plots else fmt, animate, x_axis,
-                             cycle=report_what == "cycle", table_format=table_format)
-        except KeyboardInterrupt as e:
-            if report.signal is None:        # stopped before a model had its directory
-                report.interrupted(None, signame(e), "nothing more was written")
+    run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
+               None if no_plots else fmt, animate, x_axis, cycle=report_what == "cycle",
+               table_format=table_format, jobs=jobs)
     report.summary()
     sys.exit(report.exit_code)
-
-
-def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
-             x_axis=None, cycle=False, table_format=None, stop=None):
-    """One model: options, preparation, then the directory. Invalid input (options, budget,
-    assembly, a busy or foreign directory) is reported before anything is written; an
-    interruption keeps the complete rows (status interrupted) and is raised again to stop the
-    batch. stop: a `run --jobs` worker's stop value (see DirectoryWriter)."""
-    from .diagnostics import Diagnostic, InputError
-    from .options import resolve
-    from .output.directory import OutputError
-    from .output.writer import DirectoryWriter
-    from .results import prepare, stream
-    t0 = time.perf_counter()
-    try:
-        opts = resolve(model, analysis, source="cli")
-        problem = x_axis and x_axis_problem(x_axis, model.spec, "--x")
-        if problem:
-            raise InputError([Diagnostic(path, None, problem)])
-        an = prepare(model, opts)
-    except InputError as e:
-        report.invalid(path, e.diagnostics)
-        return
-    except KeyboardInterrupt:
-        raise
-    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
-        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
-                            f"(please report)")
-        return
-    try:
-        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate, x=x_axis,
-                                 table_format=table_format, stop=stop)
-    except OutputError as e:
-        report.invalid(path, [Diagnostic(path, None, str(e))])
-        return
-    progress = _Progress(opts.steps + 1, Path(path).name)
-    try:
-        info, _ = stream(an, sink=writer, progress=progress)
-        progress.close()
-        report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
-        for w in info.warnings:
-            report.warning(path, w.message)
-        # the line is printed as the directory is put in place (in the same critical block)
-        writer.on_commit = lambda s: _conclude(path, outdir, report, info, s, cycle,
-                                               time.perf_counter() - t0)
-        writer.finish(info, started=t0)
-    except BaseException as e:  # noqa: BLE001 - each kind is handled below
-        progress.close()
-        _conclude_failed(e, path, outdir, writer, report, an, t0)
-
-
-def _conclude_failed(e, path, outdir, writer, report, an, t0):
-    """After an exception in a model's run: its directory left as it was (a write error, a
-    bug) or in place with the complete rows (an interruption: raised again)."""
-    from .output.directory import WriteError, signame
-    from .results import run_info
-    if isinstance(e, WriteError):
-        report.failed(path, f"{e}; {outdir}/ is left as it was")
-        return
-    if isinstance(e, KeyboardInterrupt):
-        if writer.reported:
-            raise e                     # in place and its line printed: the batch stops
-        if not writer.committed:        # else: interrupted while plotting, already in place
-            info = run_info(an)
-            info.interrupted = signame(e)
-            writer.on_commit = None     # its line is the interrupted one below
-            try:
-                writer.finish(info, started=t0)
-            except WriteError as w:
-                report.interrupted(path, signame(e), f"{w}; {outdir}/ is left as it was")
-                raise e from None
-        rows = writer.rows
-        report.interrupted(path, signame(e),
-                           f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
-                           f"{outdir}/" if rows else f"no rows -> {outdir}/")
-        raise e
-    if isinstance(e, Exception) and writer.committed:     # a bug while printing its line
-        report.failed(path, f"internal error while reporting: {type(e).__name__}: {e} "
-                            f"(please report); {outdir}/ is in place")
-        return
-    if isinstance(e, Exception):  # a bug must not become a traceback for the user
-        writer.abort()
-        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
-                            f"(please report); {outdir}/ is left as it was")
-        return
-    raise e
-
-
-def _conclude(path, outdir, report, info, summary, cycle, seconds):
-    """A model's report line (and its cycle figures), once its directory is in place (seconds:
-    its own wall time, the next model's solve not counted)."""
-    rows = summary["time"]["rows_written"]
-    detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
-              f"{summary['residual']['max']:.1e}, {seconds:.2f} s -> {outdir}/")
-    if info.status == 0:
-        report.ok(path, detail)
-    else:
-        report.failed(path, info.message, detail)
-    for w in summary.get("warnings", ()):
-        if isinstance(w, dict) and w.get("kind") == "plots":     # the tables are written
-            report.warning(path, w["message"])
-    if cycle:
-        from .measures.cycle import format_cycle
-        try:
-            lines = format_cycle(summary.get("cycle"))
-        except Exception as e:  # noqa: BLE001 - the results are written; only the report failed
-            report.warning(path, f"the cycle figures could not be printed: {type(e).__name__}: "
-                                 f"{e} (please report); they are in {outdir}/summary.json")
-            lines = []
-        for line in lines:
-            click.echo(line)
 
 
 @main.command()

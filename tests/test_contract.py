@@ -347,12 +347,12 @@ def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group
 
 SIGNAL_AS_THE_LINE_IS_PRINTED = """
 import os, signal, sys
-from planarkin import cli
-report_line = cli._conclude
+from planarkin import run
+report_line = run.report_line
 def conclude(*args, **kwargs):
     os.kill(os.getpid(), signal.SIGTERM)     # the directory is in place, its line not printed
     return report_line(*args, **kwargs)
-cli._conclude = conclude
+run.report_line = conclude
 from planarkin.__main__ import entry
 sys.argv = ["planarkin"] + sys.argv[1:]
 entry()

@@ -22,7 +22,8 @@ directory is left untouched. Everything happens in the process that solves:
   (`STUDY_FILES`): a run keeps them (hard links into the new directory), a study replaces only
   its own, under the same lock (`locked`), so neither deletes the other's files;
 - SIGINT and SIGTERM raise `Interrupted` (a KeyboardInterrupt) in the main thread while a run is
-  `interruptible`; inside a `critical` block (a block of rows going to every table, summary.json
+  `interruptible` (one lost in a finalizer is raised again at the next `checkpoint`, between
+  blocks of rows, models and files); inside a `critical` block (a block of rows going to every table, summary.json
   and the rename) a signal waits until the block ends. Only the first signal counts: a second
   one (a Ctrl-C reaches every process of the group) is ignored while the run stops in order.
 """
@@ -35,6 +36,7 @@ import os
 import re
 import shutil
 import signal
+import sys
 import time
 from pathlib import Path
 
@@ -77,12 +79,14 @@ def signame(e: BaseException) -> str:
 
 # -- interruption ------------------------------------------------------------------------------
 # A Python signal handler always runs in the main thread, between bytecodes: it raises there,
-# unless a critical block runs (then the block raises as it ends) or a finalizer runs (an
-# exception raised in a __del__ is printed and dropped: the next checkpoint raises instead).
+# unless a critical block runs (then the block raises as it ends). Raised inside a finalizer or
+# a weakref callback (the garbage collector runs them anywhere) the exception cannot propagate:
+# Python hands it to sys.unraisablehook, which prints "Exception ignored". While interruptible,
+# that hook drops it quietly and the next checkpoint() raises it again.
 
 class _Stop:
     requested: str | None = None    # the first signal's name, once one came
-    raised = False                  # Interrupted was raised for it
+    raised = False                  # Interrupted was raised for it (and not swallowed)
     critical = 0                    # depth of critical() blocks
 
 
@@ -95,17 +99,18 @@ def _on_signal(signum, frame):
     if _Stop.requested is not None:
         return                      # stopping already: further signals are ignored
     _Stop.requested = signal.Signals(signum).name
-    if _Stop.critical or _in_finalizer(frame):
-        return                      # raised as the block ends / at the next checkpoint()
+    if _Stop.critical:
+        return                      # raised as the block ends
     _raise()
 
 
-def _in_finalizer(frame) -> bool:
-    while frame is not None:
-        if frame.f_code.co_name == "__del__":
-            return True
-        frame = frame.f_back
-    return False
+def _unraisable(hook):
+    def swallow(u):
+        if isinstance(u.exc_value, Interrupted) and _Stop.requested is not None:
+            _Stop.raised = False    # lost in a finalizer: the next checkpoint raises it
+            return
+        hook(u)
+    return swallow
 
 
 def checkpoint(stop=None) -> None:
@@ -133,9 +138,12 @@ def interruptible():
         yield
         return
     _Stop.requested, _Stop.raised, _Stop.critical = None, False, 0
+    hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable(hook)
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         for s, h in old.items():
             signal.signal(s, h)
 

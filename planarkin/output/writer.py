@@ -204,6 +204,11 @@ class DirectoryWriter:
                 except KeyboardInterrupt as e:
                     pending = e
                 summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
+            if pending is None:
+                try:
+                    checkpoint()           # a signal lost in a finalizer meanwhile
+                except KeyboardInterrupt as e:
+                    pending = e
             with critical():
                 if pending is not None:
                     info.interrupted = signame(pending)

@@ -127,7 +127,7 @@ def staged(outdir: Path, family: tuple[str, ...]):
     of an earlier run, now run with --no-plots; sweep.parquet without a Parquet library) are
     removed. An error or interruption before that leaves the earlier files as they were and
     no temporary behind; a killed run's temporaries are removed by the next."""
-    from ..output.directory import critical, locked
+    from ..output.directory import checkpoint, critical, locked
     with locked(outdir):
         outdir.mkdir(parents=True, exist_ok=True)
         for old in outdir.glob(".tmp-*-*"):           # a killed run's (we hold the lock)
@@ -142,6 +142,7 @@ def staged(outdir: Path, family: tuple[str, ...]):
 
         try:
             yield stage
+            checkpoint()                # a signal lost in a finalizer: nothing goes in place
             with critical():
                 written = set()
                 for name, path in tmp.items():
