@@ -5,8 +5,10 @@ run, and a check that all three give the same outcomes bit for bit.
 
 The study: a four-bar sweep over the crank length a in [0.03, 0.05] with a max metric (what
 `planarkin sweep mechanisms/four-bar.yaml --vary a=0.03:0.05:N --metric max:rocker.phi` runs).
-Dask (optional, `pip install 'planarkin[dask]'`): a LocalCluster of --jobs single-threaded
-worker processes on 127.0.0.1, started before the clock starts.
+Local processes: a ProcessPoolExecutor (forkserver on Linux), the pool's start-up (the
+forkserver, the study sent to each worker) inside the clock. Dask (optional, `pip install
+'planarkin[dask]'`): a LocalCluster of --jobs single-threaded worker processes on 127.0.0.1,
+started before the clock starts, used through Client.get_executor().
 """
 
 from __future__ import annotations

@@ -78,22 +78,6 @@ class _AfterImport:
 def instrument() -> None:
     import atexit
     atexit.register(lambda: mark("exit (atexit, last handler)"))
-    from planarkin.output import plotworker
-    wrap(plotworker, "start", before="plotworker.start called")
-    wrap(plotworker, "_warm_up", before="server: warm-up begins",
-         after="server: matplotlib imported, warmed up")
-    for name in ("submit", "collect"):
-        if hasattr(plotworker, name):
-            wrap(plotworker, name, before=f"parent: {name} begins", after=f"parent: {name} done")
-    for name in ("_draw", "_draw_model"):
-        if hasattr(plotworker, name):
-            wrap(plotworker, name, before=f"server: {name} begins",
-                 after=f"server: {name} done")
-    for name in ("_child_main", "_job_part", "_figure_unit", "_helper_main"):
-        if hasattr(plotworker, name):
-            wrap(plotworker, name, before=f"{name} begins", after=f"{name} done")
-    wrap(plotworker, "stop", before="parent: stop begins", after="parent: stop done")
-
     def plots(m):
         wrap(m, "_save", after=lambda r, fig, path: f"saved {Path(path).name} "
              f"({Path(path).parent.name[-22:]})")
@@ -105,6 +89,7 @@ def instrument() -> None:
         wrap(m.DirectoryWriter, "finish", before="parent: finish begins",
              after="parent: finish returns")
         wrap(m.DirectoryWriter, "_close_tables", after="parent: tables closed")
+        wrap(m.DirectoryWriter, "_plots", before="parent: plots begin", after="parent: plots done")
 
     def results(m):
         wrap(m, "stream", before="parent: solve (stream) begins", after="parent: solve done")
@@ -127,8 +112,6 @@ def instrument() -> None:
 def main() -> None:
     global LOG
     args = sys.argv[1:]
-    force = "--force-idle" in args
-    args = [a for a in args if a != "--force-idle"]
     extra = []
     if "--" in args:
         k = args.index("--")
@@ -137,9 +120,6 @@ def main() -> None:
     tmp = tempfile.mkdtemp(prefix="plot-timeline-")
     LOG = os.path.join(tmp, "timeline.log")
     instrument()
-    if force:
-        from planarkin.output import plotworker
-        plotworker._idle_core = lambda *a, **k: True
     mark("instrumented")
     sys.argv = ["planarkin", "run", *models, "-q", "--out", os.path.join(tmp, "out"), *extra]
     pid = os.fork()

@@ -3,7 +3,6 @@ in one call with and without plots, and each figure drawn in process.
 
     python benchmarks/bench_plots.py [--repeat 5] [--batch 200] [--quick] [--json PATH]
                                      [--baseline DIR] [--figures-baseline DIR] [--only-figures]
-                                     [--drawers-ab N]
 
 Every ratio is measured in this one run, the runs with and without plots interleaved (a busy
 machine slows both alike). Targets (issue 12): a default run of mechanisms/four-bar.yaml with
@@ -154,36 +153,6 @@ def _cold(mod) -> None:
     """Forget the texts a plots module has rasterised in this process (`plots._TEXTS`), so that
     a repeated figure costs what its first drawing in a fresh process does."""
     getattr(mod, "_TEXTS", {}).clear()
-
-
-_ONE_DRAWER = """
-import sys
-from planarkin.output import plotworker
-if sys.argv.pop(1) == "one":            # at most one job in flight: the batch as by one server
-    plotworker.capacity = lambda: 1
-from planarkin.__main__ import entry
-sys.argv = ["planarkin"] + sys.argv[1:]
-entry()
-"""
-
-
-def drawers_ab(n: int, rounds: int, tmp: Path) -> dict:
-    """This checkout's batch of n models drawn by one process at a time against two (the
-    default where a core is free), alternating `rounds` times, and --no-plots once: the
-    plotting per model of each (wall difference / models), medians."""
-    files = _batch_files(tmp / "models-ab", n)
-    cmd, env = _this_checkout()
-    w0, _, _ = run_cli(["run", *files, "--no-plots", "-q", "--out", str(tmp / "ab-np")])
-    got: dict = {"one": [], "two": []}
-    for _ in range(rounds):
-        for mode in ("one", "two"):
-            t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-c", _ONE_DRAWER, mode, "run", *files, "-q",
-                            "--out", str(tmp / f"ab-{mode}")], env=env, cwd=ROOT, check=True,
-                           capture_output=True)
-            got[mode].append(time.perf_counter() - t0)
-    return {"no-plots": w0, **{m: {"walls": v, "per_model": (statistics.median(v) - w0) / n}
-                               for m, v in got.items()}}
 
 
 def in_process(models, repeat: int, tmp: Path) -> list[dict]:
@@ -397,9 +366,6 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=200)
     ap.add_argument("--quick", action="store_true", help="3 repeats, a batch of 24")
     ap.add_argument("--json", type=Path)
-    ap.add_argument("--drawers-ab", type=int, default=0, metavar="N",
-                    help="a batch of N models drawn by one process at a time against two, "
-                         "alternating --repeat times")
     ap.add_argument("--baseline", type=Path, help="another checkout (e.g. `git archive main`) "
                     "to compare the default four-bar run and a batch (of at most 24 models) "
                     "with, interleaved")
@@ -455,15 +421,6 @@ def main() -> None:
                 print(f"  {who:<9} plots {wp:.2f} s ({cp:.2f} s CPU), --no-plots {wn:.2f} s "
                       f"({cn:.2f} s CPU): plotting per model {r['per_model_wall']:.3f} s wall, "
                       f"{r['per_model_cpu']:.3f} s CPU")
-            print()
-        if a.drawers_ab:
-            d = drawers_ab(a.drawers_ab, a.repeat, tmp)
-            print(f"== a batch of {a.drawers_ab} models: one drawing process against two, "
-                  f"alternating, median of {a.repeat} (--no-plots {d['no-plots']:.2f} s) ==")
-            for m in ("one", "two"):
-                print(f"  {m} drawer{'s' if m == 'two' else ' '}  plotting per model "
-                      f"{d[m]['per_model']:.3f} s   ("
-                      f"{', '.join(f'{w:.1f}' for w in d[m]['walls'])} s)")
             print()
         b = batch(a.batch, tmp) if a.batch else None
         if b is not None:

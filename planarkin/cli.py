@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -15,49 +14,10 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem, x_axis_problem
+from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem
 from .options import OPTIONS
 from .report import Report
-
-
-def _tune_malloc() -> None:
-    """Keep numpy's large temporaries on the heap (glibc only).
-
-    glibc serves blocks above 128 KB with fresh mmap pages and returns them on free, so every
-    chunk's temporaries page-fault again; on the VMs we measured a page fault costs ~2 us, and
-    the grid pass of the slider-crank ran 1.4-1.6x slower for it (2.8 -> 1.7 us per step in
-    process). A high mmap threshold (and no trimming) lets freed blocks be reused. This tunes
-    only this process (and the writer processes it forks), never a library user's."""
-    import ctypes
-    import ctypes.util
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return
-    M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
-    mallopt(M_MMAP_THRESHOLD, 1 << 30)
-    mallopt(M_TRIM_THRESHOLD, 1 << 30)
-
-
-
-def _load(path: str, report: Report, overrides: dict | None = None):
-    """Read, validate, compile; report diagnostics. Returns the model or None."""
-    from .diagnostics import Diagnostic, InputError
-    from . import load
-    try:
-        model = load(path, **(overrides or {}))
-        report.diagnostics(model.spec.warnings)
-        return model
-    except InputError as e:
-        report.invalid(path, e.diagnostics)
-    except (RecursionError, MemoryError) as e:
-        report.invalid(path, [Diagnostic(path, 1, f"the file is too deeply nested or too large "
-                                                   f"to read ({type(e).__name__})")])
-    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
-        report.invalid(path, [Diagnostic(path, 1, f"internal error while reading the model: "
-                                                   f"{type(e).__name__}: {e} (please report)")])
-    return None
+from .run import load_model as _load
 
 
 def _parse_set(ctx, param, values) -> dict:
@@ -77,25 +37,6 @@ def _set_option(f):
                         callback=_parse_set,
                         help="Override a parameter (repeatable); VALUE may be an expression of "
                              "the parameters before NAME.")(f)
-
-
-class _Progress:
-    """A progress bar on stderr for long runs, only when stderr is a terminal."""
-
-    def __init__(self, total: int, label: str):
-        self.bar = None
-        if total >= 200_000 and sys.stderr.isatty():
-            self.bar = click.progressbar(length=total, label=label, file=sys.stderr)
-            self.bar.__enter__()
-
-    def __call__(self, n: int) -> None:
-        if self.bar is not None:
-            self.bar.update(n)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-            self.bar = None
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -187,245 +128,17 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
                                      param_hint="'--table-format'")
     if animate_fps or animate_width:
         animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
-    from .output.directory import (Interrupted, check_writable, held_signals, interruptible,
-                                   out_dirs)
-    if sys.platform.startswith("linux"):
-        _tune_malloc()
-    plotting = (not no_plots or animate) and not (jobs > 1 and len(models) > 1)
-    from .output import plotworker
-    if not plotting:                        # (stopped below, or at exit)
-        plotworker.stop()                   # one started by __main__ on a guess
+    from .output.directory import check_writable, out_dirs
+    from .run import run_models
+    problem = check_writable(Path(out))
+    if problem is not None:
+        raise click.BadParameter(problem, param_hint="'--out'")
     report = Report(quiet)
-    later = _Later(report)          # the model whose plots the server draws meanwhile
-    with interruptible():
-        try:
-            problem = check_writable(Path(out))
-            if problem is not None:
-                raise click.BadParameter(problem, param_hint="'--out'")
-            dirs = out_dirs(models, Path(out))
-            if jobs > 1 and len(models) > 1:
-                from .studies.execute import run_models
-                run_models(models, dirs, report, overrides, analysis, None if no_plots else fmt,
-                           animate, jobs, table_format)
-                models = ()
-            for k, (path, outdir) in enumerate(zip(models, dirs)):
-                later.more = k + 1 < len(models)
-                model = _load(path, later, overrides)
-                if model is not None and plotting and not plotworker.running():
-                    # not started by __main__ (no core was free): forked now, it inherits
-                    # numpy and the modules a job needs, and only imports matplotlib (while
-                    # the models solve), instead of repeating the imports of this process
-                    from . import results  # noqa: F401
-                    plotworker.start()
-                if model is not None:
-                    _run_one(path, model, outdir, later, dict(analysis),
-                             None if no_plots else fmt, animate, x_axis,
-                             cycle=report_what == "cycle", table_format=table_format)
-            later.settle()
-        except (KeyboardInterrupt, Interrupted) as e:
-            try:
-                later.settle()
-            except (KeyboardInterrupt, Interrupted):
-                pass                            # that model reported itself interrupted
-            if report.signal is None:        # stopped before a model had its directory
-                report.interrupted(None, _signame(e), "nothing more was written")
-        finally:
-            if plotting:
-                with held_signals():
-                    plotworker.stop()
+    run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
+               None if no_plots else fmt, animate, x_axis, cycle=report_what == "cycle",
+               table_format=table_format, jobs=jobs)
     report.summary()
-    if report.signal is not None:
-        # every writer is joined and every directory in place: leave now, with the status the
-        # shell expects, before interpreter shutdown could meet another signal
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(report.exit_code)
     sys.exit(report.exit_code)
-
-
-class _Later:
-    """The report of a batch, through which a model's plots are drawn while the next models
-    solve: `_run_one` leaves the model's end (collecting its plots, summary.json, the
-    directory put in place, its report line) here, and the ends happen in the models' order
-    before anything more is printed, so that the lines keep that order; `settle()` ends them
-    explicitly. At most `plotworker.capacity()` ends wait at a time (the plot jobs in flight:
-    one per drawing process)."""
-
-    def __init__(self, report: Report):
-        self.report = report
-        self.waiting: list = []     # the ends of the last models, callables, oldest first
-        self.more = False           # models follow the current one (else: wait for its plots)
-
-    def settle(self, keep: int = 0) -> None:
-        """End the oldest waiting models until `keep` wait. Every one is ended even when one
-        of them is interrupted (its directory is in place, interrupted); the first
-        interruption is raised again once all are."""
-        first = None
-        while len(self.waiting) > keep:
-            conclude = self.waiting.pop(0)
-            try:
-                conclude()
-            except BaseException as e:  # noqa: BLE001 - raised below, after the others
-                first = first or e
-                keep = 0            # interrupted: the rest are ended too, not left in flight
-        if first is not None:
-            raise first
-
-    def diagnostics(self, diags) -> None:
-        if diags:                   # (called for every model, mostly with none)
-            self.settle()
-            self.report.diagnostics(diags)
-
-    def __getattr__(self, name):
-        try:
-            self.settle()
-        except BaseException as e:
-            # interrupted while ending the models before: their lines are printed; this
-            # one's (a model already in place) too, then the interruption goes on
-            attr, stopped = getattr(self.report, name), e
-            if not callable(attr):
-                raise
-
-            def then_raise(*args, **kwargs):
-                attr(*args, **kwargs)
-                raise stopped
-            return then_raise
-        return getattr(self.report, name)
-
-
-def _signame(e: BaseException) -> str:
-    return "SIGINT" if isinstance(e, KeyboardInterrupt) else "SIGTERM"
-
-
-def _run_one(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
-             x_axis=None, cycle=False, table_format=None):
-    """One model: options, preparation, then the directory. Invalid input (options, budget,
-    assembly, a busy or foreign directory) is reported before anything is written; an
-    interruption keeps the complete rows (status interrupted) and is raised again to stop the
-    batch."""
-    from .diagnostics import Diagnostic, InputError
-    from .options import resolve
-    from .output.directory import Interrupted, OutputError, WriteError
-    from .output.writer import DirectoryWriter
-    from .results import prepare, stream
-    t0 = time.perf_counter()
-    try:
-        opts = resolve(model, analysis, source="cli")
-        problem = x_axis and x_axis_problem(x_axis, model.spec, "--x")
-        if problem:
-            raise InputError([Diagnostic(path, None, problem)])
-        an = prepare(model, opts)
-    except InputError as e:
-        report.invalid(path, e.diagnostics)
-        return
-    except (KeyboardInterrupt, Interrupted):
-        raise
-    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
-        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
-                            f"(please report)")
-        return
-    try:
-        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate,
-                                 background=True, x=x_axis, table_format=table_format)
-    except OutputError as e:
-        report.invalid(path, [Diagnostic(path, None, str(e))])
-        return
-    progress = _Progress(opts.steps + 1, Path(path).name)
-    later = isinstance(report, _Later)      # else (a --jobs worker): the plots drawn here
-    try:
-        info, _ = stream(an, sink=writer, progress=progress)
-        progress.close()
-        if later:                       # the models before: their plots drawn meanwhile
-            from .output import plotworker      # (one left drawing when two drawers can)
-            report.settle(keep=plotworker.capacity() - 1)
-        report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
-        for w in info.warnings:
-            report.warning(path, w.message)
-        # the line is printed as the directory is put in place (signals held meanwhile)
-        writer.on_commit = lambda s: _conclude(path, outdir, report, info, s, cycle,
-                                               time.perf_counter() - t0)
-        writer.finish(info, started=t0, defer=later and report.more)
-    except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
-        progress.close()
-        _conclude_failed(e, path, outdir, writer, report, an, t0)
-        return
-    finally:
-        progress.close()
-    if writer.committed:
-        return
-    spent = time.perf_counter() - t0
-
-    def conclude():
-        c0 = time.perf_counter()
-        writer.on_commit = lambda s: _conclude(path, outdir, report.report, info, s, cycle,
-                                               spent + time.perf_counter() - c0)
-        try:
-            writer.complete()
-        except (WriteError, KeyboardInterrupt, Interrupted, Exception) as e:
-            _conclude_failed(e, path, outdir, writer, report.report, an, t0)
-    report.waiting.append(conclude)
-
-
-def _conclude_failed(e, path, outdir, writer, report, an, t0):
-    """After an exception in a model's end: its directory left as it was (a write error, a
-    bug) or in place with the complete rows (an interruption: raised again)."""
-    from .output.directory import Interrupted, WriteError
-    from .results import run_info
-    if isinstance(e, WriteError):
-        report.failed(path, f"{e}; {outdir}/ is left as it was")
-        return
-    if isinstance(e, (KeyboardInterrupt, Interrupted)) and writer.reported:
-        raise e                         # in place and its line printed: the signal goes on
-    if isinstance(e, (KeyboardInterrupt, Interrupted)):
-        if not writer.committed:        # else: interrupted while plotting, already in place
-            info = run_info(an)
-            info.interrupted = _signame(e)
-            writer.on_commit = None     # its line is the interrupted one below
-            try:
-                writer.finish(info, started=t0)
-            except WriteError as w:
-                report.interrupted(path, _signame(e), f"{w}; {outdir}/ is left as it was")
-                raise e from None
-        rows = writer.rows
-        report.interrupted(path, _signame(e),
-                           f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
-                           f"{outdir}/" if rows else f"no rows -> {outdir}/")
-        raise e
-    if isinstance(e, Exception) and writer.committed:     # a bug while printing its line
-        report.failed(path, f"internal error while reporting: {type(e).__name__}: {e} "
-                            f"(please report); {outdir}/ is in place")
-        return
-    if isinstance(e, Exception):  # a bug must not become a traceback for the user
-        writer.abort()
-        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
-                            f"(please report); {outdir}/ is left as it was")
-        return
-    raise e
-
-
-def _conclude(path, outdir, report, info, summary, cycle, seconds):
-    """A model's report line (and its cycle figures), once its directory is in place (seconds:
-    its own wall time, the next model's solve not counted)."""
-    rows = summary["time"]["rows_written"]
-    detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
-              f"{summary['residual']['max']:.1e}, {seconds:.2f} s -> {outdir}/")
-    if info.status == 0:
-        report.ok(path, detail)
-    else:
-        report.failed(path, info.message, detail)
-    for w in summary.get("warnings", ()):
-        if isinstance(w, dict) and w.get("kind") == "plots":     # the tables are written
-            report.warning(path, w["message"])
-    if cycle:
-        from .measures.cycle import format_cycle
-        try:
-            lines = format_cycle(summary.get("cycle"))
-        except Exception as e:  # noqa: BLE001 - the results are written; only the report failed
-            report.warning(path, f"the cycle figures could not be printed: {type(e).__name__}: "
-                                 f"{e} (please report); they are in {outdir}/summary.json")
-            lines = []
-        for line in lines:
-            click.echo(line)
 
 
 @main.command()
@@ -499,8 +212,6 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
     errors in positions, velocities and accelerations (against a tight reference run)."""
     from .diagnostics import InputError
     from .tradeoff import run_tradeoff
-    if sys.platform.startswith("linux"):
-        _tune_malloc()
     report = Report(quiet)
     model = _load(model_path, report, overrides)
     if model is None:
@@ -605,6 +316,45 @@ def _study_options(unit: str, writes: str, plot: str):
     return deco
 
 
+def _check_scheduler(scheduler) -> None:
+    """A malformed --scheduler address: one line, exit 2, before anything else (no Dask
+    needed)."""
+    from .studies.execute import scheduler_problem
+    problem = scheduler and scheduler_problem(scheduler)
+    if problem:
+        click.echo(f"planarkin: error: --scheduler: {problem}", err=True)
+        sys.exit(2)
+
+
+def _run_study(model_path, report: Report, outdir: Path, work):
+    """work() (a study's runs and its files) under the interruption contract; returns its
+    result, or reports and exits: interrupted 130/143 (the study's files are the earlier run's
+    or this one's, never a mix, and no temporary is left), a worker that died or an unreachable
+    scheduler 1, a directory being written by another run 2."""
+    from .diagnostics import Diagnostic, InputError
+    from .output.directory import OutputError, interruptible, signame
+    from .studies.execute import SchedulerError, WorkerDied
+    with interruptible():
+        try:
+            return work()
+        except KeyboardInterrupt as e:
+            report.interrupted(model_path, signame(e), f"the study's files in {outdir}/ are "
+                                                       f"the earlier run's or this one's")
+        except (WorkerDied, SchedulerError) as e:
+            report.failed(model_path, str(e))
+        except OutputError as e:
+            report.invalid(model_path, [Diagnostic(model_path, None, str(e))])
+        except InputError as e:         # the study's size (planarkin.budget.check_study)
+            report.invalid(model_path, e.diagnostics)
+    sys.exit(report.exit_code)
+
+
+def _study_dir(out, model_path) -> Path:
+    """The model's directory, named as `planarkin run` names it (output.directory.out_dirs)."""
+    from .output.directory import out_dirs
+    return out_dirs([model_path], Path(out))[0]
+
+
 @main.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--vary", "vary", multiple=True, required=True, metavar="NAME=LO:HI:N",
@@ -625,24 +375,19 @@ def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, f
     parameters, the status (ok, failed with the kind and time, invalid with the reason) and the
     metrics."""
     from .studies.sweep import run_sweep
-    if sys.platform.startswith("linux"):
-        _tune_malloc()
+    _check_scheduler(scheduler)
     report = Report(quiet)
     ranges = _ranges(vary, need_count=samples is None)
     study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
                    [r.name for r in ranges])
     if study is None:
         sys.exit(report.exit_code)
-    outdir = Path(out) / Path(model_path).stem
+    outdir = _study_dir(out, model_path)
     t0 = time.perf_counter()
     from .studies.execute import executor
-    from .diagnostics import InputError
-    try:
-        res = run_sweep(study, ranges, outdir, samples=samples, seed=seed,
-                        plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
-    except InputError as e:         # the study's size (planarkin.budget.check_study)
-        report.invalid(model_path, e.diagnostics)
-        sys.exit(report.exit_code)
+    res = _run_study(model_path, report, outdir, lambda: run_sweep(
+        study, ranges, outdir, samples=samples, seed=seed, plots=None if no_plots else fmt,
+        execute=executor(jobs, scheduler)))
     c = res.counts()
     report.ok(model_path, f"{len(res.variants)} variants: {c['ok']} ok, {c['failed']} failed, "
                           f"{c['invalid']} invalid, {time.perf_counter() - t0:.2f} s -> "
@@ -689,8 +434,7 @@ def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, 
     deviations of the parameters, and their exact first-order sensitivities."""
     from .diagnostics import InputError
     from .studies.tolerance import run_tolerance, summary_lines
-    if sys.platform.startswith("linux"):
-        _tune_malloc()
+    _check_scheduler(scheduler)
     report = Report(quiet)
     sig = _sigmas(sigma)
     if not metrics:
@@ -705,12 +449,13 @@ def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, 
                    list(sig))
     if study is None:
         sys.exit(report.exit_code)
-    outdir = Path(out) / Path(model_path).stem
+    outdir = _study_dir(out, model_path)
     t0 = time.perf_counter()
     try:
         from .studies.execute import executor
-        res = run_tolerance(study, sig, outdir, samples, seed=seed, dist=dist,
-                            plots=None if no_plots else fmt, execute=executor(jobs, scheduler))
+        res = _run_study(model_path, report, outdir, lambda: run_tolerance(
+            study, sig, outdir, samples, seed=seed, dist=dist, plots=None if no_plots else fmt,
+            execute=executor(jobs, scheduler)))
     except InputError as e:
         report.invalid(model_path, e.diagnostics)
         sys.exit(report.exit_code)

@@ -234,8 +234,8 @@ def stream(an: Analysis, sink=None, progress=None):
         if an.event is not None and an.event.kind in REFUSALS:
             break
     an.timings["grid"] = time.perf_counter() - t2
-    if sink is not None and not getattr(sink, "background", False):
-        an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # written in this process
+    if sink is not None:
+        an.timings["grid"] -= getattr(sink, "t_write", 0.0)     # the tables' share
     info = run_info(an)
     result = None if sink is not None else Result(an.cm, collect.chunk(), info)
     an.out = None

@@ -44,29 +44,3 @@ points:
   B: {body: rod, s: [b, 0]}
 analysis: {start: 0, end: 1, steps: 360}
 """
-
-
-def record_batch_events(monkeypatch, collect_label=lambda ticket: ticket) -> list:
-    """The order in which `planarkin run` (in process) solves models and hands their plots to
-    the plot server and collects them: a list filled with ("solve", name), ("submit", name)
-    and ("collect", collect_label(ticket)) as they happen."""
-    from planarkin import results
-    from planarkin.output import plotworker
-    events = []
-    solve, submit, collect = results.stream, plotworker.submit, plotworker.collect
-
-    def stream(an, **kw):
-        events.append(("solve", an.cm.spec.name))
-        return solve(an, **kw)
-
-    def submitted(cm, *a, **kw):
-        events.append(("submit", cm.spec.name))
-        return submit(cm, *a, **kw)
-
-    def collected(ticket):
-        events.append(("collect", collect_label(ticket)))
-        return collect(ticket)
-    monkeypatch.setattr(results, "stream", stream)
-    monkeypatch.setattr(plotworker, "submit", submitted)
-    monkeypatch.setattr(plotworker, "collect", collected)
-    return events

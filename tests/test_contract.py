@@ -59,7 +59,8 @@ def assert_contract(d: Path, statuses=("ok",)):
 
 def no_leftovers(out: Path):
     """No temporaries beside the result directories, and no process still writing there."""
-    assert not [p for p in out.iterdir() if ".tmp-" in p.name or ".old-" in p.name]
+    assert not [p for p in out.iterdir() if ".tmp-" in p.name or ".old-" in p.name
+                or p.name.endswith(".lock")]
     deadline = time.time() + 5
     while True:
         alive = []
@@ -283,37 +284,6 @@ def test_two_real_runs_into_one_directory(tmp_path):
     no_leftovers(tmp_path)
 
 
-# A writer process must never outlive its parent: it holds the parent's stdout and stderr
-# (a CI job waiting for the pipes to close then hangs) and, forked after another writer, that
-# writer's pipe. Both faults are asserted directly, without depending on a signal's timing.
-ORPHANS = """
-import os, sys
-from pathlib import Path
-from planarkin.output.directory import ProcessSink, fork_context
-ctx = fork_context()
-out = Path(sys.argv[1])
-sinks = [ProcessSink(ctx, out / f"t{k}.csv", ["t", "x"]) for k in range(3)]
-print("pids", *[s.proc.pid for s in sinks], flush=True)
-os._exit(0)                  # the parent dies without closing anything
-"""
-
-
-def test_writers_end_when_their_parent_dies(tmp_path):
-    p = subprocess.Popen([sys.executable, "-c", ORPHANS, str(tmp_path)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
-    try:
-        stdout, _ = p.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        os.system("pkill -9 -f 'planarkin.output.directory import ProcessSink'")
-        pytest.fail("a writer process kept the parent's stdout open after the parent died")
-    pids = [int(x) for x in stdout.split()[1:]]
-    deadline = time.time() + 10
-    while any(Path(f"/proc/{pid}").exists() for pid in pids) and time.time() < deadline:
-        time.sleep(0.05)
-    assert not any(Path(f"/proc/{pid}").exists() for pid in pids), "writers left behind"
-
-
 def test_killed_run_leaves_no_writer_behind(tmp_path):
     p = subprocess.Popen(ENTRY + ["run", str(SLIDER), "--out", str(tmp_path), "--no-plots",
                                   "--steps", "400000"],
@@ -377,12 +347,12 @@ def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group
 
 SIGNAL_AS_THE_LINE_IS_PRINTED = """
 import os, signal, sys
-from planarkin import cli
-report_line = cli._conclude
+from planarkin import run
+report_line = run.report_line
 def conclude(*args, **kwargs):
     os.kill(os.getpid(), signal.SIGTERM)     # the directory is in place, its line not printed
     return report_line(*args, **kwargs)
-cli._conclude = conclude
+run.report_line = conclude
 from planarkin.__main__ import entry
 sys.argv = ["planarkin"] + sys.argv[1:]
 entry()
@@ -409,7 +379,7 @@ def test_a_directory_in_place_always_has_its_line(tmp_path, plots):
 
 _IN_FINALIZER = r"""
 import os, signal, sys, time
-from planarkin.output.directory import Interrupted, interruptible
+from planarkin.output.directory import Interrupted, checkpoint, interruptible
 
 class Slow:
     def __del__(self):                  # the signal arrives while a finalizer runs
@@ -422,23 +392,24 @@ try:
     with interruptible():
         Slow()                          # collected at once: __del__ runs here
         t = time.time() + 5
-        while time.time() < t:          # the run goes on ... until the signal is raised
+        while time.time() < t:          # the run goes on ... until its next block of rows
             time.sleep(0.001)
+            checkpoint()                # (what DirectoryWriter.add does for every chunk)
         print("not interrupted")
-except (Interrupted, KeyboardInterrupt) as e:
-    print("interrupted", type(e).__name__)
+except KeyboardInterrupt as e:
+    print("interrupted", type(e).__name__, e.signame)
 """
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 def test_a_signal_during_a_finalizer_still_stops_the_run(sig):
-    # raised inside a __del__ (the garbage collector's, e.g. of a multiprocessing connection)
-    # the exception was printed as "Exception ignored in ... __del__" with a traceback and
-    # dropped: the run went on (seen once in an interrupted-batch test under CI)
+    # raised inside a __del__ (the garbage collector's) the exception would be printed as
+    # "Exception ignored in ... __del__" with a traceback and dropped, and the run would go on:
+    # the handler leaves it to the next checkpoint between blocks of rows
     r = subprocess.run([sys.executable, "-c", _IN_FINALIZER, str(int(sig))],
                        capture_output=True, text=True, timeout=60)
-    want = "Interrupted" if sig == signal.SIGTERM else "KeyboardInterrupt"
-    assert r.stdout == f"interrupted {want}\n" and r.stderr == "", (r.stdout, r.stderr)
+    assert r.stdout == f"interrupted Interrupted {sig.name}\n" and r.stderr == "", (r.stdout,
+                                                                                    r.stderr)
 
 
 _SHUTDOWN = r"""
@@ -465,3 +436,133 @@ def test_a_signal_during_shutdown_leaves_a_finished_command_its_status():
                        timeout=60)
     assert r.returncode == 0 and r.stdout == "" and r.stderr == "", (r.returncode, r.stdout,
                                                                      r.stderr)
+
+
+# -- issue 18: the five failures of the old process model ----------------------------------------
+
+def _wait_for(pattern_dir: Path, pattern: str, p, seconds=60):
+    deadline = time.time() + seconds
+    while not list(pattern_dir.glob(pattern)) and p.poll() is None and time.time() < deadline:
+        time.sleep(0.002)
+    assert p.poll() is None, f"the run ended before {pattern} appeared: {p.communicate()}"
+
+
+def test_sigterm_to_the_process_group_of_a_plotting_run(tmp_path):
+    """What a CI timeout, systemd or `docker stop` sends: SIGTERM to every process of the
+    group, here while the default four-bar run draws its plots (the first figure is on disk).
+    Exit 143, no traceback (the plot server used to print one), a consistent directory that
+    says it was interrupted."""
+    out = tmp_path / "out"
+    p = subprocess.Popen(ENTRY + ["run", str(ROOT / "mechanisms" / "four-bar.yaml"), "--out",
+                                  str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                         start_new_session=True)
+    _wait_for(out, ".four-bar.tmp-*/bodies.png", p)
+    os.killpg(p.pid, signal.SIGTERM)
+    try:
+        stdout, stderr = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        pytest.fail("planarkin hung after the signal")
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    assert p.returncode == 143, (p.returncode, stdout, stderr)
+    s = assert_contract(out / "four-bar", ("interrupted",))
+    assert s["exit_code"] == 143 and s["time"]["rows_written"] == 361
+    no_leftovers(out)
+
+
+SWEEP = ["sweep", str(ROOT / "mechanisms" / "four-bar.yaml"), "--vary", "a=0.03:0.05:4",
+         "--metric", "max:rocker.phi", "--steps", "24", "--jobs", "1"]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_an_interrupted_sweep_leaves_no_staged_tables(tmp_path, sig):
+    """Interrupted while its files are staged (sweep.csv written, the plot being drawn): exit
+    130/143, one line, and neither a temporary nor a lock file is left (they used to pile up
+    in the result directory); the earlier sweep's files are as they were."""
+    out = tmp_path / "out"
+    assert run_cli(*SWEEP, "--out", out).returncode == 0
+    d = out / "four-bar"
+    before = {f.name: f.read_bytes() for f in d.iterdir()}
+    p = subprocess.Popen(ENTRY + SWEEP[:3] + ["a=0.03:0.05:5"] + SWEEP[4:] + ["--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                         cwd=ROOT)
+    _wait_for(d, ".tmp-*-sweep.csv", p)
+    p.send_signal(sig)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 128 + sig, (p.returncode, stdout, stderr)
+    assert "Traceback" not in stderr, stderr
+    assert stdout.startswith("interrupted "), stdout
+    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    no_leftovers(out)
+
+
+def test_run_and_the_studies_keep_each_others_files(tmp_path):
+    """A model's directory is shared: `run` owns its tables, plots and summary.json, the
+    studies own theirs (output.directory.STUDY_FILES). run after sweep used to delete
+    sweep.csv, tolerance.csv and samples.csv; sweep before run made run refuse the
+    directory."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    fb = str(ROOT / "mechanisms" / "four-bar.yaml")
+    run = ["run", fb, "--steps", "24", "--no-plots", "--out", str(tmp_path)]
+    tol = ["tolerance", fb, "--sigma", "a=1e-4", "--samples", "4", "--steps", "24", "--jobs",
+           "1", "--no-plots", "--out", str(tmp_path)]
+    d = tmp_path / "four-bar"
+    # sweep then run
+    assert CliRunner().invoke(main, SWEEP + ["--out", str(tmp_path)]).exit_code == 0
+    assert CliRunner().invoke(main, tol).exit_code == 0
+    studies = {f.name: f.read_bytes() for f in d.iterdir()}
+    assert {"sweep.csv", "sweep.png", "tolerance.csv", "samples.csv"} <= set(studies)
+    r = CliRunner().invoke(main, run)
+    assert r.exit_code == 0, r.output
+    s = json.loads((d / "summary.json").read_text())
+    names = {f.name for f in d.iterdir()}
+    assert names == set(s["files"]) | set(s["plots"]) | {"summary.json"} | set(studies)
+    assert {n: (d / n).read_bytes() for n in studies} == studies
+    # run again, then the studies again: each replaces its own files only
+    run_files = {n: (d / n).read_bytes() for n in names - set(studies)}
+    assert CliRunner().invoke(main, SWEEP[:3] + ["a=0.03:0.05:3"] + SWEEP[4:]
+                              + ["--out", str(tmp_path)]).exit_code == 0
+    assert {n: (d / n).read_bytes() for n in run_files} == run_files
+    assert (d / "sweep.csv").read_bytes() != studies["sweep.csv"]
+    assert (d / "tolerance.csv").read_bytes() == studies["tolerance.csv"]
+    assert_contract_ignoring_studies(d)
+    no_leftovers(tmp_path)
+
+
+def assert_contract_ignoring_studies(d: Path):
+    from planarkin.output.directory import STUDY_FILES
+    s = json.loads((d / "summary.json").read_text())
+    assert {p.name for p in d.iterdir()} - STUDY_FILES == \
+        set(s["files"]) | set(s["plots"]) | {"summary.json"}
+
+
+def test_no_lock_file_is_left_beside_the_results(tmp_path):
+    """After any run (ok, failed, invalid, refused as busy, a study) nothing hidden is left
+    beside the result directories: the lock exists only while a run writes."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    from planarkin.output.directory import ResultDirectory
+    lock = tmp_path / "lock.yaml"
+    lock.write_text(SLIDER.read_text().replace('{type: angle, body: crank, f: "2*pi*t"}',
+                                               '{type: x, i: ground, j: slider, '
+                                               'f: "0.35 + 0.1*t"}'))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(UNREACHABLE)
+    r = CliRunner().invoke(main, ["run", str(SLIDER), str(lock), str(bad), "--no-plots",
+                                  "--steps", "40", "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2, r.output
+    busy = ResultDirectory(tmp_path / "out" / "slider-crank")
+    try:
+        assert CliRunner().invoke(main, ["run", str(SLIDER), "--no-plots", "--out",
+                                         str(tmp_path / "out")]).exit_code == 2
+    finally:
+        busy.abandon()
+    assert CliRunner().invoke(main, SWEEP + ["--out", str(tmp_path / "out")]).exit_code == 0
+    hidden = [p.name for p in (tmp_path / "out").iterdir() if p.name.startswith(".")]
+    assert hidden == []
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["four-bar", "lock",
+                                                                     "slider-crank"]

@@ -77,7 +77,7 @@ for sig in (signal.SIGTERM, signal.SIGINT):
     r, w = os.pipe()
     pid = os.fork()
     if pid == 0:                                # a study worker: the pool's initializer
-        execute._init(None)
+        execute._init_study(None)
         os.write(w, b"x")
         while True:
             signal.pause()
@@ -100,55 +100,146 @@ def test_study_workers_end_quietly_on_the_pools_terminate_and_on_ctrl_c():
     assert r.stdout == "exit codes [143, 130]\n" and r.stderr == "", (r.stdout, r.stderr)
 
 
-def test_a_sigterm_to_the_parent_alone_ends_the_workers_quietly(tmp_path):
-    # the parent of `sweep --jobs 2` ends at once on SIGTERM; its workers used to finish their
-    # unit and print a BrokenPipeError traceback for each result they could not send
-    import signal
+def _cpu(pid):
+    """CPU ticks used so far (utime + stime)."""
+    try:
+        return sum(int(x) for x in open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1]
+                   .split()[11:13])
+    except OSError:
+        return 0
+
+
+def _children(pid):
+    try:
+        return [int(k) for k in open(f"/proc/{pid}/task/{pid}/children").read().split()]
+    except OSError:
+        return []
+
+
+def _forkserver(pid):
+    try:
+        return b"forkserver" in open(f"/proc/{pid}/cmdline", "rb").read()
+    except OSError:
+        return False
+
+
+def _running(pid):
+    """Not ended: neither gone nor a zombie (an orphan's zombie waits for PID 1 to reap it,
+    which here may take a while)."""
+    try:
+        state = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
+def _busy_sweep(tmp_path, extra=()):
+    """`sweep --jobs 2` of 3,600 variants, started; returns (process, its two workers) once
+    both workers are inside a unit (the workers: the children of the forkserver, itself a
+    child of the command, or the command's own children where they are forked)."""
     import subprocess
     import sys
     import time
     p = subprocess.Popen([sys.executable, "-m", "planarkin", "sweep", FB, "--vary",
                           "a=0.03:0.05:60", "--vary", "b=0.11:0.13:60", "--metric",
                           "max:rocker.phi", "--jobs", "2", "--no-plots", "--steps", "2880",
-                          "--out", str(tmp_path)], stdout=subprocess.PIPE,
+                          "--out", str(tmp_path), *extra], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
-    children = f"/proc/{p.pid}/task/{p.pid}/children"
-
-    def cpu(pid):
-        """CPU ticks used so far (utime + stime)."""
-        try:
-            return sum(int(x) for x in open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1]
-                       .split()[11:13])
-        except OSError:
-            return 0
-
     deadline = time.time() + 60
     kids = []
     while time.time() < deadline and p.poll() is None:
-        try:
-            kids = [int(k) for k in open(children).read().split()]
-        except OSError:
-            kids = []
-        if len(kids) >= 2 and all(cpu(k) >= 5 for k in kids):    # both inside a unit
+        kids = [w for c in _children(p.pid) for w in ([c] if not _forkserver(c) else
+                                                      _children(c))]
+        kids = [k for k in kids if _cpu(k) >= 30]          # inside a unit (not the resource
+        if len(kids) >= 2:                                  # tracker, idle)
             break
         time.sleep(0.01)
     if len(kids) < 2 or p.poll() is not None:
-        pytest.skip("the workers did not start (no /proc, or the sweep ended first)")
+        p.kill()
+        pytest.fail(f"the workers did not start: {p.communicate()}")
+    return p, kids
+
+
+def test_a_sigterm_to_the_parent_alone_ends_the_workers_quietly(tmp_path):
+    # the parent of `sweep --jobs 2` ends at once on SIGTERM, with its workers, quietly
+    import signal
+    import time
+    p, kids = _busy_sweep(tmp_path)
     p.send_signal(signal.SIGTERM)
     out, err = p.communicate(timeout=60)
-    def running(pid):
-        """Not ended: neither gone nor a zombie (an orphan's zombie waits for PID 1 to reap
-        it, which here may take a while)."""
-        try:
-            state = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0]
-        except OSError:
-            return False
-        return state not in ("Z", "X")
-
     deadline = time.time() + 5
-    while any(running(k) for k in kids) and time.time() < deadline:
+    while any(_running(k) for k in kids) and time.time() < deadline:
         time.sleep(0.05)
-    alive = [k for k in kids if running(k)]
+    alive = [k for k in kids if _running(k)]
     assert p.returncode == 128 + signal.SIGTERM and alive == [], (p.returncode, alive)
     assert "Traceback" not in err and "Traceback" not in out, err[-2000:]
+    assert not list(tmp_path.rglob("sweep.csv"))
+    assert not [f for f in tmp_path.rglob("*") if ".tmp-" in f.name or f.name.endswith(".lock")]
+
+
+def test_a_worker_that_dies_ends_the_sweep_within_seconds(tmp_path):
+    """A worker killed inside a unit (the OOM killer, a crash): the sweep fails that unit with
+    a message naming it and ends with exit 1 at once (it used to wait for ever), quietly, and
+    the earlier files stay as they were."""
+    import os
+    import signal
+    import subprocess
+    import time
+    p, kids = _busy_sweep(tmp_path)
+    os.kill(kids[0], signal.SIGKILL)
+    t0 = time.time()
+    try:
+        out, err = p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.communicate()
+        for k in kids:
+            if _running(k):
+                os.kill(k, signal.SIGKILL)
+        pytest.fail("the sweep did not end after its worker died")
+    assert time.time() - t0 < 10
+    assert p.returncode == 1, (out, err)
+    assert "Traceback" not in err, err[-2000:]
+    assert "a worker process died" in err and "variants" in err, err
+    assert not list(tmp_path.rglob("sweep.csv"))
+    deadline = time.time() + 5
+    while any(_running(k) for k in kids) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not [k for k in kids if _running(k)]
+
+
+def test_a_malformed_scheduler_address_is_refused_at_once_in_one_line():
+    """Exit 2 with one line, before the model is read (no Dask needed: it used to raise a
+    traceback from inside distributed)."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    for bad in ("foo", "tcp://", "tcp://host", "127.0.0.1:8786", "tcp://h:0", "tcp://h:99999",
+                "http://h:80"):
+        r = CliRunner().invoke(main, ["sweep", FB, "--vary", "a=0.03:0.05:2", "--scheduler",
+                                      bad, "--out", "/nonexistent/never-written"])
+        assert r.exit_code == 2, (bad, r.output)
+        assert r.output.count("\n") == 1 and "--scheduler" in r.output, r.output
+        assert "Traceback" not in r.output
+
+
+def test_an_unreachable_scheduler_fails_within_seconds_in_one_line(tmp_path):
+    """A closed port: exit 1 within a few seconds and one line (it used to wait 30 s and print
+    50 lines of traceback)."""
+    pytest.importorskip("distributed")
+    import socket
+    import subprocess
+    import sys
+    import time
+    with socket.socket() as s:                  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.time()
+    r = subprocess.run([sys.executable, "-m", "planarkin", "sweep", FB, "--vary",
+                        "a=0.03:0.05:2", "--steps", "12", "--scheduler",
+                        f"tcp://127.0.0.1:{port}", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=60)
+    assert time.time() - t0 < 15
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    assert r.stderr.count("\n") == 1 and "cannot reach the Dask scheduler" in r.stderr, r.stderr
     assert not list(tmp_path.rglob("sweep.csv"))

@@ -242,23 +242,18 @@ def test_identical_curves_are_drawn_once():
     assert len(ax.get_lines()) == 2 and sel.note() == ""
 
 
-def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
-    """planarkin run with plots: the figures come from the background server (one per call,
-    stopped at the end: no process is left; here on a machine taken as busy, so the server
-    draws every figure itself), and summary.json says how long the parent waited."""
+def test_cli_draws_the_plots_in_process(tmp_path):
+    """planarkin run with plots: the figures are drawn in the process, after the tables, no
+    process is started, and summary.json says how long the drawing took."""
     import json
     import multiprocessing as mp
     from click.testing import CliRunner
     from planarkin.cli import main
-    from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
     runner = CliRunner()
     r = runner.invoke(main, ["run", str(SLIDER_CRANK), str(ROOT / "mechanisms" / "four-bar.yaml"),
                              "--out", str(tmp_path), "--steps", "60", "-q"])
     assert r.exit_code == 0, r.output
-    # (other tests of this process may leave table writers behind: only the plot server counts)
-    assert not plotworker.running()
-    assert not [p for p in mp.active_children() if p.name == "planarkin-plots"]
+    assert not mp.active_children()
     for stem in ("slider-crank", "four-bar"):
         s = json.loads((tmp_path / stem / "summary.json").read_text())
         forces = ["forces.png"] if stem == "slider-crank" else []      # it has masses
@@ -269,109 +264,9 @@ def test_cli_draws_in_the_plot_server_and_releases_it(tmp_path, monkeypatch):
             check_file(tmp_path / stem / name, "png")
 
 
-def test_batch_draws_each_model_while_the_next_one_solves(tmp_path, monkeypatch):
-    """In a batch the plot server draws a model while the next one solves: its plots are
-    collected (and its directory put in place, its line printed) only after the next model's
-    solve, and the lines keep the models' order. Here on a machine taken as busy: one job in
-    flight (tests/test_plotworker.py: two, with a core free)."""
-    import json
-    from click.testing import CliRunner
-    from clitools import record_batch_events
-    from planarkin.cli import main
-    from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
-    events = record_batch_events(monkeypatch, lambda ticket: "")
-    four_bar = ROOT / "mechanisms" / "four-bar.yaml"
-    r = CliRunner().invoke(main, ["run", str(SLIDER_CRANK), str(four_bar), "--out",
-                                  str(tmp_path), "--steps", "40"])
-    assert r.exit_code == 0, r.output
-    a, b = planarkin.load(SLIDER_CRANK).spec.name, planarkin.load(four_bar).spec.name
-    assert events == [("solve", a), ("submit", a), ("solve", b), ("collect", ""),
-                      ("submit", b), ("collect", "")]
-    lines = [ln for ln in r.output.splitlines() if ln.startswith("ok ")]
-    assert [ln.split()[1] for ln in lines] == [f"{SLIDER_CRANK}:", f"{four_bar}:"]
-    for stem in ("slider-crank", "four-bar"):
-        s = json.loads((tmp_path / stem / "summary.json").read_text())
-        assert s["plots"][:4] == ["bodies.png", "points.png", "trajectories.png",
-                                  "mechanism.png"]
-        for name in s["plots"]:
-            check_file(tmp_path / stem / name, "png")
-
-
-def test_plot_server_splits_the_figures():
-    """Two halves of about equal drawing time: bodies.png costs about twice each of the
-    others; the animation about as much as the four figures."""
+def test_figure_names():
     assert plots.figure_names(planarkin.load(SLIDER_CRANK)) == [
         "bodies", "points", "trajectories", "mechanism"]
-    figs = [("figure", n) for n in ("bodies", "points", "trajectories", "mechanism")]
-    assert plotworker_split(figs, 2) == [[0, 1], [2, 3]]
-    assert plotworker_split(figs + [("animation",)], 2) == [[0, 1, 2, 3], [4]]
-    assert plotworker_split(figs + [("room", 0)], 2) == [[0, 1, 2], [3, 4]]     # forces.png
-    assert plotworker_split([("animation",)], 2) == [[0], []]   # --no-plots --animate
-    assert plotworker_split(figs, 1) == [[0, 1, 2, 3]]
-
-
-def test_plot_server_splits_only_when_a_core_is_free_now(monkeypatch):
-    """A second drawing process runs only when the processes runnable now that are not ours
-    leave it a core (our own runnable threads, e.g. the parent's spinning BLAS threads, do not
-    count), not by the 1-minute load average that still counts the run's own start-up."""
-    from planarkin.output import plotworker
-    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))     # stale: ignored
-    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
-    monkeypatch.setattr(plotworker, "_ours_running", lambda: 1)
-    for runnable, idle in ((1, True), (2, False), (5, False)):
-        monkeypatch.setattr(plotworker, "_runnable", lambda: runnable)
-        assert plotworker._idle_core() is idle
-    monkeypatch.setattr(plotworker, "_ours_running", lambda: 3)      # BLAS threads, a writer
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
-    assert plotworker._idle_core()
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 4)
-    assert not plotworker._idle_core()
-    monkeypatch.setattr(plotworker, "_ours_running", lambda: 1)
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 1)
-    monkeypatch.setattr(os, "getloadavg", lambda: (8.0, 8.0, 8.0))     # busy for a while:
-    assert not plotworker._idle_core()                      # an empty queue for an instant
-    monkeypatch.setattr(os, "getloadavg", lambda: (1.9, 1.9, 1.9))
-    monkeypatch.setattr(plotworker, "_cores", lambda: 4)
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 3)
-    assert plotworker._idle_core()
-    monkeypatch.setattr(plotworker, "_cores", lambda: 1)
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 1)
-    assert not plotworker._idle_core()
-    monkeypatch.setattr(plotworker, "_cores", lambda: 2)
-    monkeypatch.setattr(plotworker, "_runnable", lambda: None)         # no /proc: the average
-    assert not plotworker._idle_core()
-    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
-    assert plotworker._idle_core()
-    # another process runnable for an instant (a shell starting a command): the fewest of
-    # three looks
-    looks = iter([2, 2, 1])
-    monkeypatch.setattr(plotworker, "_runnable", lambda: next(looks))
-    assert plotworker._idle_core()
-    monkeypatch.setattr(plotworker, "_runnable", lambda: 2)
-    assert not plotworker._idle_core()
-    if os.path.exists("/proc/loadavg"):
-        monkeypatch.undo()
-        assert plotworker._runnable() >= 1          # this test itself is running
-        assert plotworker._ours_running() >= 1
-
-
-def test_plot_server_started_first_only_for_a_run_with_plots_and_a_free_core(monkeypatch):
-    """planarkin.__main__ forks the server before parsing the command line, on a guess: a run
-    that draws, and a core free (else it would repeat the parent's imports for nothing)."""
-    from planarkin.output import plotworker
-    assert plotworker.wanted(["run", "a.yaml", "--steps", "9"])
-    for argv in ([], ["check", "a.yaml"], ["run", "a.yaml", "--no-plots"], ["run", "--help"],
-                 ["run", "-h"]):
-        assert not plotworker.wanted(argv)
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: False)
-    plotworker.start(early=True)
-    assert not plotworker.running()
-
-
-def plotworker_split(units, parts):
-    from planarkin.output import plotworker
-    return plotworker.split(units, parts)
 
 
 def _run(name, **kw):
@@ -492,53 +387,18 @@ def test_tradeoff_labels_do_not_overlap():
         assert not any(b.overlaps(o) for o in boxes[k + 1:])
 
 
-def test_plot_server_draws_fails_loudly_and_is_replaced_when_it_dies(model, positions, tmp_path,
-                                                                    monkeypatch):
-    """Split between the server and its helper (an idle core, forced here; the CLI test takes
-    the other path): the files in figure order, a failure in a drawer raises here; a drawer
-    that dies leaves the other, and with both gone the caller draws itself."""
-    from planarkin.output import plotworker
-    monkeypatch.setattr(plotworker, "_idle_core", lambda: True)
-    plotworker.start()
-    try:
-        files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
-        assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
-                                           "mechanism.png"]
-        assert len(plotworker._pool.parts) == 0 and all(
-            d.pid and d.alive and not d.queue for d in plotworker._pool.drawers)
-        with pytest.raises(RuntimeError, match="drawing the plots failed"):
-            plotworker.draw(model, positions._chunk, positions.info, tmp_path / "missing" / "x",
-                            "png", False)
-        assert plotworker.running()             # a failed job does not end the server
-        server, helper = plotworker._pool.drawers
-        os.kill(helper.pid, 9)
-        assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
-                               False) is None   # its part is lost: the caller draws itself
-        assert plotworker.running() and not helper.alive
-        files = plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png", False)
-        assert len(files) == 4                  # the server alone
-        plotworker._pool.proc.kill()
-        plotworker._pool.proc.join()
-        assert plotworker.draw(model, positions._chunk, positions.info, tmp_path, "png",
-                               False) is None
-        assert not plotworker.running()
-    finally:
-        plotworker.stop()
-
-
-def test_the_cli_process_never_imports_matplotlib(tmp_path):
-    """The speed property behind the plot server: `planarkin run` with plots leaves the import
-    of matplotlib (0.3-0.5 s) and the drawing to the server, so the run itself never waits for
-    the import; the plots are there when it returns."""
+def test_a_run_without_plots_never_imports_matplotlib(tmp_path):
+    """matplotlib (0.3-0.5 s to import) is imported only when plotting."""
     import subprocess
     import sys
     code = ("import sys\nfrom planarkin.cli import main\n"
             "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    code = e.code\n"
             "print('matplotlib' in sys.modules, code)")
-    out = subprocess.run([sys.executable, "-c", code, "run", str(SLIDER_CRANK), "--steps", "30",
-                          "--out", str(tmp_path), "-q"], capture_output=True, text=True,
-                         cwd=ROOT, timeout=300)
-    assert out.stdout.split()[-2:] == ["False", "0"], out.stdout + out.stderr
+    for extra, imported in ((["--no-plots"], "False"), ([], "True")):
+        out = subprocess.run([sys.executable, "-c", code, "run", str(SLIDER_CRANK), "--steps",
+                              "30", "--out", str(tmp_path), "-q", *extra], capture_output=True,
+                             text=True, cwd=ROOT, timeout=300)
+        assert out.stdout.split()[-2:] == [imported, "0"], out.stdout + out.stderr
     assert (tmp_path / "slider-crank" / "mechanism.png").exists()
 
 

@@ -184,12 +184,18 @@ def test_a_sweeps_files_are_replaced_all_or_none(tmp_path, monkeypatch):
     run_sweep(study, [Range("a", 0.03, 0.05, 3)], tmp_path, plots=None)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.csv"], had
     monkeypatch.undo()
-    dead = tmp_path / ".tmp-999999999-sweep.csv"       # no such process
-    alive = tmp_path / f".tmp-{os.getppid()}-sweep.csv"  # another run still writing
+    dead = tmp_path / f".tmp-{os.getppid()}-sweep.csv"    # a killed run's (any pid)
     dead.write_text("x")
-    alive.write_text("x")
     run_sweep(study, [Range("a", 0.03, 0.05, 2)], tmp_path, plots=None)
-    assert not dead.exists() and alive.exists()
+    assert not dead.exists()
+    # another run or study writing the directory holds its lock: refused, nothing touched
+    from planarkin.output.directory import OutputError, locked
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    with locked(tmp_path):
+        with pytest.raises(OutputError, match="being written by another planarkin run"):
+            run_sweep(study, [Range("a", 0.03, 0.05, 3)], tmp_path, plots=None)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    assert not list(tmp_path.parent.glob(f".{tmp_path.name}.lock"))
 
 
 def test_grid_values_print_as_written(tmp_path):

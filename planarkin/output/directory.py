@@ -1,37 +1,42 @@
 """The output contract: the only code that touches a model's result directory.
 
-After `planarkin run`, a model's directory holds exactly the files of one run and a summary.json
-that describes them: complete results (status ok), results up to a failure (failed, with the
-time) or up to an interruption (interrupted); for invalid input, the previous directory is left
-untouched. How:
+After `planarkin run`, a model's directory holds the files of one run and a summary.json that
+describes them (``files``, ``plots``): complete results (status ok), results up to a failure
+(failed, with the time) or up to an interruption (interrupted); for invalid input the previous
+directory is left untouched. Everything happens in the process that solves:
 
-- everything is written into a temporary sibling ``.NAME.tmp-PID`` and renamed into place at the
-  end (at an interruption too), atomically where the kernel can exchange two directories
-  (renameat2 RENAME_EXCHANGE, Linux), else by two renames;
-- ``.NAME.lock`` (flock, released by the kernel even when the process is killed) refuses a
-  concurrent run into the same directory; temporaries left by a killed run are removed by the next;
-- a directory that exists but is not a planarkin result (no summary.json of ours) is never
-  replaced;
-- tables are formatted by writer processes (`ProcessSink`) fed through pipes with SIGINT and
-  SIGTERM held back while a block is sent, so every table holds the same complete rows whenever
-  the run stops; the writers ignore those signals (the parent stops them in order), close every
-  descriptor they inherit (`close_inherited`: no writer holds another's pipe or the parent's
-  stdout) and so exit on end of file if the parent dies; they are always joined (`close`,
-  `kill`).
+- the run writes into a temporary sibling ``.NAME.tmp-PID`` and puts it in place with
+  `os.replace` at the end (at an interruption too). When NAME exists it is first moved aside to
+  ``.NAME.old-PID``, the new directory replaces it, and the old one is removed. The window: for
+  the microseconds between the two renames NAME does not exist; a process killed exactly then
+  (SIGKILL, power loss) leaves the previous results in ``.NAME.old-PID``, and the next run into
+  NAME puts them back before it starts;
+- ``.NAME.lock`` (flock: the kernel releases it even when the process is killed) refuses a
+  concurrent run into the same directory. It exists only while a run writes: it is unlinked
+  before it is released, and a run that took the lock checks that the file it locked is still
+  the one at that path (else it lost a race with a run ending and tries again). A killed run's
+  lock file and temporaries are removed by the next run;
+- a directory that exists but is not a planarkin result (no summary.json of ours, and not only
+  the files of the study commands) is never replaced;
+- the study commands (sweep, tolerance, tradeoff) own their files in the same directory
+  (`STUDY_FILES`): a run keeps them (hard links into the new directory), a study replaces only
+  its own, under the same lock (`locked`), so neither deletes the other's files;
+- SIGINT and SIGTERM raise `Interrupted` (a KeyboardInterrupt) in the main thread while a run is
+  `interruptible` (one lost in a finalizer is raised again at the next `checkpoint`, between
+  blocks of rows, models and files); inside a `critical` block (a block of rows going to every table, summary.json
+  and the rename) a signal waits until the block ends. Only the first signal counts: a second
+  one (a Ctrl-C reaches every process of the group) is ignored while the run stops in order.
 """
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import ctypes.util
-import errno
 import json
 import os
 import re
 import shutil
 import signal
-import struct
+import sys
 import time
 from pathlib import Path
 
@@ -40,117 +45,120 @@ import numpy as np
 from .summary import ColumnStats
 from .tables import CsvWriter
 
-_SIGNALS = {signal.SIGINT, signal.SIGTERM}
-_HEADER = struct.Struct("<qq")     # rows, columns of a float64 block
-_JOIN_SECONDS = 30.0               # a writer that has not finished by then is killed
-_PIPE_BYTES = 8 << 20              # room for a few chunks in flight (Linux F_SETPIPE_SZ)
 _PORTABLE = re.compile(r"[^A-Za-z0-9._-]")
+PLOT_FORMATS = ("png", "svg", "pdf")
+# the files of the study commands in a model's directory (planarkin.studies.sweep, tolerance,
+# planarkin.tradeoff): `run` keeps them, and they are never a run's
+STUDY_FILES = frozenset(
+    ["sweep.csv", "sweep.parquet", "tolerance.csv", "samples.csv", "sensitivities.csv",
+     "tradeoff.csv", "tradeoff.png"]
+    + [f"{stem}.{f}" for stem in ("sweep", "tolerance") for f in PLOT_FORMATS])
 
 
 class OutputError(Exception):
     """The results cannot be written where asked (busy, not ours, not writable)."""
 
 
-class Interrupted(BaseException):
-    """SIGTERM arrived (SIGINT arrives as KeyboardInterrupt): stop, keep what is complete."""
+class WriteError(Exception):
+    """A table could not be written (disk full, file size limit, I/O error)."""
 
 
-# SIGINT and SIGTERM are Python-level handlers while a run is interruptible: a handler always
-# runs in the main thread, whichever thread the kernel delivered the signal to (BLAS threads do
-# not block it), so holding signals back is a flag the handler reads, not a signal mask alone.
-_held = 0                  # depth of held_signals() blocks
-_pending: int | None = None   # a signal that arrived while held
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived: stop, keep what is complete. `signame` says which."""
+
+    def __init__(self, signame: str = "SIGINT"):
+        super().__init__(signame)
+        self.signame = signame
 
 
-def _raise_for(signum: int):
-    if signum == signal.SIGINT:
-        raise KeyboardInterrupt
-    raise Interrupted(signum)
+def signame(e: BaseException) -> str:
+    """"SIGINT" or "SIGTERM": the signal behind an interruption (a bare KeyboardInterrupt is a
+    Ctrl-C)."""
+    return getattr(e, "signame", "SIGINT")
+
+
+# -- interruption ------------------------------------------------------------------------------
+# A Python signal handler always runs in the main thread, between bytecodes: it raises there,
+# unless a critical block runs (then the block raises as it ends). Raised inside a finalizer or
+# a weakref callback (the garbage collector runs them anywhere) the exception cannot propagate:
+# Python hands it to sys.unraisablehook, which prints "Exception ignored". While interruptible,
+# that hook drops it quietly and the next checkpoint() raises it again.
+
+class _Stop:
+    requested: str | None = None    # the first signal's name, once one came
+    raised = False                  # Interrupted was raised for it (and not swallowed)
+    critical = 0                    # depth of critical() blocks
+
+
+def _raise() -> None:
+    _Stop.raised = True
+    raise Interrupted(_Stop.requested)
 
 
 def _on_signal(signum, frame):
-    global _pending, _deferred
-    if _held:
-        _pending = signum
-        return
-    if _in_finalizer(frame):
-        # an exception raised inside a __del__ (the garbage collector ran one, e.g. of a
-        # multiprocessing connection, when the signal came) is printed as "Exception ignored"
-        # with its traceback and dropped, and the run would go on: the signal is sent again
-        # once the finalizer has returned, if the run is still interruptible by then (else it
-        # came as the run ended, and the run is over)
-        import threading
-        _deferred = signum
-        timer = threading.Timer(0.005, _resend, (signum,))
-        timer.daemon = True
-        timer.start()
-        return
-    _raise_for(signum)
+    if _Stop.requested is not None:
+        return                      # stopping already: further signals are ignored
+    _Stop.requested = signal.Signals(signum).name
+    if _Stop.critical:
+        return                      # raised as the block ends
+    _raise()
 
 
-_deferred: int | None = None       # a signal that came during a finalizer, to be sent again
+def _unraisable(hook):
+    def swallow(u):
+        if isinstance(u.exc_value, Interrupted) and _Stop.requested is not None:
+            _Stop.raised = False    # lost in a finalizer: the next checkpoint raises it
+            return
+        hook(u)
+    return swallow
 
 
-def _drop_deferred():
-    global _deferred
-    _deferred = None
+def checkpoint(stop=None) -> None:
+    """Raise Interrupted if a signal came and was not raised yet (or, with stop, a shared
+    multiprocessing value, when the parent asked this worker to stop: it holds the signal's
+    number); called between blocks of rows."""
+    if _Stop.requested is None and stop is not None and stop.value:
+        _Stop.requested = signal.Signals(stop.value).name
+    if _Stop.requested is not None and not _Stop.raised and not _Stop.critical:
+        _raise()
 
 
-def _resend(signum: int):
-    global _deferred
-    if _deferred == signum and signal.getsignal(signum) is _on_signal:
-        _deferred = None
-        os.kill(os.getpid(), signum)
-
-
-def _in_finalizer(frame) -> bool:
-    """Whether frame runs inside a __del__ method."""
-    while frame is not None:
-        if frame.f_code.co_name == "__del__":
-            return True
-        frame = frame.f_back
-    return False
+def stop_requested() -> str | None:
+    """The name of the signal that stops this run, or None."""
+    return _Stop.requested
 
 
 @contextlib.contextmanager
 def interruptible():
-    """While inside, SIGINT raises KeyboardInterrupt and SIGTERM raises Interrupted in the main
-    thread, except inside held_signals() blocks, after which they are raised; the previous
-    handlers are restored."""
+    """While inside, SIGINT and SIGTERM raise Interrupted in the main thread (see critical());
+    the previous handlers are restored after."""
     try:
         old = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     except ValueError:                      # not the main thread: leave signals alone
         yield
         return
+    _Stop.requested, _Stop.raised, _Stop.critical = None, False, 0
+    hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable(hook)
     try:
         yield
     finally:
-        _drop_deferred()
+        sys.unraisablehook = hook
         for s, h in old.items():
             signal.signal(s, h)
 
 
 @contextlib.contextmanager
-def held_signals():
-    """SIGINT and SIGTERM wait until the block is done (they are raised right after), so that a
-    block of rows is never half sent, a count never left behind, and a shutdown never cut
-    short. The thread's signal mask is held too, so that a process forked inside starts with
-    the signals blocked (it ignores them before it unblocks them)."""
-    global _held, _pending
-    try:
-        mask = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
-    except (AttributeError, ValueError, OSError):     # no signal masks here
-        mask = None
-    _held += 1
+def critical():
+    """A block a signal must not cut (rows half sent to the tables, a directory half renamed):
+    a signal arriving inside is raised as the block ends."""
+    _Stop.critical += 1
     try:
         yield
     finally:
-        _held -= 1
-        if mask is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-        if not _held and _pending is not None:
-            signum, _pending = _pending, None
-            _raise_for(signum)
+        _Stop.critical -= 1
+        if not _Stop.critical and _Stop.requested is not None and not _Stop.raised:
+            _raise()
 
 
 # -- directories ------------------------------------------------------------------------------
@@ -182,13 +190,14 @@ def out_dirs(models, out: Path) -> list[Path]:
 
 
 def _is_ours(path: Path) -> bool:
-    """True when path is absent, an empty directory, or a planarkin result directory."""
+    """True when path is absent, an empty directory, a planarkin result directory, or holds
+    only the files of the study commands."""
     if not path.exists():
         return True
     if not path.is_dir() or path.is_symlink():
         return False
-    entries = list(path.iterdir())
-    if not entries:
+    entries = {p.name for p in path.iterdir()}
+    if entries <= STUDY_FILES:
         return True
     try:
         with open(path / "summary.json", encoding="utf-8") as f:
@@ -197,22 +206,70 @@ def _is_ours(path: Path) -> bool:
         return False
 
 
-def _exchange(a: Path, b: Path) -> bool:
-    """Swap two directories atomically (Linux renameat2 RENAME_EXCHANGE); False if unsupported."""
+class _Lock:
+    """``.NAME.lock`` beside NAME, held with flock while a run or a study writes NAME, unlinked
+    as it is released (no litter). Raises OutputError when another process holds it."""
+
+    def __init__(self, final: Path):
+        self.path = final.parent / f".{final.name}.lock"
+        self.fd = None
+        try:
+            import fcntl
+        except ImportError:          # no flock on this platform: no protection against a race
+            return
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as e:
+                raise OutputError(f"cannot write results into {final.parent}/: "
+                                  f"{e.strerror}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise OutputError(f"{final}/ is being written by another planarkin run; wait "
+                                  f"for it or choose another --out") from None
+            try:
+                st = os.stat(self.path)
+                mine = os.fstat(fd)
+                same = (st.st_ino, st.st_dev) == (mine.st_ino, mine.st_dev)
+            except FileNotFoundError:
+                same = False
+            if same:
+                self.fd = fd
+                return
+            os.close(fd)             # the file was unlinked by a run that ended: again
+
+    def release(self) -> None:
+        if self.fd is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)     # before the release: nobody locks a dead file
+            os.close(self.fd)
+            self.fd = None
+
+
+@contextlib.contextmanager
+def locked(final: Path):
+    """Hold NAME's lock (a study writing its files into a model's directory). Raises
+    OutputError when a run or another study writes NAME."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    lock = _Lock(final)
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        fn = libc.renameat2
-    except (OSError, AttributeError):
-        return False
-    AT_FDCWD, RENAME_EXCHANGE = -100, 2
-    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    r = fn(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE)
-    if r == 0:
-        return True
-    e = ctypes.get_errno()
-    if e in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP if hasattr(errno, "ENOTSUP") else -1):
-        return False
-    raise OSError(e, os.strerror(e), str(b))
+        _restore(final)
+        yield
+    finally:
+        lock.release()
+
+
+def _restore(final: Path) -> None:
+    """Put back the previous results a run killed between its two renames left aside."""
+    if not final.exists():
+        for old in sorted(final.parent.glob(f".{final.name}.old-*")):
+            os.replace(old, final)
+            break
+    for stale in final.parent.glob(f".{final.name}.old-*"):
+        shutil.rmtree(stale, ignore_errors=True)
 
 
 class ResultDirectory:
@@ -224,63 +281,56 @@ class ResultDirectory:
         self.final = Path(final)
         parent = self.final.parent
         name = self.final.name
-        self.lockfd = None
         try:
             parent.mkdir(parents=True, exist_ok=True)
-            self.lockfd = os.open(parent / f".{name}.lock", os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as e:
             raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+        self.lock = _Lock(self.final)
         try:
-            import fcntl
-            fcntl.flock(self.lockfd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            self._unlock()
-            raise OutputError(f"{self.final}/ is being written by another planarkin run; wait "
-                              f"for it or choose another --out") from None
-        except ImportError:        # no flock on this platform: no protection against a race
-            pass
-        if not _is_ours(self.final):
-            self._unlock()
-            raise OutputError(f"{self.final} exists and is not a planarkin result directory "
-                              f"(no summary.json of ours): it is left alone; choose another "
-                              f"--out or remove it")
-        for stale in parent.glob(f".{name}.tmp-*"):      # left by a killed run (we hold the lock)
-            shutil.rmtree(stale, ignore_errors=True)
-        self.tmp = parent / f".{name}.tmp-{os.getpid()}"
-        try:
-            self.tmp.mkdir()
-        except OSError as e:
-            self._unlock()
-            raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+            _restore(self.final)
+            if not _is_ours(self.final):
+                raise OutputError(f"{self.final} exists and is not a planarkin result directory "
+                                  f"(no summary.json of ours): it is left alone; choose another "
+                                  f"--out or remove it")
+            for stale in parent.glob(f".{name}.tmp-*"):    # left by a killed run (we hold the lock)
+                shutil.rmtree(stale, ignore_errors=True)
+            self.tmp = parent / f".{name}.tmp-{os.getpid()}"
+            try:
+                self.tmp.mkdir()
+            except OSError as e:
+                raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+        except BaseException:
+            self.lock.release()
+            raise
 
     def path(self, filename: str) -> Path:
         return self.tmp / filename
 
     def commit(self) -> None:
-        """Put the new files in place of the old directory (which is then removed)."""
+        """Put the new files in place of the old directory (which is then removed), keeping the
+        study commands' files."""
         try:
             if self.final.exists():
-                if _exchange(self.tmp, self.final):
-                    shutil.rmtree(self.tmp, ignore_errors=True)
-                else:
-                    old = self.final.parent / f".{self.final.name}.old-{os.getpid()}"
-                    os.rename(self.final, old)
-                    os.rename(self.tmp, self.final)
-                    shutil.rmtree(old, ignore_errors=True)
+                for name in STUDY_FILES:
+                    src = self.final / name
+                    if src.is_file() and not (self.tmp / name).exists():
+                        try:
+                            os.link(src, self.tmp / name)
+                        except OSError:          # no hard links here
+                            shutil.copy2(src, self.tmp / name)
+                old = self.final.parent / f".{self.final.name}.old-{os.getpid()}"
+                os.replace(self.final, old)
+                os.replace(self.tmp, self.final)
+                shutil.rmtree(old, ignore_errors=True)
             else:
-                os.rename(self.tmp, self.final)
+                os.replace(self.tmp, self.final)
         finally:
-            self._unlock()
+            self.lock.release()
 
     def abandon(self) -> None:
         """Remove what was written; the previous directory stays as it was."""
         shutil.rmtree(self.tmp, ignore_errors=True)
-        self._unlock()
-
-    def _unlock(self) -> None:
-        if self.lockfd is not None:
-            os.close(self.lockfd)        # releases the flock
-            self.lockfd = None
+        self.lock.release()
 
 
 def check_writable(out: Path) -> str | None:
@@ -299,11 +349,12 @@ def check_writable(out: Path) -> str | None:
 # -- table writers ----------------------------------------------------------------------------
 
 class _Sink:
-    """A table fed block by block in this process, with its column statistics (and a room's
-    accumulator): subclasses say how a block is written (_write) and the file closed
-    (_close)."""
+    """A table fed block by block, with its column statistics (and a room's accumulator):
+    subclasses say how a block is written (_write) and the file closed (_close). An OSError
+    (disk full, a file size limit) becomes WriteError naming the file."""
 
-    def __init__(self, header: list[str], accumulator=None):
+    def __init__(self, path: Path, header: list[str], accumulator=None):
+        self.name = Path(path).name
         self.stats = ColumnStats(header)
         self.extra = accumulator() if accumulator is not None else None
         self.rows = 0
@@ -311,7 +362,10 @@ class _Sink:
 
     def add(self, X: np.ndarray) -> None:
         t0 = time.perf_counter()
-        self._write(X)
+        try:
+            self._write(X)
+        except OSError as e:
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
         self.stats.add(X)
         if self.extra is not None:
             self.extra.add(X)
@@ -321,7 +375,10 @@ class _Sink:
     def close(self):
         """(column statistics, the accumulator's dict or None, seconds busy)"""
         t0 = time.perf_counter()
-        self._close()
+        try:
+            self._close()
+        except OSError as e:
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
         self.busy += time.perf_counter() - t0
         return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
 
@@ -334,8 +391,11 @@ class TableSink(_Sink):
     """One CSV table."""
 
     def __init__(self, path: Path, header: list[str], accumulator=None):
-        super().__init__(header, accumulator)
-        self.csv = CsvWriter(path, header)
+        super().__init__(path, header, accumulator)
+        try:
+            self.csv = CsvWriter(path, header)
+        except OSError as e:
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
 
     def _write(self, X: np.ndarray) -> None:
         self.csv.write(X)
@@ -351,7 +411,7 @@ class ParquetSink(_Sink):
     bit."""
 
     def __init__(self, path: Path, header: list[str], accumulator=None):
-        super().__init__(header, accumulator)
+        super().__init__(path, header, accumulator)
         import pyarrow as pa
         import pyarrow.parquet as pq
         self.pa = pa
@@ -369,141 +429,3 @@ class ParquetSink(_Sink):
 
 
 SINKS = {"csv": TableSink, "parquet": ParquetSink}     # by table format (spec.TABLE_FORMATS)
-
-
-def close_inherited(keep, keep_stderr: bool = False) -> None:
-    """In a forked child: close every descriptor inherited from the parent except `keep`, and
-    point stdin and stdout (and stderr unless keep_stderr) at /dev/null. A child holding the
-    write end of its own pipe, or of a sibling's, never sees end of file when the parent dies,
-    and one holding the parent's stdout keeps whoever reads it (a CI job, a shell pipe)
-    waiting after the parent has exited."""
-    keep = {int(fd) for fd in keep} | {0, 1, 2}
-    null = os.open(os.devnull, os.O_RDWR)
-    for fd in (0, 1) if keep_stderr else (0, 1, 2):
-        os.dup2(null, fd)
-    try:
-        fds = [int(n) for n in os.listdir("/proc/self/fd")]
-    except OSError:
-        fds = range(3, min(os.sysconf("SC_OPEN_MAX"), 65536))
-    for fd in fds:
-        if fd not in keep:
-            with contextlib.suppress(OSError):
-                os.close(fd)
-
-
-def _writer_main(path, header, accumulator, inbox, outbox, kind=TableSink) -> None:
-    """Body of a writer process: blocks of rows in (a header of rows and columns, then the
-    float64 data; an empty message ends the table), statistics out."""
-    for s in _SIGNALS:
-        signal.signal(s, signal.SIG_IGN)       # the parent stops us in order
-    with contextlib.suppress(AttributeError, ValueError, OSError):
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)   # forked with them held
-    close_inherited((inbox.fileno(), outbox.fileno()))   # end of file when the parent dies
-    try:
-        sink = kind(path, header, accumulator)
-        while True:
-            try:
-                msg = inbox.recv_bytes()
-            except EOFError:                   # the parent is gone: nothing to report to
-                os._exit(1)
-            if not msg:
-                break
-            rows, cols = _HEADER.unpack_from(msg)
-            sink.add(np.frombuffer(msg, dtype=np.float64, offset=_HEADER.size).reshape(rows, cols))
-        outbox.send(("ok", sink.close()))
-    except BaseException as e:  # noqa: BLE001 - reported by the parent
-        with contextlib.suppress(Exception):
-            outbox.send(("error", f"{type(e).__name__}: {e}"))
-    finally:
-        os._exit(0)   # no atexit handlers or buffered output inherited from the parent
-
-
-class WriteError(Exception):
-    """A table could not be written (disk full, file size limit, I/O error)."""
-
-
-class ProcessSink:
-    """A TableSink (or another sink class `kind`, e.g. ParquetSink) in a forked process: add()
-    sends the block through a pipe (large enough to hold a few chunks) and returns, so
-    formatting runs in parallel with the solver."""
-
-    def __init__(self, ctx, path: Path, header: list[str], accumulator=None, kind=TableSink):
-        self.name = Path(path).name
-        r, self.inbox = ctx.Pipe(duplex=False)
-        self.outbox, w = ctx.Pipe(duplex=False)
-        _grow_pipe(self.inbox)
-        self.rows = 0
-        with held_signals():      # the caller holds them too, until the sink is registered
-            self.proc = ctx.Process(target=_writer_main, daemon=True,
-                                    args=(path, header, accumulator, r, w, kind))
-            self.proc.start()
-            r.close()
-            w.close()
-
-    def add(self, X: np.ndarray) -> None:
-        X = np.ascontiguousarray(X, dtype=np.float64)
-        try:
-            with held_signals():
-                self.inbox.send_bytes(_HEADER.pack(*X.shape) + X.tobytes())
-        except (BrokenPipeError, ConnectionError, OSError):
-            raise WriteError(f"writing {self.name} failed: {self._reason()}") from None
-        self.rows += len(X)
-
-    def _reason(self) -> str:
-        with contextlib.suppress(Exception):
-            if self.outbox.poll(_JOIN_SECONDS):
-                status, payload = self.outbox.recv()
-                if status == "error":
-                    return payload
-        return "the writer process ended"
-
-    def close(self):
-        """End the table; returns what TableSink.close returns. Raises WriteError."""
-        try:
-            with held_signals():
-                try:
-                    self.inbox.send_bytes(b"")
-                except (BrokenPipeError, ConnectionError, OSError):
-                    raise WriteError(f"writing {self.name} failed: {self._reason()}") from None
-                if not self.outbox.poll(_JOIN_SECONDS):
-                    raise WriteError(f"writing {self.name} failed: the writer did not finish "
-                                     f"within {_JOIN_SECONDS:g} s")
-                try:
-                    status, payload = self.outbox.recv()
-                except (EOFError, OSError):
-                    raise WriteError(f"writing {self.name} failed: the writer process "
-                                     f"ended") from None
-            if status != "ok":
-                raise WriteError(f"writing {self.name} failed: {payload}")
-            return payload
-        finally:
-            self.kill()
-
-    def kill(self) -> None:
-        """Release the process and its pipes, whatever state they are in."""
-        for c in (self.inbox, self.outbox):
-            with contextlib.suppress(OSError):
-                c.close()
-        with held_signals():
-            self.proc.join(timeout=2.0)
-            if self.proc.is_alive():
-                self.proc.kill()
-                self.proc.join()
-            with contextlib.suppress(Exception):
-                self.proc.close()
-
-
-def _grow_pipe(conn) -> None:
-    import fcntl
-    F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
-    with contextlib.suppress(OSError, ValueError):
-        fcntl.fcntl(conn.fileno(), F_SETPIPE_SZ, _PIPE_BYTES)
-
-
-def fork_context():
-    """multiprocessing's fork context, or None where fork does not exist."""
-    import multiprocessing as mp
-    try:
-        return mp.get_context("fork")
-    except ValueError:
-        return None

@@ -71,7 +71,7 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
 
     cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
     event and warnings are marked on the time axes; None is allowed); only: a subset of
-    figure_names(cm) to draw (default all; `plotworker` splits them between two processes);
+    figure_names(cm) to draw (default all);
     x: abscissa of bodies and points, "time" or "driver" (model.spec.X_AXES).
     Returns the files written (points and trajectories only when the model has points; nothing
     when data has no rows).

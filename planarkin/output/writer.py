@@ -17,7 +17,8 @@ import numpy as np
 from ..derived import derived_tables
 from ..options import ORDERS
 from ..solver import Chunk, Options
-from .directory import SINKS, Interrupted, ProcessSink, ResultDirectory, fork_context, held_signals
+from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpoint, critical,
+                        signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
 from .tables import Layout
 
@@ -71,30 +72,28 @@ class PlotBuffer:
 class DirectoryWriter:
     """Streams chunks into the tables of one result directory (bodies.csv, points.csv and the
     derived tables), then writes summary.json and the plots and puts the directory in place
-    (the output contract: planarkin.output.directory).
+    (the output contract: planarkin.output.directory). Everything runs in this process: the
+    tables are formatted as each chunk arrives, the plots are drawn after the tables are
+    closed. Every table gets the same blocks (a critical block each), so the tables stop at the
+    same row whenever the run stops. Raises OutputError (busy, not ours, not writable); add()
+    and finish() raise WriteError (disk full ...) after abandoning the new directory.
 
-    With background=True (where fork exists), each table is formatted and written by its own
-    forked process while this one solves the next chunk: CSV formatting costs about as much per
-    step as solving, so on two cores the writing hides behind the solve. Threads would not help:
-    both sides spend much of their time in the interpreter, under the GIL. Every table gets the
-    same blocks in the same order, so the files are identical either way, and stop at the same
-    row whenever the run stops. Raises OutputError (busy, not ours, not writable); add() and
-    finish() raise WriteError (disk full ...) after abandoning the new directory.
+    stop: a `run --jobs` worker's shared stop value (planarkin.output.directory.checkpoint).
     """
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
-                 animate: bool = False, background: bool = False, x: str | None = None,
-                 table_format: str | None = None):
+                 animate: bool = False, x: str | None = None, table_format: str | None = None,
+                 stop=None):
         self.cm = cm
         self.final = Path(out)
+        self.stop = stop
         self.dir = ResultDirectory(self.final)
         self.out = self.dir.tmp            # files are written here until commit()
         self.sinks: dict = {}
         self.rows = 0
         self.committed = False             # the directory is in place
-        self.ticket = None                 # the plot job in the plot server, if any
-        # called with the summary as the directory is put in place, signals held (the CLI's
-        # report line: a signal then cannot leave a directory in place without its line)
+        # called with the summary as the directory is put in place, in the same critical block
+        # (the CLI's report line: a signal then cannot leave a directory without its line)
         self.on_commit = None
         self.reported = False              # on_commit was called
         try:
@@ -106,10 +105,6 @@ class DirectoryWriter:
             self.x = x or cm.spec.output.x          # abscissa of the time histories
             self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
             self.t_write = 0.0
-            ctx = fork_context() if background else None
-            self.background = ctx is not None
-            from . import fastcsv  # noqa: F401 - once here, not in each forked writer
-
             # table_format: "csv" or "parquet" (default: the model's output: table_format);
             # the sinks, and summary.json's files and columns, go by the names of the files
             # written (bodies.parquet ...)
@@ -119,10 +114,7 @@ class DirectoryWriter:
 
             def sink(name, header, accumulator=None):
                 fname = self.names[name] = name[:-len(".csv")] + "." + fmt
-                path = self.out / fname
-                with held_signals():    # a signal is raised once the sink is registered
-                    self.sinks[fname] = ProcessSink(ctx, path, header, accumulator, kind) \
-                        if ctx else kind(path, header, accumulator)
+                self.sinks[fname] = kind(self.out / fname, header, accumulator)
                 return fname
             from ..measures.cycle import CoordinateFigures
 
@@ -135,6 +127,9 @@ class DirectoryWriter:
             self.derived = [dataclasses.replace(d, filename=sink(d.filename, d.header,
                                                                  d.accumulator))
                             for d in derived_tables(cm, opts)]
+        except WriteError as e:
+            self.abort()
+            raise OutputError(str(e)) from None
         except BaseException:
             self.abort()
             raise
@@ -149,13 +144,14 @@ class DirectoryWriter:
         return out
 
     def add(self, ch: Chunk) -> None:
+        checkpoint(self.stop)              # a signal lost in a finalizer, a parent's stop
         t0 = time.perf_counter()
-        tables = self._tables(ch)          # all computed before any is sent: equal rows
-        with held_signals():               # an interruption waits until every table has them
+        tables = self._tables(ch)          # all computed before any is written: equal rows
+        with critical():                   # an interruption waits until every table has them
             try:
                 for s, X in zip(self.sinks.values(), tables):
                     s.add(X)
-            except Exception:
+            except BaseException:
                 self.abort()
                 raise
             self.rows += len(ch.t)
@@ -170,82 +166,61 @@ class DirectoryWriter:
             stats, extra, b = s.close()
             stats.table = name         # build_summary keys the columns by the file's name
             closed[name] = (stats, extra)
-            busy = max(busy, b) if self.background else busy + b
+            busy += b
         for csv, name in self.names.items():     # bodies.csv, points.csv: found by those names
             closed.setdefault(csv, closed[name])
         return closed, busy
 
-    def finish(self, info: RunInfo, started: float | None = None, defer: bool = False) -> dict:
-        """Close the tables, write summary.json (wall time since `started`, a perf_counter
-        value) and the plots, and put the directory in place; returns the summary.
+    def finish(self, info: RunInfo, started: float | None = None) -> dict:
+        """Close the tables, write the plots and summary.json (wall time since `started`, a
+        perf_counter value) and put the directory in place; returns the summary.
 
-        defer=True (a batch: the plot server then draws this model while the next ones solve):
-        when the plots went to the server, return as soon as the tables are closed and the
-        summary made; `complete()` then waits for the plots, writes summary.json and puts the
-        directory in place (until then `committed` is False and the summary lacks `plots`).
-
-        An interruption while the tables close or the plots are drawn keeps the complete
-        tables (status interrupted, some plots missing) and is raised again once the directory
-        is in place; one that arrives while the summary is written and the directory moved
-        waits until it is in place."""
+        An interruption while the tables close, or while the summary is written and the
+        directory moved, waits until that is done; one while the plots are drawn leaves them
+        out (the tables are complete; status interrupted). Either is raised again once the
+        directory is in place."""
         pending = None
         data = self.buffer.chunk() if self.buffer is not None and info.interrupted is None \
             else None
-        sent = None                 # the plot job's ticket, when the plot server has it
         try:
             try:
-                with held_signals():
-                    if data is not None and self.background:
-                        # the CLI's plot server (if it started one) draws while the tables close
-                        from . import plotworker
-                        sent = self.ticket = plotworker.submit(
-                            self.cm, data, info, self.out, self.plots, self.animate, self.x,
-                            waits=not defer)
+                with critical():
                     closed, busy = self._close_tables()
                     summary = self._summary(info, closed, busy, started)
-            except (KeyboardInterrupt, Interrupted) as e:      # raised once they were closed
+            except KeyboardInterrupt as e:          # raised once they were closed
                 pending = e
         except BaseException:
             self.abort()
             raise
-        self._rest = (info, data, sent, summary, pending)
-        if defer and sent and pending is None:
-            return summary
-        return self.complete()
-
-    def complete(self) -> dict:
-        """The end of `finish` (the plots, summary.json, the directory put in place); returns
-        the summary. Raises as finish does."""
-        info, data, sent, summary, pending = self._rest
-        self._rest = None
-        drawn: list = []
         try:
+            drawn: list = []
             if data is not None and pending is None:
                 t0 = time.perf_counter()
                 try:
-                    drawn = [p.name for p in self._plots(info, data, sent)]
+                    drawn = [p.name for p in self._plots(info, data)]
                 except Exception as e:  # noqa: BLE001 - a figure must not cost the tables
-                    why = str(e) if str(e).startswith("drawing the plots failed") else \
-                        f"drawing the plots failed: {type(e).__name__}: {e}"
-                    summary["warnings"].append({"kind": "plots", "message": why})
-                except (KeyboardInterrupt, Interrupted) as e:
+                    summary["warnings"].append({"kind": "plots", "message": f"drawing the plots "
+                                                f"failed: {type(e).__name__}: {e}"})
+                except KeyboardInterrupt as e:
                     pending = e
                 summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
-            if pending is not None:
-                info.interrupted = _signal_name(pending)
-                summary.update(_interrupted_status(info, "while the results were closed: the "
-                                                         "tables are complete, plots may be "
-                                                         "missing"))
-                if data is not None and sent:     # nothing may still draw into the directory
-                    from . import plotworker
-                    with held_signals():
-                        plotworker.finish_job(sent)
-            # what is there, whoever drew it, in figure order (the plot server, this process,
-            # a room; an interrupted drawing may have left some)
-            there = {p.name for p in self.out.iterdir()} - set(summary["files"]) - \
-                {"summary.json"}
-            summary["plots"] = [n for n in drawn if n in there] + sorted(there - set(drawn))
-            with held_signals():
+            if pending is None:
+                try:
+                    checkpoint()           # a signal lost in a finalizer meanwhile
+                except KeyboardInterrupt as e:
+                    pending = e
+            with critical():
+                if pending is not None:
+                    info.interrupted = signame(pending)
+                    summary.update(_interrupted_status(info, "while the results were closed: "
+                                                             "the tables are complete, the "
+                                                             "plots are left out"))
+                    drawn = []
+                # a figure drawn half (an interruption, an error) is not left in the directory
+                for p in self.out.iterdir():
+                    if p.name not in summary["files"] and p.name not in drawn:
+                        p.unlink()
+                summary["plots"] = drawn
                 write_json(self.out / "summary.json", summary)
                 self.dir.commit()
                 self.committed = True
@@ -278,14 +253,8 @@ class DirectoryWriter:
                             for name in self.sinks}
         return summary
 
-    def _plots(self, info: RunInfo, data, sent) -> list:
-        """Collect the plot server's files (the model's and the rooms' figures; sent: the job's
-        ticket), or draw them all here (no server, or it died). Returns the files in figure
-        order."""
-        from . import plotworker
-        files = plotworker.collect(sent) if sent else None
-        if files is not None:
-            return files                # the server drew the rooms' figures too
+    def _plots(self, info: RunInfo, data) -> list:
+        """Draw the model's and the rooms' figures; returns their files in figure order."""
         from . import plots as plotting       # matplotlib only when plotting
         files = []
         if self.plots:
@@ -301,18 +270,10 @@ class DirectoryWriter:
         return files
 
     def abort(self) -> None:
-        """Stop every writer and remove the new files; the previous directory stays."""
-        if self.ticket is not None:             # a plot job drawing into it: not waited for
-            from . import plotworker
-            plotworker.forget(self.ticket)
-        with held_signals():
-            for s in self.sinks.values():
-                s.kill()
-            self.dir.abandon()
-
-
-def _signal_name(e: BaseException) -> str:
-    return "SIGTERM" if isinstance(e, Interrupted) else "SIGINT"
+        """Close every table and remove the new files; the previous directory stays."""
+        for s in self.sinks.values():
+            s.kill()
+        self.dir.abandon()
 
 
 def _interrupted_status(info: RunInfo, how: str) -> dict:

@@ -136,48 +136,42 @@ PLOT_FORMATS = ("png", "svg", "pdf")
 
 @contextlib.contextmanager
 def staged(outdir: Path, family: tuple[str, ...]):
-    """A study command's files in outdir (a directory it may share with `planarkin run`'s
-    results), all or none: stage(name) gives the temporary path to write name to; at the end
-    all are renamed into place together, signals held, and the family's files this run did
-    not write (the plot of an earlier run, now run with --no-plots; sweep.parquet without a
-    Parquet library) are removed. An error or interruption before that leaves the earlier
-    files as they were; temporaries of a killed run are removed by the next."""
-    from ..output.directory import held_signals
-    outdir.mkdir(parents=True, exist_ok=True)
-    for old in outdir.glob(".tmp-*-*"):
-        m = re.match(r"\.tmp-(\d+)-(.+)$", old.name)
-        if m and m.group(2) in family and not _alive(int(m.group(1))):
-            old.unlink(missing_ok=True)
-    tmp: dict[str, Path] = {}
+    """A study command's files in outdir (a model's directory it may share with `planarkin
+    run`'s results, which keeps them: planarkin.output.directory.STUDY_FILES), all or none,
+    under the directory's lock (a run or another study writing there meanwhile is refused):
+    stage(name) gives the temporary path to write name to; at the end all are renamed into
+    place together (a critical block) and the family's files this run did not write (the plot
+    of an earlier run, now run with --no-plots; sweep.parquet without a Parquet library) are
+    removed. An error or interruption before that leaves the earlier files as they were and
+    no temporary behind; a killed run's temporaries are removed by the next."""
+    from ..output.directory import checkpoint, critical, locked
+    with locked(outdir):
+        outdir.mkdir(parents=True, exist_ok=True)
+        for old in outdir.glob(".tmp-*-*"):           # a killed run's (we hold the lock)
+            m = re.match(r"\.tmp-(\d+)-(.+)$", old.name)
+            if m and m.group(2) in family:
+                old.unlink(missing_ok=True)
+        tmp: dict[str, Path] = {}
 
-    def stage(name: str) -> Path:
-        tmp[name] = outdir / f".tmp-{os.getpid()}-{name}"   # (the suffix stays the format)
-        return tmp[name]
+        def stage(name: str) -> Path:
+            tmp[name] = outdir / f".tmp-{os.getpid()}-{name}"   # (the suffix stays the format)
+            return tmp[name]
 
-    try:
-        yield stage
-        with held_signals():
-            written = set()
-            for name, path in tmp.items():
-                if path.exists():       # (staged but not written: sweep.parquet without a
-                    os.replace(path, outdir / name)     # Parquet library)
-                    written.add(name)
-            for name in family:
-                if name not in written:
-                    (outdir / name).unlink(missing_ok=True)
-    finally:
-        for path in tmp.values():
-            path.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return pid != os.getpid()
+        try:
+            yield stage
+            checkpoint()                # a signal lost in a finalizer: nothing goes in place
+            with critical():
+                written = set()
+                for name, path in tmp.items():
+                    if path.exists():       # (staged but not written: sweep.parquet without a
+                        os.replace(path, outdir / name)     # Parquet library)
+                        written.add(name)
+                for name in family:
+                    if name not in written:
+                        (outdir / name).unlink(missing_ok=True)
+        finally:
+            for path in tmp.values():
+                path.unlink(missing_ok=True)
 
 
 def write_parquet(path: Path, head: list[str], table: list[list]) -> str | None:

@@ -1,0 +1,298 @@
+"""The per-model run pipeline of `planarkin run`: read, validate, compile (load_model); prepare,
+solve and write one model's result directory (run_model); a batch of models, here or in local
+worker processes with `--jobs` (run_models). Invalid input is reported before anything is
+written, an analysis failure keeps the rows up to it, an interruption (SIGINT, SIGTERM) leaves
+every directory consistent and stops the batch (planarkin.output.directory). The reporting is
+planarkin.report's; the command line is planarkin.cli's.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+import click
+
+from .report import Report
+
+_RUN_STOP = None    # a `run --jobs` worker's stop value (the parent's signal number, or 0)
+
+
+def run_models(models, dirs, report: Report, overrides: dict | None, analysis: dict, plots,
+               animate, x_axis=None, cycle: bool = False, table_format=None,
+               jobs: int = 1) -> None:
+    """Analyse models into dirs (one directory each, planarkin.output.directory.out_dirs), in
+    order, reporting into report (its exit_code says how it went); with jobs > 1 in that many
+    local processes. An interruption is reported (report.signal) and ends the batch."""
+    from .output.directory import checkpoint, interruptible, signame
+    with interruptible():
+        try:
+            if jobs > 1 and len(models) > 1:
+                _run_parallel(models, dirs, report, overrides, analysis, plots, animate, jobs,
+                              table_format, x_axis)
+                return
+            for path, outdir in zip(models, dirs):
+                checkpoint()            # a signal lost in a finalizer: no further model
+                model = load_model(path, report, overrides)
+                if model is not None:
+                    run_model(path, model, outdir, report, dict(analysis), plots, animate,
+                              x_axis, cycle=cycle, table_format=table_format)
+        except KeyboardInterrupt as e:
+            if report.signal is None:        # stopped before a model had its directory
+                report.interrupted(None, signame(e), "nothing more was written")
+
+
+def load_model(path: str, report: Report, overrides: dict | None = None):
+    """Read, validate, compile; report diagnostics. Returns the model or None."""
+    from .diagnostics import Diagnostic, InputError
+    from . import load
+    try:
+        model = load(path, **(overrides or {}))
+        report.diagnostics(model.spec.warnings)
+        return model
+    except InputError as e:
+        report.invalid(path, e.diagnostics)
+    except (RecursionError, MemoryError) as e:
+        report.invalid(path, [Diagnostic(path, 1, f"the file is too deeply nested or too large "
+                                                   f"to read ({type(e).__name__})")])
+    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
+        report.invalid(path, [Diagnostic(path, 1, f"internal error while reading the model: "
+                                                   f"{type(e).__name__}: {e} (please report)")])
+    return None
+
+
+
+class Progress:
+    """A progress bar on stderr for long runs, only when stderr is a terminal."""
+
+    def __init__(self, total: int, label: str):
+        self.bar = None
+        if total >= 200_000 and sys.stderr.isatty():
+            self.bar = click.progressbar(length=total, label=label, file=sys.stderr)
+            self.bar.__enter__()
+
+    def __call__(self, n: int) -> None:
+        if self.bar is not None:
+            self.bar.update(n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None
+
+
+def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
+             x_axis=None, cycle=False, table_format=None, stop=None):
+    """One model: options, preparation, then the directory. Invalid input (options, budget,
+    assembly, a busy or foreign directory) is reported before anything is written; an
+    interruption keeps the complete rows (status interrupted) and is raised again to stop the
+    batch. stop: a `run --jobs` worker's stop value (see DirectoryWriter)."""
+    from .diagnostics import Diagnostic, InputError
+    from .model.spec import x_axis_problem
+    from .options import resolve
+    from .output.directory import OutputError
+    from .output.writer import DirectoryWriter
+    from .results import prepare, stream
+    t0 = time.perf_counter()
+    try:
+        opts = resolve(model, analysis, source="cli")
+        problem = x_axis and x_axis_problem(x_axis, model.spec, "--x")
+        if problem:
+            raise InputError([Diagnostic(path, None, problem)])
+        an = prepare(model, opts)
+    except InputError as e:
+        report.invalid(path, e.diagnostics)
+        return
+    except KeyboardInterrupt:
+        raise
+    except Exception as e:  # noqa: BLE001 - a bug must not become a traceback for the user
+        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
+                            f"(please report)")
+        return
+    try:
+        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate, x=x_axis,
+                                 table_format=table_format, stop=stop)
+    except OutputError as e:
+        report.invalid(path, [Diagnostic(path, None, str(e))])
+        return
+    progress = Progress(opts.steps + 1, Path(path).name)
+    try:
+        info, _ = stream(an, sink=writer, progress=progress)
+        progress.close()
+        report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
+        for w in info.warnings:
+            report.warning(path, w.message)
+        # the line is printed as the directory is put in place (in the same critical block)
+        writer.on_commit = lambda s: report_line(path, outdir, report, info, s, cycle,
+                                               time.perf_counter() - t0)
+        writer.finish(info, started=t0)
+    except BaseException as e:  # noqa: BLE001 - each kind is handled below
+        progress.close()
+        _end_failed(e, path, outdir, writer, report, an, t0)
+
+
+def _end_failed(e, path, outdir, writer, report, an, t0):
+    """After an exception in a model's run: its directory left as it was (a write error, a
+    bug) or in place with the complete rows (an interruption: raised again)."""
+    from .output.directory import WriteError, signame
+    from .results import run_info
+    if isinstance(e, WriteError):
+        report.failed(path, f"{e}; {outdir}/ is left as it was")
+        return
+    if isinstance(e, KeyboardInterrupt):
+        if writer.reported:
+            raise e                     # in place and its line printed: the batch stops
+        if not writer.committed:        # else: interrupted while plotting, already in place
+            info = run_info(an)
+            info.interrupted = signame(e)
+            writer.on_commit = None     # its line is the interrupted one below
+            try:
+                writer.finish(info, started=t0)
+            except WriteError as w:
+                report.interrupted(path, signame(e), f"{w}; {outdir}/ is left as it was")
+                raise e from None
+        rows = writer.rows
+        report.interrupted(path, signame(e),
+                           f"{rows} complete rows (up to t = {writer.steps.t_last:.6g} s) -> "
+                           f"{outdir}/" if rows else f"no rows -> {outdir}/")
+        raise e
+    if isinstance(e, Exception) and writer.committed:     # a bug while printing its line
+        report.failed(path, f"internal error while reporting: {type(e).__name__}: {e} "
+                            f"(please report); {outdir}/ is in place")
+        return
+    if isinstance(e, Exception):  # a bug must not become a traceback for the user
+        writer.abort()
+        report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
+                            f"(please report); {outdir}/ is left as it was")
+        return
+    raise e
+
+
+def report_line(path, outdir, report, info, summary, cycle, seconds):
+    """A model's report line (and its cycle figures), once its directory is in place (seconds:
+    its own wall time, the next model's solve not counted)."""
+    rows = summary["time"]["rows_written"]
+    detail = (f"{rows} rows, {summary['solver']['internal_steps']} internal steps, max residual "
+              f"{summary['residual']['max']:.1e}, {seconds:.2f} s -> {outdir}/")
+    if info.status == 0:
+        report.ok(path, detail)
+    else:
+        report.failed(path, info.message, detail)
+    for w in summary.get("warnings", ()):
+        if isinstance(w, dict) and w.get("kind") == "plots":     # the tables are written
+            report.warning(path, w["message"])
+    if cycle:
+        from .measures.cycle import format_cycle
+        try:
+            lines = format_cycle(summary.get("cycle"))
+        except Exception as e:  # noqa: BLE001 - the results are written; only the report failed
+            report.warning(path, f"the cycle figures could not be printed: {type(e).__name__}: "
+                                 f"{e} (please report); they are in {outdir}/summary.json")
+            lines = []
+        for line in lines:
+            click.echo(line)
+
+
+# -- run --jobs ------------------------------------------------------------------------------
+
+def _init_run(stop) -> None:
+    """A `run --jobs` worker: between models a signal must not end it in the executor's own
+    loop (a traceback); each model takes the signals over (interruptible) and stops in order,
+    on its own signal (a Ctrl-C to the group) or when the parent sets `stop`."""
+    import signal
+    global _RUN_STOP
+    _RUN_STOP = stop
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+
+
+def _run_model(args):
+    """One model of `planarkin run --jobs`: its terminal output captured, returned in order with
+    the signal that interrupted it (None when it ran to its end)."""
+    import contextlib
+    import io
+
+    from .output.directory import interruptible, signame
+    path, outdir, quiet, overrides, analysis, plots, animate, table_format, x_axis = args
+    out, err = io.StringIO(), io.StringIO()
+    rep = Report(quiet)
+    stopped = None
+    if _RUN_STOP is not None and _RUN_STOP.value:
+        return "", "", rep.counts, None         # the batch was stopped before this model
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), interruptible():
+        try:
+            model = load_model(path, rep, overrides)
+            if model is not None:
+                run_model(path, model, outdir, rep, dict(analysis), plots, animate, x_axis,
+                          table_format=table_format, stop=_RUN_STOP)
+        except KeyboardInterrupt as e:          # the directory says so already
+            stopped = signame(e)
+    return out.getvalue(), err.getvalue(), rep.counts, stopped
+
+
+def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, jobs: int,
+                  table_format: str | None = None, x_axis: str | None = None) -> None:
+    """`planarkin run --jobs N` (dirs: one output directory per model, in order): the models in
+    N local processes, each writing its own directory; the terminal lines in model order, the
+    counts into report. Interrupted (SIGINT, SIGTERM to this process alone or to the whole
+    group): the models not started are dropped, the running ones are told (a shared value
+    their writers check between blocks of rows) and stop in order, every finished model's
+    lines are printed and counted, and the interruption is raised again. A worker that dies
+    fails its model (exit 1)."""
+    import signal
+    from concurrent.futures import ProcessPoolExecutor
+
+    from .output.directory import critical, signame
+    from .processes import context, stop_workers
+    ctx = context()
+    tasks = [(m, d, report.quiet, overrides, analysis, plots, animate, table_format, x_axis)
+             for m, d in zip(models, dirs)]
+
+    def take(result) -> None:
+        out, err, counts, stopped = result
+        sys.stderr.write(err)
+        sys.stdout.write(out)
+        for k, v in counts.items():
+            report.counts[k] += v
+        if stopped is not None:
+            report.signal = stopped
+
+    def died(path) -> None:
+        report.failed(path, "its worker process died (killed by a signal, out of memory or a "
+                            "crash); its directory is left as it was")
+
+    stop = ctx.Value("i", 0, lock=False)
+    pool = ProcessPoolExecutor(min(jobs, len(models)), mp_context=ctx,
+                               initializer=_init_run, initargs=(stop,))
+    k, futures = 0, []
+    try:
+        with critical():        # a worker is started whole, or not at all
+            futures = [pool.submit(_run_model, t) for t in tasks]
+        for k, f in enumerate(futures):
+            try:
+                take(f.result())
+            except BrokenProcessPool:
+                died(models[k])
+    except KeyboardInterrupt as e:
+        with critical():                # a second signal is ignored anyway; this must finish
+            stop.value = int(signal.SIGTERM if signame(e) == "SIGTERM" else signal.SIGINT)
+            for f in futures[k:]:
+                f.cancel()
+            for f, path in zip(futures[k:], models[k:]):
+                if f.cancelled():
+                    continue
+                try:
+                    take(f.result(timeout=120))
+                except BrokenProcessPool:
+                    died(path)
+                except Exception:  # noqa: BLE001 - a worker that hung: its line is lost
+                    pass
+            if not all(f.done() for f in futures):      # a worker that hung: ended now
+                stop_workers(pool, kill=True)
+        if report.signal is None:
+            report.signal = signame(e)
+        pool.shutdown(cancel_futures=True)      # the idle workers end: nothing outlives us
+        raise
+    pool.shutdown()
