@@ -156,3 +156,10 @@ def release() -> None:
     lock = _held.pop("lock", None)
     if lock is not None:
         lock.close()
+
+
+def forget() -> None:
+    """Release the lock and forget the checked entry: the next prepare() checks again, as a new
+    process does."""
+    release()
+    _held.clear()

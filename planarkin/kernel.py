@@ -200,8 +200,10 @@ def pack(S) -> Packed | None:
 
 
 def _flat(a, dtype=float):
-    """a as a flat C-contiguous array of dtype (a view where it already is one)."""
-    return np.ascontiguousarray(a, dtype=dtype).reshape(-1)
+    """a as a flat, writable, C-contiguous array of dtype (a view where it already is one):
+    numba types a read-only array apart, and would compile the entry point again for it."""
+    a = np.ascontiguousarray(a, dtype=dtype).reshape(-1)
+    return a if a.flags.writeable else a.copy()
 
 
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
