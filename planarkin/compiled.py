@@ -43,18 +43,27 @@ KMAX = 64             # largest solve block (the path's merged blocks)
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 OPTS = dict(cache=CACHE is not None, error_model="numpy", nogil=True)
+# The helpers allocate nothing: without numba's reference counting (its atomic increments and
+# decrements of the array arguments at every call made a point 9 us, 10 times the C's). numba
+# does not inline one compiled function into another; inline="always" does, in its IR: the
+# element equations and the small helpers so (a point 1.9 us, the C 0.9 us:
+# benchmarks/bench_route.py --micro). Inlining rates and factor too gives 1.1 us, but the first
+# compile then takes 77 s instead of 18 s (both on this 2-core machine, shared).
+HELPER = dict(OPTS, _nrt=False)
 jit = numba.njit(**OPTS)
+helper = numba.njit(**HELPER)
+inline = numba.njit(**HELPER, inline="always")
 
-# signatures: arrays flat and C-contiguous. The helpers called with constants get one too:
-# numba would otherwise compile them once per combination of literal arguments (row_eval 7
-# times, about a second each)
+# signatures: arrays flat and C-contiguous. The compiled helpers called with constants get one
+# too: numba would otherwise compile them once per combination of literal arguments (row_eval,
+# before it was inlined, 7 times at about a second each)
 F64, U8, I64 = numba.float64[::1], numba.uint8[::1], numba.int64[::1]
 INT, DBL, BOOL = numba.int64, numba.float64, numba.boolean
 I64x2 = numba.int64[:, ::1]
 
 
 # -- the elements' equations ---------------------------------------------------------------------
-@numba.njit([(INT, INT, INT, F64, INT, INT, F64, INT, F64, F64, INT, F64, INT, F64, INT)], **OPTS)
+@inline
 def row_eval(kind, bi, bj, p, po, eq, q, qo, c, s, co, qd, want, gr, go):
     """One equation row of an element: returns (g, gamma_g); with want & 2 its gradient over
     (x_i, y_i, phi_i, x_j, y_j, phi_j) into gr[go:go + 6]. want: 1 g, 2 gradient, 4 gamma
@@ -189,7 +198,7 @@ def row_eval(kind, bi, bj, p, po, eq, q, qo, c, s, co, qd, want, gr, go):
 
 
 # -- small dense linear algebra ------------------------------------------------------------------
-@jit
+@inline
 def sign_of(x):
     """The sign of x as a float: 1, -1, 0, nan for nan."""
     if x > 0:
@@ -199,7 +208,7 @@ def sign_of(x):
     return np.nan if x != x else 0.0
 
 
-@numba.njit([(INT, F64, INT, F64, INT, F64)], **OPTS)
+@numba.njit([(INT, F64, INT, F64, INT, F64)], **HELPER)
 def gauss_jordan(k, J, jo, inv, io, A):
     """Inverse of the k x k matrix J[jo:] (row-major) into inv[io:] by Gauss-Jordan with partial
     pivoting, as planarkin.linalg._inv_gauss_jordan: returns (True, the determinant's sign), or
@@ -247,7 +256,7 @@ def gauss_jordan(k, J, jo, inv, io, A):
     return ok, (sg if ok else 0.0)
 
 
-@jit
+@helper
 def factor(kb, nj, src, dst, gr, J, Mi, mo, WK):
     """The block's matrix J (kb x kb) from its rows' gradients gr (kb x 6): nj entries,
     J[dst[e]] = gr[src[e]] in order (of a repeated position the last counts, as
@@ -282,7 +291,7 @@ def factor(kb, nj, src, dst, gr, J, Mi, mo, WK):
     return (1.0 / np.sqrt(f) if ok else 0.0), sg
 
 
-@jit
+@inline
 def apply(kb, Mi, mo, r, cols, co, X, xo):
     """x = Mi r into the block's columns cols[co:co + kb] of X[xo:]."""
     if kb == 1:
@@ -295,7 +304,7 @@ def apply(kb, Mi, mo, r, cols, co, X, xo):
         X[xo + cols[co + a]] = x
 
 
-@jit
+@inline
 def solve2(J, r, cols, co, X, xo):
     """The same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
     _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
@@ -305,7 +314,7 @@ def solve2(J, r, cols, co, X, xo):
     X[xo + cols[co + 1]] = (J[0] * r[1] - J[2] * r[0]) / det
 
 
-@jit
+@inline
 def dot6(g, go, rc, ro, X, xo):
     """Gradient g[go:go + 6] x rates of one row (its columns rc[ro:ro + 6]), summed in pairs
     (a chain of six dependent subtractions was a tenth of the C kernel's time)."""
@@ -314,7 +323,7 @@ def dot6(g, go, rc, ro, X, xo):
             + (g[go + 4] * X[xo + rc[ro + 4]] + g[go + 5] * X[xo + rc[ro + 5]]))
 
 
-@jit
+@helper
 def fine_signs(kb, b, bfirst, bnf, bfo, bfs, J, sign, so, WK, sub, subinv):
     """A merged block's fine-block determinant signs from its matrix J into sign[so:]."""
     o = 0
@@ -335,7 +344,7 @@ def fine_signs(kb, b, bfirst, bnf, bfo, bfs, J, sign, so, WK, sub, subinv):
 # a block's rows, unpacked once per block: rw[rp] = kind, bi, bj, eq, row, 8 e
 
 @numba.njit([(INT, I64x2, I64, INT, INT, I64, I64, INT, BOOL, F64, INT, F64, F64, INT, F64, F64,
-              F64, INT, F64, F64, F64, F64, F64, INT, F64, F64, F64, F64, F64, I64)], **OPTS)
+              F64, INT, F64, F64, F64, F64, F64, INT, F64, F64, F64, F64, F64, I64)], **HELPER)
 def rates(kb, rw, cols, co, nj, src, dst, order, have, q, qo, c, s, cso, qd, qdd, t, to, nu,
           fdd, R, gr, Mi, mo, J, WK, r, gm, prm, rcol):
     """One point's block rows at its converged positions: residuals |Phi - target| into R,
@@ -376,7 +385,7 @@ def rates(kb, rw, cols, co, nj, src, dst, order, have, q, qo, c, s, cso, qd, qdd
         apply(kb, Mi, mo, r, cols, co, qdd, qo)
 
 
-@jit
+@helper
 def block(kb, b, N, W, m, nbb, nblk, nfine, rw, cols, co, nj, src, dst, affine, fixed, maxit,
           tol, full, order, Q, Qd, Qdd, C, S, T, NU, FDD, iters, conv, ratio, sign, smin, R,
           bfirst, bnf, bfo, bfs, MI, SZ, GB, J, WK, r, gm, sub, subinv, prm, rcol):
@@ -455,13 +464,13 @@ def block(kb, b, N, W, m, nbb, nblk, nfine, rw, cols, co, nj, src, dst, affine, 
               T, i * m, NU, FDD, R, GB, MI, i * kb * kb, J, WK, r, gm, prm, rcol)
 
 
-@jit
+@inline
 def nanmax(a, v):
     """NaN-propagating maximum, as numpy's max."""
     return v if (v > a or v != v) else a
 
 
-@jit
+@helper
 def unpack(b, bk, boff, bcols, brows, rowel, roweq, ekind, ebi, ebj, rpos, rw, src, dst):
     """Block b's rows into rw and its matrix entries into src, dst; returns their number."""
     kb = bk[b]

@@ -13,11 +13,11 @@ import math
 import numba
 import numpy as np
 
-from .compiled import (BOOL, DBL, F64, I64, INT, KFINE, KMAX, OPTS, U8, dot6, fine_signs,
-                       gauss_jordan, jit, row_eval, sign_of)
+from .compiled import (BOOL, DBL, F64, HELPER, I64, INT, KFINE, KMAX, U8, dot6, fine_signs,
+                       gauss_jordan, helper, jit, row_eval, sign_of)
 
 
-@jit
+@helper
 def block_matrix(kb, brows, bo, rpos, gr, go, J):
     """The block's matrix from its rows' gradients gr[go:] (kb x 6); rpos (m x 6): where each
     gradient entry of a row goes in its block's row (-1: another block's column)."""
@@ -31,7 +31,7 @@ def block_matrix(kb, brows, bo, rpos, gr, go, J):
 
 
 @numba.njit([(INT, INT, INT, INT, INT, F64, F64, F64, F64, F64, numba.uint8, DBL, INT, I64, INT,
-              I64, F64, F64, DBL, DBL, F64, BOOL, U8, F64)], **OPTS)
+              I64, F64, F64, DBL, DBL, F64, BOOL, U8, F64)], **HELPER)
 def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_t, trow,
                  has_v, vrow, tg, sign0, kappa, cond_max, jerk, jerk_ok, good, perr):
     """studies.batch's acceptance tests of point i (Batch.accept is the numpy reference), while
@@ -88,7 +88,7 @@ def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_
     return False
 
 
-@jit
+@helper
 def invert_small(kb, J, M, mo, WK):
     """The block's inverse into M[mo:] as solve_each takes it (1 x 1 and 2 x 2 in closed form,
     as studies.fused): returns (sigma_min bound, determinant sign)."""

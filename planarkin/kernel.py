@@ -11,7 +11,7 @@ arguments.
 The route depends only on the job and the installed packages: a job of at least
 COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled route when
 numba can be imported, every smaller job the numpy passes, so a small run never pays numba's
-start-up (about 0.3 s to import it, and a load of the compiled functions from its cache).
+start-up (about 0.3 s to import it, and the load of the compiled functions from its cache).
 Never what earlier runs left on disk: the cache (planarkin.jitcache) only saves compiling, and
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
@@ -33,10 +33,11 @@ KMAX = 64             # largest solve block (the path's merged blocks)
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # A job of at least this many points (grid rows; variants x grid times for a study) takes the
-# compiled route: numba's import and cache load (about 0.5 s) are then repaid by a saving of
-# about 2-3 us per point over the numpy passes. Set by benchmarks/bench_route.py (the
-# four-bar's `planarkin run` with --steps from 10^4 to 10^6, numpy route against compiled).
-COMPILED_FROM_POINTS = 200_000
+# compiled route. benchmarks/bench_route.py (the four-bar's planarkin.solve in a fresh process,
+# numba's import and cache load included, 2 Dec 2026, 2 shared cores, load 1-2.4, medians of 5):
+# numpy 0.38 / 0.79 / 0.91 / 1.86 s, compiled 0.73 / 1.18 / 1.03 / 1.70 s at 50,000 /
+# 100,000 / 200,000 / 400,000 steps: about 0.6 s of start-up, repaid at about 1.8 us a step.
+COMPILED_FROM_POINTS = 300_000
 
 # kind codes of planarkin.compiled.row_eval; the kinds are matched by class, not by name
 _CODES = {"Revolute": 1, "Translational": 2, "Angle": 3, "XDistance": 4, "YDistance": 5,

@@ -146,7 +146,7 @@ def test_without_numba_the_numpy_passes_run_and_say_so_once(monkeypatch, capsys)
         assert np.array_equal(x, y)
 
 
-# -- the cache --------------------------------------------------------------------------------------
+# -- the cache ---------------------------------------------------------
 
 @pytest.fixture
 def fresh(monkeypatch, tmp_path):

@@ -148,7 +148,8 @@ def test_fused_pass_info_matches_reference(monkeypatch):
 
 
 @pytest.mark.parametrize("name,policy,order", [
-    ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2), ("klann-leg.yaml", "reuse", 2),
+    ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2),
+    ("klann-leg.yaml", "reuse", 2),
     ("trammel.yaml", "reuse", 2), ("boom.yaml", "reuse", 2), ("quick-return.yaml", "full", 2),
     ("four-bar.yaml", "full", 1), ("slider-crank.yaml", "reuse", 0)])
 def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compiled):
