@@ -1,16 +1,16 @@
 """planarkin against pylinkage + numba and the closed form, in one script and one run.
 
-    python benchmarks/bench_peers.py [--steps 200000] [--rounds 3] [--peer-python PATH]
+    python benchmarks/bench_peers.py [--steps 200000] [--rounds 5] [--peer-python PATH]
 
 Per mechanism (the slider-crank and the four-bar of models.py, one crank turn in t = 0..1 s on
 a grid of --steps intervals), positions + velocities + accelerations:
 
 * closed form: the vectorised numpy closed forms of models.py over the whole grid (the floor);
 * planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call),
-  by each grid-pass route of --routes: kernel (the compiled kernel, planarkin/kernel.py, compiled
-  by the warm-up call if missing), numpy (PLANARKIN_KERNEL=0: the fused numpy pass of small
-  blocks), reference (the reference numpy pass, System._solve_batch: the code before issue 12
-  item 3);
+  by each grid-pass route of --routes: compiled (the numba route, planarkin/compiled.py through
+  planarkin/kernel.py, taken whatever the job's size; compiled or loaded from numba's cache by
+  the warm-up call), numpy (PLANARKIN_KERNEL=0: the fused numpy pass of small blocks), reference
+  (the reference numpy pass, System._solve_batch: the code before issue 12 item 3);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
   simulation with velocities and accelerations) on the same mechanism and step, built and
   compiled once; the JIT start-up (first call) is reported separately and not counted.
@@ -19,8 +19,9 @@ pylinkage and numba are not planarkin dependencies: they live in their own envir
 interpreter is --peer-python (default /tmp/benchvenv/bin/python, made with
 `python -m venv /tmp/benchvenv && /tmp/benchvenv/bin/pip install pylinkage numba pyyaml`);
 this script runs a worker there. The measurements alternate between planarkin and pylinkage,
---rounds times; printed are each one's best wall time per step and CPU time per step, and the
-ratio planarkin / pylinkage per step from the best of each. Errors: max relative error against
+--rounds times; printed are each one's median wall time per step (with the spread of the
+rounds, min-max) and median CPU time per step, and the ratio planarkin / pylinkage per step
+from the medians. Errors: max relative error against
 the closed form (models.rel_error) of the points both compute (the crank pin and the slider /
 rocker pin), at each row's own crank angle.
 """
@@ -115,10 +116,10 @@ def planarkin_errors(res, name) -> list:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=200_000)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--peer-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--json", metavar="PATH")
-    ap.add_argument("--routes", default="kernel,numpy,reference",
+    ap.add_argument("--routes", default="compiled,numpy,reference",
                     help="planarkin grid-pass routes to time, comma-separated")
     a = ap.parse_args(argv)
     routes = [r for r in a.routes.split(",") if r]
@@ -143,7 +144,7 @@ def main(argv=None):
                                models.slider_crank_closed_form),
                               ("four-bar", models.four_bar_yaml(), models.four_bar_closed_form)):
         t = np.linspace(0.0, 1.0, rows)
-        best_cf = min(_timed(lambda: cf_fn(t))[0] for _ in range(3))
+        best_cf = median([_timed(lambda: cf_fn(t))[0] for _ in range(3)])
         model = planarkin.load(f"{name}.yaml", text=text)
         for route in routes:
             with _route(route):
@@ -168,22 +169,25 @@ def main(argv=None):
         peer_out = json.loads(w.stdout.readline())
         w.wait()
         us = lambda s: s / rows * 1e6                         # noqa: E731
-        pl, plc = min(peer_out["wall"]), min(peer_out["cpu"])
+        pl, plc = median(peer_out["wall"]), median(peer_out["cpu"])
         print(f"== {name}: {S} steps, P + V + A ==")
         print(f"  closed form (vectorised numpy)    {us(best_cf):7.3f} us/step")
-        print(f"  pylinkage + numba                 {us(pl):7.3f} us/step   CPU {us(plc):7.3f}"
+        print(f"  pylinkage + numba                 {us(pl):7.3f} us/step "
+              f"({us(min(peer_out['wall'])):.3f}-{us(max(peer_out['wall'])):.3f})   "
+              f"CPU {us(plc):7.3f}"
               f"   (JIT start-up {peer_out['jit']:.2f} s, not counted)   errors P/V/A "
               + " ".join(f"{e:.1e}" for e in peer_out["err"]))
         out = {"closed_form_us": us(best_cf), "pylinkage_us": us(pl), "pylinkage_cpu_us": us(plc),
                "pylinkage_err": peer_out["err"], "jit_s": peer_out["jit"],
                "rounds": {"pylinkage": peer_out["wall"]}, "routes": {}}
         for route in routes:
-            pk, pkc = min(walls[route]), min(cpus[route])
+            pk, pkc = median(walls[route]), median(cpus[route])
             pk_err = planarkin_errors(res[route], name)
-            print(f"  planarkin.solve, {route:9s}       {us(pk):7.3f} us/step   CPU {us(pkc):7.3f}"
+            print(f"  planarkin.solve, {route:9s}       {us(pk):7.3f} us/step "
+                  f"({us(min(walls[route])):.3f}-{us(max(walls[route])):.3f})   CPU {us(pkc):7.3f}"
                   f"   errors P/V/A " + " ".join(f"{e:.1e}" for e in pk_err))
             print(f"    ratio planarkin / pylinkage+numba {pk / pl:6.2f} x (wall)   "
-                  f"{pkc / plc:.2f} x (CPU)   target <= 2;  planarkin / closed form "
+                  f"{pkc / plc:.2f} x (CPU)   target <= 0.5;  planarkin / closed form "
                   f"{pk / best_cf:.1f} x")
             out["routes"][route] = {"planarkin_us": us(pk), "planarkin_cpu_us": us(pkc),
                                     "ratio_wall": pk / pl, "ratio_cpu": pkc / plc,
@@ -204,16 +208,18 @@ class _route:
     """Context: planarkin's grid pass takes one route (see the module docstring)."""
 
     def __init__(self, route):
-        if route not in ("kernel", "numpy", "reference"):
-            sys.exit(f"unknown route {route!r} (kernel, numpy, reference)")
+        if route not in ("compiled", "numpy", "reference"):
+            sys.exit(f"unknown route {route!r} (compiled, numpy, reference)")
         self.route = route
 
     def __enter__(self):
         import os
 
-        from planarkin import system
-        self.saved = (os.environ.get("PLANARKIN_KERNEL"), system.SMALL_BATCH)
-        os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "kernel" else "0"
+        from planarkin import kernel, system
+        self.saved = (os.environ.get("PLANARKIN_KERNEL"), system.SMALL_BATCH,
+                      kernel.COMPILED_FROM_POINTS)
+        os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
+        kernel.COMPILED_FROM_POINTS = 0
         if self.route == "reference":
             system.SMALL_BATCH = 1 << 62
         return self
@@ -221,13 +227,19 @@ class _route:
     def __exit__(self, *exc):
         import os
 
-        from planarkin import system
-        env, system.SMALL_BATCH = self.saved
+        from planarkin import kernel, system
+        env, system.SMALL_BATCH, kernel.COMPILED_FROM_POINTS = self.saved
         if env is None:
             os.environ.pop("PLANARKIN_KERNEL", None)
         else:
             os.environ["PLANARKIN_KERNEL"] = env
         return False
+
+
+def median(xs):
+    xs = sorted(xs)
+    k = len(xs) // 2
+    return xs[k] if len(xs) % 2 else 0.5 * (xs[k - 1] + xs[k])
 
 
 def _timed(fn):

@@ -6,7 +6,7 @@
 Profiles planarkin.solve(model, steps=...) (after one warm-up call, not profiled) for the
 slider-crank and for the N-four-bar chain, and prints the top lines of each profile.
 --phases instead prints, for the slider-crank and the four-bar and each grid-pass route
-(kernel, numpy, reference; see bench_peers.py), the CPU time per step of the phases of a solve
+(compiled, numpy, reference; see bench_peers.py), the CPU time per step of the phases of a solve
 (best of 3) and the Python function calls per grid chunk.
 """
 
@@ -51,11 +51,11 @@ def profile(label, text, steps, top, sort, warm=True):
 PHASES = (  # (module, attribute, phase): the functions timed, CPU time
     ("planarkin.solver.Analysis", "follow", "path following (fixed cost)"),
     ("planarkin.solver", "hermite5", "prediction (numpy Hermite)"),
-    ("planarkin.kernel", "hermite", "prediction (kernel Hermite)"),
+    ("planarkin.kernel", "hermite", "prediction (compiled Hermite)"),
     ("planarkin.solver.Analysis", "_driver_values", "driver values"),
     ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
     ("planarkin.system.System", "_solve_small", "P+V+A solve, fused numpy pass"),
-    ("planarkin.kernel", "solve", "P+V+A solve, kernel"),
+    ("planarkin.kernel", "solve", "P+V+A solve, compiled route"),
     ("planarkin.solver.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
     ("planarkin.results", "refuse", "refusal checks"),
     ("planarkin.solver.Analysis", "_dense", "grid pass in all (the rows above but path)"),
@@ -131,7 +131,7 @@ def main(argv=None):
     if a.phases:
         for label, text in (("slider-crank", models.slider_crank_yaml()),
                             ("four-bar", models.four_bar_yaml())):
-            for route in ("kernel", "numpy", "reference"):
+            for route in ("compiled", "numpy", "reference"):
                 phases(label, text, a.steps, route)
         return
     profile("slider-crank", models.slider_crank_yaml(), a.steps, a.top, a.sort, not a.no_warm)

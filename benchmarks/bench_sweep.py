@@ -3,7 +3,7 @@ planarkin against pylinkage with numba, the textbook solver and the closed form,
 
     python benchmarks/bench_sweep.py [--variants 10000] [--planarkin N] [--textbook 4]
                                      [--pylinkage-python /tmp/benchvenv/bin/python] [--numpy]
-                                     [--generic]
+                                     [--rounds 5]
 
 The sweep: the four-bar of benchmarks/models.py (crank a, coupler b, rocker c = 0.10, ground
 d = 0.10), a full factorial of sqrt(V) crank lengths a in [0.03, 0.05] times sqrt(V) coupler
@@ -18,11 +18,11 @@ and accelerations.
   variants batched, studies/batch.py, grid pass with P, V, A, a max metric) on all V variants,
   or with `--planarkin N` on N of them spread evenly over the factorial (a sparser sweep, whose
   neighbours are farther apart); variants/s extrapolates. The batch solves through the
-  compiled kernel where it is available: pk_gen, the kernel written out for the four-bar's
-  structure (planarkin/kernelgen.py, compiled by the warm-up run when the machine has not got
-  it yet); `--generic` also times the generic pk_rows (planarkin/kernel.py) on the same
-  variants and checks that the outcomes are the same bits; `--numpy` also times the numpy
-  passes (studies/fused.py, PLANARKIN_KERNEL=0: the reference route), in the same run.
+  compiled route (planarkin/compiled_each.py on numba) when the sweep has at least
+  kernel.COMPILED_FROM_POINTS rows (variants x grid times: 10,000 x 361 does), else through the
+  numpy passes; `--numpy` also times the numpy passes (studies/fused.py, PLANARKIN_KERNEL=0:
+  the reference route) in the same rounds and compares the outcomes.
+  planarkin and pylinkage alternate, --rounds rounds; printed are the medians and every round.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
 * closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
 
@@ -103,6 +103,12 @@ def run_pylinkage(python: str, a_vals, b_vals):
     return json.loads(r.stdout), None
 
 
+def median(xs):
+    xs = sorted(xs)
+    k = len(xs) // 2
+    return xs[k] if len(xs) % 2 else 0.5 * (xs[k - 1] + xs[k])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--variants", type=int, default=10_000)
@@ -112,8 +118,8 @@ def main() -> None:
     ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--numpy", action="store_true",
                     help="also time planarkin's numpy passes (PLANARKIN_KERNEL=0)")
-    ap.add_argument("--generic", action="store_true",
-                    help="also time the generic kernel pk_rows (pk_gen not used)")
+    ap.add_argument("--rounds", type=int, default=5,
+                    help="rounds of planarkin and pylinkage, alternating (medians printed)")
     args = ap.parse_args()
     side = int(round(args.variants ** 0.5))
     a_vals = np.linspace(0.03, 0.05, side)
@@ -135,62 +141,69 @@ def main() -> None:
     rates["closed form (numpy, per variant)"] = n / (time.perf_counter() - t0)
     cpu["closed form (numpy, per variant)"] = n / (time.process_time() - c0)
 
-    # planarkin
+    # planarkin against pylinkage, alternating, --rounds rounds
     from planarkin.studies.variants import Study
+    pl_rates, pl_cpu, why = [], [], None
+    pk = {"planarkin Study.run (sweep --jobs 1)": ([], [])}
+    if args.numpy:
+        pk["planarkin, numpy passes (PLANARKIN_KERNEL=0)"] = ([], [])
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "four-bar.yaml"
         path.write_text(models.four_bar_yaml())
         study = Study(str(path), metrics=["max:rocker.phi"])
         sub = [variants[i] for i in np.linspace(0, len(variants) - 1, npk).astype(int)]
-        study.units(sub)            # compiles pk_gen for this structure when it is large enough
-        study.run(sub[:2])
-        from planarkin import kernelgen
+        study.units(sub)            # the route for this job's size: compiled or loaded here
         k = study.batch(sub).kernel()
-        route = "none (numpy passes)" if k is None else "pk_gen" if k[2] else "pk_rows"
-        print(f"planarkin kernel: {route}")
+        print("planarkin route: " + ("numpy passes" if k is None else "compiled (numba)"))
+        study.run(sub[:2])
 
         def timed(key):
-            """study.run(sub), its rates under key (wall and CPU)."""
+            """study.run(sub), its rates appended under key (wall and CPU)."""
             t0, c0 = time.perf_counter(), time.process_time()
             res = study.run(sub)
-            rates[key] = len(sub) / (time.perf_counter() - t0)
-            cpu[key] = len(sub) / (time.process_time() - c0)
+            pk[key][0].append(len(sub) / (time.perf_counter() - t0))
+            pk[key][1].append(len(sub) / (time.process_time() - c0))
             return res
 
-        out = timed("planarkin Study.run (sweep --jobs 1)")
+        for _ in range(args.rounds):
+            out = timed("planarkin Study.run (sweep --jobs 1)")
+            if args.numpy:
+                saved = os.environ.get("PLANARKIN_KERNEL")
+                os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
+                try:
+                    ref = timed("planarkin, numpy passes (PLANARKIN_KERNEL=0)")
+                finally:
+                    if saved is None:
+                        del os.environ["PLANARKIN_KERNEL"]
+                    else:
+                        os.environ["PLANARKIN_KERNEL"] = saved
+            res, why = run_pylinkage(args.pylinkage_python, a_vals, b_vals)
+            if res is not None:
+                pl_rates.append(res["variants"] / res["seconds"])
+                pl_cpu.append(res["variants"] / res["cpu"])
         ok = sum(o.status == "ok" for o in out)
-        # accuracy: the metric against the closed form
         err = 0.0
         for v, o in zip(sub, out):
             cf = models.four_bar_closed_form(t_grid, a=v["a"], b=v["b"])
-            ref = cf["q"][:, 8].max()
-            err = max(err, abs(o.metrics[0] - ref) / abs(ref))
+            ref_v = cf["q"][:, 8].max()
+            err = max(err, abs(o.metrics[0] - ref_v) / abs(ref_v))
         print(f"planarkin: {ok}/{len(sub)} ok, max relative error of max:rocker.phi against the "
               f"closed form {err:.1e}")
-        if args.generic:
-            real = kernelgen.function
-            kernelgen.function = lambda *a, **k: None          # pk_rows only
-            try:
-                plain = timed("planarkin, generic kernel pk_rows")
-            finally:
-                kernelgen.function = real
-            print(f"planarkin pk_gen vs pk_rows: outcomes the same bits: "
-                  f"{repr(plain) == repr(out)}")
         if args.numpy:
-            saved = os.environ.get("PLANARKIN_KERNEL")
-            os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
-            try:
-                ref = timed("planarkin, numpy passes (PLANARKIN_KERNEL=0)")
-            finally:
-                if saved is None:
-                    del os.environ["PLANARKIN_KERNEL"]
-                else:
-                    os.environ["PLANARKIN_KERNEL"] = saved
             same = all(a.status == b.status for a, b in zip(out, ref))
             dev = max((abs(x - y) / max(abs(y), 1e-300) for a, b in zip(out, ref)
                        for x, y in zip(a.metrics, b.metrics) if a.status == "ok"), default=0.0)
-            print(f"planarkin kernel vs numpy passes: statuses equal {same}, largest relative "
+            print(f"planarkin compiled vs numpy passes: statuses equal {same}, largest relative "
                   f"metric difference {dev:.1e}")
+    for key, (w, c) in pk.items():
+        rates[key], cpu[key] = median(w), median(c)
+        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in w))
+    if pl_rates:
+        key = "pylinkage + numba (step_fast_with_kinematics)"
+        rates[key], cpu[key] = median(pl_rates), median(pl_cpu)
+        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in pl_rates))
+    else:
+        print(f"pylinkage: not measured: {why}")
 
     # textbook
     import textbook
@@ -201,16 +214,6 @@ def main() -> None:
         textbook.solve(sysm, q0, t_grid)
     rates["textbook (per-step dense Newton)"] = args.textbook / (time.perf_counter() - t0)
     cpu["textbook (per-step dense Newton)"] = args.textbook / (time.process_time() - c0)
-
-    # pylinkage
-    res, why = run_pylinkage(args.pylinkage_python, a_vals, b_vals)
-    if res is not None:
-        rates["pylinkage + numba (step_fast_with_kinematics)"] = res["variants"] / res["seconds"]
-        cpu["pylinkage + numba (step_fast_with_kinematics)"] = res["variants"] / res["cpu"]
-        print(f"pylinkage: {res['variants']} variants in {res['seconds']:.2f} s, "
-              f"NaN in results: {res['nan']}")
-    else:
-        print(f"pylinkage: not measured: {why}")
 
     key = "pylinkage + numba (step_fast_with_kinematics)"
     ref, cref = rates.get(key), cpu.get(key)

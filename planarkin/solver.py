@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .assembly import DENSE_LIMIT, Assembly
+from . import kernel
 from .budget import node_limit
 from .model.compile import CompiledModel
 from .options import Options
@@ -762,6 +763,9 @@ class Analysis:
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
         self.out = None             # results.Collect: where the kernel lays chunks out (solve())
+        # the compiled route (planarkin.kernel.Library) when the grid is large enough to repay
+        # numba's start-up, else None: the numpy passes (the route depends on the job only)
+        self.compiled = kernel.route(opts.rows)
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
@@ -894,8 +898,7 @@ class Analysis:
             Qdd = np.repeat(Qddn[:1], N, axis=0)
         elif (lib := self._chunk_kernel(idx := np.clip(
                 np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
-            # the compiled kernel solves this chunk: its predictions too (the same formula)
-            from . import kernel
+            # the compiled route solves this chunk: its predictions too (the same formula)
             Q = kernel.hermite(lib, t, idx, Tn, Qn, Qdn, Qddn)
             Qd = np.zeros_like(Q)
             Qdd = np.zeros_like(Q)
@@ -960,7 +963,7 @@ class Analysis:
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
-                Qddd=Qddds, third=third)
+                Qddd=Qddds, third=third, compiled=self.compiled)
             ok = self._accepted(info, Qs, u, idx, sel, whole)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
@@ -1027,7 +1030,7 @@ class Analysis:
         u = int(segs[0])
         if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
             return None
-        k = self.follower.systems[u][0]._kernel(False)
+        k = self.follower.systems[u][0].kernel(self.compiled)
         return None if k is None else k[0]
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
@@ -1096,7 +1099,6 @@ class Analysis:
         L, af = cm.L, cm.angle_factor
         unit = np.tile([L, L, 1.0 / af], cm.nb)
         if lib is not None and order <= 2:
-            from . import kernel
             out = None if self.out is None else self.out.reserve(len(t), n, len(cm.point_body),
                                                                  order)
             q, qd, qdd, p, pd, pdd = kernel.layout(lib, cm, Q, Qd, Qdd, order, unit, out)

@@ -457,7 +457,7 @@ class System:
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None, Qddd=None, third=None, fused=None):
+                    drivers=None, Qddd=None, third=None, fused=None, compiled=None):
         """Positions, velocities and accelerations (and jerks) at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
@@ -466,10 +466,11 @@ class System:
         order: 0 positions only, 1 with velocities, 2 with accelerations, 3 with jerks (into
         Qddd, (N, n + 3), ground columns zero). drivers: the (T, NU, FDD) of driver_values(t)
         when the caller already has them; third: the drivers' f''' (driver_third) likewise.
-        fused: False, the reference pass; True or None, the compiled kernel (planarkin.kernel)
-        where it applies and is compiled (policies reuse and full), else the fused small-block
-        pass where it applies (small blocks, see SMALL_BLOCK; None: for batches of SMALL_BATCH
-        points or more), else the reference pass; all give the same results to rounding.
+        fused: False, the reference pass; True or None, the compiled route (compiled: the
+        planarkin.kernel Library a large job took, see kernel.route) where it applies (policies
+        reuse and full), else the fused small-block pass where it applies (small blocks, see
+        SMALL_BLOCK; None: for batches of SMALL_BATCH points or more), else the reference
+        pass; all give the same results to rounding.
         Systems whose blocks were replaced after building, and jerks (order 3), take the
         reference pass.
         Returns BatchInfo.
@@ -477,9 +478,9 @@ class System:
         args = (t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd, third)
         if self.blocks is not getattr(self, "_built", None) or order > 2:
             fused = False
-        if fused is not False and policy != "fixed":
-            k = self._kernel()
-            if k is not None:          # no per-call overhead to pay back: any batch
+        if fused is not False and policy != "fixed" and compiled is not None:
+            k = self.kernel(compiled)
+            if k is not None:
                 return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if fused is None:
             fused = Q.shape[0] >= SMALL_BATCH
@@ -632,20 +633,16 @@ class System:
         self._csc["small"] = (out, zero)
         return self._csc["small"]
 
-    def _kernel(self, build: bool = True):
-        """(library, packed system) of the compiled kernel, or None where it does not apply.
-        The first system the kernel covers compiles it (once per machine, about a second of
-        CPU), before anything is solved: whether a run takes the kernel then depends on the
-        machine (a working compiler) only, never on what earlier runs left in the cache, so
-        that identical input gives identical bytes on one machine. build False: only look."""
+    def kernel(self, lib):
+        """(lib, packed system) for the compiled route (lib: a planarkin.kernel Library), or
+        None where it does not apply (kernel.pack: kinds or blocks it does not cover)."""
         from . import kernel
-        if "kernel" not in self._csc:      # once per system: a few ms; None: not for the kernel
-            self._csc["kernel"] = None if kernel.unavailable() else kernel.pack(self)
-        P = self._csc["kernel"]
-        if P is None:
+        if lib is None:
             return None
-        lib = kernel.library(build)
-        return None if lib is None else (lib, P)
+        if "kernel" not in self._csc:      # once per system: a few ms; None: not for the kernel
+            self._csc["kernel"] = kernel.pack(self)
+        P = self._csc["kernel"]
+        return None if P is None else (lib, P)
 
     def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
         from . import kernel

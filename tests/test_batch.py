@@ -134,13 +134,15 @@ def test_the_fused_pass_equals_the_block_by_block_solve(path, spread):
     assert np.allclose(fi.smin, info.smin, rtol=1e-10, atol=0)
 
 
-# -- the compiled kernel's route (planarkin.kernel: pk_rows) against the numpy reference --------
+# -- the compiled route (planarkin.kernel, compiled_each.solve_each) against the numpy reference -
 
-def _kernel_or_skip():
+def _kernel():
+    """planarkin.kernel with its Library ready for studies (numba is a dependency: no skip)."""
     from planarkin import kernel
     lib = kernel.library()
-    if lib is None:
-        pytest.skip("no C compiler: the kernel route is not available")
+    assert lib is not None, "numba is a dependency of planarkin"
+    lib.need("study")
+    lib.need("grid")
     return kernel, lib
 
 
@@ -149,7 +151,8 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
     # status and failure kind exactly, metrics to 1e-12; a = 0.08 cannot be assembled, 0.17
     # locks up (its time: the per-variant follower's, whose own passes follow the same switch
     # and place the event to ~1e-11)
-    kernel, _ = _kernel_or_skip()
+    kernel, _ = _kernel()
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 1)     # a small study takes it too
     from planarkin.studies.fused import Fused
     s = Study(FB, analysis={"steps": STEPS},
               metrics=["max:rocker.phi", "stroke:rocker.phi", "max:P.x", "min:P.y", "dev:P",
@@ -187,7 +190,7 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
 def solved(study):
     """Three variants solved by the kernel from the nominal's solution, with the predecessor
     signs of the nominal (variant 1's flipped at one grid time), and what accept needs."""
-    kernel, _ = _kernel_or_skip()
+    kernel, _ = _kernel()
     from planarkin.studies.batch import COND_WARN, KAPPA
     B = study.batch([{"a": 0.04, "b": 0.12}])
     Q0, _, _, sg0 = B.nominal
@@ -197,7 +200,9 @@ def solved(study):
     Q = np.repeat(Q0[None], V, axis=0)
     sign = np.repeat(sg0[None], V, axis=0)
     sign[1, 7, 0] *= -1
+    B.job_points = kernel.COMPILED_FROM_POINTS         # a study large enough for the route
     k = B.kernel()
+    assert k is not None
     return B, groups, targets, env, Q, sign, s, (kernel, k, KAPPA, COND_WARN)
 
 
@@ -223,8 +228,8 @@ def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
 
 
 def test_per_point_parameters_equal_a_solve_per_parameter_set(solved):
-    # pk_rows with a (V, E, 8) table and a variant index per point against pk_solve with each
-    # variant's parameters as the system's own
+    # solve_each with a (V, E, 8) table and a variant index per point against solve_points
+    # with each variant's parameters as the system's own
     B, groups, targets, env, Q, sign, s, (kernel, k, _, _) = solved
     lib, P = k[:2]
     V, T, W = Q.shape

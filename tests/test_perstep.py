@@ -1,37 +1,30 @@
-"""The grid pass's fast routes against the reference pass (issue 12 item 3).
+"""The grid pass's fast routes against the reference pass (issue 12 item 3, issue 17).
 
 System._solve_batch is the reference implementation; the fused small-block pass
-(System._solve_small) and the compiled kernel (planarkin.kernel) must give the same positions,
-velocities and accelerations to rounding, the same iteration counts, determinant signs and
-convergence flags, on every example model they apply to; without a compiler the numpy passes
-run."""
-
-import os
-from pathlib import Path
+(System._solve_small) and the compiled route (planarkin.kernel, planarkin.compiled: numba) must
+give the same positions, velocities and accelerations to rounding (the compiled route to
+1e-15 of each column's largest value), the same iteration counts, determinant signs and
+convergence flags, on every example model they apply to. numba is a dependency: these tests
+do not skip."""
 
 import numpy as np
 import pytest
 
 import planarkin
 from planarkin import kernel, system
+from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "mechanisms").glob("*.yaml"))
 
 
 @pytest.fixture(scope="module")
-def compiled(tmp_path_factory):
-    """The kernel compiled into a private cache (about a second); skips without a compiler."""
-    saved = os.environ.get("PLANARKIN_CACHE")
-    os.environ["PLANARKIN_CACHE"] = str(tmp_path_factory.mktemp("kernel"))
-    kernel._state.clear()
-    lib = kernel.library(build=True)
-    yield lib
-    if saved is None:
-        del os.environ["PLANARKIN_CACHE"]
-    else:
-        os.environ["PLANARKIN_CACHE"] = saved
-    kernel._state.clear()
+def compiled():
+    """The compiled route's Library, its grid entry points ready (numba's cache: the first
+    session on a machine compiles them)."""
+    lib = kernel.library()
+    assert lib is not None, "numba is a dependency of planarkin"
+    return lib.need("grid")
 
 
 def _solve(path, monkeypatch, route, steps=240, **opts):
@@ -40,10 +33,13 @@ def _solve(path, monkeypatch, route, steps=240, **opts):
     taken = []
     real = system.System.solve_batch
 
+    lib = kernel.library() if route == "kernel" else None
+
     def spy(self, t, Q, Qd, Qdd, **kw):
         if Q.shape[0] > 8:                     # a grid chunk, not the path's candidates
             kw["fused"] = route != "reference"
-            if route == "kernel" and self._kernel(False) is not None:
+            kw["compiled"] = lib
+            if route == "kernel" and self.kernel(lib) is not None:
                 taken.append("kernel")
             elif route == "fused" and self.small():
                 taken.append("fused")
@@ -53,16 +49,32 @@ def _solve(path, monkeypatch, route, steps=240, **opts):
 
     with monkeypatch.context() as m:
         m.setattr(system.System, "solve_batch", spy)
-        m.setenv("PLANARKIN_KERNEL", "1" if route == "kernel" else "0")
         res = planarkin.solve(planarkin.load(path), steps=steps, **opts)
     return res, taken
 
 
-def _close(a, b, what):
+# The compiled route agrees with the reference to 1e-15 of each column's largest value, but
+# on the Jansen legs, whose chains of 2 x 2 blocks carry rounding down six blocks: there the
+# old C kernel differed from the reference as much (the compiled route equals it bit for bit)
+ROUNDING = {"jansen-holy-numbers": 3e-15, "jansen-leg": 2e-15, "peaucellier": 2e-15}
+DECLINED = {"belt-drive", "cam-roller", "curved-slot", "flat-rocker-cam", "planetary",
+            "rack-pinion-steering", "valve-cam"}
+
+
+def _close(a, b, what, rel=1e-12):
+    """b equals a to rel of the largest magnitude of each column of a; a column whose largest
+    value is below 1e-6 of the array's is a zero to rounding (the Peaucellier point's x
+    velocity on its line, 9e-15 m/s), compared to the array's largest value. The numpy routes'
+    older bound (rel 1e-12) takes at least 1 as the scale."""
     if not a.size:
         return
-    scale = max(1.0, float(np.abs(a).max()))
-    assert np.abs(a - b).max() <= 1e-12 * scale, what
+    a2, b2 = a.reshape(len(a), -1), b.reshape(len(b), -1)
+    scale = np.abs(a2).max(axis=0)
+    scale = np.where(scale < 1e-6 * scale.max(), scale.max(), scale)
+    if rel > 1e-14:
+        scale = np.maximum(scale, 1.0)
+    err = np.abs(a2 - b2).max(axis=0) / np.where(scale > 0, scale, 1.0)
+    assert (err <= rel).all(), (what, err.max())
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
@@ -71,20 +83,20 @@ def test_fast_routes_match_reference(path, monkeypatch, compiled):
     assert ref.status == 0
     checked = 0
     for route in ("fused", "kernel"):
-        if route == "kernel" and compiled is None:
-            continue                            # no C compiler: the numpy passes run
         res, taken = _solve(path, monkeypatch, route)
         assert res.status == 0
         if route in taken:                      # else a block size or kind the route lacks
-            _same(ref, res)
+            _same(ref, res, ROUNDING.get(path.stem, 1e-15) if route == "kernel" else 1e-12)
             checked += 1
-    if not checked:
-        pytest.skip("blocks or kinds only the reference pass covers")
+    # the models whose kinds (motion laws, gears, belts: not point-and-line formulas) the
+    # compiled route declines (kernel.pack), and that no fast route covers
+    assert ("kernel" in taken) == (path.stem not in DECLINED)
+    assert checked or path.stem in DECLINED
 
 
-def _same(ref, fus):
+def _same(ref, fus, rel=1e-12):
     for name in ("q", "qd", "qdd", "p", "pd", "pdd"):
-        _close(getattr(ref, name), getattr(fus, name), name)
+        _close(getattr(ref, name), getattr(fus, name), name, rel)
     assert np.array_equal(ref.iterations, fus.iterations)
     np.testing.assert_allclose(ref.cond, fus.cond, rtol=1e-9)
     np.testing.assert_allclose(ref.residual, fus.residual, rtol=1e-3, atol=1e-15)
@@ -107,16 +119,18 @@ def _batch(name, merged=False, N=300):
     return S, t, Q0
 
 
-def _info_match(S, t, Q0, routes, policy="reuse", order=2):
+def _info_match(S, t, Q0, routes, policy="reuse", order=2, lib=None, rel=1e-15):
+    """routes: the first the reference; lib: the compiled route, taken by fused None or True
+    (then held to 1e-15 of each column's largest value)."""
     out = []
     for fused in routes:
         Q, Qd, Qdd = Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)
         info = S.solve_batch(t, Q, Qd, Qdd, tol=1e-12, maxit=8, fused=fused, policy=policy,
-                             order=order)
+                             order=order, compiled=lib)
         out.append((Q, Qd, Qdd, info))
     (Q1, Qd1, Qdd1, i1), (Q2, Qd2, Qdd2, i2) = out
     for a, b, what in ((Q1, Q2, "q"), (Qd1, Qd2, "qd"), (Qdd1, Qdd2, "qdd")):
-        _close(a, b, what)
+        _close(a[:, :S.n], b[:, :S.n], what, rel if lib is not None else 1e-12)
     assert np.array_equal(i1.iterations, i2.iterations)
     assert np.array_equal(i1.converged, i2.converged) and i1.converged.all()
     assert np.array_equal(i1.sign, i2.sign)
@@ -134,18 +148,16 @@ def test_fused_pass_info_matches_reference(monkeypatch):
 
 
 @pytest.mark.parametrize("name,policy,order", [
-    ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2), ("klann-leg.yaml", "reuse", 2),
+    ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2),
+    ("klann-leg.yaml", "reuse", 2),
     ("trammel.yaml", "reuse", 2), ("boom.yaml", "reuse", 2), ("quick-return.yaml", "full", 2),
     ("four-bar.yaml", "full", 1), ("slider-crank.yaml", "reuse", 0)])
 def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compiled):
     """Field by field, blocks of 1, 2 and 4 unknowns, revolute, translational, x and distance
     rows; and the residuals it returns are those of System.residual."""
-    if compiled is None:
-        pytest.skip("no C compiler: the numpy passes run")
-    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
     S, t, Q0 = _batch(name)
-    assert S._kernel(False) is not None
-    info = _info_match(S, t, Q0, (False, True), policy, order)
+    assert S.kernel(compiled) is not None
+    info = _info_match(S, t, Q0, (False, True), policy, order, compiled)
     Q = Q0.copy()
     S.solve_batch(t, Q, np.zeros_like(Q), np.zeros_like(Q), tol=1e-12, maxit=8, fused=False,
                   policy=policy, order=order)
@@ -162,13 +174,11 @@ def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compile
 def test_kernel_on_the_paths_merged_blocks(name, N, monkeypatch, compiled):
     """The path follower's blocks merge the fine ones (a 9 x 9 block for the four-bar): the
     determinant signs of every fine block inside, a handful of candidate points per call."""
-    if compiled is None:
-        pytest.skip("no C compiler: the numpy passes run")
-    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
     S, t, Q0 = _batch(name, merged=True, N=N)
-    assert max(len(B.sizes) for B in S.blocks) > 1 and S._kernel(False) is not None
+    assert max(len(B.sizes) for B in S.blocks) > 1 and S.kernel(compiled) is not None
     for policy in ("reuse", "full"):
-        _info_match(S, t, Q0, (False, None), policy)
+        # (a 9 x 9 block: Gauss-Jordan against the reference's LU, 2.0e-15 on the four-bar)
+        _info_match(S, t, Q0, (False, None), policy, lib=compiled, rel=3e-15)
 
 
 def test_kernel_declines_other_kinds():
@@ -179,53 +189,6 @@ def test_kernel_declines_other_kinds():
         m = planarkin.load(ROOT / "mechanisms" / name)
         S = prepare(m, resolve(m, {"steps": 10}, source="api")).follower.systems[0][0]
         assert kernel.pack(S) is None
-
-
-def test_without_compiler_the_numpy_passes_run(monkeypatch, tmp_path):
-    monkeypatch.setenv("PLANARKIN_CACHE", str(tmp_path))
-    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
-    monkeypatch.setattr(kernel, "_state", {})
-    assert kernel.library(build=True) is None
-    assert kernel.library(build=True) is None          # tried once per process
-    assert not list(tmp_path.iterdir())
-    res = planarkin.solve(planarkin.load(ROOT / "mechanisms" / "four-bar.yaml"), steps=100)
-    assert res.status == 0
-    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
-    assert kernel.library(build=True) is None
-
-
-def test_a_failing_compiler_is_tried_once_per_machine(monkeypatch, tmp_path):
-    """A compiler that exists but fails leaves a marker with its message: later processes do
-    not pay for it again (a run that compiled in vain every time would be a second slower)."""
-    calls = tmp_path / "calls"
-    cc = tmp_path / "bad-cc"
-    cc.write_text(f"#!/bin/sh\necho x >> {calls}\necho 'no such thing' >&2\nexit 1\n")
-    cc.chmod(0o755)
-    cache = tmp_path / "cache"
-    monkeypatch.setenv("PLANARKIN_CACHE", str(cache))
-    monkeypatch.setenv("CC", str(cc))
-    for _ in range(3):                          # three processes: a fresh state each
-        monkeypatch.setattr(kernel, "_state", {})
-        assert kernel.library(build=True) is None
-    assert calls.read_text().count("x") == 1
-    (marker,) = cache.glob("*.failed")
-    assert b"no such thing" in marker.read_bytes()
-
-
-def test_the_route_does_not_depend_on_the_cache(monkeypatch, tmp_path, compiled):
-    """The first run on a machine compiles the kernel before it solves anything, so it takes
-    the same route, and writes the same bytes, as every later run."""
-    if compiled is None:
-        pytest.skip("no C compiler: the numpy passes run")
-    model = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
-    monkeypatch.setenv("PLANARKIN_CACHE", str(tmp_path))
-    monkeypatch.setattr(kernel, "_state", {})
-    first = planarkin.solve(model, steps=120)           # compiles into the empty cache
-    assert list(tmp_path.glob("kernel-*"))
-    monkeypatch.setattr(kernel, "_state", {})
-    later = planarkin.solve(model, steps=120)           # loads the compiled file
-    for a, b in ((first.q, later.q), (first.qd, later.qd), (first.qdd, later.qdd)):
-        assert np.array_equal(a, b)
 
 
 def test_zeros_of_a_straight_piece_are_not_structure():
@@ -279,8 +242,6 @@ def test_a_refusal_is_the_same_on_every_route(field, monkeypatch, compiled):
     """A non-finite value in a kernel chunk (whose acceptance and refusal checks take the
     whole-array fast paths) is refused as the numpy routes refuse it: the same row, the same
     message, the same rows before it."""
-    if compiled is None:
-        pytest.skip("no C compiler: the numpy passes run")
     path = ROOT / "mechanisms" / "four-bar.yaml"
     out = {}
     for route in ("reference", "fused", "kernel"):
@@ -316,22 +277,3 @@ def test_refuse_keeps_finite_rows_whose_sum_overflows(monkeypatch):
     ch.residual[7] = 2 * residual_limit(an.opts)
     cut = refuse(an, ch)
     assert len(cut.t) == 7 and an.event.kind == "residual"
-
-
-def test_old_kernels_of_other_versions_are_pruned(tmp_path):
-    """Every source version leaves a kernel in the cache: compiling a new one removes other
-    versions' kernels and markers older than PRUNE_AFTER, keeps younger ones (two installed
-    versions used in turn) and every file that is not a kernel."""
-    path = tmp_path / "kernel-new-linux.so"
-    now = 1e9
-    files = {"kernel-new-linux.so": 0, "kernel-old-linux.so": kernel.PRUNE_AFTER + 1,
-             "kernel-old2-linux.failed": kernel.PRUNE_AFTER + 1,
-             "kernel-recent-linux.so": kernel.PRUNE_AFTER - 60,
-             "kernel-notes.txt": kernel.PRUNE_AFTER + 1, "other.so": kernel.PRUNE_AFTER + 1}
-    for name, age in files.items():
-        (tmp_path / name).write_bytes(b"x")
-        os.utime(tmp_path / name, (now - age, now - age))
-    gone = kernel._prune(path, now=now)
-    assert sorted(f.name for f in gone) == ["kernel-old-linux.so", "kernel-old2-linux.failed"]
-    assert sorted(f.name for f in tmp_path.iterdir()) == [
-        "kernel-new-linux.so", "kernel-notes.txt", "kernel-recent-linux.so", "other.so"]

@@ -12,13 +12,13 @@ Each variant is predicted from its predecessor in its chain (studies.warm.chains
 repeated parameter step by the cubic (quadratic, secant) through the previous solutions, otherwise
 (a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
-equal substeps. The solve is the compiled kernel's pk_rows where it covers the system
-(planarkin.kernel: each row a point with its variant's element parameters, Newton to its own
-convergence block by block, the acceptance tests below and the cubic prediction in the same
-pass; or pk_gen, the same written out for the system's structure, planarkin.kernelgen, the same
-bits in less time), else, and as the
-reference (PLANARKIN_KERNEL=0), one Newton pass over the whole system for all variants x grid
-times at once (studies.fused; System.solve_batch where its blocks do not apply). A variant is
+equal substeps. For a study large enough (`job_points`: variants x grid times, at least
+kernel.COMPILED_FROM_POINTS) the solve is the compiled route's solve_each where it covers the
+system (planarkin.kernel, planarkin.compiled_each: each row a point with its variant's element
+parameters, Newton to its own convergence block by block, the acceptance tests below and the
+cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), one Newton
+pass over the whole system for all variants x grid times at once (studies.fused;
+System.solve_batch where its blocks do not apply). A variant is
 accepted only if every grid
 point passes the tests the path follower applies to a step: Newton converged, its first
 correction at most KAPPA of the smallest singular value, finite velocities and accelerations,
@@ -331,23 +331,17 @@ class Batch:
         return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
 
     def kernel(self):
-        """(library, packed system, pk_gen or None) of the compiled kernel (planarkin.kernel)
-        where it covers the system and is available (PLANARKIN_KERNEL read per call), else
-        None: the numpy passes (studies.fused, System.solve_batch) are the reference route.
-        pk_gen, pk_rows specialised to the system (planarkin.kernelgen; the same bits, in less
-        time): when compiled on this machine already, or compiled here when `specialise` is
-        set (Study.units sets it for studies large enough to pay for compiling)."""
-        from .. import kernel, kernelgen
-        if kernel.disabled():
-            return None
-        if not hasattr(self, "_kpack"):
-            self._kpack = None if kernel.unavailable() else kernel.pack(self.S)
-        lib = kernel.library() if self._kpack is not None else None
+        """(library, packed system) of the compiled route (planarkin.kernel) when the study is
+        large enough (job_points, set by Study.units: variants x grid times; kernel.route) and the
+        route covers the system, else None: the numpy passes (studies.fused,
+        System.solve_batch) are the reference route (PLANARKIN_KERNEL read per call)."""
+        from .. import kernel
+        lib = kernel.route(getattr(self, "job_points", 0), "study")
         if lib is None:
             return None
-        gen = kernelgen.function(self._kpack, self.cm.n + 3, self.cm.m, self.cm.nb,
-                                 build=getattr(self, "specialise", False))
-        return lib, self._kpack, gen
+        if not hasattr(self, "_kpack"):
+            self._kpack = kernel.pack(self.S)
+        return None if self._kpack is None else (lib, self._kpack)
 
     def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None, work=None, out=None):
         """The batch solve by the kernel (kernel.solve_rows): every (variant, time) row a
@@ -381,7 +375,7 @@ class Batch:
             drv, tg = self._drv1, self.grid
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
-            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN), gen=k[2],
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN),
             hist=hist, work=work, out=None if out is None else [a.reshape(Vn * T, n3)
                                                                 for a in out])
         # good: finite positions too, with the velocities and accelerations
@@ -598,7 +592,7 @@ class Batch:
             hist = None
             if k is not None and lockstep and cubic.any():
                 # the usual case, the chains in lockstep: the cubic chains' predictions
-                # computed by the kernel as it reads their rows (pk_cubic's: the operations of
+                # computed by the kernel as it reads their rows (compiled.cubic: the operations of
                 # the numpy lines below, the same bits), the others' below into q
                 base = state[0]
                 hist = [base] + [hq[slots[0, 2 - j]] for j in range(3)] + [

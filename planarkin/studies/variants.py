@@ -27,11 +27,6 @@ KINDS = {
     "dev": "largest distance of a point's path from its nominal path, at the same times",
 }
 STATUSES = ("ok", "failed", "invalid")
-# A batched study of at least this many rows (variants x grid times) compiles the kernel
-# specialised to its system (planarkin.kernelgen: about 0.3 s once per machine and structure,
-# paid back at about 0.3 us a row); smaller ones use it only when already compiled. The
-# results are the same bits either way.
-SPECIALISE_ROWS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -254,9 +249,9 @@ class Study:
         chs = [[variants[i] for i in ch] for ch in chains(len(variants), self.chain)]
         B = self.batch(variants)
         per = self.group if B is not None else 1
-        if B is not None and len(variants) * len(B.grid) >= SPECIALISE_ROWS:
-            B.specialise = True         # worth compiling pk_gen for (studies.batch.kernel):
-            B.kernel()                  # here, before any worker process starts
+        if B is not None:   # the job's size picks the route (kernel.route): loaded here,
+            B.job_points = len(variants) * len(B.grid)     # before any worker starts
+            B.kernel()
         return [chs[k:k + per] for k in range(0, len(chs), per)]
 
     def batch(self, variants):

@@ -1,0 +1,675 @@
+"""The compiled route of the grid pass: the kernel's algorithms in Python, compiled by numba.
+
+System._solve_batch (the reference pass) solves per time point Newton on each small diagonal
+block, then the velocity and acceleration systems. This module holds the same algorithm over
+points, written as plain loops so that numba compiles it (issue 17): the same Newton iterations
+block by block (solve_points: a block iterates until every point of the batch has converged, as
+the reference does, so the iteration counts agree), the same determinant signs and sigma_min
+bounds (1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks in closed form as
+the fused numpy pass), and after each block, per point, its rows of the velocity and
+acceleration systems with the gradients and gamma at the converged positions. solve_each
+solves point by point, each to its own convergence, with per-point element parameters and the
+design studies' acceptance tests (studies.batch); hermite, cubic and layout are the grid pass's
+predictions, the studies' cubic prediction and a chunk's user-unit arrays.
+
+Every function is one Python text: compiled by numba (no fastmath: the operations are rounded
+as written, in the order written, with no contraction into fused multiply-adds, as the numpy
+passes round them), or run as it is with NUMBA_DISABLE_JIT=1 (for debugging: the same results,
+slowly). Arrays are flat (row-major, offsets computed as the C kernel this replaces did) and of
+fixed types (int32 structure, float64 numbers, uint8 flags, int64 iteration counts), so that
+each entry point is compiled for one signature. error_model="numpy": a division by zero gives
+inf or nan, as in numpy, instead of raising.
+
+Imported only by planarkin.kernel, when a job takes the compiled route: importing this module
+imports numba and compiles the entry points (or loads them from numba's disk cache, whose
+directory planarkin.jitcache prepared and checked before numba was imported).
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import jitcache
+
+CACHE = jitcache.prepare()       # the checked cache directory, or None: no disk cache
+
+import numba                      # noqa: E402  (after the cache directory is set)
+import numpy as np                # noqa: E402
+
+if CACHE is not None:             # numba imported before: its configuration read then
+    numba.config.CACHE_DIR = str(CACHE)
+
+KMAX = 64             # largest solve block (the path's merged blocks)
+KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
+
+OPTS = dict(cache=CACHE is not None, error_model="numpy", nogil=True)
+# The helpers allocate nothing: without numba's reference counting (its atomic increments and
+# decrements of the array arguments at every call made a point 9 us, 10 times the C's). numba
+# does not inline one compiled function into another; inline="always" does, in its IR: the
+# element equations and the small helpers so (a point 1.9 us, the C 0.9 us:
+# benchmarks/bench_route.py --micro). Inlining rates and factor too gives 1.1 us, but the first
+# compile then takes 77 s instead of 18 s (both on this 2-core machine, shared).
+HELPER = dict(OPTS, _nrt=False)
+jit = numba.njit(**OPTS)
+helper = numba.njit(**HELPER)
+inline = numba.njit(**HELPER, inline="always")
+
+# signatures: arrays flat and C-contiguous. The compiled helpers called with constants get one
+# too: numba would otherwise compile them once per combination of literal arguments (row_eval,
+# before it was inlined, 7 times at about a second each)
+F64, U8, I64 = numba.float64[::1], numba.uint8[::1], numba.int64[::1]
+INT, DBL, BOOL = numba.int64, numba.float64, numba.boolean
+I64x2 = numba.int64[:, ::1]
+
+
+# -- the elements' equations ---------------------------------------------------------------------
+@inline
+def row_eval(kind, bi, bj, p, po, eq, q, qo, c, s, co, qd, want, gr, go):
+    """One equation row of an element: returns (g, gamma_g); with want & 2 its gradient over
+    (x_i, y_i, phi_i, x_j, y_j, phi_j) into gr[go:go + 6]. want: 1 g, 2 gradient, 4 gamma
+    (needs qd, read at the offset qo as q). p[po:po + 8]: si, sj, vi (reference sections 1, 2,
+    5); q[qo:], qd[qo:] the point's coordinates, c[co:], s[co:] its bodies' cos and sin."""
+    ci = c[co + bi]
+    si_ = s[co + bi]
+    cj = c[co + bj]
+    sj_ = s[co + bj]
+    six = ci * p[po] - si_ * p[po + 1]
+    siy = si_ * p[po] + ci * p[po + 1]
+    sjx = cj * p[po + 2] - sj_ * p[po + 3]
+    sjy = sj_ * p[po + 2] + cj * p[po + 3]
+    xi = q[qo + 3 * bi]
+    yi = q[qo + 3 * bi + 1]
+    xj = q[qo + 3 * bj]
+    yj = q[qo + 3 * bj + 1]
+    hx = xj + sjx - xi - six
+    hy = yj + sjy - yi - siy
+    wi = wj = hdx = hdy = kx = ky = 0.0
+    if want & 4:
+        wi = qd[qo + 3 * bi + 2]
+        wj = qd[qo + 3 * bj + 2]
+        hdx = qd[qo + 3 * bj] - wj * sjy - qd[qo + 3 * bi] + wi * siy
+        hdy = qd[qo + 3 * bj + 1] + wj * sjx - qd[qo + 3 * bi + 1] - wi * six
+        kx = wj * wj * sjx - wi * wi * six
+        ky = wj * wj * sjy - wi * wi * siy
+    if want & 2:
+        for k in range(6):
+            gr[go + k] = 0.0
+    g = 0.0
+    gam = 0.0
+    if kind == 1:                       # revolute: r_i + s_i - r_j - s_j
+        if eq == 0:
+            if want & 1:
+                g = xi + six - xj - sjx
+            if want & 2:
+                gr[go] = 1.0
+                gr[go + 2] = -siy
+                gr[go + 3] = -1.0
+                gr[go + 5] = sjy
+            if want & 4:
+                gam = wi * wi * six - wj * wj * sjx
+        else:
+            if want & 1:
+                g = yi + siy - yj - sjy
+            if want & 2:
+                gr[go + 1] = 1.0
+                gr[go + 2] = six
+                gr[go + 4] = -1.0
+                gr[go + 5] = -sjx
+            if want & 4:
+                gam = wi * wi * siy - wj * wj * sjy
+    elif kind == 3 or (kind == 2 and eq == 0):     # angle (the translational's first row)
+        if want & 1:
+            g = q[qo + 3 * bj + 2] - q[qo + 3 * bi + 2]
+        if want & 2:
+            gr[go + 2] = -1.0
+            gr[go + 5] = 1.0
+    elif kind == 4:                     # x of h
+        if want & 1:
+            g = hx
+        if want & 2:
+            gr[go] = -1.0
+            gr[go + 2] = siy
+            gr[go + 3] = 1.0
+            gr[go + 5] = -sjy
+        if want & 4:
+            gam = wj * wj * sjx - wi * wi * six
+    elif kind == 5:                     # y of h
+        if want & 1:
+            g = hy
+        if want & 2:
+            gr[go + 1] = -1.0
+            gr[go + 2] = -six
+            gr[go + 4] = 1.0
+            gr[go + 5] = sjx
+        if want & 4:
+            gam = wj * wj * sjy - wi * wi * siy
+    elif kind == 6:                     # distance |h|
+        d = np.hypot(hx, hy)
+        ex = hx / d
+        ey = hy / d
+        if want & 1:
+            g = d
+        if want & 2:
+            gr[go] = -ex
+            gr[go + 1] = -ey
+            gr[go + 2] = ex * siy - ey * six
+            gr[go + 3] = ex
+            gr[go + 4] = ey
+            gr[go + 5] = ey * sjx - ex * sjy
+        if want & 4:
+            ehd = ex * hdx + ey * hdy
+            gam = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
+    elif kind == 2 or kind == 7 or kind == 8:
+        # line of body i through s_i along u_i = A_i v_i, normal n_i = R u_i
+        ux = ci * p[po + 4] - si_ * p[po + 5]
+        uy = si_ * p[po + 4] + ci * p[po + 5]
+        nx = -uy
+        ny = ux
+        if kind == 8:                   # slide: u^T h
+            if want & 1:
+                g = ux * hx + uy * hy
+            if want & 2:
+                gr[go] = -ux
+                gr[go + 1] = -uy
+                gr[go + 2] = nx * (hx + six) + ny * (hy + siy)
+                gr[go + 3] = ux
+                gr[go + 4] = uy
+                gr[go + 5] = -(nx * sjx + ny * sjy)
+            if want & 4:
+                gam = (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
+                       + ux * kx + uy * ky)
+        else:                           # n^T h
+            if want & 1:
+                g = nx * hx + ny * hy
+            if want & 2:
+                gr[go] = -nx
+                gr[go + 1] = -ny
+                gr[go + 2] = -(ux * (hx + six) + uy * (hy + siy))
+                gr[go + 3] = nx
+                gr[go + 4] = ny
+                gr[go + 5] = ux * sjx + uy * sjy
+            if want & 4:
+                gam = (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
+                       + nx * kx + ny * ky)
+    else:                               # (kernel.pack admits no other kind)
+        g = np.nan
+        gam = np.nan
+    return g, gam
+
+
+# -- small dense linear algebra ------------------------------------------------------------------
+@inline
+def sign_of(x):
+    """The sign of x as a float: 1, -1, 0, nan for nan."""
+    if x > 0:
+        return 1.0
+    if x < 0:
+        return -1.0
+    return np.nan if x != x else 0.0
+
+
+@numba.njit([(INT, F64, INT, F64, INT, F64)], **HELPER)
+def gauss_jordan(k, J, jo, inv, io, A):
+    """Inverse of the k x k matrix J[jo:] (row-major) into inv[io:] by Gauss-Jordan with partial
+    pivoting, as planarkin.linalg._inv_gauss_jordan: returns (True, the determinant's sign), or
+    (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace."""
+    w = 2 * k
+    scale = 0.0
+    sg = 1.0
+    for i in range(k):
+        for j in range(k):
+            A[i * w + j] = J[jo + i * k + j]
+            A[i * w + k + j] = 1.0 if i == j else 0.0
+            a = abs(J[jo + i * k + j])
+            if a > scale or a != a:
+                scale = a
+    tiny = (scale if scale > 0 else 1.0) * 1e-300
+    ok = True
+    for col in range(k):
+        pr = col
+        for r in range(col + 1, k):
+            if abs(A[r * w + col]) > abs(A[pr * w + col]):
+                pr = r
+        if pr != col:
+            for j in range(w):
+                t = A[col * w + j]
+                A[col * w + j] = A[pr * w + j]
+                A[pr * w + j] = t
+            sg = -sg
+        piv = A[col * w + col]
+        if not (abs(piv) > tiny):
+            ok = False
+            piv = 1.0
+        sg *= (1.0 if piv > 0 else 0.0) - (1.0 if piv < 0 else 0.0)
+        for j in range(w):
+            A[col * w + j] /= piv
+        for r in range(k):
+            if r == col:
+                continue
+            f = A[r * w + col]
+            if f != 0.0:
+                for j in range(w):
+                    A[r * w + j] -= f * A[col * w + j]
+    for i in range(k):
+        for j in range(k):
+            inv[io + i * k + j] = A[i * w + k + j] if ok else np.nan
+    return ok, (sg if ok else 0.0)
+
+
+@helper
+def factor(kb, nj, src, dst, gr, J, Mi, mo, WK):
+    """The block's matrix J (kb x kb) from its rows' gradients gr (kb x 6): nj entries,
+    J[dst[e]] = gr[src[e]] in order (of a repeated position the last counts, as
+    System.block_matrix); then its inverse into Mi[mo:]. Returns (sigma_min bound
+    1 / ||J^-1||_F, determinant sign), as System._invert."""
+    for k in range(kb * kb):
+        J[k] = 0.0
+    for k in range(nj):
+        J[dst[k]] = gr[src[k]]
+    if kb == 1:
+        Mi[mo] = 1.0 / J[0]
+        return abs(J[0]), sign_of(J[0])
+    if kb == 2:        # closed form, as System._invert_small (the fused numpy pass)
+        a = J[0]
+        b = J[1]
+        c = J[2]
+        d = J[3]
+        det = a * d - b * c
+        ok2 = math.isfinite(det) and det != 0
+        inv = 1.0 / (det if ok2 else np.nan)
+        Mi[mo] = d * inv
+        Mi[mo + 1] = -b * inv
+        Mi[mo + 2] = -c * inv
+        Mi[mo + 3] = a * inv
+        if not ok2:
+            return 0.0, 0.0
+        return abs(det) / np.sqrt(a * a + b * b + c * c + d * d), sign_of(det)
+    ok, sg = gauss_jordan(kb, J, 0, Mi, mo, WK)
+    f = 0.0
+    for k in range(kb * kb):
+        f += Mi[mo + k] * Mi[mo + k]
+    return (1.0 / np.sqrt(f) if ok else 0.0), sg
+
+
+@inline
+def apply(kb, Mi, mo, r, cols, co, X, xo):
+    """x = Mi r into the block's columns cols[co:co + kb] of X[xo:]."""
+    if kb == 1:
+        X[xo + cols[co]] = r[0] * Mi[mo]
+        return
+    for a in range(kb):
+        x = 0.0
+        for k in range(kb):
+            x += Mi[mo + a * kb + k] * r[k]
+        X[xo + cols[co + a]] = x
+
+
+@inline
+def solve2(J, r, cols, co, X, xo):
+    """The same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
+    _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
+    holds the Jansen leg's accelerations to 1e-14 of the exact linkage)."""
+    det = J[0] * J[3] - J[1] * J[2]
+    X[xo + cols[co]] = (J[3] * r[0] - J[1] * r[1]) / det
+    X[xo + cols[co + 1]] = (J[0] * r[1] - J[2] * r[0]) / det
+
+
+@inline
+def dot6(g, go, rc, ro, X, xo):
+    """Gradient g[go:go + 6] x rates of one row (its columns rc[ro:ro + 6]), summed in pairs
+    (a chain of six dependent subtractions was a tenth of the C kernel's time)."""
+    return ((g[go] * X[xo + rc[ro]] + g[go + 1] * X[xo + rc[ro + 1]])
+            + (g[go + 2] * X[xo + rc[ro + 2]] + g[go + 3] * X[xo + rc[ro + 3]])
+            + (g[go + 4] * X[xo + rc[ro + 4]] + g[go + 5] * X[xo + rc[ro + 5]]))
+
+
+@helper
+def fine_signs(kb, b, bfirst, bnf, bfo, bfs, J, sign, so, WK, sub, subinv):
+    """A merged block's fine-block determinant signs from its matrix J into sign[so:]."""
+    o = 0
+    for f in range(bnf[b]):
+        sz = bfs[bfo[b] + f]
+        if sz == 1:
+            sf = sign_of(J[o * kb + o])
+        else:
+            for u in range(sz):
+                for v in range(sz):
+                    sub[u * sz + v] = J[(o + u) * kb + o + v]
+            _, sf = gauss_jordan(sz, sub, 0, subinv, 0, WK)
+        sign[so + bfirst[b] + f] = sf
+        o += sz
+
+
+# -- solve_points: all points block by block (System.solve_batch) ------------------------------
+# a block's rows, unpacked once per block: rw[rp] = kind, bi, bj, eq, row, 8 e
+
+@numba.njit([(INT, I64x2, I64, INT, INT, I64, I64, INT, BOOL, F64, INT, F64, F64, INT, F64, F64,
+              F64, INT, F64, F64, F64, F64, F64, INT, F64, F64, F64, F64, F64, I64)], **HELPER)
+def rates(kb, rw, cols, co, nj, src, dst, order, have, q, qo, c, s, cso, qd, qdd, t, to, nu,
+          fdd, R, gr, Mi, mo, J, WK, r, gm, prm, rcol):
+    """One point's block rows at its converged positions: residuals |Phi - target| into R,
+    then with order >= 1 the velocities (Phi_q qd = nu, the earlier blocks' columns known) and
+    with order >= 2 the accelerations (Phi_q qdd = gamma + f''). gr, Mi[mo:]: the rows'
+    gradients and the block's inverse at the converged positions (have: already there, else
+    evaluated here)."""
+    if not have:
+        for rp in range(kb):
+            g, _ = row_eval(rw[rp, 0], rw[rp, 1], rw[rp, 2], prm, rw[rp, 5], rw[rp, 3], q, qo,
+                            c, s, cso, q, 3, gr, 6 * rp)
+            R[to + rw[rp, 4]] = abs(g - t[to + rw[rp, 4]])
+        factor(kb, nj, src, dst, gr, J, Mi, mo, WK)
+    for rp in range(kb):
+        r[rp] = nu[to + rw[rp, 4]] - dot6(gr, 6 * rp, rcol, 6 * rw[rp, 4], qd, qo)
+    if kb == 2:
+        solve2(J, r, cols, co, qd, qo)
+    else:
+        apply(kb, Mi, mo, r, cols, co, qd, qo)
+    if have:        # the residuals, and gamma at the same time (the same terms)
+        for rp in range(kb):
+            g, gam = row_eval(rw[rp, 0], rw[rp, 1], rw[rp, 2], prm, rw[rp, 5], rw[rp, 3], q, qo,
+                              c, s, cso, qd, 5, gr, 0)
+            gm[rp] = gam
+            R[to + rw[rp, 4]] = abs(g - t[to + rw[rp, 4]])
+    if order < 2:
+        return
+    for rp in range(kb):
+        if have:
+            gam = gm[rp]
+        else:
+            _, gam = row_eval(rw[rp, 0], rw[rp, 1], rw[rp, 2], prm, rw[rp, 5], rw[rp, 3], q, qo,
+                              c, s, cso, qd, 4, gr, 0)
+        r[rp] = (gam + fdd[to + rw[rp, 4]]) - dot6(gr, 6 * rp, rcol, 6 * rw[rp, 4], qdd, qo)
+    if kb == 2:
+        solve2(J, r, cols, co, qdd, qo)
+    else:
+        apply(kb, Mi, mo, r, cols, co, qdd, qo)
+
+
+@helper
+def block(kb, b, N, W, m, nbb, nblk, nfine, rw, cols, co, nj, src, dst, affine, fixed, maxit,
+          tol, full, order, Q, Qd, Qdd, C, S, T, NU, FDD, iters, conv, ratio, sign, smin, R,
+          bfirst, bnf, bfo, bfs, MI, SZ, GB, J, WK, r, gm, sub, subinv, prm, rcol):
+    """One solve block for all points. Newton block by block as System._solve_batch: the block
+    iterates until every point of the batch has converged (so the iteration counts agree with
+    the reference); an affine block takes exactly one step, which is exact, so each point is
+    finished (rates included) in one pass."""
+    for it in range(maxit):
+        refactor = it == 0 or (full and not affine)
+        all_small = True
+        for i in range(N):
+            qo = i * W
+            cso = i * nbb
+            to = i * m
+            mo = i * kb * kb
+            if refactor:
+                for rp in range(kb):
+                    r[rp], _ = row_eval(rw[rp, 0], rw[rp, 1], rw[rp, 2], prm, rw[rp, 5],
+                                        rw[rp, 3], Q, qo, C, S, cso, Q, 3, GB, 6 * rp)
+                sm, sg = factor(kb, nj, src, dst, GB, J, MI, mo, WK)
+                if it == 0:
+                    smin[i * nblk + b] = sm
+                    if bnf[b] == 1:
+                        sign[i * nfine + bfirst[b]] = sg
+                    else:               # a merged block: the signs of its fine blocks
+                        fine_signs(kb, b, bfirst, bnf, bfo, bfs, J, sign, i * nfine, WK, sub,
+                                   subinv)
+            else:
+                for rp in range(kb):
+                    r[rp], _ = row_eval(rw[rp, 0], rw[rp, 1], rw[rp, 2], prm, rw[rp, 5],
+                                        rw[rp, 3], Q, qo, C, S, cso, Q, 1, GB, 0)
+            for rp in range(kb):
+                r[rp] -= T[to + rw[rp, 4]]
+            sz = 0.0
+            for a in range(kb):
+                dx = 0.0
+                for k in range(kb):
+                    dx += MI[mo + a * kb + k] * r[k]
+                col = cols[co + a]
+                Q[qo + col] -= dx
+                ad = abs(dx)
+                if ad > sz or ad != ad:
+                    sz = ad
+                if col % 3 == 2 and dx != 0.0:          # an angle that moved
+                    C[cso + col // 3] = np.cos(Q[qo + col])
+                    S[cso + col // 3] = np.sin(Q[qo + col])
+            if not math.isfinite(sz):
+                sz = np.inf
+            if it == 0:
+                sm0 = smin[i * nblk + b]
+                v = sz / sm0 if sm0 > 0 else np.inf
+                if v > ratio[i] or v != v:
+                    ratio[i] = v
+            if iters[i] < it + 1:
+                iters[i] = it + 1
+            if affine:
+                # one step is exact: converged unless not finite; the point is done
+                conv[i] = 1 if (conv[i] and math.isfinite(sz)) else 0
+                if order >= 1:
+                    rates(kb, rw, cols, co, nj, src, dst, order, fixed, Q, qo, C, S, cso, Qd,
+                          Qdd, T, to, NU, FDD, R, GB, MI, mo, J, WK, r, gm, prm, rcol)
+                continue
+            SZ[i] = sz
+            if not (sz <= tol):
+                all_small = False
+        if affine or all_small:
+            break
+    if affine:
+        return
+    for i in range(N):
+        conv[i] = 1 if (conv[i] and SZ[i] <= tol) else 0
+    if order < 1:
+        return
+    for i in range(N):
+        rates(kb, rw, cols, co, nj, src, dst, order, False, Q, i * W, C, S, i * nbb, Qd, Qdd,
+              T, i * m, NU, FDD, R, GB, MI, i * kb * kb, J, WK, r, gm, prm, rcol)
+
+
+@inline
+def nanmax(a, v):
+    """NaN-propagating maximum, as numpy's max."""
+    return v if (v > a or v != v) else a
+
+
+@helper
+def unpack(b, bk, boff, bcols, brows, rowel, roweq, ekind, ebi, ebj, rpos, rw, src, dst):
+    """Block b's rows into rw and its matrix entries into src, dst; returns their number."""
+    kb = bk[b]
+    nj = 0
+    for rp in range(kb):
+        row = brows[boff[b] + rp]
+        e = rowel[row]
+        rw[rp, 0] = ekind[e]
+        rw[rp, 1] = ebi[e]
+        rw[rp, 2] = ebj[e]
+        rw[rp, 3] = roweq[row]
+        rw[rp, 4] = row
+        rw[rp, 5] = 8 * e
+        for k in range(6):
+            if rpos[6 * row + k] >= 0:
+                src[nj] = 6 * rp + k
+                dst[nj] = rp * kb + rpos[6 * row + k]
+                nj += 1
+    return nj
+
+
+@jit
+def solve_points(N, W, m, nb, nblk, ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols,
+                 brows, Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, order, iters, conv, ratio,
+                 sign, smin, inblk, R, rcol, rpos, nfine, bfirst, bnf, bfo, bfs, bfix, rmax,
+                 cond):
+    """System.solve_batch for N points (kernel.solve). Arrays row-major per point, flat.
+    inblk (m): the row is in a block; R (N, m): |Phi| of every row at the results; rcol (m x 6):
+    the columns of each row's gradient entries; rpos (m x 6): where each gradient entry of a row
+    goes in its block's row (-1: another block's column); sign (N, nfine) per fine block: solve
+    block b holds bnf[b] fine blocks, the first numbered bfirst[b], their sizes bfs[bfo[b]...].
+    bfix (nblk): the block's whole gradient does not depend on its own unknowns (System
+    Block.fixed_grad: the rates reuse the Newton step's gradients and inverse, as the reference
+    does). Outputs besides: rmax (N) the largest |Phi| of each point (numpy's R.max(axis=1)),
+    cond (N) its condition estimate (planarkin.solver._cond: the largest 1 / max(smin, 1e-300)
+    over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
+    nbb = nb + 1
+    n = W - 3
+    kmax = 1
+    for b in range(nblk):
+        if bk[b] > kmax:
+            kmax = bk[b]
+    C = np.empty(N * nbb)
+    S = np.empty(N * nbb)
+    MI = np.empty(N * kmax * kmax)
+    GB = np.empty(KMAX * 6)
+    SZ = np.empty(N)
+    J = np.empty(KMAX * KMAX)
+    WK = np.empty(2 * KMAX * KMAX)
+    r = np.empty(KMAX)
+    gm = np.empty(KMAX)
+    sub = np.empty(KFINE * KFINE)
+    subinv = np.empty(KFINE * KFINE)
+    rw = np.empty((KMAX, 6), dtype=np.int64)
+    src = np.empty(KMAX * 6, dtype=np.int64)
+    dst = np.empty(KMAX * 6, dtype=np.int64)
+    for i in range(N):
+        for b in range(nbb):
+            phi = Q[i * W + 3 * b + 2]
+            if phi == 0.0 and math.copysign(1.0, phi) > 0:   # the ground, bodies that do not turn
+                C[i * nbb + b] = 1.0
+                S[i * nbb + b] = 0.0
+            else:
+                C[i * nbb + b] = np.cos(phi)
+                S[i * nbb + b] = np.sin(phi)
+        iters[i] = 0
+        conv[i] = 1
+        ratio[i] = 0.0
+        if order >= 1:
+            for a in range(n):
+                Qd[i * W + a] = 0.0
+        if order >= 2:
+            for a in range(n):
+                Qdd[i * W + a] = 0.0
+    for b in range(nblk):
+        kb = bk[b]
+        nj = unpack(b, bk, boff, bcols, brows, rowel, roweq, ekind, ebi, ebj, rpos, rw, src,
+                    dst)
+        block(kb, b, N, W, m, nbb, nblk, nfine, rw, bcols, boff[b], nj, src, dst, baff[b] != 0,
+              bfix[b] != 0, maxit, tol, full != 0, order, Q, Qd, Qdd, C, S, T, NU, FDD, iters,
+              conv, ratio, sign, smin, R, bfirst, bnf, bfo, bfs, MI, SZ, GB, J, WK, r, gm, sub,
+              subinv, eprm, rcol)
+    # per point: |Phi| of the rows outside the blocks (left out as redundant), and with order 0
+    # of all; the largest residual, the condition estimate, and no convergence where a
+    # coordinate is not finite
+    for i in range(N):
+        for row in range(m):
+            if inblk[row] and order >= 1:
+                continue
+            e = rowel[row]
+            g, _ = row_eval(ekind[e], ebi[e], ebj[e], eprm, 8 * e, roweq[row], Q, i * W, C, S,
+                            i * nbb, Q, 1, GB, 0)
+            R[i * m + row] = abs(g - T[i * m + row])
+        mx = R[i * m]
+        for row in range(1, m):
+            mx = nanmax(mx, R[i * m + row])
+        rmax[i] = mx
+        cd = 0.0
+        for b in range(nblk):
+            v = smin[i * nblk + b]
+            v = 1.0 / (v if (v >= 1e-300 or v != v) else 1e-300)
+            cd = v if b == 0 else nanmax(cd, v)
+        cond[i] = cd
+        for a in range(W):
+            if not math.isfinite(Q[i * W + a]):
+                conv[i] = 0
+                break
+
+
+# -- the grid pass's predictions and layout; the studies' cubic ----------------------------------
+@jit
+def cubic(q0, q1, q2, q3, out):
+    """A design study's prediction along a repeated parameter step (studies.batch): the cubic
+    q0 + 3 (q0 - q1) - 3 (q1 - q2) + (q2 - q3) through the last four solutions, element by
+    element in the order of the numpy lines it replaces (the same bits)."""
+    for k in range(len(out)):
+        r = (q0[k] - q1[k]) * 3.0
+        r += q0[k]
+        r -= (q1[k] - q2[k]) * 3.0
+        r += q2[k] - q3[k]
+        out[k] = r
+
+
+@jit
+def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
+    """The grid pass's predictions: quintic Hermite interpolation (planarkin.solver.hermite5,
+    the same operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of
+    W numbers."""
+    for i in range(N):
+        k = idx[i]
+        h = Tn[k + 1] - Tn[k]
+        s = (t[i] - Tn[k]) / h
+        s2 = s * s
+        s3 = s2 * s
+        s4 = s3 * s
+        s5 = s3 * s2
+        H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+        H1 = s - 6 * s3 + 8 * s4 - 3 * s5
+        H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+        H3 = 10 * s3 - 15 * s4 + 6 * s5
+        H4 = -4 * s3 + 7 * s4 - 3 * s5
+        H5 = 0.5 * s3 - s4 + 0.5 * s5
+        h1 = H1 * h
+        h2 = H2 * h * h
+        h4 = H4 * h
+        h5 = H5 * h * h
+        o0 = k * W
+        o1 = o0 + W
+        for c in range(W):
+            Q[i * W + c] = (H0 * Qn[o0 + c] + h1 * Qdn[o0 + c] + h2 * Qddn[o0 + c]
+                            + H3 * Qn[o1 + c] + h4 * Qdn[o1 + c] + h5 * Qddn[o1 + c])
+
+
+@jit
+def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd, pdd):
+    """A chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of
+    each row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
+    (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
+    planarkin.solver.point_kinematics in its order (then times L). order 0: positions only,
+    1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order)."""
+    for i in range(N):
+        o = i * W
+        for a in range(n):
+            q[i * n + a] = Q[o + a] * unit[a]
+        if order >= 1:
+            for a in range(n):
+                qd[i * n + a] = Qd[o + a] * unit[a]
+        if order >= 2:
+            for a in range(n):
+                qdd[i * n + a] = Qdd[o + a] * unit[a]
+        for k in range(P):
+            b = pbody[k]
+            x = (i * P + k) * 2
+            c = np.cos(Q[o + 3 * b + 2])
+            s = np.sin(Q[o + 3 * b + 2])
+            sx = c * ps[2 * k] - s * ps[2 * k + 1]
+            sy = s * ps[2 * k] + c * ps[2 * k + 1]
+            p[x] = (Q[o + 3 * b] + sx) * L
+            p[x + 1] = (Q[o + 3 * b + 1] + sy) * L
+            if order < 1:
+                continue
+            w = Qd[o + 3 * b + 2]
+            pd[x] = (Qd[o + 3 * b] - w * sy) * L
+            pd[x + 1] = (Qd[o + 3 * b + 1] + w * sx) * L
+            if order < 2:
+                continue
+            al = Qdd[o + 3 * b + 2]
+            pdd[x] = (Qdd[o + 3 * b] - al * sy - w * w * sx) * L
+            pdd[x + 1] = (Qdd[o + 3 * b + 1] + al * sx - w * w * sy) * L
+
+
+# the entry points' one signature each, compiled (or loaded from the cache) when a job takes
+# the route: kernel.Library.need
+SIGNATURES = {
+    "solve_points": (INT, INT, INT, INT, INT, I64, I64, I64, F64, I64, I64, I64, I64, I64, I64,
+                     I64, F64, F64, F64, F64, F64, F64, INT, DBL, INT, INT, I64, U8, F64, F64,
+                     F64, U8, F64, I64, I64, INT, I64, I64, I64, I64, I64, F64, F64),
+    "cubic": (F64, F64, F64, F64, F64),
+    "hermite": (INT, INT, F64, I64, F64, F64, F64, F64, F64),
+    "layout": (INT, INT, INT, INT, INT, F64, DBL, I64, F64, F64, F64, F64, F64, F64, F64, F64, F64,
+               F64),
+}

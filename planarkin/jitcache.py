@@ -1,0 +1,165 @@
+"""Where numba caches the compiled route (planarkin.compiled), checked before numba reads it.
+
+numba's disk cache holds pickles that it loads and runs; planarkin gives it a directory only the
+user can write and vouches for every file in it:
+
+- the directory: PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin/numba, else
+  ~/.cache/planarkin/numba, created with mode 0700; it and its entry must be directories (not
+  links) owned by the current user and not writable by group or others, else the route
+  compiles in memory only (no disk cache: slower to start, the same results);
+- an entry per source version: a subdirectory named by the hash of the compiled route's
+  sources and the Python version (numba keys its files on each file's own time stamp only,
+  and a change in one module would leave the functions of another inlined stale);
+- a manifest (manifest.json: file -> sha256) written, atomically, after every load or
+  compile; before numba is imported, every file in the entry that the manifest does not name
+  with its exact hash (truncated, garbled, foreign, or left by a process that died) is
+  deleted, so that numba compiles it again and never reads it.
+
+A lock (flock, where the platform has it) serialises processes from prepare() to record(), so
+that one process's manifest never names another's half-written files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import stat
+import sys
+from pathlib import Path
+
+SOURCES = ("compiled.py", "compiled_each.py")     # the modules numba compiles and caches
+MANIFEST = "manifest.json"
+_held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
+
+
+def base_dir() -> Path:
+    env = os.environ.get("PLANARKIN_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "planarkin" / "numba"
+
+
+def tag() -> str:
+    """The entry's name: the hash of the compiled route's sources and the Python version."""
+    h = hashlib.sha256(sys.version.encode())
+    here = Path(__file__).parent
+    for name in SOURCES:
+        h.update((here / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+def private(path: Path) -> bool:
+    """path is a directory (not a link) owned by this user, not writable by group or others
+    (where the platform has owners: elsewhere a directory will do)."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    if not stat.S_ISDIR(st.st_mode):
+        return False
+    if hasattr(os, "getuid"):
+        return st.st_uid == os.getuid() and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+    return True
+
+
+def _make(path: Path) -> bool:
+    try:
+        os.makedirs(path, mode=0o700, exist_ok=True)
+    except OSError:
+        return False
+    return private(path)
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _files(entry: Path):
+    for p in sorted(entry.rglob("*")):
+        if p.is_file() and p.name not in (MANIFEST, ".lock"):
+            yield p
+
+
+def _manifest(entry: Path) -> dict:
+    try:
+        m = json.loads((entry / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return {}
+    return m if isinstance(m, dict) else {}
+
+
+def prepare() -> Path | None:
+    """The checked cache entry for numba (NUMBA_CACHE_DIR set to it), or None: no usable
+    directory (numba then compiles without a disk cache). Deletes every file of the entry the
+    manifest does not vouch for; holds the entry's lock until record()."""
+    if "dir" in _held:            # checked already: the lock again, for another compile
+        if _held["dir"] is not None and "lock" not in _held and not _lock(_held["dir"]):
+            _held["dir"] = None
+        return _held["dir"]
+    base = base_dir()
+    entry = base / tag()
+    if not (_make(base) and _make(entry) and _lock(entry)):
+        _held["dir"] = None
+        return None
+    try:
+        known = _manifest(entry)
+        for p in _files(entry):
+            rel = p.relative_to(entry).as_posix()
+            if known.get(rel) != _digest(p):
+                p.unlink()
+    except OSError:
+        release()
+        _held["dir"] = None
+        return None
+    os.environ["NUMBA_CACHE_DIR"] = str(entry)
+    _held["dir"] = entry
+    return entry
+
+
+def _lock(entry: Path) -> bool:
+    try:
+        lock = open(entry / ".lock", "a")
+    except OSError:
+        return False
+    try:
+        import fcntl
+        fcntl.flock(lock, fcntl.LOCK_EX)
+    except ImportError:           # (no flock: Windows)
+        pass
+    except OSError:
+        lock.close()
+        return False
+    _held["lock"] = lock
+    return True
+
+
+def record() -> None:
+    """After numba loaded or compiled the route: the manifest of the entry's files as they are
+    now (written atomically), then the lock released."""
+    entry = _held.get("dir")
+    try:
+        if entry is not None and "lock" in _held:
+            m = {p.relative_to(entry).as_posix(): _digest(p) for p in _files(entry)}
+            if m != _manifest(entry):
+                tmp = entry / f".{MANIFEST}.{os.getpid()}"
+                tmp.write_text(json.dumps(m, indent=0, sort_keys=True))
+                os.replace(tmp, entry / MANIFEST)
+    except OSError:
+        pass
+    finally:
+        release()
+
+
+def release() -> None:
+    lock = _held.pop("lock", None)
+    if lock is not None:
+        lock.close()
+
+
+def forget() -> None:
+    """Release the lock and forget the checked entry: the next prepare() checks again, as a new
+    process does."""
+    release()
+    _held.clear()
