@@ -138,7 +138,8 @@ BAD = [
      "design: free must name at least one parameter"),
     ("b: [0.10, 0.14]", "b: [0.14, 0.10]",
      "design: free: b: the bounds [0.14, 0.1] must be [low, high] with low < high"),
-    ("b: [0.10, 0.14]", "bb: [0.10, 0.14]", "design: free: 'bb' is not a parameter; did you mean 'b'?"),
+    ("b: [0.10, 0.14]", "bb: [0.10, 0.14]",
+     "design: free: 'bb' is not a parameter; did you mean 'b'?"),
     ("function: rocker.phi", "function: rockr.phi", "design: target 1: function: 'rockr.phi' "
                                                      "must be BODY.x, BODY.y or BODY.phi"),
     ("inputs: [0, 60, 120, 180, 240, 300]", "inputs: [0, 60, 120]",

@@ -157,26 +157,25 @@ def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
     cache = {}
 
     def evaluate(x, sens=True):
-        key = (x.tobytes(), sens)
-        if key in cache:
-            return cache[key]
-        out = model.analyse(model.values(x))
-        if isinstance(out, Rejected):
-            res = (None, None, out)
-        else:
-            cm, _, grid = out
-            st = model.solve_at(cm, grid, D.t, sens=sens)
-            if isinstance(st, Rejected):
-                res = (None, None, st)
-            else:
-                r = (st.p[:, rows, comps] - D.y).ravel()
-                J = st.dp[:, rows, comps, :].reshape(len(r), -1) if sens else None
-                if sens:
-                    model.jacobians += 1
-                res = (r, J, st)
-        cache.clear()
-        cache[key] = res
-        return res
+        """(r, J or None, State) or (None, None, Rejected); the last state is kept, so the
+        Jacobian at the point just evaluated costs only its sensitivities."""
+        key = x.tobytes()
+        if key not in cache:
+            cache.clear()
+            out = model.analyse(model.values(x))
+            st = out if isinstance(out, Rejected) else model.solve_at(out[0], out[2], D.t,
+                                                                       sens=False)
+            cache[key] = st
+        st = cache[key]
+        if isinstance(st, Rejected):
+            return None, None, st
+        r = (st.p[:, rows, comps] - D.y).ravel()
+        J = None
+        if sens:
+            if st.dp is None:
+                model.add_sensitivities(st)
+            J = st.dp[:, rows, comps, :].reshape(len(r), -1)
+        return r, J, st
 
     r0, _, st0 = evaluate(x0)
     if r0 is None:
@@ -184,7 +183,7 @@ def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
                                      f"over the data's times: {st0.reason}")])
     m = len(r0)
     wall = np.full(m, WALL * (1 + float(np.linalg.norm(r0))))
-    fun = lambda x: (lambda r: wall if r is None else r)(evaluate(x)[0])       # noqa: E731
+    fun = lambda x: (lambda r: wall if r is None else r)(evaluate(x, False)[0])  # noqa: E731
     jac = lambda x: (lambda J: np.zeros((m, len(x))) if J is None else J)(evaluate(x)[1])  # noqa
     if bounds is None:
         sol = least_squares(fun, x0, jac=jac, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15,

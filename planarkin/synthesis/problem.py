@@ -101,7 +101,6 @@ class Model:
     def solve_at(self, cm, res, t, sens: bool = True):
         """State at times t (N,) from the analysed grid result, or Rejected."""
         from ..solver import point_kinematics
-        from ..studies.sensitivity import sensitivities
         from ..system import System
         t = np.asarray(t, dtype=float)
         L, af = cm.L, cm.angle_factor
@@ -133,13 +132,20 @@ class Model:
         Qd = _solve(S.jacobian(S.ext(Q)), NU)
         P, Pd, _ = point_kinematics(cm, Q, Qd)
         q, qd = Q / to_int, Qd / to_int
-        dq = dp = None
-        if sens and self.free:
-            texts = self.study.texts()
-            texts.update({k: float(v) for k, v in cm.spec.parameters.items()
-                          if k in self.free})
-            dq, dp = sensitivities(cm, self.study.root, texts, self.free, t, q)
-        return State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=dq, dp=dp, result=res, cm=cm)
+        st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=res, cm=cm)
+        if sens:
+            self.add_sensitivities(st)
+        return st
+
+    def add_sensitivities(self, st: State) -> None:
+        """Fill st.dq, st.dp: the exact sensitivities at the state's times (one Jacobian
+        evaluation)."""
+        from ..studies.sensitivity import sensitivities
+        self.jacobians += 1
+        cm = st.cm
+        texts = self.study.texts()
+        texts.update({k: float(v) for k, v in cm.spec.parameters.items() if k in self.free})
+        st.dq, st.dp = sensitivities(cm, self.study.root, texts, self.free, st.t, st.q)
 
     # -- the driver ------------------------------------------------------------------------
     def driver(self, cm):

@@ -72,6 +72,10 @@ class DesignSpec:
     lines: dict = field(default_factory=dict)     # free parameter -> line
 
 
+def _valid(keys) -> str:
+    return " (valid keys: " + ", ".join(keys) + ")"
+
+
 def _seq(v, node, what, size=None):
     if node.kind != "seq" or (size is not None and len(node.value) != size):
         v.err(node, f"{what} must be a list" + (f" of {size} numbers" if size else ""))
@@ -98,7 +102,7 @@ def read_design(v, node, point_names, n_drivers: int):
     for key in node.value:
         if key not in KEYS:
             v.err(node.key_lines[key], f"design: unknown key '{key}'"
-                  f"{did_you_mean(key, KEYS) or ' (valid keys: ' + ', '.join(KEYS) + ')'}")
+                  f"{did_you_mean(key, KEYS) or _valid(KEYS)}")
     free, lines = {}, {}
     fn = node.value.get("free")
     if fn is None or fn.kind != "map" or not fn.value:
@@ -108,8 +112,9 @@ def read_design(v, node, point_names, n_drivers: int):
         for name, b in fn.value.items():
             line = fn.key_lines[name]
             if name not in v.params:
-                v.err(line, f"design: free: '{name}' is not a parameter"
-                      f"{did_you_mean(name, v.params) or ' (parameters: ' + (', '.join(v.params) or 'none') + ')'}")
+                hint = did_you_mean(name, v.params) or \
+                    f" (parameters: {', '.join(v.params) or 'none'})"
+                v.err(line, f"design: free: '{name}' is not a parameter{hint}")
                 continue
             lohi = _numbers(v, b, f"design: free: {name}", 2)
             if lohi is None:
@@ -137,7 +142,7 @@ def read_design(v, node, point_names, n_drivers: int):
             for key in cn.value:
                 if key not in CONSTRAINT_KEYS:
                     v.err(cn.key_lines[key], f"design: constraints: unknown key '{key}'"
-                          f"{did_you_mean(key, CONSTRAINT_KEYS) or ' (valid keys: ' + ', '.join(CONSTRAINT_KEYS) + ')'}")
+                          f"{did_you_mean(key, CONSTRAINT_KEYS) or _valid(CONSTRAINT_KEYS)}")
             if "turns" in cn.value:
                 b = cn.value["turns"]
                 if b.kind != "scalar" or b.value not in v.body_names:
@@ -162,7 +167,7 @@ def read_design(v, node, point_names, n_drivers: int):
             for key, val in sn.value.items():
                 if key not in SEARCH:
                     v.err(sn.key_lines[key], f"design: search: unknown key '{key}'"
-                          f"{did_you_mean(key, SEARCH) or ' (valid keys: ' + ', '.join(SEARCH) + ')'}")
+                          f"{did_you_mean(key, SEARCH) or _valid(SEARCH)}")
                     continue
                 typ, lo, hi, _ = SEARCH[key]
                 x = v.number(val, f"design: search: {key}")
@@ -213,7 +218,7 @@ def _target(v, t, k, point_names, n_drivers):
     for key in t.value:
         if key not in TARGET_KEYS[kind]:
             v.err(t.key_lines[key], f"{what} ({kind}): unknown key '{key}'"
-                  f"{did_you_mean(key, TARGET_KEYS[kind]) or ' (valid keys: ' + ', '.join(TARGET_KEYS[kind]) + ')'}")
+                  f"{did_you_mean(key, TARGET_KEYS[kind]) or _valid(TARGET_KEYS[kind])}")
             ok = False
     nm = t.value[kind]
     name = nm.value if nm.kind == "scalar" else None

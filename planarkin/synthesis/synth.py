@@ -48,6 +48,7 @@ class Design:
     nfev: int = 0
     njev: int = 0
     message: str = ""
+    where: list = field(default_factory=list)   # per target: its rows of the state's times
 
 
 @dataclass
@@ -110,26 +111,26 @@ class Synthesis:
 
     # -- evaluation --------------------------------------------------------------------------
     def evaluate(self, x, jac: bool = True, final: bool = False):
-        """(residual vector, Jacobian or None, Design) or (None, None, Rejected)."""
+        """(residual vector, Jacobian or None, Design) or (None, None, Rejected). final: the
+        order of free times is a constraint too (see below)."""
         values = self.model.values(x[:self.k])
         out = self.model.analyse(values)
         if isinstance(out, Rejected):
             return None, None, out
         cm, opts, res = out
         tfree = self.wrapped(x[self.k:])
-        times, where, dtdp = [], [], []
+        times, where, inputs = [], [], []
         for i, tg in enumerate(self.design.targets):
             if tg.inputs is not None:
                 tt = self.model.times_of(cm, res, tg.inputs)
                 if isinstance(tt, Rejected):
                     return None, None, tt
-                dtdp.append(self.model.input_dtdp(cm, tt) if jac else None)
+                inputs.append(i)
             else:
                 tt = np.array([tfree[self.free_t.index((i, j))] for j in range(len(tg))])
-                dtdp.append(None)
             where.append(slice(len(times), len(times) + len(tt)))
             times += list(tt)
-        st = self.model.solve_at(cm, res, np.array(times), sens=jac)
+        st = self.model.solve_at(cm, res, np.array(times), sens=False)
         if isinstance(st, Rejected):
             return None, None, st
         margins = self.margins(cm, res, tfree)
@@ -139,22 +140,28 @@ class Synthesis:
                if not m["ok"] and (final or k != "order")]
         if bad:
             return None, None, Rejected("constraint " + "; ".join(bad))
-        if jac:
-            self.model.jacobians += 1
-        r, J, per = [], [], []
+        per, r = [], []
         for i, tg in enumerate(self.design.targets):
-            sl = where[i]
-            rr, jj = self._target(tg, i, st, sl, dtdp[i], jac)
+            rr, _ = self._target(tg, i, st, where[i], None, False)
             per.append(rr)
             r.append(rr.ravel() * tg.weight)
-            if jac:
-                J.append(jj * tg.weight)
         r = np.concatenate(r)
-        J = np.concatenate(J) if jac else None
         d = Design(x=np.array(x, dtype=float), values=values,
                    times=[st.t[sl].tolist() for sl in where], cost=float(r @ r),
                    residuals=per, margins=margins, state=st)
-        return r, J, d
+        d.where = where
+        return r, (self.jacobian(d) if jac else None), d
+
+    def jacobian(self, d: Design) -> np.ndarray:
+        """The exact Jacobian of an evaluated design's residuals (len(r), k + nt)."""
+        st = d.state
+        self.model.add_sensitivities(st)
+        J = []
+        for i, tg in enumerate(self.design.targets):
+            sl = d.where[i]
+            dtdp = self.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
+            J.append(self._target(tg, i, st, sl, dtdp, True)[1] * tg.weight)
+        return np.concatenate(J)
 
     def _target(self, tg, i, st, sl, dtdp, jac):
         """Residuals (N, c) of one target and their Jacobian rows (N c, k + nt)."""
@@ -334,19 +341,19 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
             key = x.tobytes()
             if key not in cache:
                 cache.clear()
-                r, J, d = syn.evaluate(x)
-                cache[key] = (r, J, d)
+                cache[key] = syn.evaluate(x, jac=False)
             r = cache[key][0]
             return wall if r is None else r
 
-        def jac(x):
+        def jac(x):         # least_squares asks at the point it has just evaluated
             fun(x)
-            J = cache[x.tobytes()][1]
-            return np.zeros((len(wall), len(x))) if J is None else J
+            r, _, d = cache[x.tobytes()]
+            return np.zeros((len(wall), len(x))) if r is None else syn.jacobian(d)
 
         budget = max(1, cfg["evaluations"] - syn.model.evaluations)
         e0, j0 = syn.model.evaluations, syn.model.jacobians
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=np.where(span > 0, span, 1.0),
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
+                            x_scale=np.where(span > 0, span, 1.0),
                             ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=min(budget, 400))
         r, _, d = syn.evaluate(sol.x, final=True)
         if r is None:
