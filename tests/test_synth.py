@@ -167,3 +167,16 @@ def test_no_design_block_is_refused(tmp_path):
     r = CliRunner().invoke(main, ["synth", str(ROOT / "mechanisms" / "four-bar.yaml"), "--out",
                                   str(tmp_path)])
     assert r.exit_code == 2 and "the model has no design: block" in r.output
+
+
+def test_order_along_the_path_either_direction():
+    """Free times in cyclic order (forwards or backwards, over the end of the cycle) pass; a
+    sequence that goes back and forth does not."""
+    syn = Synthesis(LINE)
+    syn.wrap = True
+    t = np.array
+    assert syn._in_order(t([0.1, 0.2, 0.3])) > 0
+    assert syn._in_order(t([0.8, 0.9, 0.05])) > 0            # over the end of the cycle
+    assert max(syn._in_order(t([0.3, 0.2, 0.1])), syn._in_order(t([0.1, 0.2, 0.3]))) > 0
+    bad = t([0.1, 0.3, 0.2, 0.4])
+    assert max(syn._in_order(bad), syn._in_order(bad[::-1])) < 0

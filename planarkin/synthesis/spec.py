@@ -10,7 +10,9 @@
         turns: crank                          # the driven link turns fully over the range
         transmission: {points: [B, C, D], min: 30}
         order: true                           # free-timing targets in order along the path
-      search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12}
+                                              # (either direction: the input may turn back)
+      search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12, evaluations: 2000,
+               per_local: 300}       # per_local: evaluations of one local run
 
 Targets are in the model's units (length unit for points, angle unit for angles); `inputs` are
 values of the model's one driver (its f, in its unit); without them the timing is free (the
@@ -34,7 +36,8 @@ TARGET_KEYS = {"path": ("path", "points", "inputs", "weight"),
 CONSTRAINT_KEYS = ("turns", "transmission", "order")
 SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
           "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
-          "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000)}
+          "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
+          "per_local": (int, 1, 10**6, 300)}
 QUANTITIES = ("x", "y", "phi")
 
 
