@@ -180,3 +180,9 @@ def test_order_along_the_path_either_direction():
     assert max(syn._in_order(t([0.3, 0.2, 0.1])), syn._in_order(t([0.1, 0.2, 0.3]))) > 0
     bad = t([0.1, 0.3, 0.2, 0.4])
     assert max(syn._in_order(bad), syn._in_order(bad[::-1])) < 0
+
+
+def test_jacobian_six_bar_function_generation():
+    """Stephenson III six-bar: the output link's angle through the dyad's lengths."""
+    syn = Synthesis(EX / "six-bar-output.yaml")
+    _check(syn, [0.155, 0.105])

@@ -144,7 +144,7 @@ def _plot_synth(res, path):
         if tg.kind == "function":
             ax.plot(tg.inputs, v, "o", mfc="none", color="k", label="targets")
             ax.set_xlabel(f"input [{syn.unit}]")
-            ax.set_ylabel(tg.name)
+            ax.set_ylabel(f"{tg.name} [{syn.unit if tg.name.endswith('.phi') else syn.lunit}]")
         else:
             ax.plot(v[:, 0], v[:, 1], "o", mfc="none", color="k", ms=9, label="targets")
             ax.set_aspect("equal", adjustable="datalim")
