@@ -13,7 +13,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["load", "solve", "InputError", "__version__"]
+__all__ = ["load", "solve", "synthesize", "fit", "InputError", "__version__"]
 
 
 def __getattr__(name):
@@ -51,3 +51,21 @@ def solve(model, **options):
     opts = resolve(model, options, source="api")
     _, result = analyse(model, opts)
     return result
+
+
+def synthesize(path, overrides=None, **options):
+    """Synthesis of the model file's design: block (planarkin.synthesis.synth): options steps,
+    starts, local, keep, seed, goal, evaluations. Returns a SynthResult (status 0 designs found,
+    1 none acceptable; designs best first, each with values, cost, residuals, margins); invalid
+    input raises InputError."""
+    from .synthesis.synth import synthesize as run
+    steps = options.pop("steps", None)
+    return run(path, overrides, {"steps": steps}, **options)
+
+
+def fit(path, data, free=None, overrides=None, steps=None):
+    """Estimate the parameters `free` (default: the design: block's free) of the model file from
+    tracked point data (a CSV: t [s], POINT.x [UNIT], POINT.y [UNIT]). Returns a FitResult
+    (estimate, se, corr, residuals, rms); invalid input raises InputError."""
+    from .synthesis.fit import fit as run
+    return run(path, data, free, overrides, {"steps": steps})

@@ -466,3 +466,95 @@ def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, 
     report.ok(model_path, f"{samples} samples, {failed} failed, {time.perf_counter() - t0:.2f} s "
                           f"-> {outdir}/tolerance.csv")
     sys.exit(report.exit_code)
+
+
+# -- synthesis and identification (planarkin.synthesis) ----------------------------------------
+def _synthesis_errors(model_path, report, call):
+    """Run call(); InputError and OutputError are reported (exit 2), None returned."""
+    from .diagnostics import Diagnostic, InputError
+    from .output.directory import OutputError
+    try:
+        return call()
+    except InputError as e:
+        report.invalid(model_path, e.diagnostics)
+    except OutputError as e:
+        report.invalid(model_path, [Diagnostic(model_path, None, str(e))])
+    return None
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out",
+              show_default=True, help="Writes DIR/<file stem>/ (designs, residuals, plot).")
+@click.option("--starts", type=click.IntRange(1, 100_000),
+              help="Latin-hypercube starts (default: design: search: starts).")
+@click.option("--local", type=click.IntRange(1, 10_000), help="Local least-squares runs.")
+@click.option("--keep", type=click.IntRange(1, 1000), help="Distinct designs kept.")
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), help="Seed of the starts.")
+@click.option("--goal", type=click.FloatRange(0), help="Sum of squares a design must reach.")
+@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals per design.")
+@click.option("--no-plots", is_flag=True, help="Skip synth.png.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+def synth(model_path, out, starts, local, keep, seed, goal, steps, no_plots, quiet, overrides):
+    """Find the free parameters of MODEL's design: block that meet its targets (path, function
+    or motion generation) under its constraints. Writes the best designs as ready-to-run models.
+    Exit status: 0 designs found, 1 none acceptable, 2 invalid input."""
+    from .synthesis.output import write_synth
+    from .synthesis.synth import synthesize
+    report = Report(quiet)
+    res = _synthesis_errors(model_path, report, lambda: synthesize(
+        model_path, overrides, {"steps": steps}, starts=starts, local=local, keep=keep,
+        seed=seed, goal=goal))
+    if res is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    if _synthesis_errors(model_path, report, lambda: write_synth(
+            res, outdir, None if no_plots else "png")) is None:
+        sys.exit(report.exit_code)
+    detail = (f"{res.message}; {res.evaluations} evaluations, {res.jacobians} Jacobians, "
+              f"{res.seconds:.2f} s -> {outdir}/")
+    if res.status == 0:
+        report.ok(model_path, detail)
+    else:
+        report.failed(model_path, res.message, detail)
+    sys.exit(report.exit_code)
+
+
+@main.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--data", "data", required=True, type=click.Path(),
+              help="CSV of tracked points: t [s], POINT.x [UNIT], POINT.y [UNIT], ...")
+@click.option("--free", "free", multiple=True, metavar="NAME",
+              help="A parameter to estimate (repeatable; default: design: free).")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="out",
+              show_default=True, help="Writes DIR/<file stem>/ (estimates, residuals, plot).")
+@click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals.")
+@click.option("--no-plots", is_flag=True, help="Skip fit.png.")
+@click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
+@_set_option
+def fit(model_path, data, free, out, steps, no_plots, quiet, overrides):
+    """Estimate parameters of MODEL from measured point trajectories (Levenberg-Marquardt with
+    exact sensitivities): estimates, standard errors, correlations, residuals.
+    Exit status: 0 fitted, 1 not identifiable or failed, 2 invalid input."""
+    from .synthesis.fit import fit as run_fit
+    from .synthesis.output import write_fit
+    report = Report(quiet)
+    res = _synthesis_errors(model_path, report, lambda: run_fit(
+        model_path, data, list(free) or None, overrides, {"steps": steps}))
+    if res is None:
+        sys.exit(report.exit_code)
+    outdir = Path(out) / Path(model_path).stem
+    if _synthesis_errors(model_path, report, lambda: write_fit(
+            res, outdir, None if no_plots else "png")) is None:
+        sys.exit(report.exit_code)
+    if not quiet:
+        for i, n in enumerate(res.names):
+            click.echo(f"  {n} = {res.estimate[i]:.10g} +- {res.se[i]:.3g}")
+    detail = (f"{res.message}; {res.evaluations} evaluations, {res.jacobians} Jacobians, "
+              f"{res.seconds:.2f} s -> {outdir}/")
+    if res.status == 0:
+        report.ok(model_path, detail)
+    else:
+        report.failed(model_path, res.message, detail)
+    sys.exit(report.exit_code)

@@ -25,7 +25,7 @@ from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output", "gravity", "loads", "links", "ground", "sliders", "slots",
             "measures",
-            "lengths")
+            "lengths", "design")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
 UNIT_RE = re.compile(r"[A-Za-z\u00b5\u03bc]{1,12}\Z")    # m, mm, in, ft, um, µm ...
@@ -241,6 +241,8 @@ class _Validator:
         from ..measures import read_measures
         measures = read_measures(self, root.value.get("measures"), [p.name for p in points],
                                  {el.name: el for el in joints if el.name})
+        from ..synthesis.spec import read_design
+        read_design(self, root.value.get("design"), [p.name for p in points], len(drivers))
         analysis = self.analysis(root.value.get("analysis"))
         self.check_drivers(drivers, analysis)
         output = self.output(root.value.get("output"), points, drivers)

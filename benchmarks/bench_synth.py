@@ -1,0 +1,86 @@
+"""Synthesis and fitting targets of issue 20, measured.
+
+1. Six collinear points (20, 20), (20, 25), ..., (20, 45) mm, no prescribed timing, a four-bar
+   with free ground pivot, ground angle and lengths (mechanisms/synthesis/straight-line.yaml:
+   9 parameters + 6 crank times = 15 unknowns; constraints: the crank turns fully (Grashof,
+   crank shortest), targets in order along the path; error: sum of squared distances, mm^2).
+   Target: SSE < 1e-12 in >= 95 % of 20 seeds. Reports per seed the best SSE, the function
+   and Jacobian evaluations and the time.
+2. fit: mechanisms/four-bar.yaml's coupler point P at 49 times (one cycle), 0.1 mm Gaussian
+   noise on x and y, a, b, c, d free from 2-5 % off: the fraction of (trial, parameter) pairs
+   with the true value within 2 standard errors (target >= 90 % of 100 trials); exact data:
+   the largest parameter error (target 1e-9).
+
+    /tmp/venv/bin/python benchmarks/bench_synth.py [--seeds 20] [--trials 100]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from common import ROOT  # noqa: F401 (puts the checkout first on sys.path)
+
+
+def straight_line(seeds: int) -> None:
+    from planarkin.synthesis.synth import synthesize
+    model = ROOT / "mechanisms" / "synthesis" / "straight-line.yaml"
+    ok = 0
+    print("seed  best SSE [mm^2]  evaluations  jacobians  seconds")
+    for seed in range(seeds):
+        r = synthesize(model, seed=seed)
+        best = r.designs[0].cost if r.designs else float("nan")
+        ok += best < 1e-12
+        print(f"{seed:4d}  {best:15.3e}  {r.evaluations:11d}  {r.jacobians:9d}  "
+              f"{r.seconds:7.1f}", flush=True)
+    print(f"straight line: SSE < 1e-12 in {ok} of {seeds} seeds (target >= 95 %)")
+
+
+def fitting(trials: int) -> None:
+    import planarkin
+    four = ROOT / "mechanisms" / "four-bar.yaml"
+    true = np.array([0.04, 0.12, 0.1, 0.1])
+    start = {"a": 0.042, "b": 0.118, "c": 0.103, "d": 0.098}
+    res = planarkin.solve(planarkin.load(four), steps=48)
+    P = res.point("P")
+    rng = np.random.default_rng(2026)
+    tmp = Path(tempfile.mkdtemp())
+
+    def write(x, y):
+        p = tmp / "d.csv"
+        p.write_text("t [s],P.x [m],P.y [m]\n" + "".join(
+            f"{float(a)!r},{float(b)!r},{float(c)!r}\n" for a, b, c in zip(res.t, x, y)))
+        return p
+
+    r = planarkin.fit(four, write(P["x"], P["y"]), ["a", "b", "c", "d"], overrides=start)
+    print(f"fit, exact data: largest parameter error {np.abs(r.estimate - true).max():.2e} m "
+          f"(target 1e-9), {r.evaluations} evaluations, {r.seconds:.2f} s")
+    hits, t0, evals = 0, time.perf_counter(), []
+    for k in range(trials):
+        r = planarkin.fit(four, write(P["x"] + 1e-4 * rng.standard_normal(len(res.t)),
+                                      P["y"] + 1e-4 * rng.standard_normal(len(res.t))),
+                          ["a", "b", "c", "d"], overrides=start)
+        hits += int((np.abs(r.estimate - true) <= 2 * r.se).sum())
+        evals.append(r.evaluations)
+    print(f"fit, 0.1 mm noise: true within 2 se in {hits} of {4 * trials} (trial, parameter) "
+          f"pairs = {100 * hits / (4 * trials):.1f} % (target >= 90 %); evaluations median "
+          f"{int(np.median(evals))}, {(time.perf_counter() - t0) / trials:.2f} s per fit")
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seeds", type=int, default=20)
+    ap.add_argument("--trials", type=int, default=100)
+    ap.add_argument("--only", choices=("line", "fit"))
+    a = ap.parse_args()
+    print("load:", os.getloadavg())
+    if a.only != "fit":
+        straight_line(a.seeds)
+    if a.only != "line":
+        fitting(a.trials)
+    print("load:", os.getloadavg())

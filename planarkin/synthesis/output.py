@@ -1,0 +1,222 @@
+"""Result directories of `planarkin synth` and `planarkin fit` (the output contract of `run`:
+one directory per model, put in place whole by planarkin.output.directory.ResultDirectory, with
+a summary.json).
+
+synth: summary.json, designs.csv (one row per design: cost, parameters, free times),
+residuals.csv (per target point and constraint), design-1.yaml ... (ready-to-run models),
+synth.png (targets against the achieved path, law or poses).
+fit: summary.json, estimates.csv (estimate, standard error, correlations), residuals.csv,
+fitted.yaml, fit.png (measured against fitted trajectories).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+
+
+def model_yaml(path, values: dict, q0=None, header: str = "") -> str:
+    """The model file's data with `values` as its parameters, the bodies' estimates replaced by
+    the assembled pose q0 (user units, file order) so that it assembles on the same branch, and
+    no design block: a model `planarkin run` analyses as it stands."""
+    import yaml
+    with open(path, encoding="utf-8") as f:
+        data = yaml.safe_load(f)
+    data.pop("design", None)
+    params = data.setdefault("parameters", {})
+    for k, v in values.items():
+        params[k] = float(v)
+    if q0 is not None and isinstance(data.get("bodies"), dict):
+        for k, name in enumerate(data["bodies"]):
+            if isinstance(data["bodies"][name], dict):
+                data["bodies"][name]["q"] = [float(v) for v in q0[3 * k:3 * k + 3]]
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
+    return "".join(f"# {line}\n" for line in header.splitlines()) + text
+
+
+def _write_csv(path, head, rows):
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(head)
+        for r in rows:
+            w.writerow([f"{x:.17g}" if isinstance(x, float) else x for x in r])
+
+
+def _json(x):
+    if isinstance(x, dict):
+        return {k: _json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.ndarray):
+        return _json(x.tolist())
+    return x
+
+
+def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
+    from ..output.directory import ResultDirectory
+    syn = res.model
+    rd = ResultDirectory(Path(outdir))
+    try:
+        names = list(syn.design.free)
+        _write_csv(rd.path("designs.csv"),
+                   ["design", "cost"] + names + [f"t{j + 1} [s]" for j in range(syn.nt)]
+                   + ["evaluations", "jacobians"],
+                   [[k + 1, d.cost] + [d.values[n] for n in names] + list(d.x[syn.k:])
+                    + [d.nfev, d.njev] for k, d in enumerate(res.designs)])
+        rows = []
+        for k, d in enumerate(res.designs):
+            for tg, R, times in zip(syn.design.targets, d.residuals, d.times):
+                for e in range(len(R)):
+                    rows.append([k + 1, tg.label, e + 1, times[e]] + list(R[e]) +
+                                [""] * (3 - R.shape[1]) + [float(np.linalg.norm(R[e]))])
+            for name, m in d.margins.items():
+                rows.append([k + 1, f"constraint {name}", "", "", m["value"], "", "",
+                             "ok" if m["ok"] else "violated"])
+        _write_csv(rd.path("residuals.csv"),
+                   ["design", "target", "index", "t [s]", "r1", "r2", "r3", "norm / margin"],
+                   rows)
+        files = []
+        for k, d in enumerate(res.designs):
+            st = d.state
+            fn = f"design-{k + 1}.yaml"
+            files.append(fn)
+            header = (f"design {k + 1} of planarkin synth {syn.model.path}: sum of squared "
+                      f"residuals {d.cost:.6g}\nparameters: " +
+                      ", ".join(f"{n} = {v:.10g}" for n, v in d.values.items()))
+            rd.path(fn).write_text(model_yaml(syn.model.path, d.values,
+                                              st.result.q[0] if st is not None else None,
+                                              header), encoding="utf-8")
+        if plots and res.designs:
+            _plot_synth(res, rd.path(f"synth.{plots}"))
+        summary = {"planarkin": __version__, "command": "synth", "model": syn.model.path,
+                   "status": "ok" if res.status == 0 else "failed", "message": res.message,
+                   "evaluations": res.evaluations, "jacobians": res.jacobians,
+                   "seconds": res.seconds, "rejected_starts": res.rejected,
+                   "designs": [{"file": f, "cost": d.cost, "parameters": d.values,
+                                "times": d.times, "margins": d.margins,
+                                "evaluations": d.nfev, "jacobians": d.njev}
+                               for f, d in zip(files, res.designs)]}
+        rd.path("summary.json").write_text(json.dumps(_json(summary), indent=2),
+                                           encoding="utf-8")
+    except BaseException:
+        rd.abandon()
+        raise
+    rd.commit()
+    return Path(outdir)
+
+
+def _plot_synth(res, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    syn = res.model
+    tgs = syn.design.targets
+    fig, axes = plt.subplots(1, len(tgs), figsize=(5.5 * len(tgs), 5), squeeze=False)
+    for ax, (i, tg) in zip(axes[0], enumerate(tgs)):
+        for k, d in enumerate(res.designs):
+            st = d.state
+            grid = st.result
+            sty = dict(lw=1.5 if k == 0 else 0.8, alpha=1.0 if k == 0 else 0.5)
+            if tg.kind == "function":
+                body, _, qty = tg.name.rpartition(".")
+                col = 3 * syn.bodies.index(body) + ("x", "y", "phi").index(qty)
+                u = syn.model.input_values(st.cm, grid.t)
+                ax.plot(u, grid.q[:, col], label=f"design {k + 1}", **sty)
+            else:
+                j = syn.points.index(tg.point if tg.kind == "motion" else tg.name)
+                ax.plot(grid.p[:, j, 0], grid.p[:, j, 1], label=f"design {k + 1}", **sty)
+                if k == 0:
+                    idx = slice(sum(len(x) for x in d.times[:i]),
+                                sum(len(x) for x in d.times[:i + 1]))
+                    ax.plot(st.p[idx, j, 0], st.p[idx, j, 1], "x", color="C0", ms=8,
+                            label="achieved")
+        v = np.array(tg.values, dtype=float)
+        if tg.kind == "function":
+            ax.plot(tg.inputs, v, "o", mfc="none", color="k", label="targets")
+            ax.set_xlabel(f"input [{syn.unit}]")
+            ax.set_ylabel(f"{tg.name} [{syn.unit if tg.name.endswith('.phi') else syn.lunit}]")
+        else:
+            ax.plot(v[:, 0], v[:, 1], "o", mfc="none", color="k", ms=9, label="targets")
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_xlabel(f"x [{syn.lunit}]")
+            ax.set_ylabel(f"y [{syn.lunit}]")
+        ax.set_title(tg.label)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"{Path(syn.model.path).stem}: best sum of squares "
+                 f"{res.designs[0].cost:.3g}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def write_fit(res, outdir: Path, plots: str | None = "png") -> Path:
+    from ..output.directory import ResultDirectory
+    rd = ResultDirectory(Path(outdir))
+    try:
+        names = res.names
+        _write_csv(rd.path("estimates.csv"),
+                   ["parameter", "estimate", "standard error", "start"] +
+                   [f"corr {n}" for n in names],
+                   [[n, float(res.estimate[i]), float(res.se[i]), float(res.start[i])] +
+                    [float(c) for c in res.corr[i]] for i, n in enumerate(names)])
+        D = res.data
+        _write_csv(rd.path("residuals.csv"), ["t [s]"] + [f"{c[2]} residual" for c in
+                                                         D.columns],
+                   [[float(t)] + [float(x) for x in row] for t, row in zip(D.t, res.residuals)])
+        m = res.model
+        st = res.state
+        rd.path("fitted.yaml").write_text(model_yaml(
+            m.path, dict(zip(names, res.estimate)), st.result.q[0] if st is not None else None,
+            f"planarkin fit {m.path}: rms residual {res.rms:.6g}"), encoding="utf-8")
+        if plots and st is not None:
+            _plot_fit(res, rd.path(f"fit.{plots}"))
+        summary = {"planarkin": __version__, "command": "fit", "model": m.path,
+                   "status": "ok" if res.status == 0 else "failed", "message": res.message,
+                   "parameters": {n: {"estimate": res.estimate[i], "se": res.se[i],
+                                      "start": res.start[i]} for i, n in enumerate(names)},
+                   "correlation": res.corr, "rms_residual": res.rms, "dof": res.dof,
+                   "evaluations": res.evaluations, "jacobians": res.jacobians,
+                   "seconds": res.seconds}
+        rd.path("summary.json").write_text(json.dumps(_json(summary), indent=2),
+                                           encoding="utf-8")
+    except BaseException:
+        rd.abandon()
+        raise
+    rd.commit()
+    return Path(outdir)
+
+
+def _plot_fit(res, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    D, st = res.data, res.state
+    pts = sorted({c[0] for c in D.columns})
+    fig, ax = plt.subplots(figsize=(6, 5))
+    cm = st.cm
+    for p in pts:
+        cx = [k for k, c in enumerate(D.columns) if c[0] == p and c[1] == 0]
+        cy = [k for k, c in enumerate(D.columns) if c[0] == p and c[1] == 1]
+        name = cm.point_names[p]
+        if cx and cy:
+            ax.plot(D.y[:, cx[0]], D.y[:, cy[0]], ".", ms=3, label=f"{name} measured")
+            ax.plot(st.p[:, p, 0], st.p[:, p, 1], "-", lw=1, label=f"{name} fitted")
+    ax.set_aspect("equal", adjustable="datalim")
+    u = cm.spec.length_unit
+    ax.set_xlabel(f"x [{u}]")
+    ax.set_ylabel(f"y [{u}]")
+    ax.set_title(f"fit: rms residual {res.rms:.3g} {u}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,348 @@
+"""The `design:` block of a model file: free parameters, targets, constraints, search settings.
+
+    design:
+      free: {a: [5, 60], b: [5, 60]}        # parameters of `parameters:` with [low, high] bounds
+      targets:
+        - {path: P, points: [[20, 20], [20, 25]], inputs: [0, 30]}     # inputs optional
+        - {function: rocker.phi, inputs: [0, 30, 60], outputs: [80, 92, 101]}
+        - {motion: coupler, point: P, poses: [[x, y, phi], ...], inputs: [...]}
+      constraints:
+        turns: crank                          # the driven link turns fully over the range
+        transmission: {points: [B, C, D], min: 30}
+        order: true                           # free-timing targets in order along the path
+                                              # (either direction: the input may turn back)
+      search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12, evaluations: 2000,
+               per_local: 300}       # per_local: evaluations of one local run
+
+Targets are in the model's units (length unit for points, angle unit for angles); `inputs` are
+values of the model's one driver (its f, in its unit); without them the timing is free (the
+input values are extra unknowns). Validated with the rest of the file (planarkin.model.validate
+calls `read_design`), so every problem is a FILE:LINE error; `design_of` gives the DesignSpec of
+a validated model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..diagnostics import Collector, Diagnostic, InputError, did_you_mean
+
+KEYS = ("free", "targets", "constraints", "search")
+TARGET_KINDS = ("path", "function", "motion")
+TARGET_KEYS = {"path": ("path", "points", "inputs", "weight"),
+               "function": ("function", "inputs", "outputs", "weight"),
+               "motion": ("motion", "point", "poses", "inputs", "weight")}
+CONSTRAINT_KEYS = ("turns", "transmission", "order")
+SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
+          "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
+          "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
+          "per_local": (int, 1, 10**6, 300)}
+QUANTITIES = ("x", "y", "phi")
+
+
+@dataclass(frozen=True)
+class Target:
+    """One target. kind 'path' | 'function' | 'motion'; name: the point (path), BODY.QUANTITY
+    (function) or body (motion); point: the motion's point; values: (N, 2) points, (N,) outputs
+    or (N, 3) poses in user units; inputs: (N,) driver values or None (free timing)."""
+
+    kind: str
+    name: str
+    point: str | None
+    values: tuple
+    inputs: tuple | None
+    weight: float
+    line: int
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind} {self.name}" + (f" ({self.point})" if self.point else "")
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+
+@dataclass(frozen=True)
+class DesignSpec:
+    free: dict                          # name -> (low, high), user units
+    targets: tuple
+    turns: str | None = None
+    transmission: tuple | None = None   # ((B, C, D), min angle in the model's angle unit)
+    order: bool = True
+    search: dict = field(default_factory=dict)
+    line: int = 0
+    lines: dict = field(default_factory=dict)     # free parameter -> line
+
+
+def _valid(keys) -> str:
+    return " (valid keys: " + ", ".join(keys) + ")"
+
+
+def _seq(v, node, what, size=None):
+    if node.kind != "seq" or (size is not None and len(node.value) != size):
+        v.err(node, f"{what} must be a list" + (f" of {size} numbers" if size else ""))
+        return None
+    return node.value
+
+
+def _numbers(v, node, what, size):
+    items = _seq(v, node, what, size)
+    if items is None:
+        return None
+    out = [v.number(n, what) for n in items]
+    return None if any(x is None for x in out) else tuple(out)
+
+
+def read_design(v, node, point_names, n_drivers: int):
+    """Validate a design node (None: no design block). v: the validator (err, number, params,
+    body_names); returns a DesignSpec or None, every problem reported through v.err."""
+    if node is None:
+        return None
+    if node.kind != "map":
+        v.err(node, "design must be a mapping with keys " + ", ".join(KEYS))
+        return None
+    for key in node.value:
+        if key not in KEYS:
+            v.err(node.key_lines[key], f"design: unknown key '{key}'"
+                  f"{did_you_mean(key, KEYS) or _valid(KEYS)}")
+    free, lines = {}, {}
+    fn = node.value.get("free")
+    if fn is None or fn.kind != "map" or not fn.value:
+        v.err(fn if fn is not None else node, "design: free must name at least one parameter "
+              "with its bounds, e.g. free: {a: [0.02, 0.08]}")
+    else:
+        for name, b in fn.value.items():
+            line = fn.key_lines[name]
+            if name not in v.params:
+                hint = did_you_mean(name, v.params) or \
+                    f" (parameters: {', '.join(v.params) or 'none'})"
+                v.err(line, f"design: free: '{name}' is not a parameter{hint}")
+                continue
+            lohi = _numbers(v, b, f"design: free: {name}", 2)
+            if lohi is None:
+                continue
+            if not lohi[0] < lohi[1]:
+                v.err(b, f"design: free: {name}: the bounds [{lohi[0]:g}, {lohi[1]:g}] must be "
+                         f"[low, high] with low < high")
+                continue
+            free[name] = lohi
+            lines[name] = line
+    targets = []
+    tn = node.value.get("targets")
+    if tn is not None:
+        for k, t in enumerate(_seq(v, tn, "design: targets") or (), start=1):
+            tg = _target(v, t, k, point_names, n_drivers)
+            if tg is not None:
+                targets.append(tg)
+    turns, trans, order = None, None, True
+    cn = node.value.get("constraints")
+    if cn is not None:
+        if cn.kind != "map":
+            v.err(cn, "design: constraints must be a mapping with keys "
+                  + ", ".join(CONSTRAINT_KEYS))
+        else:
+            for key in cn.value:
+                if key not in CONSTRAINT_KEYS:
+                    v.err(cn.key_lines[key], f"design: constraints: unknown key '{key}'"
+                          f"{did_you_mean(key, CONSTRAINT_KEYS) or _valid(CONSTRAINT_KEYS)}")
+            if "turns" in cn.value:
+                b = cn.value["turns"]
+                if b.kind != "scalar" or b.value not in v.body_names:
+                    v.err(b, f"design: constraints: turns must name a moving body"
+                          f"{did_you_mean(str(b.value), v.body_names)}")
+                else:
+                    turns = b.value
+            if "transmission" in cn.value:
+                trans = _transmission(v, cn.value["transmission"], point_names)
+            if "order" in cn.value:
+                o = cn.value["order"]
+                if o.kind != "scalar" or not isinstance(o.value, bool):
+                    v.err(o, "design: constraints: order must be true or false")
+                else:
+                    order = o.value
+    search = {k: d for k, (_, _, _, d) in SEARCH.items()}
+    sn = node.value.get("search")
+    if sn is not None:
+        if sn.kind != "map":
+            v.err(sn, "design: search must be a mapping with keys " + ", ".join(SEARCH))
+        else:
+            for key, val in sn.value.items():
+                if key not in SEARCH:
+                    v.err(sn.key_lines[key], f"design: search: unknown key '{key}'"
+                          f"{did_you_mean(key, SEARCH) or _valid(SEARCH)}")
+                    continue
+                typ, lo, hi, _ = SEARCH[key]
+                x = v.number(val, f"design: search: {key}")
+                if x is None:
+                    continue
+                if (typ is int and x != int(x)) or not lo <= x <= hi:
+                    v.err(val, f"design: search: {key} must be "
+                               f"{'a whole number' if typ is int else 'a number'} from {lo:g} "
+                               f"to {hi:g}, not {x:g}")
+                    continue
+                search[key] = typ(x)
+    return DesignSpec(free=free, targets=tuple(targets), turns=turns, transmission=trans,
+                      order=order, search=search, line=node.line, lines=lines)
+
+
+def _transmission(v, node, point_names):
+    what = "design: constraints: transmission"
+    if node.kind != "map" or set(node.value) != {"points", "min"}:
+        v.err(node, f"{what} must be {{points: [B, C, D], min: ANGLE}} (the angle at C between "
+                    f"C -> B and C -> D, kept between min and 180 - min)")
+        return None
+    pts = _seq(v, node.value["points"], f"{what}: points", 3)
+    mn = v.number(node.value["min"], f"{what}: min")
+    if pts is None or mn is None:
+        return None
+    names = []
+    for p in pts:
+        if p.kind != "scalar" or p.value not in point_names:
+            v.err(p, f"{what}: '{p.value}' is not a point of the model"
+                     f"{did_you_mean(str(p.value), point_names)}")
+            return None
+        names.append(p.value)
+    return tuple(names), mn
+
+
+def _target(v, t, k, point_names, n_drivers):
+    what = f"design: target {k}"
+    if t.kind != "map":
+        v.err(t, f"{what} must be a mapping with one of the keys {', '.join(TARGET_KINDS)}")
+        return None
+    kinds = [kk for kk in TARGET_KINDS if kk in t.value]
+    if len(kinds) != 1:
+        v.err(t, f"{what} needs exactly one of the keys {', '.join(TARGET_KINDS)} "
+                 f"(path: POINT, function: BODY.QUANTITY, motion: BODY)")
+        return None
+    kind = kinds[0]
+    ok = True
+    for key in t.value:
+        if key not in TARGET_KEYS[kind]:
+            v.err(t.key_lines[key], f"{what} ({kind}): unknown key '{key}'"
+                  f"{did_you_mean(key, TARGET_KEYS[kind]) or _valid(TARGET_KEYS[kind])}")
+            ok = False
+    nm = t.value[kind]
+    name = nm.value if nm.kind == "scalar" else None
+    point = None
+    if kind == "path":
+        if name not in point_names:
+            v.err(nm, f"{what}: path: '{name}' is not a point of the model"
+                      f"{did_you_mean(str(name), point_names)}")
+            ok = False
+        vals_key, width = "points", 2
+    elif kind == "function":
+        body, _, qty = str(name).rpartition(".")
+        if body not in v.body_names or qty not in QUANTITIES:
+            v.err(nm, f"{what}: function: '{name}' must be BODY.x, BODY.y or BODY.phi of a "
+                      f"moving body{did_you_mean(body, v.body_names)}")
+            ok = False
+        vals_key, width = "outputs", None
+    else:
+        if name not in v.body_names:
+            v.err(nm, f"{what}: motion: '{name}' is not a moving body"
+                      f"{did_you_mean(str(name), v.body_names)}")
+            ok = False
+        pn = t.value.get("point")
+        point = pn.value if pn is not None and pn.kind == "scalar" else None
+        if point not in point_names:
+            v.err(pn if pn is not None else t, f"{what}: motion needs point: a point of the "
+                  f"model on body '{name}'{did_you_mean(str(point), point_names)}")
+            ok = False
+        vals_key, width = "poses", 3
+    vn = t.value.get(vals_key)
+    if vn is None:
+        v.err(t, f"{what}: missing '{vals_key}'")
+        return None
+    rows = _seq(v, vn, f"{what}: {vals_key}")
+    if rows is None:
+        return None
+    if not rows:
+        v.err(vn, f"{what}: {vals_key} is empty")
+        return None
+    values = []
+    for r in rows:
+        x = _numbers(v, r, f"{what}: {vals_key}", width) if width else \
+            v.number(r, f"{what}: {vals_key}")
+        ok = ok and x is not None
+        values.append(x)
+    inputs = None
+    inode = t.value.get("inputs")
+    if kind == "function" and inode is None:
+        v.err(t, f"{what}: function generation needs inputs: the driver values, one per output")
+        ok = False
+    if inode is not None:
+        inputs = _numbers(v, inode, f"{what}: inputs", None) if inode.kind == "seq" else None
+        if inode.kind != "seq":
+            v.err(inode, f"{what}: inputs must be a list of driver values")
+        if inputs is not None and len(inputs) != len(rows):
+            v.err(inode, f"{what}: {len(inputs)} inputs for {len(rows)} {vals_key}: give one "
+                         f"input value per target")
+            ok = False
+        if n_drivers != 1:
+            v.err(inode, f"{what}: inputs are values of the model's driver, and it has "
+                         f"{n_drivers} drivers (exactly one is needed)")
+            ok = False
+        ok = ok and inputs is not None
+    weight = 1.0
+    if "weight" in t.value:
+        w = v.number(t.value["weight"], f"{what}: weight")
+        if w is None or not w > 0:
+            if w is not None:
+                v.err(t.value["weight"], f"{what}: weight must be > 0")
+            ok = False
+        else:
+            weight = w
+    if not ok:
+        return None
+    return Target(kind=kind, name=name, point=point, values=tuple(values), inputs=inputs,
+                  weight=weight, line=t.line)
+
+
+class _Reader:
+    """The validator's small interface over a validated model (for design_of)."""
+
+    def __init__(self, spec):
+        from ..expr import evaluate_constant
+        self.C = Collector(spec.file)
+        self.params = dict(spec.parameters)
+        self.body_names = [b.name for b in spec.bodies]
+        self._eval = evaluate_constant
+
+    def err(self, node_or_line, msg):
+        line = node_or_line if isinstance(node_or_line, int) or node_or_line is None \
+            else node_or_line.line
+        self.C.error(line, msg)
+
+    def number(self, node, what):
+        val = node.value
+        if node.kind != "scalar" or val is None or isinstance(val, bool):
+            self.err(node, f"{what} must be a number")
+            return None
+        try:
+            x = self._eval(val if isinstance(val, str) else float(val), self.params)
+        except Exception:  # noqa: BLE001 - reported by the validator already
+            self.err(node, f"{what} must be a number")
+            return None
+        return x if math.isfinite(x) else None
+
+
+def design_of(root, spec, required: str = "synth") -> DesignSpec:
+    """The DesignSpec of a validated model (root: its node tree). InputError when it has no
+    design block, or (required='synth') no targets."""
+    node = root.value.get("design")
+    if node is None:
+        raise _error(spec.file, 1, "the model has no design: block; add design: {free: "
+                             "{NAME: [LOW, HIGH]}, targets: [...]} (see planarkin synth --help)")
+    r = _Reader(spec)
+    d = read_design(r, node, [p.name for p in spec.points], len(spec.drivers))
+    r.C.raise_if_any()
+    if required == "synth" and not d.targets:
+        raise _error(spec.file, node.line, "design: no targets: give targets: [{path: "
+                             "POINT, points: [[x, y], ...]}, ...]")
+    return d
+
+
+def _error(file, line, message) -> InputError:
+    return InputError([Diagnostic(file, line, message)])

@@ -1,0 +1,188 @@
+"""planarkin synth: the design block's validation, the exact Jacobian of the residuals (against
+central differences, per element kind and target kind), the search and the result directory."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from planarkin.cli import main
+from planarkin.synthesis.problem import Rejected
+from planarkin.synthesis.synth import Synthesis, synthesize
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "mechanisms" / "synthesis"
+LINE = EX / "straight-line.yaml"
+
+
+def _central(syn, x, rel=1e-6):
+    J = np.zeros((len(syn.evaluate(x, jac=False)[0]), len(x)))
+    for i in range(len(x)):
+        h = rel * max(1.0, abs(x[i]))
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        J[:, i] = (syn.evaluate(xp, jac=False)[0] - syn.evaluate(xm, jac=False)[0]) / (2 * h)
+    return J
+
+
+def _check(syn, x, tol=1e-6):
+    r, J, d = syn.evaluate(np.asarray(x, dtype=float))
+    assert r is not None, d
+    Jn = _central(syn, np.asarray(x, dtype=float))
+    scale = np.abs(J).max()
+    assert np.abs(J - Jn).max() <= tol * scale, np.abs(J - Jn).max(axis=0) / scale
+
+
+def test_jacobian_revolute_path_free_timing():
+    """Four revolutes, the ground pivots and the ground angle free (they reach si of ground
+    joints and the driver's f), six free crank times (dP/dt = the point's velocity)."""
+    syn = Synthesis(LINE)
+    syn.wrap = True
+    _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20, 0.05, 0.2, 0.35, 0.5, 0.7, 0.9])
+
+
+def _variant(tmp_path, src, old, new, name="m.yaml"):
+    text = Path(src).read_text()
+    assert old in text
+    p = tmp_path / name
+    p.write_text(text.replace(old, new))
+    return p
+
+
+def test_jacobian_prescribed_inputs_through_a_driver_that_depends_on_p(tmp_path):
+    """Inputs given as driver values of f = th0 + 2 pi t: the time of each input moves with th0
+    (dt*/dp = -f_p / f_t)."""
+    p = _variant(tmp_path, LINE, "[20, 40], [20, 45]]}",
+                 "[20, 40], [20, 45]], inputs: [0.5, 1.5, 2.5, 3.5, 4.5, 5.5]}")
+    syn = Synthesis(p)
+    assert syn.nt == 0
+    _check(syn, [1, -2, 0.4, 10, 40, 30, 40, 20, 20])
+
+
+def test_jacobian_translational_function_generation():
+    """Slider-crank (revolutes and a translational joint), the slider's x at crank angles; b is
+    an expression (3*a) in the file and becomes free."""
+    syn = Synthesis(EX / "slider-crank-stroke.yaml")
+    _check(syn, [0.09, 0.31])
+
+
+def test_jacobian_motion_generation(tmp_path):
+    """Poses of the coupler: point P and the coupler's angle (degrees, wrapped)."""
+    p = _variant(tmp_path, EX / "four-bar-function.yaml", """    - function: rocker.phi
+      inputs: [0, 60, 120, 180, 240, 300]
+      outputs: [86.1774462707, 77.1623665969, 100.5363231374, 122.8783495644, 132.7405506414,
+                123.9888154896]""", """    - motion: coupler
+      point: P
+      poses: [[0.03, 0.07, 50], [0.04, 0.1, 20], [0.0, 0.1, 10]]""")
+    syn = Synthesis(p)
+    assert syn.nt == 3
+    _check(syn, [0.121, 0.099, 0.101, 0.05, 0.3, 0.6])
+
+
+def test_path_with_timing_finds_the_model_again():
+    """The targets are four-bar.yaml's coupler points at six crank angles: the search returns
+    a = 0.04, b = 0.12, c = d = 0.1 (rounding of the targets: 1e-12 m)."""
+    res = synthesize(EX / "four-bar-path.yaml", starts=8, local=1)
+    assert res.status == 0
+    d = res.designs[0]
+    assert d.cost < 1e-20
+    for k, v in {"a": 0.04, "b": 0.12, "c": 0.1, "d": 0.1}.items():
+        assert abs(d.values[k] - v) < 1e-9
+    assert d.margins["turns"]["ok"] and d.margins["transmission"]["ok"]
+    assert res.evaluations > 0 and res.jacobians > 0
+
+
+def test_a_design_that_cannot_assemble_is_rejected_with_its_reason():
+    syn = Synthesis(LINE)
+    r, J, d = syn.evaluate(np.array([0, 0, 0, 5, 5, 5, 60, 20, 20] + [0.1] * 6))
+    assert r is None and isinstance(d, Rejected) and d.reason.startswith("invalid")
+    # a triple-rocker (non-Grashof) assembles at t = 0 and locks up part-way: rejected with the
+    # kind and time
+    out = syn.model.analyse({"x0": 0, "y0": 0, "th0": 0, "a": 10, "b": 20, "c": 15, "d": 40,
+                             "px": 20, "py": 20})
+    assert isinstance(out, Rejected) and out.reason.startswith("lock-up at t =")
+
+
+def test_cli_synth_writes_ready_to_run_designs(tmp_path):
+    runner = CliRunner()
+    r = runner.invoke(main, ["synth", str(EX / "four-bar-function.yaml"), "--out",
+                             str(tmp_path), "--starts", "6", "--local", "1"])
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "four-bar-function"
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "ok" and s["designs"][0]["cost"] < 1e-12
+    assert s["evaluations"] > 0 and s["jacobians"] > 0
+    assert (out / "synth.png").exists() and (out / "residuals.csv").exists()
+    r = runner.invoke(main, ["run", str(out / "design-1.yaml"), "--out", str(tmp_path / "run"),
+                             "--no-plots"])
+    assert r.exit_code == 0, r.output
+
+
+def test_cli_synth_none_acceptable_exits_1(tmp_path):
+    p = _variant(tmp_path, EX / "four-bar-function.yaml", "goal: 1e-12", "goal: 1e-30")
+    p = _variant(tmp_path, p, "outputs: [86.1774462707", "outputs: [96.1774462707",
+                 "far.yaml")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
+                                  "--local", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "no design reaches the goal" in r.output
+
+
+BAD = [
+    ("free: {b: [0.10, 0.14], c: [0.08, 0.12], d: [0.08, 0.12]}", "free: {}",
+     "design: free must name at least one parameter"),
+    ("b: [0.10, 0.14]", "b: [0.14, 0.10]",
+     "design: free: b: the bounds [0.14, 0.1] must be [low, high] with low < high"),
+    ("b: [0.10, 0.14]", "bb: [0.10, 0.14]",
+     "design: free: 'bb' is not a parameter; did you mean 'b'?"),
+    ("function: rocker.phi", "function: rockr.phi", "design: target 1: function: 'rockr.phi' "
+                                                     "must be BODY.x, BODY.y or BODY.phi"),
+    ("inputs: [0, 60, 120, 180, 240, 300]", "inputs: [0, 60, 120]",
+     "design: target 1: 3 inputs for 6 outputs"),
+    ("constraints: {turns: crank}", "constraints: {turns: crank, trans: 3}",
+     "design: constraints: unknown key 'trans'"),
+]
+
+
+@pytest.mark.parametrize("old,new,message", BAD)
+def test_bad_design_is_a_file_line_error(tmp_path, old, new, message):
+    p = _variant(tmp_path, EX / "four-bar-function.yaml", old, new)
+    lines = p.read_text().splitlines()
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    err = [ln for ln in r.output.splitlines() if ": error: " in ln]
+    assert err and message in err[0], r.output
+    line = int(err[0].split(":")[1])
+    assert 1 <= line <= len(lines)
+    # the same door as run and check
+    assert CliRunner().invoke(main, ["check", str(p)]).exit_code == 2
+
+
+def test_no_design_block_is_refused(tmp_path):
+    r = CliRunner().invoke(main, ["synth", str(ROOT / "mechanisms" / "four-bar.yaml"), "--out",
+                                  str(tmp_path)])
+    assert r.exit_code == 2 and "the model has no design: block" in r.output
+
+
+def test_order_along_the_path_either_direction():
+    """Free times in cyclic order (forwards or backwards, over the end of the cycle) pass; a
+    sequence that goes back and forth does not."""
+    syn = Synthesis(LINE)
+    syn.wrap = True
+    t = np.array
+    assert syn._in_order(t([0.1, 0.2, 0.3])) > 0
+    assert syn._in_order(t([0.8, 0.9, 0.05])) > 0            # over the end of the cycle
+    assert max(syn._in_order(t([0.3, 0.2, 0.1])), syn._in_order(t([0.1, 0.2, 0.3]))) > 0
+    bad = t([0.1, 0.3, 0.2, 0.4])
+    assert max(syn._in_order(bad), syn._in_order(bad[::-1])) < 0
+
+
+def test_jacobian_six_bar_function_generation():
+    """Stephenson III six-bar: the output link's angle through the dyad's lengths."""
+    syn = Synthesis(EX / "six-bar-output.yaml")
+    _check(syn, [0.155, 0.105])
