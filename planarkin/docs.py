@@ -246,6 +246,9 @@ KEYS = {
                                  "pin (default 1e-9 of the model's size)",
     "gravity": "`[gx, gy]`, length/s^2 (e.g. `[0, -9.81]` in m); default none",
     "loads": "list of loads, each with `type` and optional `name` (the load kinds below)",
+    "design": "synthesis and fitting (`planarkin synth`, `planarkin fit`): `free: {NAME: [low, "
+              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`), "
+              "`constraints:` (`turns`, `transmission`, `order`) and `search:` settings",
 }
 
 LOAD_DOCS = {
@@ -267,6 +270,7 @@ KEY_GROUPS = (
     ("Output", ("output", "measures")),
     ("Assembly", ("assembly",)),
     ("Forces", ("bodies.<b>.mass, .inertia, .cm", "gravity", "loads")),
+    ("Synthesis", ("design",)),
 )
 
 
