@@ -251,7 +251,8 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     manifest = json.loads((entry / jitcache.MANIFEST).read_text())
     assert all(hashlib.sha256((entry / f).read_bytes()).hexdigest() == d
                for f, d in manifest.items())
-    assert layout[0].read_bytes() != data[:len(data) // 2]
+    # the truncated entry is gone (numba may write its rebuild under another index number)
+    assert not any(p.read_bytes() == data[:len(data) // 2] for p in entry.rglob("*.nbc"))
     # a clean run (this process, the warm cache)
     m = planarkin.load(FOUR_BAR)
     saved = kernel.COMPILED_FROM_POINTS
