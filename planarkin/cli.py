@@ -512,13 +512,7 @@ def synth(model_path, out, starts, local, keep, seed, goal, steps, no_plots, qui
     if _synthesis_errors(model_path, report, lambda: write_synth(
             res, outdir, None if no_plots else "png")) is None:
         sys.exit(report.exit_code)
-    detail = (f"{res.message}; {res.evaluations} evaluations, {res.jacobians} Jacobians, "
-              f"{res.seconds:.2f} s -> {outdir}/")
-    if res.status == 0:
-        report.ok(model_path, detail)
-    else:
-        report.failed(model_path, res.message, detail)
-    sys.exit(report.exit_code)
+    _conclude_search(model_path, report, res, outdir)
 
 
 @main.command()
@@ -551,6 +545,11 @@ def fit(model_path, data, free, out, steps, no_plots, quiet, overrides):
     if not quiet:
         for i, n in enumerate(res.names):
             click.echo(f"  {n} = {res.estimate[i]:.10g} +- {res.se[i]:.3g}")
+    _conclude_search(model_path, report, res, outdir)
+
+
+def _conclude_search(model_path, report: Report, res, outdir: Path):
+    """The summary line and exit status of synth and fit: 0 found, 1 none acceptable."""
     detail = (f"{res.message}; {res.evaluations} evaluations, {res.jacobians} Jacobians, "
               f"{res.seconds:.2f} s -> {outdir}/")
     if res.status == 0:

@@ -276,28 +276,6 @@ def _buffer(work, name, shape, dtype=float):
     return a
 
 
-def _rows(rows, table, N, P):
-    if rows is None:
-        return None, None
-    rows = np.ascontiguousarray(rows, dtype=np.int64)
-    table = np.ascontiguousarray(table, dtype=float)
-    if rows.shape != (N,) or table.shape[1:] != P.arrays[3].shape or (
-            N and not 0 <= rows.min() <= rows.max() < len(table)):
-        raise ValueError("planarkin kernel: per-point parameter rows out of the table")
-    return rows, table
-
-
-def _buffer(work, name, shape, dtype=float):
-    """An array for a result: from work (a dict kept by the caller between calls) when it has
-    one of this shape and type, else a new one (kept there)."""
-    if work is None:
-        return np.empty(shape, dtype=dtype)
-    a = work.get(name)
-    if a is None or a.shape != shape or a.dtype != dtype:
-        a = work[name] = np.empty(shape, dtype=dtype)
-    return a
-
-
 _NONE_I64 = np.zeros(1, dtype=np.int64)
 _NONE_F64 = np.zeros(1)
 _NONE_U8 = np.zeros(1, dtype=np.uint8)
