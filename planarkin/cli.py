@@ -153,6 +153,7 @@ def check(models, quiet, derived, overrides):
     from .assembly import assemble
     from .budget import check_preflight
     from .diagnostics import InputError
+    from .measures.grashof import lock_ups
     from .options import resolve
     report = Report(quiet)
     for path in models:
@@ -160,8 +161,10 @@ def check(models, quiet, derived, overrides):
         if model is None:
             continue
         try:
-            check_preflight(model, resolve(model))    # what `run` would refuse before assembly
+            opts = resolve(model)
+            check_preflight(model, opts)              # what `run` would refuse before assembly
             A = assemble(model)
+            A.warnings += lock_ups(model, A.q, opts.start, opts.end, opts.steps)
         except InputError as e:
             report.invalid(path, e.diagnostics)
             continue

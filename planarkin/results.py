@@ -201,6 +201,7 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
     from .assembly import assemble
     from .budget import check_preflight
     from .diagnostics import Diagnostic, InputError
+    from .measures.grashof import lock_ups
     a = cm.spec.analysis
     if (opts.start, opts.end) != (a.start, a.end):
         # the validator checked the drivers over the model's range; this run has another one
@@ -212,6 +213,7 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
     check_preflight(cm, opts)
     t0 = time.perf_counter()
     A = assemble(cm, opts.start)
+    A.warnings += lock_ups(cm, A.q, opts.start, opts.end, opts.steps)
     an = Analysis(cm, A, opts)
     an.timings["assembly"] = time.perf_counter() - t0
     an.follow()

@@ -22,6 +22,9 @@ class Loop:
     kind: str           # 'crank-rocker', 'double-crank', 'double-rocker', 'change point',
                         # 'triple-rocker'
     crank: str | None   # the link that turns fully, for a crank-rocker
+    bodies: tuple = ()  # (ground, p, c, r) body indices (ground = cm.nb)
+    pins: tuple = ()    # internal body-frame points: ground's pivots of p and r, p's ends at
+                        # ground and at c, r's ends at ground and at c
 
     def describe(self, unit: str) -> str:
         s, l = min(self.lengths), max(self.lengths)
@@ -39,17 +42,39 @@ class Loop:
                 f"{unit} ({lens})")
 
 
-def four_bar_loops(cm) -> list[Loop]:
-    """Every four-bar loop of the compiled model, classified."""
-    pins: dict[tuple[int, int], list] = {}       # (body a, body b) -> [(s_a, s_b)] internal
+def pin_pairs(cm) -> dict:
+    """{(body a, body b): [(s_a, s_b)]}: every pair of bodies sharing a pin (internal units,
+    body frames). A pin carried by three links is two revolute joints (the sketch form pins its
+    first carrier to each other one): the carriers' points are joined through the body points
+    they share, so the other two carriers share the pin too."""
+    parent: dict = {}
+
+    def root(x):
+        while parent.setdefault(x, x) != x:
+            parent[x] = x = parent[parent[x]]
+        return x
     for g in cm.groups:
         if g.kind.name != "revolute":
             continue
         for k in range(len(g)):
-            a, b = int(g.bodies[k, 0]), int(g.bodies[k, 1])
-            sa, sb = tuple(g.params["si"][k]), tuple(g.params["sj"][k])
-            pins.setdefault((a, b), []).append((sa, sb))
-            pins.setdefault((b, a), []).append((sb, sa))
+            a, b = (int(x) for x in g.bodies[k, :2])
+            ends = (a, tuple(g.params["si"][k])), (b, tuple(g.params["sj"][k]))
+            parent[root(ends[0])] = root(ends[1])
+    members: dict = {}
+    for x in list(parent):
+        members.setdefault(root(x), []).append(x)
+    pins: dict[tuple[int, int], list] = {}
+    for group in members.values():
+        for a, sa in group:
+            for b, sb in group:
+                if a != b:
+                    pins.setdefault((a, b), []).append((sa, sb))
+    return pins
+
+
+def four_bar_loops(cm) -> list[Loop]:
+    """Every four-bar loop of the compiled model, classified."""
+    pins = pin_pairs(cm)
     G = cm.nb
     name = lambda b: "ground" if b == G else cm.body_names[b]
     grounded = sorted({b for (a, b) in pins if a == G})
@@ -72,21 +97,115 @@ def four_bar_loops(cm) -> list[Loop]:
             L = cm.L
             lengths = (math.dist(gp, gr) * L, math.dist(pg, pc) * L,
                        math.dist(cp, cr) * L, math.dist(rc, rg) * L)
-            out.append(_classify((name(G), name(p), name(c), name(r)), lengths))
+            out.append(_classify((name(G), name(p), name(c), name(r)), lengths,
+                                 (G, p, c, r), (gp, gr, pg, pc, rg, rc)))
     return out
 
 
-def _classify(links, lengths) -> Loop:
+def _classify(links, lengths, bodies=(), pins=()) -> Loop:
     s, l = min(lengths), max(lengths)
     pq = sum(lengths) - s - l
     k = lengths.index(s)
     tol = 1e-12 * l
-    if abs((s + l) - pq) <= tol:
-        return Loop(links, lengths, "change point", None)
-    if s + l > pq:
-        return Loop(links, lengths, "triple-rocker", None)
-    if k == 0:
-        return Loop(links, lengths, "double-crank", None)
-    if k == 2:
-        return Loop(links, lengths, "double-rocker", None)
-    return Loop(links, lengths, "crank-rocker", links[k])
+    kind, crank = ("change point" if abs((s + l) - pq) <= tol else
+                   "triple-rocker" if s + l > pq else
+                   "double-crank" if k == 0 else "double-rocker" if k == 2 else
+                   "crank-rocker"), None
+    if kind == "crank-rocker":
+        crank = links[k]
+    return Loop(links, lengths, kind, crank, tuple(bodies), tuple(pins))
+
+
+def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
+    """Warnings (Diagnostic, at the driver's line) for every angle driver that turns a grounded
+    link of a four-bar loop past the angle where the loop locks, within start..end.
+
+    With the driven link of length a at the pivot A, the ground line g from A to the other
+    pivot D, the coupler b and the other link c, the distance BD from the driven link's far pin
+    to D obeys BD^2 = a^2 + g^2 - 2 a g cos(theta) (theta: the driven link's angle from the
+    line A-D), and the loop closes only while |b - c| <= BD <= b + c:
+        cos(theta) >= (a^2 + g^2 - (b + c)^2) / (2 a g)   (b and c stretched in line), and
+        cos(theta) <= (a^2 + g^2 - (b - c)^2) / (2 a g)   (b and c folded onto each other).
+    The range of theta reached from the assembled pose without crossing either limit is
+    compared with the driver's values on the run's grid (at most 200,000 samples); the first
+    crossing is found by bisection of the driver function."""
+    import numpy as np
+
+    from ..diagnostics import Diagnostic
+    spec = cm.spec
+    af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
+    G = cm.nb
+    loops = [lp for lp in four_bar_loops(cm) if lp.bodies and lp.kind != "change point"]
+    out = []
+    for el in spec.drivers:
+        if el.kind != "angle" or el.f is None or "ground" not in el.bodies[:2] or \
+                el.bodies[0] == el.bodies[1]:
+            continue
+        i, j = el.bodies[:2]
+        sgn = 1.0 if i == "ground" else -1.0           # phi_j - phi_i = f(t)
+        x = cm.body_names.index(j if i == "ground" else i)
+        for lp in loops:
+            if x not in (lp.bodies[1], lp.bodies[3]):
+                continue
+            gp, gr, pg, pc, rg, rc = lp.pins
+            g = math.dist(gp, gr)
+            if x == lp.bodies[1]:
+                base, tip, ax, ad = pg, pc, gp, gr
+                b, c, other = lp.lengths[2] / cm.L, lp.lengths[3] / cm.L, lp.links[3]
+            else:
+                base, tip, ax, ad = rg, rc, gr, gp
+                b, c, other = lp.lengths[2] / cm.L, lp.lengths[1] / cm.L, lp.links[1]
+            a = math.dist(base, tip)
+            if a == 0 or g == 0:
+                continue
+            c1 = (a * a + g * g - (b + c) ** 2) / (2 * a * g)
+            c2 = (a * a + g * g - (b - c) ** 2) / (2 * a * g)
+            if c1 <= -1 and c2 >= 1:
+                continue                                 # the driven link turns fully
+            theta0 = (float(q0[3 * x + 2]) + math.atan2(tip[1] - base[1], tip[0] - base[0])
+                      - math.atan2(ad[1] - ax[1], ad[0] - ax[0]))
+            w = math.remainder(theta0, 2 * math.pi)
+            sigma = 1.0 if w >= 0 else -1.0
+            lo = math.acos(min(c2, 1.0))                 # folded
+            hi = math.acos(max(c1, -1.0))                # stretched
+            ends = [(-hi, "stretched"), (hi, "stretched")] if c2 >= 1 else \
+                [(lo, "folded"), (2 * math.pi - lo, "folded")] if c1 <= -1 else \
+                [(lo, "folded"), (hi, "stretched")]
+            if not ends[0][0] - 1e-9 <= abs(w) <= ends[1][0] + 1e-9:
+                continue                                 # assembled on no branch of this law
+            ends = sorted((theta0 - w + sigma * u, why) for u, why in ends)
+            n = int(min(steps, 200_000))
+            t = np.linspace(start, end, n + 1)
+            f0 = float(el.f(start))
+            theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
+            th = np.broadcast_to(theta(t), t.shape)
+            past = (th < ends[0][0]) | (th > ends[1][0])
+            if not past.any() or past[0]:
+                continue
+            k = int(np.argmax(past))
+            limit, why = ends[0] if th[k] < ends[0][0] else ends[1]
+            ta, tb = float(t[k - 1]), float(t[k])
+            for _ in range(200):
+                tm = 0.5 * (ta + tb)
+                if tm in (ta, tb):
+                    break
+                inside = ends[0][0] <= float(theta(tm)) <= ends[1][0]
+                ta, tb = (tm, tb) if inside else (ta, tm)
+            lim = lambda e: f0 + sgn * (e - theta0) / af
+            span = sorted(lim(e) for e, _ in ends)
+            u, lu = spec.angle_unit, spec.length_unit
+            link = cm.body_names[x]
+            dist = (b + c if why == "stretched" else abs(b - c)) * cm.L
+            words = {"triple-rocker": "non-Grashof", "crank-rocker": "Grashof, "
+                     f"{lp.crank} the crank", "double-rocker": "Grashof double-rocker"}
+            out.append(Diagnostic(spec.file, el.param_lines.get("f", el.line), (
+                f"{el.label}: the four-bar loop {'-'.join(lp.links)} "
+                f"({words.get(lp.kind, lp.kind)}) locks where {link} reaches "
+                f"{lim(limit):.6g} {u} of this driver ({lp.links[2]} and {other} {why} in "
+                f"line, {dist:.6g} {lu} from the {link}-{lp.links[2]} pin to the {other}'s "
+                f"ground pivot), which the driver reaches at t = {tb:.6g} s: the run will stop "
+                f"there (lock-up). {link} moves only between {span[0]:.6g} and {span[1]:.6g} {u} "
+                f"of this driver; end the run before t = {tb:.6g} "
+                f"s, keep the driver within that range, or drive another link"), "warning"))
+            break
+    return out
