@@ -124,3 +124,93 @@ def test_a_failing_figure_does_not_cost_the_table(tmp_path, monkeypatch):
     assert s["status"] == "ok" and s["files"]["bodies.csv"]["rows"] == 21
     assert s["cycle"]["error"].startswith("cycle figures not computed: RuntimeError: boom")
     assert (tmp_path / "out" / "bodies.csv").read_text().count("\n") == 22
+
+
+# A wheel turning twice per turn of the crank (the first, constant-speed driver: period 1 s):
+# its rim point P = (0.3 + r cos(720 t + p), r sin(720 t + p)) peaks twice per period, as a
+# toggle ram does. Maxima of P.x where 720 t + p = 360 k, minima where it is 180 + 360 k.
+WHEEL = """
+name: wheel
+units: {{length: m, angle: deg}}
+bodies:
+  crank: {{q: [0, 0, 0]}}
+  wheel: {{q: [0.3, 0, {p}]}}
+joints:
+  - {{type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}}
+  - {{type: revolute, i: ground, j: wheel, si: [0.3, 0], sj: [0, 0]}}
+drivers:
+  - {{type: angle, body: crank, f: "360*t"}}
+  - {{type: angle, body: wheel, f: "720*t + {p}"}}
+points:
+  P: {{body: wheel, s: [0.05, 0]}}
+analysis: {{start: 0, end: {end}, steps: {steps}}}
+"""
+
+
+@pytest.mark.parametrize("p, end, steps", [(0.0, 1, 360), (10.0, 1, 360), (37.0, 2.3, 997),
+                                           (0.0, 1.5, 540)])
+def test_two_maxima_per_period_give_the_extremes_and_no_time_ratio(tmp_path, p, end, steps):
+    cyc = _cycle(tmp_path, WHEEL.format(p=p, end=end, steps=steps), steps=steps)
+    h = end / steps
+    r = 0.05
+    x = cyc["coordinates"]["points"]["P"]["x"]
+    assert "time_ratio" not in x and "advance_time" not in x
+    assert x["note"] == "2 maxima and 2 minima per period: no single time ratio"
+    # one period's turning points, each once, in the window (h/2, 1 + h/2]
+    want = sorted(((360 * k + 180 * m - p) / 720, m) for k in range(-1, 4) for m in (0, 1)
+                  if h / 2 < (360 * k + 180 * m - p) / 720 <= 1 + h / 2)
+    got = x["extremes"]
+    assert [g["kind"] for g in got] == ["max" if m == 0 else "min" for _, m in want]
+    for g, (t, m) in zip(got, want):
+        assert abs(_ref(g)["t"] - t) < 1e-6
+        assert abs(_ref(g)["value"] - (0.3 + (r if m == 0 else -r))) < 1e-9
+    assert abs(x["stroke"] - 2 * r) < 1e-9
+    # the crank's own coordinates keep their figures; a one-peak column keeps its time ratio
+    assert "extremes" not in cyc["coordinates"]["bodies"]["crank"]["phi"]
+
+
+def test_a_one_peak_column_keeps_its_time_ratio_in_a_long_run(tmp_path):
+    # the in-line slider-crank over three turns: one maximum per period, ratio 1
+    text = R.slider_crank_yaml().replace("h: 0.03", "h: 0.0")
+    res = planarkin.solve(planarkin.load("m.yaml", text=text), steps=1080, end=3.0)
+    x = res.write(tmp_path / "out", plots=None)["cycle"]["coordinates"]["bodies"]["slider"]["x"]
+    assert "extremes" not in x and abs(x["time_ratio"] - 1.0) < 1e-5
+
+
+def test_report_prints_the_extremes_of_a_toggle(tmp_path):
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    model = tmp_path / "wheel.yaml"
+    model.write_text(WHEEL.format(p=0.0, end=1, steps=360))
+    r = CliRunner().invoke(main, ["run", str(model), "--out", str(tmp_path / "o"), "--no-plots",
+                                  "--report", "cycle"])
+    assert r.exit_code == 0, r.output
+    line = next(x.strip() for x in r.output.splitlines() if x.strip().startswith("P.x:"))
+    assert line.endswith("stroke 0.1 m; 2 maxima and 2 minima per period: no single time "
+                         "ratio: min 0.25 m at t = 0.25 s (driver 90), max 0.35 m at t = 0.5 s "
+                         "(driver 180), min 0.25 m at t = 0.75 s (driver 270), max 0.35 m at "
+                         "t = 1 s (driver 360)")
+    assert "time ratio " not in line
+
+
+def test_cycle_figures_carry_the_cam_contact_minimum(tmp_path):
+    # the valve train of test_force_rows: contact force P + m w^2 h cos(theta) / 2, smallest at
+    # theta = 180 deg (t = 0.5 s): P - m w^2 h / 2
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    from test_contact_forces import VALVE
+    model = tmp_path / "valve.yaml"
+    model.write_text(VALVE)
+    r = CliRunner().invoke(main, ["run", str(model), "--out", str(tmp_path / "o"), "--no-plots",
+                                  "--report", "cycle"])
+    assert r.exit_code == 0, r.output
+    import json
+    s = json.loads((tmp_path / "o" / "valve" / "summary.json").read_text())
+    low = 200 - 0.5 * (2 * math.pi) ** 2 * 0.01 / 2
+    rec = s["cycle"]["contact"]["valve"]
+    assert rec == s["forces"]["contact"]["valve"]
+    assert abs(rec["min"] - low) < 1e-9 * 200 and abs(rec["t"] - 0.5) < 1e-12
+    assert not rec["lift_off"]
+    assert f"valve: min contact force {low:.6g} N at t = 0.5 s" in r.output

@@ -7,8 +7,10 @@ from the exact rate and acceleration at that grid row (t* = t - v'/v'', value* =
 measure is then accurate to O(h^3) of the grid step h, while the grid value is only O(h^2));
 the stroke (max - min); for a periodic driver (an angle driven at constant speed, the run
 covering at least one period T) the time of advance (min -> max) and of return and their ratio
-(the slower over the faster, >= 1). A transmission measure also gets its minimum as
-``transmission_min``.
+(the slower over the faster, >= 1), unless the column peaks more than once per period (a
+toggle): then its turning points over one period (``extremes``) and no time ratio. A
+transmission measure also gets its minimum as ``transmission_min``; the section carries every
+cam's smallest contact force (``contact``, from the forces section).
 """
 
 from __future__ import annotations
@@ -55,10 +57,18 @@ class CycleFigures:
             if np.all(f2 == 0) and f1[0] != 0 and np.all(f1 == f1[0]):
                 full = 360.0 if cm.spec.angle_unit == "deg" else 2 * math.pi
                 self.period = full / abs(float(f1[0]))
+        # the turning points of each column over one period (see _turns), for a periodic driver
+        self.turns: list[list] = [[] for _ in range(n)]
+        self.tail = None          # (t, values, rates, accelerations) of the last row seen
+        self.into = np.zeros(n)   # sign of the last non-zero change into that row
+        self.out0 = None          # sign of the first non-zero change of the run (the wrap)
+        self.t_last = None
 
     def add(self, X: np.ndarray) -> None:
         if not len(X) or not self.triplets:
             return
+        if self.period is not None:
+            self._turns(X)
         V = X[:, self.value_cols]
         nan = np.isnan(V)
         cols = np.arange(V.shape[1])
@@ -72,6 +82,62 @@ class CycleFigures:
                 i = idx[c]
                 best[c] = (X[i, 0], v[c], X[i, r] if r is not None else np.nan,
                            X[i, a] if a is not None else np.nan)
+
+    def _turns(self, X: np.ndarray) -> None:
+        """Record every row where a column turns (its change from the row before and to the row
+        after have opposite signs; a run of equal values continues the sign before it), for
+        the rows up to 2.5 grid steps past one period: together with the run's first change
+        (for a run of exactly one period) every turning point of one period is then seen once
+        in the window (start + h/2, start + T + h/2]."""
+        stop = self.span[0] + self.period + 2.5 * self.h
+        if self.t_last is not None and self.t_last > stop:
+            return
+        X = X[X[:, 0] <= stop]
+        if not len(X):
+            return
+        rate, acc = ([X[:, k] if k is not None else np.full(len(X), np.nan) for k in col]
+                     for col in zip(*[(r, a) for _, r, a in self.triplets]))
+        part = (X[:, 0], X[:, self.value_cols], np.stack(rate, 1), np.stack(acc, 1))
+        if self.tail is not None:
+            part = tuple(np.concatenate([a[None], b]) for a, b in zip(self.tail, part))
+        t, W, R, A = part
+        S = np.vstack([self.into[None], np.sign(np.diff(W, axis=0))])
+        S[np.isnan(S)] = 0
+        idx = np.where(S != 0, np.arange(len(S))[:, None], 0)
+        S = np.take_along_axis(S, np.maximum.accumulate(idx, axis=0), axis=0)
+        if self.out0 is None and len(S) > 1:
+            self.out0 = S[1].copy()
+        elif self.out0 is not None:           # a column still flat at the start
+            flat = self.out0 == 0
+            if flat.any():
+                nz = np.argmax(S[1:] != 0, axis=0)
+                self.out0[flat] = S[1:][nz, np.arange(S.shape[1])][flat]
+        k, c = np.nonzero(S[:-1] * S[1:] < 0)
+        for i, j in zip(k, c):
+            self.turns[j].append((t[i], W[i, j], R[i, j], A[i, j], -S[i + 1, j]))
+        self.tail = tuple(a[-1] for a in (t, W, R, A))
+        self.into = S[-1].copy()
+        self.t_last = float(t[-1])
+
+    def _extremes(self, c: int, stroke: float, size: float) -> list:
+        """The turning points of column c over one period, smaller swings than 1e-6 of the
+        stroke (rounding of a flat stretch) removed in pairs: [(t, value, rate, acc, +1 max /
+        -1 min)] in time order."""
+        pts = list(self.turns[c])
+        T, t0 = self.period, self.span[0]
+        if self.tail is not None and self.out0 is not None and \
+                abs(self.t_last - (t0 + T)) <= 1e-9 * T and self.into[c] * self.out0[c] < 0:
+            t, W, R, A = self.tail              # a run of exactly one period: the wrap
+            pts.append((t, W[c], R[c], A[c], -self.out0[c]))
+        thr = 1e-6 * stroke + 1e-12 * size
+        while len(pts) > 1:
+            gaps = [abs(pts[i][1] - pts[i + 1][1]) for i in range(len(pts) - 1)]
+            i = int(np.argmin(gaps))
+            if gaps[i] >= thr:
+                break
+            del pts[i:i + 2]
+        lo, hi = t0 + 0.5 * self.h, t0 + T + 0.5 * self.h
+        return [p for p in pts if lo < p[0] <= hi]
 
     def _limit(self, rec) -> dict:
         t, v, rate, acc = (float(x) for x in rec)
@@ -99,7 +165,17 @@ class CycleFigures:
         if kind in ("ratio", "advantage"):
             rec["note"] = "grid extremes only; a ratio is infinite at a dead point"
             T = None
-        if T is not None and self.span[1] - self.span[0] >= T * (1 - 1e-12):
+        turns = [] if T is None else self._extremes(
+            c, rec["stroke"], max(abs(lo["value"]), abs(hi["value"])))
+        nmax = sum(1 for p in turns if p[4] > 0)
+        if T is not None and nmax > 1:
+            # a toggle: the column peaks more than once per period; advance and return (and
+            # their ratio) are not defined
+            rec["extremes"] = [dict(self._limit(p[:4]), kind="max" if p[4] > 0 else "min")
+                               for p in turns]
+            rec["note"] = (f"{nmax} maxima and {len(turns) - nmax} minima per period: no "
+                           f"single time ratio")
+        elif T is not None and self.span[1] - self.span[0] >= T * (1 - 1e-12):
             t_lo = lo.get("refined", lo)["t"]
             t_hi = hi.get("refined", hi)["t"]
             adv = (t_hi - t_lo) % T
@@ -122,7 +198,8 @@ class CycleFigures:
 
 
 NOTE = ("limit positions from the grid, refined by one Taylor step from the exact rate and "
-        "acceleration; time ratio for a constant-speed angle driver")
+        "acceleration; time ratio for a constant-speed angle driver and a column with one "
+        "maximum per period (else its extremes)")
 
 
 class CoordinateFigures(CycleFigures):
@@ -174,9 +251,12 @@ class CoordinateFigures(CycleFigures):
         return {"driver": self.driver_label, "period": self.period, "coordinates": out}
 
 
-def cycle_section(bodies: dict, points: dict | None, measures: dict | None) -> dict:
+def cycle_section(bodies: dict, points: dict | None, measures: dict | None,
+                  forces: dict | None = None) -> dict:
     """summary.json's ``cycle``: the driver and its period, the figures of every body and point
-    coordinate (``coordinates.bodies``, ``coordinates.points``) and of every measure."""
+    coordinate (``coordinates.bodies``, ``coordinates.points``), of every measure and, with
+    forces (summary.json's forces section), every cam's smallest contact force (``contact``)."""
+    from ..forces.output import cycle_contact
     out = {"driver": bodies["driver"], "period": bodies["period"],
            "coordinates": {"bodies": bodies["coordinates"],
                            "points": points["coordinates"] if points else {}}}
@@ -185,6 +265,8 @@ def cycle_section(bodies: dict, points: dict | None, measures: dict | None) -> d
             out["error"] = part["error"]
     if measures:
         out["measures"] = measures["measures"]
+    if cycle_contact(forces):
+        out["contact"] = cycle_contact(forces)
     out["note"] = NOTE
     return out
 
@@ -205,6 +287,9 @@ def _line(name: str, rec: dict | None) -> str:
     if "time_ratio" in rec:
         line += (f", advance {rec['advance_time']:.6g} s / return {rec['return_time']:.6g} s,"
                  f" time ratio {rec['time_ratio']:.6g}")
+    if "extremes" in rec:
+        line += f"; {rec['note']}: " + ", ".join(
+            f"{x['kind']} {lim(x)}" for x in rec["extremes"])
     return line
 
 
@@ -223,6 +308,9 @@ def format_cycle(section: dict | None) -> list[str]:
     if section.get("measures"):
         out.append("         measures:")
         out += [_line(name, rec) for name, rec in section["measures"].items()]
+    if section.get("contact"):
+        from ..forces.output import format_contact
+        out += ["         cam contact:"] + format_contact(section["contact"])
     if section.get("driver"):
         out.append(f"         (driver: {section['driver']})")
     return out

@@ -248,7 +248,7 @@ class DirectoryWriter:
         from ..measures.cycle import cycle_section
         summary["cycle"] = cycle_section(closed["bodies.csv"][1],
                                          closed.get("points.csv", (None, None))[1],
-                                         summary.get("cycle"))
+                                         summary.get("cycle"), summary.get("forces"))
         summary["files"] = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
                             for name in self.sinks}
         return summary
