@@ -247,8 +247,8 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
 @click.option("--show", type=click.IntRange(0), default=10, show_default=True,
               help="How many of the worst differing columns to print.")
 def compare(new, golden, rtol, atol, show):
-    """Compare result directory NEW against GOLDEN column by column (every CSV table and
-    summary.json's status). Exit status: 0 same within the tolerances, 1 differs, 2 unusable
+    """Compare result directory NEW against GOLDEN column by column (every CSV or Parquet
+    table, either format against the other, and summary.json's status). Exit status: 0 same within the tolerances, 1 differs, 2 unusable
     input (missing directory or table, malformed CSV, different columns or rows)."""
     from .studies.compare import UNUSABLE, compare_dirs, report
     c = compare_dirs(new, golden, rtol=rtol, atol=atol)

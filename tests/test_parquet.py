@@ -95,6 +95,37 @@ def test_compare_reads_parquet_tables(runs, tmp_path):
     assert (d.table, d.column, d.row) == ("points.parquet", t.column_names[1], 8)
 
 
+def test_compare_a_parquet_run_with_a_csv_run(runs, tmp_path):
+    # the same model in both formats: the values are compared, whatever the table format
+    csv_dir, pq_dir = runs
+    for new, golden in ((pq_dir, csv_dir), (csv_dir, pq_dir)):
+        c = compare_dirs(new, golden, rtol=0, atol=0)
+        assert c.status == SAME, c.error
+        assert c.columns == sum(len(_csv(p)[0]) for p in csv_dir.glob("*.csv"))
+        assert len(c.tables) == 3
+    r = run_cli("compare", pq_dir, csv_dir)
+    assert r.returncode == 0 and r.stdout.startswith("same: 3 tables"), r.stdout + r.stderr
+    # a changed value in the Parquet run is found against the CSV run, named in both formats
+    changed = tmp_path / "changed"
+    changed.mkdir()
+    for p in pq_dir.iterdir():
+        (changed / p.name).write_bytes(p.read_bytes())
+    t = pq.read_table(changed / "bodies.parquet")
+    cols = [t.column(k).to_numpy().copy() for k in range(t.num_columns)]
+    cols[2][5] += 1e-3
+    import pyarrow as pa
+    pq.write_table(pa.Table.from_arrays([pa.array(c) for c in cols], names=t.column_names),
+                   changed / "bodies.parquet")
+    c = compare_dirs(changed, csv_dir)
+    assert c.status == 1
+    [d] = c.differences
+    assert (d.table, d.column, d.row) == ("bodies.parquet vs bodies.csv", t.column_names[2], 6)
+    # a table only one run has is still named
+    (changed / "points.parquet").unlink()
+    c = compare_dirs(changed, csv_dir)
+    assert c.status == 2 and c.error == f"different tables (missing in {changed}: points.csv)"
+
+
 def test_yaml_key_and_api_write(tmp_path):
     model = tmp_path / "sc.yaml"
     model.write_text(PLAIN_SLIDER_CRANK + "output: {table_format: parquet}\n")

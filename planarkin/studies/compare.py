@@ -1,7 +1,8 @@
 """Compare two result directories column by column: the regression gate for CI.
 
-Every CSV table the directories hold (bodies.csv, points.csv, derived tables such as forces.csv,
-sweep.csv, ...) is compared value by value with numpy's rule |new - golden| <= atol + rtol *
+Every table the directories hold (bodies.csv, points.csv, derived tables such as forces.csv,
+sweep.csv, ...; CSV or Parquet, a table in one format against the same table in the other) is
+compared value by value with numpy's rule |new - golden| <= atol + rtol *
 |golden| (NaN equals NaN, infinities must match exactly), and summary.json's status must agree.
 The outcome is an exit status: 0 equal within the tolerances, 1 differs, 2 unusable input
 (a missing directory or table, a malformed CSV, different columns or row counts).
@@ -161,6 +162,27 @@ def _tables(d: Path) -> set[str]:
     return names
 
 
+def _pairs(new: Path, golden: Path) -> list[tuple[str, str]]:
+    """The tables to compare, (name in new, name in golden) sorted: the same name, or the same
+    table in the other format (bodies.parquet against bodies.csv: values are compared, whatever
+    the table format). Unusable when a table has no counterpart."""
+    tn, tg = _tables(new), _tables(golden)
+    pairs = [(n, n) for n in tn & tg]
+    stem = lambda names: {Path(n).stem: n for n in names}
+    sn, sg = stem(tn - tg), stem(tg - tn)
+    pairs += [(sn[k], sg[k]) for k in sn.keys() & sg.keys()]
+    lone_n = sorted(sn[k] for k in sn.keys() - sg.keys())
+    lone_g = sorted(sg[k] for k in sg.keys() - sn.keys())
+    if lone_n or lone_g:
+        parts = []
+        if lone_g:
+            parts.append(f"missing in {new}: {', '.join(lone_g)}")
+        if lone_n:
+            parts.append(f"missing in {golden}: {', '.join(lone_n)}")
+        raise Unusable("different tables (" + "; ".join(parts) + ")")
+    return sorted(pairs)
+
+
 def _status(d: Path):
     p = d / "summary.json"
     if not p.exists():
@@ -189,8 +211,8 @@ def compare_tables(name: str, new: tuple, golden: tuple, rtol: float, atol: floa
         raise Unusable(f"{name}: different number of rows: {a.shape[0]} new, {b.shape[0]} "
                        f"golden")
     for c, (_, line) in tn.items():
-        if c not in tg:
-            bad = next(v for v in tn[c][0] if v and not _is_float(v))
+        bad = next((v for v in tn[c][0] if v and not _is_float(v)), None)
+        if c not in tg and bad is not None:      # (a Parquet text column may be all empty)
             raise Unusable(f"{name}:{line}: column '{hn[c]}': '{bad[:40]}' is not a number")
     out.columns += len(hn)
     out.values += a.size
@@ -237,15 +259,8 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
         for d, what in ((new, "new"), (golden, "golden")):
             if not d.is_dir():
                 raise Unusable(f"{d}: no such directory (the {what} results)")
-        tn, tg = _tables(new), _tables(golden)
-        if tn != tg:
-            parts = []
-            if tg - tn:
-                parts.append(f"missing in {new}: {', '.join(sorted(tg - tn))}")
-            if tn - tg:
-                parts.append(f"missing in {golden}: {', '.join(sorted(tn - tg))}")
-            raise Unusable("different tables (" + "; ".join(parts) + ")")
-        if not tn:
+        pairs = _pairs(new, golden)
+        if not pairs:
             raise Unusable(f"{golden}: no CSV or Parquet tables to compare")
         sn, sg = _status(new), _status(golden)
         if (sn is None) != (sg is None):
@@ -253,10 +268,10 @@ def compare_dirs(new: str | Path, golden: str | Path, rtol: float = 1e-9,
         if sn != sg:
             out.notes.append(f"summary.json: status '{sn}' (new) vs '{sg}' (golden)")
         out.summaries = sn is not None
-        for name in sorted(tn):
+        for a, b in pairs:
+            name = a if a == b else f"{a} vs {b}"
             out.tables.append(name)
-            compare_tables(name, read_table(new / name), read_table(golden / name), rtol, atol,
-                           out)
+            compare_tables(name, read_table(new / a), read_table(golden / b), rtol, atol, out)
     except Unusable as e:
         out.status, out.error = UNUSABLE, str(e)
         return out
