@@ -130,6 +130,14 @@ def _errors(text):
     return [d.format() for d in e.value.diagnostics]
 
 
+# what to write: C-P from |B-C - B-P| to B-C + B-P, the first putting P on the line B-C where
+# it is drawn (between B and C; P at (0.05, 0.085) is this far off the line B-C)
+HINT = (f"; give C-P in lengths: (from 0.11 to 0.13: 0.11 puts P on the line B-C, between B "
+        f"and C, where it is drawn "
+        f"{abs((CX - 0.04) * 0.085 - CY * (0.05 - 0.04)) / math.hypot(CX - 0.04, CY):.3g} off "
+        f"the line)")
+
+
 def test_bad_lengths_are_input_errors_at_their_lines():
     text = _rough((0.0, 0.0, 0.0), lengths="""
   A-D: 0.1
@@ -147,7 +155,7 @@ def test_bad_lengths_are_input_errors_at_their_lines():
         "m.yaml:16: error: lengths: C-P must be a positive length, not -1",
         f"m.yaml:17: error: link 'coupler': the lengths B-C 0.12, B-P 0.01, C-P "
         f"{math.dist((CX, CY), (0.05, 0.085)):.6g} (as sketched) cannot form a triangle (each "
-        f"side must be at most the sum of the other two)",
+        f"side must be at most the sum of the other two)" + HINT,
     ]
 
 

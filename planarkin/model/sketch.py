@@ -195,11 +195,29 @@ class Sketch:
         l01 = length(p0, p1)
         out[p1] = (l01, 0.0)
         ux, uy = at[p1][0] - at[p0][0], at[p1][1] - at[p0][1]
+        ulen = math.hypot(ux, uy)
         for p in pts[2:]:
-            if frozenset((p0, p)) not in given and frozenset((p1, p)) not in given:
-                out[p] = self._sketched_local(p, link)
+            g0, g1 = frozenset((p0, p)) in given, frozenset((p1, p)) in given
+            # the sketched pin along the line p0 -> p1 (s: 0 at p0, 1 at p1) and off it
+            dx, dy = at[p][0] - at[p0][0], at[p][1] - at[p0][1]
+            s = (ux * dx + uy * dy) / (ulen * ulen) if ulen else 0.0
+            off = (ux * dy - uy * dx) / ulen if ulen else 0.0
+            drawn_on = abs(off) <= 1e-9 * max(ulen, math.hypot(dx, dy))
+            if not g0 and not g1:
+                x, y = self._sketched_local(p, link)
+                out[p] = (x, 0.0 if drawn_on else y)
+                continue
+            if drawn_on and not (g0 and g1):
+                # a pin drawn on the link's line stays on it: placed along the x axis by the
+                # distance given, on the side where it is drawn (before p0, between, beyond p1)
+                out[p] = ((length(p0, p) if s >= 0 else -length(p0, p)) if g0 else
+                          l01 + length(p1, p) if s > 1 else l01 - length(p1, p), 0.0)
                 continue
             l0p, l1p = length(p0, p), length(p1, p)
+            line = self._collinear(l01, l0p, l1p)
+            if line is not None:            # three lengths in line to rounding: exactly on it
+                out[p] = (line, 0.0)
+                continue
             # law of cosines in the link's frame: p0 at the origin, p1 at (l01, 0)
             x = (l01 * l01 + l0p * l0p - l1p * l1p) / (2 * l01)
             y2 = l0p * l0p - x * x
@@ -210,12 +228,48 @@ class Sketch:
                 line = min(g[1] for g in given.values())
                 self.v.err(line, f"link '{link}': the lengths {', '.join(names)} cannot form "
                                  f"a triangle (each side must be at most the sum of the other "
-                                 f"two)")
+                                 f"two)" + self._line_hint(link, p, s, off, g0, g1, l01, l0p,
+                                                           l1p))
                 return None
             cross = ux * (at[p][1] - at[p0][1]) - uy * (at[p][0] - at[p0][0])
             y = math.sqrt(max(y2, 0.0))
             out[p] = (x, y if cross >= 0 else -y)
         return out
+
+    @staticmethod
+    def _collinear(l01: float, l0p: float, l1p: float) -> float | None:
+        """The x of a pin whose distances l0p, l1p to the link's first two pins (l01 apart) put
+        it on their line to rounding (a degenerate triangle: one side the sum of the other two
+        within 8 units in the last place), else None: the law of cosines would place it up to
+        sqrt(rounding) off the line (13 nm on a 0.1 m link)."""
+        tol = 8 * 2.0 ** -52 * (l01 + l0p + l1p)
+        if abs(l01 + l1p - l0p) <= tol:
+            return l0p                       # beyond p1
+        if abs(l0p + l1p - l01) <= tol:
+            return l0p                       # between p0 and p1
+        if abs(l01 + l0p - l1p) <= tol:
+            return -l0p                      # before p0
+        return None
+
+    def _line_hint(self, link, p, s, off, g0, g1, l01, l0p, l1p) -> str:
+        """What to write when a pin's lengths cannot form a triangle: for the pin on the line
+        of the link's first two pins (on the side where it is drawn), the missing distance that
+        puts it there."""
+        pts = self.links[link]
+        a, b = pts[0], pts[1]
+        side = "before " + a if s < 0 else "between " + a + " and " + b if s <= 1 else \
+            "beyond " + b
+        if g0 != g1:
+            known = l0p if g0 else l1p
+            key = f"{b}-{p}" if g0 else f"{a}-{p}"
+            lo, hi = abs(l01 - known), l01 + known
+            end = (hi if s < 0 else lo) if g0 else (hi if s > 1 else lo)
+            return (f"; give {key} in lengths: (from {lo:.12g} to {hi:.12g}: {end:.12g} puts {p} "
+                    f"on the line {a}-{b}, {side}, where it is drawn {abs(off):.3g} off the "
+                    f"line)")
+        return (f"; for {p} on the line {a}-{b} ({side}), one of {a}-{p}, {b}-{p} is the sum "
+                f"or difference of the other and {a}-{b}")
+
     def _read_links(self) -> None:
         v = self.v
         node = self.top.get("links")
