@@ -487,6 +487,11 @@ def check(kind: str, par: dict, L: float, af: float, lu: str, au: str) -> list[s
     angle past the limit, a full-turn law that does not close. Sampled every 0.125 degrees of
     the law's range and at its ends (a check, not a result: the profile itself is exact)."""
     msgs = []
+    lim = par["pressure_limit"]
+    if not np.isnan(lim) and not 0 < lim < math.pi / 2:
+        return [f"pressure_limit must be more than 0 and less than {math.pi / 2 / af:g} {au} (a "
+                f"pressure angle of {math.pi / 2 / af:g} {au} locks the follower), not "
+                f"{lim / af:g} {au}"]
     if kind == "cam" and not par["flat"] > 0.5 and not abs(par["offset"]) < par["base"] + \
             par["roller"]:
         return [f"the follower axis' offset {abs(par['offset']) * L:.4g} {lu} must be smaller "

@@ -19,6 +19,31 @@ from ..diagnostics import Diagnostic
 from ..elements.path import Arc, Line, PathCurve, joints
 
 MAX_SEGMENTS = 1000
+MAX_ARC = 1e50      # a point curve's arc length, user unit (its fifth power stays finite)
+
+
+def lost_step(pts) -> tuple[int, str] | None:
+    """(k, why) when the step from point k - 1 to point k (0-based) is lost to rounding in the
+    arc length the spline is parameterised by (the cumulative sum of the chords, as
+    elements.curve.Curve builds it): a point far from the others (1e100 among points of 0.3)
+    makes the sum stop growing, and the spline's knots repeat. None when every step counts."""
+    import numpy as np
+    P = np.asarray(pts, dtype=float)
+    d = np.hypot(*np.diff(P, axis=0).T)
+    a = np.concatenate([[0.0], np.cumsum(d)])
+    bad = np.flatnonzero(~(np.diff(a) > 0))
+    far = int(np.argmax(np.abs(P).max(axis=1)))
+    where = (f"point {far + 1} at [{P[far, 0]:.6g}, {P[far, 1]:.6g}] is far from the others; "
+             f"give the points of one curve at a common scale")
+    if len(bad):
+        k = int(bad[0]) + 1
+        return k, (f"point {k + 1} is {d[k - 1]:.3g} from point {k}, a step lost to rounding in "
+                   f"the curve's arc length so far ({a[k - 1]:.3g}): {where}")
+    if not a[-1] <= MAX_ARC:    # the spline's collocation takes powers up to the fifth
+        k = int(np.argmax(a > MAX_ARC))
+        return k, (f"the curve's arc length reaches {a[k]:.3g} at point {k + 1}, too long for "
+                   f"its quintic spline (at most {MAX_ARC:g}): {where}")
+    return None
 
 
 def curve_form(V, node, what: str):
@@ -149,4 +174,8 @@ def _table(V, node, what: str):
             return None
     if len(pts) > 6 and pts[0] == pts[-1]:
         pts = pts[:-1]          # a closed curve may repeat its first point, as in a list
+    lost = lost_step(pts)
+    if lost is not None:
+        V.C.items.append(Diagnostic(shown, lines[lost[0]], f"{lost[1]} (the curve of {owner})"))
+        return None
     return tuple(pts)

@@ -82,6 +82,11 @@ class _Validator:
                 self.err(node.key_lines[key], f"{what}: unknown key '{key}'{hint}")
         return True
 
+    def of_broken(self, v) -> bool:
+        """Whether expression v names a parameter already reported invalid (its error is then a
+        consequence, not reported again)."""
+        return isinstance(v, str) and bool(self.broken & set(re.findall(r"[A-Za-z_]\w*", v)))
+
     def number(self, node: Node, what: str) -> float | None:
         if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
             self.err(node, f"{what} must be a number or an expression, not {_type_name(node)}")
@@ -90,7 +95,7 @@ class _Validator:
         try:
             x = evaluate_constant(v if isinstance(v, str) else float(v), self.params)
         except ExprError as e:
-            if not (isinstance(v, str) and self.broken & set(re.findall(r"[A-Za-z_]\w*", v))):
+            if not self.of_broken(v):
                 self.err(node, f"{what}: {e}")   # (else a consequence of a reported parameter)
             return None
         except OverflowError:
@@ -609,7 +614,8 @@ class _Validator:
                 return Law(node.value if isinstance(node.value, str) else float(node.value),
                            self.params)
             except ExprError as e:
-                self.err(node, f"{what}: {p.name}: {e}")
+                if not self.of_broken(node.value):
+                    self.err(node, f"{what}: {p.name}: {e}")
             except OverflowError:
                 self.err(node, f"{what}: {p.name}: the number {node.text[:40]} is too large")
             return None
@@ -661,6 +667,11 @@ class _Validator:
                 self.err(node.value[k], f"{what}: point {k + 1} repeats point {k}; the points "
                                         f"of a curve must be distinct in succession")
                 return None
+        from .curves import lost_step
+        lost = lost_step(pts)
+        if lost is not None:
+            self.err(node.value[lost[0]], f"{what}: {lost[1]}")
+            return None
         return tuple(pts)
 
     def direction(self, node: Node, what: str):
@@ -693,7 +704,8 @@ class _Validator:
         try:
             return TimeFunction(v if isinstance(v, str) else float(v), self.params)
         except ExprError as e:
-            self.err(node, f"{what}: f: {e}")
+            if not self.of_broken(v):
+                self.err(node, f"{what}: f: {e}")
         except OverflowError:
             self.err(node, f"{what}: f: the number {node.text[:40]} is too large")
         return None
@@ -722,7 +734,7 @@ class _Validator:
         over time); for a cam's law the unit of its cam angles (then the result is
         (segments, initial, t0, repeat or None when not given), built by the cam's reader)."""
         from ..laws import ALIASES, LAWS, law
-        from ..motion import Segment, profile
+        from ..motion import Segment, profile, short_segment
         what = f"{what}: motion"
         noun, unit = ("duration", "s") if over is None else ("cam angle", over)
         span, T_ = f"{noun} ({unit})", "T" if over is None else "ANGLE"
@@ -809,6 +821,10 @@ class _Validator:
                 continue
             out.append(Segment(kind, -h if kind == "return" else h, T, name))
         if not ok:
+            return None
+        short = short_segment(out, unit)
+        if short is not None:
+            self.err(segs.value[short[0]], f"{what}: segment {short[0] + 1}: {short[1]}")
             return None
         if over is not None:
             return out, initial, t0, repeat

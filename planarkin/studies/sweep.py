@@ -81,6 +81,30 @@ def parse_range(text: str, need_count: bool) -> Range:
     return Range(name, lo_v, hi_v, count, text if decimal_text else ())
 
 
+def api_error(study: Study, message: str):
+    """The InputError of an API call's argument (what the command line checks by its options),
+    at the study's model file."""
+    from ..diagnostics import Diagnostic, InputError
+    return InputError([Diagnostic(study.path, None, message)])
+
+
+def check_names(study: Study, names, what: str) -> None:
+    """InputError for a varied parameter the model does not have, or one given twice."""
+    from ..diagnostics import did_you_mean
+    for n in names:
+        if n not in study.parameters:
+            hint = did_you_mean(str(n), study.parameters) or \
+                f" (parameters: {', '.join(study.parameters)})"
+            raise api_error(study, f"{what}: unknown parameter '{n}'{hint}")
+    if len(set(names)) != len(names):
+        raise api_error(study, f"{what}: each parameter may be varied once")
+
+
+def check_count(study: Study, n, what: str, least: int) -> None:
+    if isinstance(n, bool) or not isinstance(n, int) or n < least:
+        raise api_error(study, f"{what} must be a whole number >= {least}, not {n!r}")
+
+
 def factorial(ranges: list[Range]) -> list[dict]:
     """Full factorial of the ranges' grids; the last range varies fastest."""
     grids = [r.values() for r in ranges]
@@ -211,6 +235,17 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
     in order (default: serially in this process)."""
     from ..budget import check_study
+    if not isinstance(ranges, (list, tuple)) or not all(isinstance(r, Range) for r in ranges) \
+            or not ranges:
+        raise api_error(study, f"run_sweep(): ranges must be a non-empty list of Range (from "
+                               f"parse_range('a=0.1:0.2:11', True)), not {ranges!r:.60}")
+    if samples is not None:
+        check_count(study, samples, "run_sweep(): samples", 1)
+    elif any(r.n is None for r in ranges):
+        raise api_error(study, f"run_sweep(): the range of "
+                               f"'{next(r.name for r in ranges if r.n is None)}' has no number "
+                               f"of values: give NAME=LO:HI:N, or samples")
+    check_names(study, [r.name for r in ranges], "run_sweep()")
     count = math.prod(r.n for r in ranges) if samples is None else samples
     check_study(study, count, len(ranges) + len(study.metrics),
                 "the N of each --vary" if samples is None else "--samples")

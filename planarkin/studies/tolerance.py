@@ -95,6 +95,19 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
     """Monte-Carlo samples of the toleranced parameters, their outputs and the first-order
     prediction; writes tolerance.csv, samples.csv, sensitivities.csv (+ tolerance.png)."""
     from ..budget import check_study
+    from .sweep import api_error, check_count, check_names
+    if not isinstance(sigma, dict) or not sigma:
+        raise api_error(study, f"run_tolerance(): sigma must be a non-empty dict of parameter "
+                               f"names to standard deviations, not {sigma!r:.60}")
+    check_names(study, list(sigma), "run_tolerance(): sigma")
+    for k, v in sigma.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < math.inf:
+            raise api_error(study, f"run_tolerance(): sigma of '{k}' must be a number >= 0, "
+                                   f"not {v!r}")
+    check_count(study, samples, "run_tolerance(): samples", 2)
+    if dist not in DISTRIBUTIONS:
+        raise api_error(study, f"run_tolerance(): dist must be one of "
+                               f"{', '.join(DISTRIBUTIONS)}, not {dist!r}")
     names = list(sigma)
     check_study(study, samples, len(names) + len(study.metrics), "--samples")
     nominal_res = getattr(study, "nominal_result", None) or study._nominal()

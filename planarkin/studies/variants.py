@@ -95,6 +95,11 @@ def split_unit(header: str) -> tuple[str, str]:
 def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
     """Resolve ``KIND:COLUMN`` texts against the nominal model's tables; InputError naming the
     metric (with a suggestion) for an unknown kind or column."""
+    if isinstance(texts, str) or not all(isinstance(t, str) for t in texts):
+        raise InputError([Diagnostic(file, None, f"metrics must be a list of 'KIND:COLUMN' "
+                                                 f"texts, not {texts!r:.60}")])
+    from ..options import from_command_line
+    flag = "--metric " if from_command_line() else "metric "       # API callers: API words
     cols = {}
     for fname, (header, _) in tables(cm, opts).items():
         for k, h in enumerate(header[1:], start=1):
@@ -103,7 +108,7 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
     out, problems = [], []
     if len(set(texts)) != len(texts):             # each would be a column of its own
         twice = sorted({t for t in texts if list(texts).count(t) > 1})
-        problems.append(f"--metric {twice[0]} is given twice; give each metric once")
+        problems.append(f"{flag}{twice[0]} is given twice; give each metric once")
         texts = list(dict.fromkeys(texts))
     for text in texts:
         kind, sep, col = text.partition(":")
@@ -111,19 +116,19 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
             if col not in cm.point_names:
                 hint = did_you_mean(col, cm.point_names) or \
                     f" (points: {', '.join(cm.point_names) or 'none'})"
-                problems.append(f"--metric {text}: dev needs a point name, not '{col}'{hint}")
+                problems.append(f"{flag}{text}: dev needs a point name, not '{col}'{hint}")
                 continue
             out.append(Metric("dev", col, "points.csv", list(cm.point_names).index(col),
                               cm.spec.length_unit))
             continue
         if not sep or kind not in KINDS:
-            problems.append(f"--metric {text}: write KIND:COLUMN with KIND one of "
+            problems.append(f"{flag}{text}: write KIND:COLUMN with KIND one of "
                             f"{', '.join(KINDS)}{did_you_mean(kind, KINDS) if sep else ''}")
             continue
         if col not in cols:
             hint = did_you_mean(col, cols) or (" (columns: " + ", ".join(list(cols)[:12])
                                                + (", ..." if len(cols) > 12 else "") + ")")
-            problems.append(f"--metric {text}: no column '{col}' in this model's tables{hint}")
+            problems.append(f"{flag}{text}: no column '{col}' in this model's tables{hint}")
             continue
         out.append(Metric(kind, col, *cols[col]))
     if problems:
