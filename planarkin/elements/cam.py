@@ -156,8 +156,8 @@ def _cam_rates(G, F):
 
 _COMMON = (
     Param("roller", "length", "roller radius (0: a knife edge)", required=False, default=0.0),
-    Param("pressure_limit", "angle", "largest pressure angle allowed (default 30 deg "
-          "translating, 45 deg oscillating)", required=False, default=None),
+    Param("pressure_limit", "angle", "largest pressure angle allowed, above 0 and below 90 deg "
+          "(default 30 deg translating, 45 deg oscillating)", required=False, default=None),
     Param("range", "range", "[from, to]: the cam angles the law describes (default a full "
           "turn, then the law must be periodic)", required=False, default=None),
 )
