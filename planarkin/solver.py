@@ -862,17 +862,20 @@ class Analysis:
         S = self.S_all
         drivers = S.driver_values(t)
         T, NU, FDD = drivers
+        # SIDE_RULE: a row within 8 ulp of a breakpoint is at it (right-hand limit); the row at
+        # the end time takes the left-hand limit of a breakpoint there (within 8 ulp, as the
+        # side-0 evaluation snaps; side -1 changes nothing away from a switch)
+        end = t == self.opts.end
         for k in self.kinks:
-            at = np.nonzero(t == k.t)[0]
+            at = np.nonzero((np.abs(t - k.t) <= 8 * np.spacing(max(abs(k.t), 1.0))) & ~end)[0]
             if len(at):
-                side = -1 if k.t == self.opts.end else +1
-                T1, NU1, FDD1 = S.driver_values(t[at], side=side)
-                T[at], NU[at], FDD[at] = T1, NU1, FDD1
+                T[at], NU[at], FDD[at] = S.driver_values(t[at], side=+1)
+        if end.any():
+            T[end], NU[end], FDD[end] = S.driver_values(t[end], side=-1)
         rows = self.cm.driver_rows
         if self.opts.order >= 3:
             # f''' one-sided at every row: at a knot of a law or a table where only f''' jumps
             # (no breakpoint of the path) a row takes the side rows at a breakpoint take
-            end = t == self.opts.end
             self.third = S.driver_third(t, side=+1)
             if end.any():
                 self.third[end] = S.driver_third(t[end], side=-1)

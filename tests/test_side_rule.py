@@ -102,3 +102,26 @@ def test_cam_row_at_the_knot_takes_the_right_hand_limit():
     ay = res.body("stem")["ay"]
     assert abs(ay[k]) <= 1e-9 * np.abs(ay).max()
     assert ay[k - 1] < -0.5 * np.abs(ay).max()
+
+
+# The row at the end time takes the left-hand limit of a driver's breakpoint there, also when
+# the end is within 8 units in the last place of it (SIDE_RULE): f = 360 t + 100 max(t - 0.9, 0)
+# deg has omega 360 deg/s before t = 0.9 and 460 after; an end 1 to 5 ulp off 0.9 is at 0.9.
+@pytest.mark.parametrize("end", ["0.9", "0.8999999999999999", "0.9000000000000001",
+                                 "0.9000000000000004", "0.8999999999999995"])
+def test_the_end_row_within_8_ulp_of_a_breakpoint_takes_the_left_hand_limit(end):
+    text = """
+name: bp
+units: {length: m, angle: deg}
+bodies:
+  crank: {q: [0, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: crank, at: [0, 0]}
+drivers:
+  - {type: angle, body: crank, f: "360*t + 100*max(t - 0.9, 0)"}
+analysis: {start: 0, end: END, steps: 9}
+""".replace("END", end)
+    r = planarkin.solve(planarkin.load("bp.yaml", text=text))
+    assert r.success and r.t[-1] == float(end)
+    assert r.body("crank")["omega"][-1] == 360.0
+    assert r.body("crank")["alpha"][-1] == 0.0
