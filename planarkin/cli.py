@@ -248,8 +248,9 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
               help="How many of the worst differing columns to print.")
 def compare(new, golden, rtol, atol, show):
     """Compare result directory NEW against GOLDEN column by column (every CSV or Parquet
-    table, either format against the other, and summary.json's status). Exit status: 0 same within the tolerances, 1 differs, 2 unusable
-    input (missing directory or table, malformed CSV, different columns or rows)."""
+    table, either format against the other, and summary.json's status). Exit status: 0 same
+    within the tolerances, 1 differs, 2 unusable input (missing directory or table, malformed
+    CSV, different columns or rows)."""
     from .studies.compare import UNUSABLE, compare_dirs, report
     c = compare_dirs(new, golden, rtol=rtol, atol=atol)
     for line in report(c, rtol, atol, show):

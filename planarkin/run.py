@@ -117,11 +117,14 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return
+    # the assembly's warnings before the grid pass (a lock-up ahead: planarkin.measures.grashof)
+    report.diagnostics(an.A.warnings)
     progress = Progress(opts.steps + 1, Path(path).name)
     try:
         info, _ = stream(an, sink=writer, progress=progress)
         progress.close()
-        report.diagnostics([d for d in info.diagnostics if d not in model.spec.warnings])
+        report.diagnostics([d for d in info.diagnostics
+                            if d not in model.spec.warnings and d not in an.A.warnings])
         for w in info.warnings:
             report.warning(path, w.message)
         # the line is printed as the directory is put in place (in the same critical block)
