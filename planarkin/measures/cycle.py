@@ -57,9 +57,14 @@ class CycleFigures:
             if np.all(f2 == 0) and f1[0] != 0 and np.all(f1 == f1[0]):
                 full = 360.0 if cm.spec.angle_unit == "deg" else 2 * math.pi
                 self.period = full / abs(float(f1[0]))
-        # the turning points of each column over one period (see _turns), for a periodic driver
-        self.turns: list[list] = [[] for _ in range(n)]
-        self.tail = None          # (t, values, rates, accelerations) of the last row seen
+        # the turning points of each column over one period (see _turns), for a periodic driver:
+        # per chunk (columns, their rows of the table, +1 max / -1 min)
+        self.turn_rows: list[tuple] = []
+        self.rate_cols = tuple(np.array([-1 if x is None else x for x in col], dtype=np.intp)
+                               for col in zip(*[(r, a) for _, r, a in self.triplets])) \
+            if self.triplets else ()
+        self.turns: list[list] | None = None        # per column, built once from turn_rows
+        self.tail = None          # the last table row seen
         self.into = np.zeros(n)   # sign of the last non-zero change into that row
         self.out0 = None          # sign of the first non-zero change of the run (the wrap)
         self.t_last = None
@@ -67,9 +72,9 @@ class CycleFigures:
     def add(self, X: np.ndarray) -> None:
         if not len(X) or not self.triplets:
             return
-        if self.period is not None:
-            self._turns(X)
         V = X[:, self.value_cols]
+        if self.period is not None:
+            self._turns(X, V)
         nan = np.isnan(V)
         cols = np.arange(V.shape[1])
         for best, fill, pick, better in ((self.lo, np.inf, np.argmin, np.less),
@@ -83,26 +88,30 @@ class CycleFigures:
                 best[c] = (X[i, 0], v[c], X[i, r] if r is not None else np.nan,
                            X[i, a] if a is not None else np.nan)
 
-    def _turns(self, X: np.ndarray) -> None:
+    def _turns(self, X: np.ndarray, V: np.ndarray) -> None:
         """Record every row where a column turns (its change from the row before and to the row
-        after have opposite signs; a run of equal values continues the sign before it), for
+        after have opposite signs; a run of equal values, or of changes within 1e-13 of the
+        values, continues the sign before it), for
         the rows up to 2.5 grid steps past one period: together with the run's first change
         (for a run of exactly one period) every turning point of one period is then seen once
         in the window (start + h/2, start + T + h/2]."""
         stop = self.span[0] + self.period + 2.5 * self.h
         if self.t_last is not None and self.t_last > stop:
             return
-        X = X[X[:, 0] <= stop]
-        if not len(X):
+        n = int(np.searchsorted(X[:, 0], stop, side="right"))
+        if not n:
             return
-        rate, acc = ([X[:, k] if k is not None else np.full(len(X), np.nan) for k in col]
-                     for col in zip(*[(r, a) for _, r, a in self.triplets]))
-        part = (X[:, 0], X[:, self.value_cols], np.stack(rate, 1), np.stack(acc, 1))
+        X, W = X[:n], V[:n]
         if self.tail is not None:
-            part = tuple(np.concatenate([a[None], b]) for a, b in zip(self.tail, part))
-        t, W, R, A = part
-        S = np.vstack([self.into[None], np.sign(np.diff(W, axis=0))])
-        S[np.isnan(S)] = 0
+            X = np.vstack([self.tail[None], X])
+            W = np.vstack([self.tail[self.value_cols][None], W])
+        t = X[:, 0]
+        # a change within rounding of the values (a coordinate that does not move) is none
+        D = np.diff(W, axis=0)
+        aW = np.abs(W)
+        with np.errstate(invalid="ignore"):
+            D[~(np.abs(D) > 1e-13 * (aW[1:] + aW[:-1]))] = 0.0
+        S = np.vstack([self.into[None], np.sign(D)])
         idx = np.where(S != 0, np.arange(len(S))[:, None], 0)
         S = np.take_along_axis(S, np.maximum.accumulate(idx, axis=0), axis=0)
         if self.out0 is None and len(S) > 1:
@@ -113,22 +122,35 @@ class CycleFigures:
                 nz = np.argmax(S[1:] != 0, axis=0)
                 self.out0[flat] = S[1:][nz, np.arange(S.shape[1])][flat]
         k, c = np.nonzero(S[:-1] * S[1:] < 0)
-        for i, j in zip(k, c):
-            self.turns[j].append((t[i], W[i, j], R[i, j], A[i, j], -S[i + 1, j]))
-        self.tail = tuple(a[-1] for a in (t, W, R, A))
+        if len(k):                  # kept as arrays: a wide table may turn 10^4 times a chunk
+            r, a = (np.where(cols[c] >= 0, X[k, np.maximum(cols[c], 0)], np.nan)
+                    for cols in self.rate_cols)
+            self.turn_rows.append((c, np.column_stack([t[k], W[k, c], r, a, -S[k + 1, c]])))
+        self.tail = X[-1].copy()
         self.into = S[-1].copy()
         self.t_last = float(t[-1])
+
+    def _point(self, row: np.ndarray, c: int) -> tuple:
+        """(t, value, rate, acceleration) of column c (of the triplets) in a table row."""
+        v, r, a = self.triplets[c]
+        return (row[0], row[v], row[r] if r is not None else np.nan,
+                row[a] if a is not None else np.nan)
 
     def _extremes(self, c: int, stroke: float, size: float) -> list:
         """The turning points of column c over one period, smaller swings than 1e-6 of the
         stroke (rounding of a flat stretch) removed in pairs: [(t, value, rate, acc, +1 max /
         -1 min)] in time order."""
+        if self.turns is None:
+            self.turns = [[] for _ in self.triplets]
+            for cols, recs in self.turn_rows:
+                for j, rec in zip(cols.tolist(), recs.tolist()):
+                    self.turns[j].append(tuple(rec))
         pts = list(self.turns[c])
         T, t0 = self.period, self.span[0]
         if self.tail is not None and self.out0 is not None and \
                 abs(self.t_last - (t0 + T)) <= 1e-9 * T and self.into[c] * self.out0[c] < 0:
-            t, W, R, A = self.tail              # a run of exactly one period: the wrap
-            pts.append((t, W[c], R[c], A[c], -self.out0[c]))
+            # a run of exactly one period: the wrap
+            pts.append(self._point(self.tail, c) + (-self.out0[c],))
         thr = 1e-6 * stroke + 1e-12 * size
         while len(pts) > 1:
             gaps = [abs(pts[i][1] - pts[i + 1][1]) for i in range(len(pts) - 1)]
