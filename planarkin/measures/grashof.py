@@ -134,7 +134,6 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
     from ..diagnostics import Diagnostic
     spec = cm.spec
     af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
-    G = cm.nb
     loops = [lp for lp in four_bar_loops(cm) if lp.bodies and lp.kind != "change point"]
     out = []
     for el in spec.drivers:

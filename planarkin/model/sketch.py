@@ -214,9 +214,9 @@ class Sketch:
                           l01 + length(p1, p) if s > 1 else l01 - length(p1, p), 0.0)
                 continue
             l0p, l1p = length(p0, p), length(p1, p)
-            line = self._collinear(l01, l0p, l1p)
-            if line is not None:            # three lengths in line to rounding: exactly on it
-                out[p] = (line, 0.0)
+            along = self._collinear(l01, l0p, l1p)
+            if along is not None:           # three lengths in line to rounding: exactly on it
+                out[p] = (along, 0.0)
                 continue
             # law of cosines in the link's frame: p0 at the origin, p1 at (l01, 0)
             x = (l01 * l01 + l0p * l0p - l1p * l1p) / (2 * l01)
