@@ -335,10 +335,16 @@ def describe() -> str:
     return "\n".join(rows)
 
 
+COMMAND_LINE = False     # set in the worker processes of the command line's `run --jobs`
+
+
 def from_command_line() -> bool:
-    """Whether planarkin's own command line is running (a click context of planarkin.cli):
-    messages then name options as typed (--set a=0.1); API callers get the API's words."""
+    """Whether planarkin's own command line is running (a click context of planarkin.cli, or a
+    worker of its `run --jobs`): messages then name options as typed (--set a=0.1); API
+    callers get the API's words."""
     import sys
+    if COMMAND_LINE:
+        return True
     click = sys.modules.get("click")        # not imported: certainly not the command line
     if click is None:
         return False

@@ -200,13 +200,17 @@ def report_line(path, outdir, report, info, summary, cycle, seconds):
 
 # -- run --jobs ------------------------------------------------------------------------------
 
-def _init_run(stop) -> None:
+def _init_run(stop, command_line: bool = False) -> None:
     """A `run --jobs` worker: between models a signal must not end it in the executor's own
     loop (a traceback); each model takes the signals over (interruptible) and stops in order,
-    on its own signal (a Ctrl-C to the group) or when the parent sets `stop`."""
+    on its own signal (a Ctrl-C to the group) or when the parent sets `stop`. command_line:
+    the parent is planarkin's command line (its messages name --set, not the API's words)."""
     import signal
+
+    from . import options
     global _RUN_STOP
     _RUN_STOP = stop
+    options.COMMAND_LINE = command_line
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
 
@@ -247,6 +251,7 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
     import signal
     from concurrent.futures import ProcessPoolExecutor
 
+    from .options import from_command_line
     from .output.directory import critical, signame
     from .processes import context, stop_workers
     ctx = context()
@@ -268,7 +273,8 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
 
     stop = ctx.Value("i", 0, lock=False)
     pool = ProcessPoolExecutor(min(jobs, len(models)), mp_context=ctx,
-                               initializer=_init_run, initargs=(stop,))
+                               initializer=_init_run,
+                               initargs=(stop, from_command_line()))
     k, futures = 0, []
     try:
         with critical():        # a worker is started whole, or not at all

@@ -222,3 +222,15 @@ def test_the_command_line_keeps_its_option_words(tmp_path):
                                   "--out", str(tmp_path), "--no-plots"])
     assert r.exit_code == 2
     assert "error: --metric max:P.x is given twice; give each metric once" in r.output
+
+
+def test_run_jobs_workers_keep_the_command_line_words(tmp_path):
+    # the workers of `run --jobs` have no click context: they were told by the command line
+    from clitools import run_cli
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    for p in (a, b):
+        p.write_text((MECH / "four-bar.yaml").read_text())
+    r = run_cli("run", a, b, "-j", "2", "--no-plots", "--out", tmp_path / "out", "--set", "zz=1")
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert r.stderr.count("error: --set zz: unknown parameter 'zz'") == 2, r.stderr
+    assert "parameter override" not in r.stderr
