@@ -22,6 +22,7 @@ import numpy as np
 
 from . import jerk as J
 from .base import Kind, Param, force_at, gradient_force, relative_point, relative_velocity, omega
+from .drawing import circle_with_mark
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 
 _PARAMS = (
@@ -80,6 +81,10 @@ class GearMesh(Kind):
         "point: the tangential part (the constraint's own force) and the radial part |F_t| tan"
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre sj, "
         "counter-clockwise positive. Gear i gets minus the force at the same point")
+
+    def draw(self, G, k, parts):
+        """Both pitch circles with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
 
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
@@ -154,6 +159,10 @@ class RollDisc(Kind):
                "outer radius negative); also keeps the centre distance |ri + rj| (2 equations)")
     equations = "P_j - P_i - (ri + rj) e(theta*) = 0, theta* as for gear-mesh"
 
+    def draw(self, G, k, parts):
+        """Both discs with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
+
     def g(self, G, F):
         th, _, S = _theta(G, F)
         hx, hy = relative_point(G, F)[4:]
@@ -191,3 +200,9 @@ class RollDisc(Kind):
 
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0, 0.0]
+
+
+def draw_discs(G, k, parts) -> None:
+    """gear-mesh, roll-disc: both pitch circles with a radius mark that shows the rotation."""
+    for col, (s, r) in ((0, ("si", "ri")), (1, ("sj", "rj"))):
+        circle_with_mark(parts.body(G, k, col), parts.point(G, k, s), parts.point(G, k, r), parts)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Kind, Param, force_at, gradient_force, relative_velocity
+from .drawing import circle_with_mark
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 from .translational import _along_jerk, _line, _normal_gamma, _normal_jerk, _normal_row
 
@@ -91,6 +92,10 @@ class RackPinion(Kind):
         "from the rack; torque: its moment about the pinion's centre sj, counter-clockwise "
         "positive. The rack i gets minus the force at the same point")
 
+    def draw(self, G, k, parts):
+        """The pinion's pitch circle (the rack is drawn by its slide)."""
+        draw_pinion(G, k, parts)
+
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 
@@ -144,6 +149,10 @@ class RollLine(Kind):
     equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "
                  "- c0 = 0")
 
+    def draw(self, G, k, parts):
+        """The disc (the line is drawn by its slide)."""
+        draw_pinion(G, k, parts)
+
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
         return np.stack([nx * hx + ny * hy, _along(G, F)], axis=-1)
@@ -164,3 +173,8 @@ class RollLine(Kind):
         side, un, _ = _estimate(arrays, poses)
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
         return {"side": np.float64(side)}, [side * arrays["r"], c]
+
+
+def draw_pinion(G, k, parts) -> None:
+    """rack-pinion, roll-line: the pinion's (disc's) pitch circle with a radius mark."""
+    circle_with_mark(parts.body(G, k, 1), parts.point(G, k, "sj"), parts.point(G, k, "r"), parts)

@@ -30,6 +30,10 @@ class Angle(Kind):
     equations = "phi_j - phi_i - c = 0"
     driver_equations = "phi_j - phi_i - f(t) = 0"
 
+    def draw(self, G, k, parts):
+        """Nothing of its own: the bodies are drawn by their other joints."""
+        parts.joint_points(G, k)
+
     def g(self, G, F):
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
         return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])[..., None]
@@ -63,6 +67,10 @@ class _Component(Kind):
     target = "c"
     target_unit = "length"
     axis = 0
+
+    def draw(self, G, k, parts):
+        """Its two points on the bodies' outlines, nothing between them."""
+        parts.joint_points(G, k)
 
     def g(self, G, F):
         h = relative_point(G, F)[4 + self.axis]
@@ -137,6 +145,13 @@ class Distance(Kind):
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"
+
+    def draw(self, G, k, parts):
+        """A thin link between two pins (pivots on ground)."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.pin(bi, si)
+        parts.pin(bj, sj)
+        parts.link(bi, si, bj, sj)
 
     def g(self, G, F):
         h = relative_point(G, F)

@@ -18,12 +18,14 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     transmit a moment (angle, gear) are left out of the plot (their columns are in the table)."""
     from matplotlib.figure import Figure
 
-    from ..output.plots import (_add_axes, _finish_time_axes, _palette, _pretty as _pretty2,
-                                _save, _tick_label_width, _title)
+    from ..output.plots.axes import add_axes
+    from ..output.plots.history import finish_time_axes
+    from ..output.plots.render import save
+    from ..output.plots.style import figure_title, palette, pretty_unit, tick_label_width
+    from .model import unit_names
 
     def _pretty(unit):
-        return _pretty2(unit).replace("*", "\u00b7")
-    from .model import unit_names
+        return pretty_unit(unit).replace("*", "\u00b7")
 
     if not len(X):
         return []
@@ -44,13 +46,13 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     one = len(cm.spec.drivers) == 1
     ncol = 2 if one else 1
     fig = Figure(figsize=(6.4 * ncol if one else 7.5, 6.6))
-    # grid, ticks and tick labels drawn by output.plots._Ticks; the abscissa shared by column,
+    # grid, ticks and tick labels drawn by output.plots.axes.Ticks; the abscissa shared by column,
     # its tick labels in the lower row
     spec = fig.add_gridspec(2, ncol)
     axes = [[None] * ncol for _ in range(2)]
     for c in range(ncol):
         for r in range(2):
-            axes[r][c] = _add_axes(fig, spec[r, c], xlabels=r == 1, sharex=axes[0][c],
+            axes[r][c] = add_axes(fig, spec[r, c], xlabels=r == 1, sharex=axes[0][c],
                                    grid=("0.88", 0.6))
     xs = [(t, "time t [s]")]
     if one:
@@ -61,7 +63,7 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         f = np.broadcast_to(cm.driver_funcs[0](t), t.shape)
         what = "angle" if kind.target_unit == "angle" else "length"
         xs.append((f, f"{_driver_name(el)}: driven {what} f(t) [{_pretty(unit)}]"))
-    colors = _palette(max(len(efforts), len(mags), 1))
+    colors = palette(max(len(efforts), len(mags), 1))
     for c, (x, xlabel) in enumerate(xs):
         ax = axes[0][c]
         for n, (k, h) in enumerate(efforts):
@@ -82,13 +84,13 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         if mags:
             ax.legend(fontsize=9, loc="best", frameon=False, ncol=1 if len(mags) < 5 else 2)
         ax.set_xlabel(xlabel)
-    _finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
-    fig.suptitle(_title(cm, "driver efforts and joint reactions (on body j of each joint)",
+    finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
+    fig.suptitle(figure_title(cm, "driver efforts and joint reactions (on body j of each joint)",
                         info), fontsize=11, y=1 - 0.1 / 6.6, va="top")
     # a fixed layout, in inches: constrained layout measured every text, half of the time of
     # this figure; the tick labels' widths come from the axes' locators and formatters
     width = fig.get_figwidth()
-    room = [0.55 + max(_tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
+    room = [0.55 + max(tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
             for col in zip(*axes)]
     aw = (width - sum(room) - 0.2) / ncol
     fig.subplots_adjust(left=room[0] / width, right=1 - 0.2 / width, top=1 - 0.45 / 6.6,
@@ -99,7 +101,7 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         for ax in col:
             ax.yaxis.set_label_coords(-(room[c] - 0.4) / aw, 0.5)
             ax.xaxis.set_label_coords(0.5, -0.31 / ah)
-    return [_save(fig, Path(out) / f"forces.{fmt}")]
+    return [save(fig, Path(out) / f"forces.{fmt}")]
 
 
 class _Data:
