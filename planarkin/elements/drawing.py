@@ -73,6 +73,26 @@ class Parts:
                 self.joints.append((b, s))
         return bi, si, bj, sj
 
+    def axis_points(self, G, k, vi="vi", vj="vj") -> tuple:
+        """As `joint_points`, for a kind whose si and sj are any points of a sliding axis (a
+        translational joint: the sketch form puts them at the guide's reference pin, which may
+        be far from both bodies): each is drawn at the foot of its body's frame origin on the
+        axis (the axis through s along v, body frame), so that a one-pin slider is a block on
+        its pin and the reference pin neither stretches the body nor the view. The points
+        handed to `slide` must be the ones returned."""
+        bi, bj = self.body(G, k, 0), self.body(G, k, 1)
+        ends = []
+        for b, name, v in ((bi, "si", vi), (bj, "sj", vj)):
+            s = self.point(G, k, name)
+            u = np.asarray(G.params[v][k], float)
+            u = u / np.hypot(*u)
+            s = s - (s @ u) * u                     # the foot of the origin (0, 0) on the axis
+            if b != self.ground:
+                self.attach[b].append(s)
+                self.joints.append((b, s))
+            ends.append(s)
+        return bi, ends[0], bj, ends[1]
+
     def pin(self, body: int, s) -> None:
         """A pin at s: a pivot (triangle and pin) on ground, a pin marker on a moving body."""
         (self.pivots_drawn.append(s) if body == self.ground else self.pins.append((body, s)))

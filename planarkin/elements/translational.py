@@ -86,7 +86,7 @@ class Translational(Kind):
 
     def draw(self, G, k, parts):
         """The slide: an axis on ground or a slot on a moving guide; a lone block along it."""
-        bi, si, bj, sj = parts.joint_points(G, k)
+        bi, si, bj, sj = parts.axis_points(G, k)
         vi = G.params["vi"][k]
         parts.slide(bi, si, vi, bj, sj)
         if bj != parts.ground:

@@ -1,0 +1,55 @@
+"""What the figures show (issue 21 item 20): a sketch slider drawn as a block on its pin, forces.png
+legends off the curves and equal curves named once, labels of a small crank apart; and every
+kind says how it is drawn (its `draw` hook)."""
+
+import numpy as np
+import pytest
+
+import planarkin
+from planarkin.output import plots
+
+# A sketch slider-crank whose guide line is given by two reference pins far from the slider
+# (P 0.6 m behind the crank pivot, Q 0.4 m past the slider's stroke).
+SKETCH_SLIDER = """\
+name: sketch-slider
+points:
+  O: {at: [0, 0], ground: true}
+  A: {at: [0.1, 0]}
+  B: {at: [0.4, 0]}
+  P: {at: [-0.6, 0]}
+  Q: {at: [0.8, 0]}
+links:
+  crank: [O, A]
+  rod: [A, B]
+  slider: [B]
+sliders:
+  piston: {link: slider, along: [P, Q]}
+drivers:
+  - {type: angle, link: crank, f: "2*pi*t"}
+analysis: {steps: 72}
+"""
+
+
+def test_every_kind_has_its_own_draw_hook():
+    from planarkin.elements import KINDS
+    from planarkin.elements.base import Kind
+    assert [n for n, k in KINDS.items() if type(k).draw is Kind.draw] == []
+
+
+def test_a_one_pin_sketch_slider_is_a_block_on_its_pin_and_the_reference_pin_stays_out():
+    """The translational joint's points are at the reference pin P (-0.6, 0): the slider was a
+    bar 1 m long from B to P and P's path stretched the view to x = -0.9. Now the slider is
+    the block about B and the view spans the crank circle and the stroke (x in -0.1..0.4)."""
+    m = planarkin.load("sketch-slider.yaml", text=SKETCH_SLIDER)
+    r = planarkin.solve(m)
+    sc = plots.Scene(m, r._chunk)
+    b = m.body_names.index("slider")
+    assert sc.bars[b] is None and sc.fills[b] is not None and len(sc.fills[b]) == 4
+    assert np.ptp(sc.fills[b], axis=0).max() <= 1.2 * sc.size + 1e-12
+    assert np.abs(sc.fills[b].mean(axis=0)).max() < 1e-12          # about the pin B
+    x0, x1, y0, y1 = sc.bounds
+    assert -0.2 < x0 < -0.1 and 0.4 < x1 < 0.55, sc.bounds
+    # no trace of the slider's axis point apart from B's own path
+    B = r.point("B")
+    far = [xy for xy in sc.traces if np.nanmax(np.abs(xy[:, 0] - B["x"])) > 1e-9]
+    assert all(np.nanmin(xy[:, 0]) > -0.11 for xy in far)
