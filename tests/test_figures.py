@@ -2,11 +2,15 @@
 legends off the curves and equal curves named once, labels of a small crank apart; and every
 kind says how it is drawn (its `draw` hook)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import planarkin
 from planarkin.output import plots
+
+ROOT = Path(__file__).resolve().parents[1]
 
 # A sketch slider-crank whose guide line is given by two reference pins far from the slider
 # (P 0.6 m behind the crank pivot, Q 0.4 m past the slider's stroke).
@@ -53,3 +57,49 @@ def test_a_one_pin_sketch_slider_is_a_block_on_its_pin_and_the_reference_pin_sta
     B = r.point("B")
     far = [xy for xy in sc.traces if np.nanmax(np.abs(xy[:, 0] - B["x"])) > 1e-9]
     assert all(np.nanmin(xy[:, 0]) > -0.11 for xy in far)
+
+
+@pytest.fixture(scope="module")
+def slider_crank_forces():
+    from planarkin.derived import derived_tables
+    res = planarkin.solve(planarkin.load(ROOT / "mechanisms" / "slider-crank.yaml"), steps=120)
+    (d,) = derived_tables(res.model, res.info.options)
+    return res, d.compute(res._chunk)
+
+
+def _drawn(fig):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    FigureCanvasAgg(fig).draw()
+    return fig.canvas.get_renderer()
+
+
+def test_forces_legends_stand_off_the_curves_and_equal_curves_are_named_once(
+        slider_crank_forces):
+    """slider-crank: the crank is balanced and massless in effect, so its main bearing and its
+    crank pin carry the same force; that curve is drawn once, named "main-bearing =
+    crank-pin" (the dashed crank-pin hid the main bearing's). No legend box meets an axes'
+    box (they sat on the curves inside the axes)."""
+    from planarkin.forces.plot import forces_figure
+    res, X = slider_crank_forces
+    fig = forces_figure(res.model, X, res.info)
+    renderer = _drawn(fig)
+    legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+    assert len(legends) == 2
+    boxes = [ax.get_window_extent(renderer) for ax in fig.axes]
+    for lg in legends:
+        lb = lg.get_window_extent(renderer)
+        assert not any(lb.overlaps(b) for b in boxes), (lb, boxes)
+        assert lb.x1 <= fig.bbox.x1                          # inside the figure
+    labels = [t.get_text() for t in legends[1].get_texts()]
+    assert labels == ["main-bearing = crank-pin", "wrist-pin", "guide"]
+    reaction_axes = [ax for ax in fig.axes if "reaction" in ax.get_ylabel()]
+    assert all(len(ax.get_lines()) == 3 for ax in reaction_axes)
+
+
+def test_same_curves_groups_only_equal_curves():
+    from planarkin.forces.plot import same_curves
+    t = np.linspace(0, 1, 50)
+    a, b = np.sin(t), np.sin(t) + 1e-12
+    groups = same_curves([("a", a), ("b", b), ("c", a + 1e-3), ("d", np.full(50, np.nan)),
+                          ("e", np.full(50, np.nan))])
+    assert [labels for labels, _ in groups] == [["a", "b"], ["c"], ["d", "e"]]

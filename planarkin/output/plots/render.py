@@ -137,3 +137,14 @@ def renderer_class():
     _RENDERER.append(cls)
     return cls
 
+
+
+def text_inches(labels, size: float) -> float:
+    """Width in inches of the widest of labels at size pt, as the renderer lays it out (the
+    texts are kept, `TEXTS`, so that drawing them later costs nothing more)."""
+    from matplotlib.font_manager import FontProperties
+
+    renderer = renderer_class()(1, 1, 72)
+    prop = FontProperties(size=size)
+    return max((renderer.get_text_width_height_descent(s, prop, False)[0] for s in labels
+                if s), default=0.0) / 72.0
