@@ -103,3 +103,52 @@ def test_same_curves_groups_only_equal_curves():
     groups = same_curves([("a", a), ("b", b), ("c", a + 1e-3), ("d", np.full(50, np.nan)),
                           ("e", np.full(50, np.nan))])
     assert [labels for labels, _ in groups] == [["a", "b"], ["c"], ["d", "e"]]
+
+
+# A four-bar whose crank (6 mm) is small beside its 0.3 m frame: the crank's name and the names
+# of its two pins meet in a few points of the page.
+SMALL_CRANK = """\
+name: small-crank
+units: {length: m, angle: deg}
+points:
+  A: {at: [0, 0], ground: true}
+  D: {at: [0.3, 0], ground: true}
+  B: {at: [0.006, 0]}
+  C: {at: [0.3, 0.2]}
+  P: {at: [0.15, 0.25]}
+links:
+  crank: [A, B]
+  coupler: [B, C, P]
+  rocker: [D, C]
+lengths: {A-B: 0.006, B-C: 0.36, D-C: 0.2, B-P: 0.29, C-P: 0.16}
+drivers:
+  - {type: angle, link: crank, f: "360*t"}
+analysis: {start: 0, end: 1, steps: 72}
+"""
+
+
+def test_labels_of_a_small_crank_do_not_pile_up():
+    """mechanism.png of the small crank: no two name labels (bodies and points) overlap, and no
+    label covers a pin (the crank's name sat on its pins A and B, A's and B's on each other)."""
+    m = planarkin.load("small-crank.yaml", text=SMALL_CRANK)
+    r = planarkin.solve(m)
+    sc = plots.Scene(m, r._chunk)
+    fig = plots.mechanism_figure(m, sc)
+    renderer = _drawn(fig)
+    ax = fig.axes[0]
+    names = set(m.body_names) | set(m.point_names)
+    texts = [t for t in ax.texts if t.get_text() in names]
+    assert sorted(t.get_text() for t in texts) == sorted(names)
+    # the label's box (its white pad), not its leader line
+    boxes = [t.get_bbox_patch().get_window_extent(renderer) for t in texts]
+    for k, a in enumerate(boxes):
+        for b in boxes[k + 1:]:
+            assert not a.overlaps(b), (a, b)
+    row = int(np.flatnonzero(np.isin(np.arange(len(sc.t)), sc.instants(4)))[0])
+    pins = np.array([sc.at(b, s, row)[0] for b, s in sc.pins] + list(sc.pivots))
+    px = ax.transData.transform(pins)
+    r_px = 3.0 * fig.dpi / 72                 # the pin marker's radius (5.5 pt across)
+    for t, box in zip(texts, boxes):
+        for x, y in px:
+            assert not (box.x0 < x + r_px and x - r_px < box.x1 and box.y0 < y + r_px
+                        and y - r_px < box.y1), (t.get_text(), box, (x, y))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import labels
 from .axes import add_axes
 from .render import renderer_class
 from .scene import Scene
@@ -80,26 +81,33 @@ class Drawing:
             m.set_data(xy[i:i + 1, 0], xy[i:i + 1, 1])
 
     def _annotate(self, i):
-        """Body names (and point names) at row i, beside each body's centre."""
+        """Body names (beside each body's centre) and point names at row i, placed clear of the
+        pins, the ground pivots and each other (`labels.place`)."""
         sc = self.scene
-        box = dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.75)
-        placed = []
+        box = dict(boxstyle=f"round,pad={labels.PAD}", fc="white", ec="none", alpha=0.75)
+        items, colors = [], []
         for b, name in enumerate(sc.names):
             V = sc.fills[b] if sc.fills[b] is not None else sc.bars[b]
             if V is None:
                 V = sc.dashed[b][0] if sc.dashed[b] else np.zeros((1, 2))
-            p = sc.at(b, V, i).mean(axis=0)
-            # labels of nearby bodies alternate above and below, further out each time
-            near = sum(np.hypot(*(p - q)) < 0.12 * sc.span for q in placed)
-            placed.append(p)
-            dy = (9 + 12 * (near // 2)) * (1 if near % 2 == 0 else -1.6)
-            self.ax.annotate(name, p, xytext=(0, dy), textcoords="offset points", ha="center",
-                             va="center", fontsize=FONT, color=darker(sc.colors[b]),
-                             fontweight="bold", bbox=box, zorder=40)
+            items.append((name, sc.at(b, V, i).mean(axis=0), True))
+            colors.append(darker(sc.colors[b]))
         for k, name in enumerate(sc.cm.point_names):
-            self.ax.annotate(name, sc.traces[k][i], xytext=(6, -12), textcoords="offset points",
-                             fontsize=FONT, color=darker(sc.point_colors[k]), bbox=box,
-                             zorder=40)
+            items.append((name, sc.traces[k][i], False))
+            colors.append(darker(sc.point_colors[k]))
+        pins = [sc.at(b, s, i)[0] for b, s in sc.pins] + list(sc.pivots) + \
+            [sc.traces[k][i] for k in range(len(sc.cm.point_names))]
+        pins = [p for p in pins if np.isfinite(p).all()]
+        obstacles = labels.pin_boxes(self.ax, np.array(pins)) + \
+            labels.pivot_boxes(self.ax, sc.pivots, 0.55 * sc.size)
+        offsets = labels.place(self.ax, items, obstacles)
+        for (name, p, body), color, (dx, dy) in zip(items, colors, offsets):
+            lead = dict(arrowstyle="-", color=color, lw=0.6, shrinkA=0, shrinkB=0) \
+                if np.hypot(dx, dy) > labels.LEADER else None
+            self.ax.annotate(name, p, xytext=(dx, dy), textcoords="offset points", ha="center",
+                             va="center", fontsize=FONT, color=color,
+                             fontweight="bold" if body else "normal", bbox=box, zorder=40,
+                             arrowprops=lead)
 
     def legend_handles(self):
         from matplotlib.patches import Patch
