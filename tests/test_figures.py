@@ -152,3 +152,16 @@ def test_labels_of_a_small_crank_do_not_pile_up():
         for x, y in px:
             assert not (box.x0 < x + r_px and x - r_px < box.x1 and box.y0 < y + r_px
                         and y - r_px < box.y1), (t.get_text(), box, (x, y))
+
+
+@pytest.mark.parametrize("example, body", [("cam-roller", "cam"), ("valve-cam", "cam"),
+                                           ("planetary", "sun"),
+                                           ("rack-pinion-steering", "pinion")])
+def test_a_cam_or_a_disc_is_drawn_by_its_outline_not_as_a_slider_block(example, body):
+    """A cam or a gear pinned at its frame origin has one attachment point; it was drawn as the
+    small block of a lone slider, turning on its pivot, under its profile or pitch circle."""
+    m = planarkin.load(ROOT / "mechanisms" / f"{example}.yaml")
+    r = planarkin.solve(m, steps=12)
+    sc = plots.Scene(m, r._chunk)
+    b = m.body_names.index(body)
+    assert sc.fills[b] is None and sc.bars[b] is None and sc.dashed[b]

@@ -681,6 +681,7 @@ def draw_cam(G, k: int, parts) -> None:
         lo, hi = 0.0, 2 * np.pi
     P = profile(G.kind.name, par, np.linspace(lo, hi, 181))
     centre = parts.pivot(bi, bk)
+    parts.shape(bi)
     parts.outline(bi, centre + np.c_[P["surface_x"], P["surface_y"]] * parts.L)
     roller = float(par["roller"]) * parts.L
     if roller > 0:

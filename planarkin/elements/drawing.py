@@ -24,7 +24,8 @@ class Parts:
     pivots_drawn: pins on ground (global points); links: (bi, si, bj, sj) distance links;
     slides: (bi, si, vi, bj, sj) sliding pairs (an axis on ground, a slot on a moving body);
     slide_dir: body -> the direction of its slide (a lone slider block is drawn along it);
-    discs: (body, centre, r) pitch circles about a pivot (a geared body is never a block);
+    discs: (body, centre, r) pitch circles about a pivot;
+    shaped: bodies drawn by their outlines (a gear, a disc, a cam), never as a slider block;
     outlines: (body, polyline) dashed lines (profiles, slots; ground's are drawn as axes);
     faces: (body, polyline) solid lines (a flat follower's face).
     """
@@ -42,6 +43,7 @@ class Parts:
         self.slides: list = []
         self.slide_dir: dict = {}
         self.discs: list = []
+        self.shaped: set = set()
         self.outlines: list = []
         self.faces: list = []
 
@@ -112,6 +114,11 @@ class Parts:
     def disc(self, body: int, r: float, carrier: int) -> None:
         """A pitch circle of radius r about body's pivot on carrier."""
         self.discs.append((body, self.pivot(body, carrier), r))
+        self.shaped.add(body)
+
+    def shape(self, body: int) -> None:
+        """Body is drawn by its outlines (a disc, a cam profile): no slider block for it."""
+        self.shaped.add(body)
 
     def outline(self, body: int, polyline) -> None:
         self.outlines.append((body, np.asarray(polyline, float)))
@@ -128,5 +135,6 @@ def circle(centre, r, n=61) -> np.ndarray:
 
 def circle_with_mark(body, centre, r, parts: Parts) -> None:
     """A pitch circle and a radius mark along the body's x axis (which shows its rotation)."""
+    parts.shape(body)
     parts.outline(body, circle(centre, r))
     parts.outline(body, np.array([centre, centre + (abs(r), 0.0)]))

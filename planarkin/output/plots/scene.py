@@ -71,6 +71,7 @@ class Scene:
                 parts.attach[int(b)].append(np.asarray(s) * L)
         self.pins, self.pivots, self.links = parts.pins, parts.pivots_drawn, parts.links
         self.outlines, self.faces_out = parts.outlines, parts.faces
+        self.shaped = parts.shaped
         return parts.attach, parts.joints, parts.slides, parts.slide_dir, parts.discs
 
     def _shapes(self, attach, slide_dir, discs):
@@ -80,10 +81,9 @@ class Scene:
         self.bars = [None] * nb                         # (2, 2) thick line
         self.dashed = [[] for _ in range(nb)]           # body-fixed dashed polylines
         self.faces = [[] for _ in range(nb)]            # body-fixed solid lines (flat faces)
-        geared = {b for b, _, _ in discs}
         for b, P in enumerate(attach):
             if len(P) == 1:
-                if b not in geared:                     # a block along the slide
+                if b not in self.shaped:                     # a block along the slide
                     u = np.asarray(slide_dir.get(b, (1.0, 0.0)), float)
                     n = np.array([-u[1], u[0]])
                     w, h = 0.6 * size, 0.38 * size
