@@ -301,7 +301,7 @@ def test_mechanism_figure_legend_and_body_colours(model, result):
                       "t = 0.75 s"]
     ax = fig.axes[0]
     names = {t.get_text(): t for t in ax.texts}
-    colors = plots.palette(model.nb)
+    colors = plots.body_palette(model.nb)
     for b, name in enumerate(model.body_names):
         assert np.allclose(to_rgb(names[name].get_color()), plots.darker(colors[b]))
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]

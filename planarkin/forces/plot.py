@@ -7,18 +7,17 @@ from pathlib import Path
 
 import numpy as np
 
-
 DASHES = ("-", (0, (5, 2)), (0, (1.5, 1.5)), (0, (6, 2, 1.5, 2)))
 
 
 def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     """Write forces.<fmt> from the plot rows X of forces.csv; returns [path] (nothing without
     rows)."""
-    from ..output.plots.render import save
+    from ..output.plots.render import save_figure
 
     if not len(X):
         return []
-    return [save(forces_figure(cm, X, info), Path(out) / f"forces.{fmt}")]
+    return [save_figure(forces_figure(cm, X, info), Path(out) / f"forces.{fmt}")]
 
 
 def same_curves(curves, rel=1e-9) -> list:
@@ -52,11 +51,11 @@ def forces_figure(cm, X, info):
     from ..output.plots.axes import add_axes
     from ..output.plots.history import finish_time_axes
     from ..output.plots.render import text_inches
-    from ..output.plots.style import FONT, figure_title, palette, pretty_unit, tick_label_width
+    from ..output.plots.style import FONT, body_palette, plot_title, pretty, tick_label_width
     from .model import unit_names
 
     def _pretty(unit):
-        return pretty_unit(unit).replace("*", "\u00b7")
+        return pretty(unit).replace("*", "\u00b7")
 
     header = _header_of(cm, X)
     t = X[:, 0]
@@ -98,7 +97,7 @@ def forces_figure(cm, X, info):
         f = np.broadcast_to(cm.driver_funcs[0](t), t.shape)
         what = "angle" if kind.target_unit == "angle" else "length"
         xs.append((f, f"{_driver_name(el)}: driven {what} f(t) [{_pretty(unit)}]"))
-    colors = palette(max(len(rows[0]), len(rows[1]), 1))
+    colors = body_palette(max(len(rows[0]), len(rows[1]), 1))
     handles: list = [[], []]
     for c, (x, xlabel) in enumerate(xs):
         for r, row in enumerate(rows):
@@ -119,7 +118,7 @@ def forces_figure(cm, X, info):
     for ax in axes[1]:
         ax.set_ylabel(f"joint reaction |F| [{_pretty(u['force'])}]")
     finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
-    fig.suptitle(figure_title(cm, "driver efforts and joint reactions (on body j of each "
+    fig.suptitle(plot_title(cm, "driver efforts and joint reactions (on body j of each "
                                   "joint)", info), fontsize=11, y=1 - 0.1 / H, va="top")
     # a fixed layout, in inches: constrained layout measured every text, half of the time of
     # this figure; the tick labels' widths come from the axes' locators and formatters

@@ -1,10 +1,10 @@
 """Plots of a run: time histories, point paths, the mechanism at several instants, an animation.
 
-Called by `output.writer.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at most a
-few thousand rows, user units). matplotlib is imported inside the functions only, and only through
-its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
+Called by `output.writer.DirectoryWriter.finish` with the decimated plot buffer (a `Chunk` of at
+most a few thousand rows, user units). matplotlib is imported inside the functions only, and only
+through its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
 switch, no windows, no global state (rcParams only inside rc_context: the axes style while a
-figure is built and drawn, `styled`, and an svg id salt while it is saved, `save`).
+figure is built and drawn, `styled`, and an svg id salt while it is saved, `save_figure`).
 
 Files (``<fmt>`` is png at 150 dpi, svg or pdf):
 
@@ -32,10 +32,9 @@ from .animation import write_animation
 from .axes import Ticks, add_axes
 from .history import Selection, XAxis, bodies_figure, finish_time_axes, points_figure, tidy_ylim
 from .plane import instant_count, mechanism_figure, trajectories_figure
-from .render import TEXTS, renderer_class, save, write_png
+from .render import TEXTS, renderer_class, save_figure, write_png
 from .scene import Scene
-from .style import DPI, FONT, STYLE, darker, palette, pretty_unit, styled
-
+from .style import DPI, FONT, STYLE, body_palette, darker, pretty, styled
 
 
 def figure_names(cm) -> list[str]:
@@ -66,13 +65,11 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
              "points": lambda: points_figure(cm, data, info, x),
              "trajectories": lambda: trajectories_figure(cm, scene),
              "mechanism": lambda: mechanism_figure(cm, scene)}
-    return [save(build[n](), out / f"{n}.{fmt}") for n in names]
-
-
+    return [save_figure(build[n](), out / f"{n}.{fmt}") for n in names]
 
 
 __all__ = ["DPI", "FONT", "STYLE", "TEXTS", "Scene", "Selection", "Ticks", "XAxis", "add_axes",
            "bodies_figure", "darker", "figure_names", "finish_time_axes", "instant_count",
-           "mechanism_figure", "palette", "points_figure", "pretty_unit", "renderer_class",
-           "save", "styled", "tidy_ylim", "trajectories_figure", "write_animation",
+           "mechanism_figure", "body_palette", "points_figure", "pretty", "renderer_class",
+           "save_figure", "styled", "tidy_ylim", "trajectories_figure", "write_animation",
            "write_plots", "write_png"]

@@ -11,6 +11,7 @@ from .render import renderer_class
 from .scene import Scene
 from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, FONT, styled, text_width
 
+
 @styled
 def write_animation(cm, data, out: Path, fps: int | None = None,
                     width: int | None = None) -> Path:

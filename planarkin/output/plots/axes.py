@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+
 def add_axes(fig, where, xlabels=True, sharex=None, grid=None):
     """fig.add_subplot(where) (a subplot spec) or fig.add_axes(where) (a rectangle), its grid,
     ticks and labels drawn by `Ticks`; xlabels: whether the x tick labels are drawn; grid:

@@ -9,8 +9,9 @@ import numpy as np
 
 from ..tables import BODY_QUANTITIES, POINT_QUANTITIES, units
 from .axes import add_axes
-from .style import (FONT, ROW_NAMES, duration, entry_width, figure_title, palette, point_palette,
-                    pretty_unit, styled, tick_label_width)
+from .style import (FONT, ROW_NAMES, body_palette, duration, entry_width, plot_title, point_palette,
+                    pretty, styled, tick_label_width)
+
 
 @styled
 def bodies_figure(cm, data, info, x: str = "time"):
@@ -20,7 +21,7 @@ def bodies_figure(cm, data, info, x: str = "time"):
     are left out and named, with their value, in a note under the legend (an axes whose curves
     are all constant keeps them)."""
     series = [a for a in (data.q, data.qd, data.qdd, data.qddd) if a is not None]
-    colors = palette(cm.nb)
+    colors = body_palette(cm.nb)
     xa = XAxis(cm, x)
     X = xa(data.t)
     fig, axes = time_grid(len(series), 2, xa.label)
@@ -28,7 +29,7 @@ def bodies_figure(cm, data, info, x: str = "time"):
     T = duration(data, info)
     sel = Selection()
     for o, arr in enumerate(series):
-        tu, ru = (pretty_unit(u) for u in units(lu, au, o))
+        tu, ru = (pretty(u) for u in units(lu, au, o))
         qx, qy, qphi = BODY_QUANTITIES[o]
         left, right = axes[o]
         lin = [(arr[:, 3 * b + k], colors[b], ls, f"{name}.{q}", (b, k))
@@ -45,7 +46,7 @@ def bodies_figure(cm, data, info, x: str = "time"):
     handles = _style_handles([("-", "x, phi"), ("--", "y")]) + _name_handles(
         cm.body_names, colors, sel.drawn)
     finish_time_axes(axes, data, info, xa)
-    title = figure_title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
+    title = plot_title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
                    info)
     arrange_time_grid(fig, axes, handles, title, width=10.0, row_height=1.75,
                        note=sel.note())
@@ -64,7 +65,7 @@ def points_figure(cm, data, info, x: str = "time"):
     T = duration(data, info)
     sel = Selection()
     for o, arr in enumerate(series):
-        tu, _ = (pretty_unit(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
+        tu, _ = (pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
         qx, qy = POINT_QUANTITIES[o]
         ax = axes[o][0]
         curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
@@ -75,7 +76,7 @@ def points_figure(cm, data, info, x: str = "time"):
     handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
         cm.point_names, colors, sel.drawn)
     finish_time_axes(axes, data, info, xa)
-    title = figure_title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
+    title = plot_title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
     arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
     return fig
 
@@ -170,7 +171,7 @@ class XAxis:
             who = el.name or "-".join(b for b in el.bodies if b != "ground")
             self.f = el.f
             self.degrees = unit == "deg"
-            self.label = f"{who} {el.kind}" + (f" [{pretty_unit(unit)}]" if unit else "")
+            self.label = f"{who} {el.kind}" + (f" [{pretty(unit)}]" if unit else "")
             self.against = f" against the {who} {el.kind}"
 
     def __call__(self, t):
@@ -184,7 +185,6 @@ class XAxis:
 def time_grid(nrows, ncols, xlabel="t [s]"):
     """Figure and (nrows, ncols) axes sharing the abscissa; sized by arrange_time_grid."""
     from matplotlib.figure import Figure
-
     from matplotlib.ticker import MaxNLocator
 
     fig = Figure()

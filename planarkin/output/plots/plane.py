@@ -11,6 +11,7 @@ from .render import renderer_class
 from .scene import Scene
 from .style import DPI, FONT, GROUND_Z, darker, styled, text_width, tick_label_width, with_alpha
 
+
 class Drawing:
     """The artists of the mechanism at one row; set_row moves them (the animation reuses them).
 

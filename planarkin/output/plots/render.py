@@ -10,7 +10,8 @@ import numpy as np
 
 from .style import DPI
 
-def save(fig, path: Path) -> Path:
+
+def save_figure(fig, path: Path) -> Path:
     """Save a figure: png at DPI (drawn by `renderer_class`, encoded by `write_png`); svg and
     pdf without a date and (svg) with fixed element ids, so that the same run gives
     byte-identical files."""
@@ -136,7 +137,6 @@ def renderer_class():
         cls = TextRenderer
     _RENDERER.append(cls)
     return cls
-
 
 
 def text_inches(labels, size: float) -> float:

@@ -7,7 +7,8 @@ import numpy as np
 
 from ...elements.base import pivots
 from ...elements.drawing import Parts
-from .style import palette, point_palette
+from .style import body_palette, point_palette
+
 
 class Scene:
     """Geometry of the mechanism over the run, user units.
@@ -25,7 +26,7 @@ class Scene:
         self.t = data.t
         self.nb = cm.nb
         self.names = cm.body_names
-        self.colors = palette(cm.nb)
+        self.colors = body_palette(cm.nb)
         self.point_colors = point_palette(len(cm.point_names))
         q = data.q
         self.x, self.y = q[:, 0::3], q[:, 1::3]
@@ -228,7 +229,6 @@ class Scene:
             return np.tile(np.asarray(s, float), (len(self.t), 1))
         X, Y = self.to_global(b, s)
         return np.c_[X[:, 0], Y[:, 0]]
-
 
 
 def _unique(points, tol=1e-9) -> np.ndarray:

@@ -54,16 +54,16 @@ def duration(data, info) -> float:
     T = (opts.end - opts.start) if opts is not None else float(data.t[-1] - data.t[0])
     return T if T > 0 and math.isfinite(T) else 1.0
 
-def figure_title(cm, what, info=None) -> str:
+def plot_title(cm, what, info=None) -> str:
     s = f"{cm.spec.name}: {what}"
     if info is not None and info.status == 1 and getattr(info, "event", None) is not None:
         s += f"\nrun stopped at t = {info.event.t:.6g} s ({info.event.kind})"
     return s
 
-def pretty_unit(unit: str) -> str:
+def pretty(unit: str) -> str:
     return unit.replace("^2", "\u00b2").replace("^3", "\u00b3")
 
-def palette(n: int) -> list:
+def body_palette(n: int) -> list:
     """Body colours: tab10, tab20 beyond ten bodies, then evenly spaced hues."""
     from matplotlib import colormaps
     if n <= 10:
@@ -78,7 +78,7 @@ def point_palette(n: int) -> list:
     from matplotlib import colormaps
     if n <= 8:
         return [colormaps["Dark2"](k) for k in (0, 3, 5, 6, 2, 4, 1, 7)[:n]]
-    return palette(n)
+    return body_palette(n)
 
 def darker(color, f=0.7):
     """The colour darkened (light palette entries as legible text)."""
