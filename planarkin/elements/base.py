@@ -209,17 +209,17 @@ class Kind:
         on each other, for unilateral contacts modelled as bilateral; None for other kinds."""
         return None
 
+    def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
+        """Problems of one instance that only its compiled parameters show (a cam profile that
+        undercuts): messages in user units, reported as errors at the element's line."""
+        return []
+
     def draw(self, G: Group, k: int, parts) -> None:  # pragma: no cover - abstract
         """How instance k of group G looks in the mechanism figures: ``draw(G, k, parts)`` adds
         body-frame geometry in user units to parts, a `planarkin.elements.drawing.Parts` (its
         joint points, pins, slides, pitch circles, profiles), and returns None. No matplotlib
         here: the figures (planarkin.output.plots.scene) turn the parts into artists."""
         raise NotImplementedError
-
-    def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
-        """Problems of one instance that only its compiled parameters show (a cam profile that
-        undercuts): messages in user units, reported as errors at the element's line."""
-        return []
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"

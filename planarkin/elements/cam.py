@@ -235,10 +235,6 @@ class Cam(_CamReaction, Kind):
                "edge, roller or flat face) by the law s(theta); writes cam-<name>.csv (1 equation)")
     equations = "u_k^T (P_j - C_k) - s(phi_i - phi_k) - s0 = 0 (s0: follower on the base circle)"
 
-    def draw(self, G, k, parts):
-        """The working surface on the cam, the roller, a flat follower's face."""
-        draw_cam(G, k, parts)
-
     def _h(self, G, F):
         bj, bk = G.bodies[:, 1], G.bodies[:, 2]
         sk, sj, v = G.params["sk"], G.params["sj"], G.params["vk"]
@@ -308,6 +304,10 @@ class Cam(_CamReaction, Kind):
         # theta0 (the drawn cam angle) is not a Group parameter: only `diagnose` reads it
         return {"rest": np.float64(s0), "theta0": poses[0][2] - poses[2][2]}, [s0]
 
+    def draw(self, G, k, parts):
+        """The working surface on the cam, the roller, a flat follower's face."""
+        draw_cam(G, k, parts)
+
 
 class CamRocker(_CamReaction, Kind):
     name = "cam-rocker"
@@ -333,10 +333,6 @@ class CamRocker(_CamReaction, Kind):
     summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge, roller "
                "or flat face) by the law psi(theta); writes cam-<name>.csv (1 equation)")
     equations = "phi_j - phi_k - psi(phi_i - phi_k) - psi0 = 0 (psi0 as drawn)"
-
-    def draw(self, G, k, parts):
-        """The working surface on the cam, the roller, a flat rocker's face."""
-        draw_cam(G, k, parts)
 
     def g(self, G, F):
         bj, bk = G.bodies[:, 1], G.bodies[:, 2]
@@ -375,6 +371,10 @@ class CamRocker(_CamReaction, Kind):
         th0 = poses[0][2] - poses[2][2]
         psi0 = (poses[1][2] - poses[2][2]) - float(arrays["psi"](np.array([th0]))[0][0])
         return {"rest": np.float64(psi0), "theta0": th0}, [psi0]
+
+    def draw(self, G, k, parts):
+        """The working surface on the cam, the roller, a flat rocker's face."""
+        draw_cam(G, k, parts)
 
 
 # -- the profile, by kinematic inversion ---------------------------------------------------------

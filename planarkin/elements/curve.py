@@ -159,13 +159,6 @@ class CurveSlot(Kind):
                "arcs, or a table of points interpolated by a quintic spline (1 equation)")
     equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"
 
-    def draw(self, G, k, parts):
-        """The slot or track itself, its whole length, on body i (a line on the frame, dashed
-        on a moving body); the pin's path shows only the part it runs along."""
-        parts.joint_points(G, k)
-        cv = G.params["curve"][k]
-        parts.outline(parts.body(G, k, 0), cv.eval(np.linspace(cv.a0, cv.a1, 241))[0] * parts.L)
-
     def diagnose(self, arrays, L, af, lu, au):
         cv = arrays["curve"]
         return cv.problems(L, lu) if hasattr(cv, "problems") else []
@@ -232,6 +225,13 @@ class CurveSlot(Kind):
         d3 = (ndot(W3) - kap * beta * tW2
               - (ks * beta * beta * u + kap * beta1 * u + kap * beta * u1))
         return -d3[..., None]
+
+    def draw(self, G, k, parts):
+        """The slot or track itself, its whole length, on body i (a line on the frame, dashed
+        on a moving body); the pin's path shows only the part it runs along."""
+        parts.joint_points(G, k)
+        cv = G.params["curve"][k]
+        parts.outline(parts.body(G, k, 0), cv.eval(np.linspace(cv.a0, cv.a1, 241))[0] * parts.L)
 
 
 def _curvature_rate(G, F):

@@ -82,10 +82,6 @@ class GearMesh(Kind):
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre sj, "
         "counter-clockwise positive. Gear i gets minus the force at the same point")
 
-    def draw(self, G, k, parts):
-        """Both pitch circles with a radius mark that shows the rotation."""
-        draw_discs(G, k, parts)
-
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 
@@ -145,6 +141,10 @@ class GearMesh(Kind):
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0]
 
+    def draw(self, G, k, parts):
+        """Both pitch circles with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
+
 
 class RollDisc(Kind):
     name = "roll-disc"
@@ -158,10 +158,6 @@ class RollDisc(Kind):
     summary = ("disc j rolls without slipping on disc i, outside (ri, rj > 0) or inside (the "
                "outer radius negative); also keeps the centre distance |ri + rj| (2 equations)")
     equations = "P_j - P_i - (ri + rj) e(theta*) = 0, theta* as for gear-mesh"
-
-    def draw(self, G, k, parts):
-        """Both discs with a radius mark that shows the rotation."""
-        draw_discs(G, k, parts)
 
     def g(self, G, F):
         th, _, S = _theta(G, F)
@@ -200,6 +196,10 @@ class RollDisc(Kind):
 
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0, 0.0]
+
+    def draw(self, G, k, parts):
+        """Both discs with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
 
 
 def draw_discs(G, k, parts) -> None:

@@ -92,10 +92,6 @@ class RackPinion(Kind):
         "from the rack; torque: its moment about the pinion's centre sj, counter-clockwise "
         "positive. The rack i gets minus the force at the same point")
 
-    def draw(self, G, k, parts):
-        """The pinion's pitch circle (the rack is drawn by its slide)."""
-        draw_pinion(G, k, parts)
-
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 
@@ -133,6 +129,10 @@ class RackPinion(Kind):
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
         return {"side": np.float64(side)}, [c]
 
+    def draw(self, G, k, parts):
+        """The pinion's pitch circle (the rack is drawn by its slide)."""
+        draw_pinion(G, k, parts)
+
 
 class RollLine(Kind):
     name = "roll-line"
@@ -148,10 +148,6 @@ class RollLine(Kind):
                "road; a rack and pinion that also keeps the centre distance) (2 equations)")
     equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "
                  "- c0 = 0")
-
-    def draw(self, G, k, parts):
-        """The disc (the line is drawn by its slide)."""
-        draw_pinion(G, k, parts)
 
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
@@ -173,6 +169,10 @@ class RollLine(Kind):
         side, un, _ = _estimate(arrays, poses)
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
         return {"side": np.float64(side)}, [side * arrays["r"], c]
+
+    def draw(self, G, k, parts):
+        """The disc (the line is drawn by its slide)."""
+        draw_pinion(G, k, parts)
 
 
 def draw_pinion(G, k, parts) -> None:

@@ -25,12 +25,6 @@ class Revolute(Kind):
     summary = "pin joint: point si of i and point sj of j coincide (2 equations)"
     equations = "r_i + A_i s'_i - r_j - A_j s'_j = 0"
 
-    def draw(self, G, k, parts):
-        """A pin at the joint (a pivot when one side is ground)."""
-        bi, si, bj, sj = parts.joint_points(G, k)
-        parts.pin(bi, si)
-        parts.pin(bj, sj)
-
     def _s(self, G: Group, F: Frame):
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
         si, sj = G.params["si"], G.params["sj"]
@@ -76,6 +70,12 @@ class Revolute(Kind):
 
     def place(self, at, poses, given):
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1])}
+
+    def draw(self, G, k, parts):
+        """A pin at the joint (a pivot when one side is ground)."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.pin(bi, si)
+        parts.pin(bj, sj)
 
 
 def to_body(point, pose):

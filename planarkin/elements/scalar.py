@@ -30,10 +30,6 @@ class Angle(Kind):
     equations = "phi_j - phi_i - c = 0"
     driver_equations = "phi_j - phi_i - f(t) = 0"
 
-    def draw(self, G, k, parts):
-        """Nothing of its own: the bodies are drawn by their other joints."""
-        parts.joint_points(G, k)
-
     def g(self, G, F):
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
         return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])[..., None]
@@ -49,6 +45,10 @@ class Angle(Kind):
 
     def jerk(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
+
+    def draw(self, G, k, parts):
+        """Nothing of its own: the bodies are drawn by their other joints."""
+        parts.joint_points(G, k)
 
 
 def _pair_chain(G, F):
@@ -67,10 +67,6 @@ class _Component(Kind):
     target = "c"
     target_unit = "length"
     axis = 0
-
-    def draw(self, G, k, parts):
-        """Its two points on the bodies' outlines, nothing between them."""
-        parts.joint_points(G, k)
 
     def g(self, G, F):
         h = relative_point(G, F)[4 + self.axis]
@@ -103,6 +99,10 @@ class _Component(Kind):
         ai = J.third(F, bi, rotate(F, bi, pi_[:, 0], pi_[:, 1]))
         aj = J.third(F, bj, rotate(F, bj, pj[:, 0], pj[:, 1]))
         return (ai[self.axis] - aj[self.axis])[..., None]
+
+    def draw(self, G, k, parts):
+        """Its two points on the bodies' outlines, nothing between them."""
+        parts.joint_points(G, k)
 
 
 class XDistance(_Component):
@@ -145,13 +145,6 @@ class Distance(Kind):
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"
-
-    def draw(self, G, k, parts):
-        """A thin link between two pins (pivots on ground)."""
-        bi, si, bj, sj = parts.joint_points(G, k)
-        parts.pin(bi, si)
-        parts.pin(bj, sj)
-        parts.link(bi, si, bj, sj)
 
     def g(self, G, F):
         h = relative_point(G, F)
@@ -202,3 +195,10 @@ class Distance(Kind):
         if "c" not in given:
             out["c"] = float(np.hypot(*(q - p)))
         return out
+
+    def draw(self, G, k, parts):
+        """A thin link between two pins (pivots on ground)."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.pin(bi, si)
+        parts.pin(bj, sj)
+        parts.link(bi, si, bj, sj)

@@ -84,16 +84,6 @@ class Translational(Kind):
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
     equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
 
-    def draw(self, G, k, parts):
-        """The slide: an axis on ground or a slot on a moving guide; a lone block along it."""
-        bi, si, bj, sj = parts.axis_points(G, k)
-        vi = G.params["vi"][k]
-        parts.slide(bi, si, vi, bj, sj)
-        if bj != parts.ground:
-            parts.slide_direction(bj, G.params["vj"][k])
-        elif bi != parts.ground:
-            parts.slide_direction(bi, vi)
-
     def g(self, G, F):
         out = empty(F, len(G), 2)
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
@@ -123,6 +113,16 @@ class Translational(Kind):
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
                 "vi": dir_to_body(axis, poses[0]), "vj": dir_to_body(axis, poses[1])}
 
+    def draw(self, G, k, parts):
+        """The slide: an axis on ground or a slot on a moving guide; a lone block along it."""
+        bi, si, bj, sj = parts.axis_points(G, k)
+        vi = G.params["vi"][k]
+        parts.slide(bi, si, vi, bj, sj)
+        if bj != parts.ground:
+            parts.slide_direction(bj, G.params["vj"][k])
+        elif bi != parts.ground:
+            parts.slide_direction(bi, vi)
+
 
 class PinSlot(Kind):
     name = "pin-slot"
@@ -140,13 +140,6 @@ class PinSlot(Kind):
     summary = ("pin-in-slot (revolute-translational composite): pin sj of j stays on the slot line "
                "of i, at signed offset c (default 0) (1 equation)")
     equations = "n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - c = 0"
-
-    def draw(self, G, k, parts):
-        """The slot (an axis on ground) and the pin running in it."""
-        bi, si, bj, sj = parts.joint_points(G, k)
-        parts.slide(bi, si, G.params["vi"][k], bj, sj)
-        if bj != parts.ground:
-            parts.pin(bj, sj)
 
     def g(self, G, F):
         return _normal_g(G, F)[..., None]
@@ -166,6 +159,13 @@ class PinSlot(Kind):
         axis = given["axis"]
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
                 "vi": dir_to_body(axis, poses[0])}
+
+    def draw(self, G, k, parts):
+        """The slot (an axis on ground) and the pin running in it."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.slide(bi, si, G.params["vi"][k], bj, sj)
+        if bj != parts.ground:
+            parts.pin(bj, sj)
 
 
 class Slide(Kind):
@@ -187,11 +187,6 @@ class Slide(Kind):
         'u_i, positive along +u_i; the actuator pushes i back as much')
     summary = "slide along an axis: u_i^T (P_j - P_i) = f(t) (1 equation)"
     driver_equations = "u_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - f(t) = 0"
-
-    def draw(self, G, k, parts):
-        """The slide's line and the point sliding on it."""
-        bi, si, bj, sj = parts.joint_points(G, k)
-        parts.slide(bi, si, G.params["vi"][k], bj, sj)
 
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
@@ -218,3 +213,8 @@ class Slide(Kind):
 
     def jerk(self, G, F):
         return _along_jerk(G, F)[..., None]
+
+    def draw(self, G, k, parts):
+        """The slide's line and the point sliding on it."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.slide(bi, si, G.params["vi"][k], bj, sj)
