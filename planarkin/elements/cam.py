@@ -31,7 +31,6 @@ import numpy as np
 from ..expr import parse
 from . import jerk as J
 from .base import Kind, Param, body_xy, force_at, omega, relative_velocity, rotate
-from .drawing import circle
 
 VAR = "theta"
 DEFAULT_LIMIT = {"cam": math.radians(30.0), "cam-rocker": math.radians(45.0)}
@@ -673,6 +672,7 @@ def _table(cm, kind, par, bodies):
 def draw_cam(G, k: int, parts) -> None:
     """cam, cam-rocker: the working surface over the law's range on the cam (about its pivot on
     the frame k), the roller, and a flat follower's face."""
+    from .drawing import circle             # (a leaf module: numpy only)
     parts.joint_points(G, k)
     par = instance(G, k)
     bi, bj, bk = (int(b) for b in G.bodies[k])

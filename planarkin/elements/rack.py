@@ -20,7 +20,6 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Kind, Param, force_at, gradient_force, relative_velocity
-from .drawing import circle_with_mark
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 from .translational import _along_jerk, _line, _normal_gamma, _normal_jerk, _normal_row
 
@@ -177,4 +176,5 @@ class RollLine(Kind):
 
 def draw_pinion(G, k, parts) -> None:
     """rack-pinion, roll-line: the pinion's (disc's) pitch circle with a radius mark."""
+    from .drawing import circle_with_mark   # (a leaf module: numpy only)
     circle_with_mark(parts.body(G, k, 1), parts.point(G, k, "sj"), parts.point(G, k, "r"), parts)

@@ -188,6 +188,11 @@ class Slide(Kind):
     summary = "slide along an axis: u_i^T (P_j - P_i) = f(t) (1 equation)"
     driver_equations = "u_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - f(t) = 0"
 
+    def draw(self, G, k, parts):
+        """The slide's line and the point sliding on it."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.slide(bi, si, G.params["vi"][k], bj, sj)
+
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
         return (ux * hx + uy * hy)[..., None]
@@ -213,8 +218,3 @@ class Slide(Kind):
 
     def jerk(self, G, F):
         return _along_jerk(G, F)[..., None]
-
-    def draw(self, G, k, parts):
-        """The slide's line and the point sliding on it."""
-        bi, si, bj, sj = parts.joint_points(G, k)
-        parts.slide(bi, si, G.params["vi"][k], bj, sj)
