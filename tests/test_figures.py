@@ -165,3 +165,21 @@ def test_a_cam_or_a_disc_is_drawn_by_its_outline_not_as_a_slider_block(example, 
     sc = plots.Scene(m, r._chunk)
     b = m.body_names.index(body)
     assert sc.fills[b] is None and sc.bars[b] is None and sc.dashed[b]
+
+
+def test_measures_png_leaves_the_callers_matplotlib_backend_alone(tmp_path):
+    """measures.png switched the process to Agg (matplotlib.use) and drew through pyplot: an
+    API caller with an interactive backend lost it. Now the object-oriented API only."""
+    import matplotlib
+    from planarkin.derived import derived_tables
+    res = planarkin.solve(planarkin.load(ROOT / "mechanisms" / "four-bar-sketch.yaml"), steps=60)
+    table = next(d for d in derived_tables(res.model, res.info.options)
+                 if d.filename == "measures.csv")
+    before = matplotlib.get_backend()
+    matplotlib.use("svg")
+    try:
+        files = table.plot(res.model, table.compute(res._chunk), res.info, tmp_path, "png")
+        assert matplotlib.get_backend() == "svg"
+    finally:
+        matplotlib.use(before)
+    assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000
