@@ -189,6 +189,8 @@ def trajectories_figure(cm, scene: Scene):
         c = scene.point_colors[k]
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=1.6, zorder=12, label=name)
         ax.plot(xy[0, 0], xy[0, 1], "o", color=c, ms=6, zorder=13)
+        if not np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span:
+            continue        # a point that does not move (a ground pin): no path to name
         handles.append(line)
         for a, b in _arrow_spots(xy, 0.04 * scene.span):
             heads.append(_arrow_head(np.subtract(b, a)))
