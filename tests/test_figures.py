@@ -183,3 +183,26 @@ def test_measures_png_leaves_the_callers_matplotlib_backend_alone(tmp_path):
     finally:
         matplotlib.use(before)
     assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000
+
+
+def test_study_plots_leave_the_backend_alone_and_name_the_status(tmp_path):
+    """sweep.png and tolerance.png switched the process to Agg through pyplot; a sweep without
+    a metric plotted the status as the number 1.0 on a 0.96..1.04 axis."""
+    import matplotlib
+    from PIL import Image
+    from planarkin.studies.plots import sweep_plot, tolerance_plot
+    before = matplotlib.get_backend()
+    matplotlib.use("svg")
+    try:
+        P = np.linspace(0.03, 0.05, 5)[:, None]
+        sweep_plot(tmp_path / "sweep.png", ["a"], P, ["ok"] * 4 + ["failed"], [],
+                   np.zeros((5, 0)), [P[:, 0]], "t")
+        Y = np.random.default_rng(0).normal(size=(50, 1))
+        tolerance_plot(tmp_path / "tolerance.png", ["y"], Y, [0.0], [1.0],
+                       {5: [-1.6], 95: [1.6]}, "t")
+        assert matplotlib.get_backend() == "svg"
+    finally:
+        matplotlib.use(before)
+    for name in ("sweep.png", "tolerance.png"):
+        with Image.open(tmp_path / name) as im:
+            assert im.width > 400
