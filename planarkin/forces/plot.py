@@ -78,7 +78,7 @@ def forces_figure(cm, X, info):
     # inches right of the axes: handle and pad (2.8 em), the widest label, a margin
     legend_w = 0.3 + 2.8 * FONT / 72 + text_inches([lab for row in rows for lab, _ in row], FONT)
     H = 6.6
-    width = (6.4 * ncol if one else 7.5) + legend_w
+    width = (5.6 * ncol if one else 7.0) + legend_w
     fig = Figure(figsize=(width, H))
     # grid, ticks and tick labels drawn by output.plots.axes.Ticks; the abscissa shared by
     # column, its tick labels in the lower row
