@@ -41,8 +41,7 @@ def sweep_plot(path: Path, names: list[str], P: np.ndarray, status: list[str], l
                 gx, gy = grid
                 Z = M[:, i].reshape(len(gx), len(gy)).T if labels else \
                     ok.reshape(len(gx), len(gy)).T.astype(float)
-                cmap = colormaps["viridis"].copy()
-                cmap.set_bad("#d0d0d0")
+                cmap = colormaps["viridis"].with_extremes(bad="#d0d0d0")
                 im = ax.pcolormesh(_edges(gx), _edges(gy), np.ma.masked_invalid(Z), cmap=cmap,
                                    shading="flat", **({} if labels else dict(vmin=0, vmax=1)))
                 bar = fig.colorbar(im, ax=ax, label=lab)
