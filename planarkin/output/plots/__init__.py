@@ -13,7 +13,7 @@ Files (``<fmt>`` is png at 150 dpi, svg or pdf):
   rotation);
 - ``points.<fmt>`` and ``trajectories.<fmt>`` (models with points): the same for the points of
   interest, and their paths in the plane;
-- ``mechanism.<fmt>``: the mechanism at six instants and the paths of its joints and points;
+- ``mechanism.<fmt>``: the mechanism at a few instants and the paths of its joints and points;
 - ``animation.gif`` (`write_animation`): the mechanism moving, paths growing.
 
 A failed run marks its stopping time in the time histories (red dashed line); near-singular
