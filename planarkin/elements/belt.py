@@ -110,7 +110,7 @@ class Belt(Gear):
         ground = parts.ground
         if parts.body(G, k, 2) != ground:
             return
-        c = [parts.pivot(ground, parts.body(G, k, col), None) for col in (0, 1)]
+        c = [parts.pivot(ground, parts.body(G, k, col), origin=False) for col in (0, 1)]
         if c[0] is None or c[1] is None:
             return
         r1, r2 = parts.point(G, k, "ri"), parts.point(G, k, "rj")

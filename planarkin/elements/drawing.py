@@ -57,11 +57,14 @@ class Parts:
         when the kind has no such parameter."""
         return G.params[name][k] * self.L if name in G.params else None
 
-    def pivot(self, body: int, other: int, missing=np.zeros(2)):
+    def pivot(self, body: int, other: int, origin: bool = True):
         """The point on body (its frame, user units) of the first revolute joining it to other:
-        where a gear or a cam turns; missing (default the body's origin) when none does."""
+        where a gear or a cam turns; when none does, the body's origin (None with
+        origin=False)."""
         p = self.pivot_points.get((body, other))
-        return missing if p is None else p * self.L
+        if p is None:
+            return np.zeros(2) if origin else None
+        return p * self.L
 
     # -- what the hooks add -------------------------------------------------------------------
     def joint_points(self, G, k: int) -> tuple:
