@@ -89,8 +89,8 @@ class Drawing:
         items, colors = [], []
         for b, name in enumerate(sc.names):
             V = sc.fills[b] if sc.fills[b] is not None else sc.bars[b]
-            if V is None:
-                V = sc.dashed[b][0] if sc.dashed[b] else np.zeros((1, 2))
+            if V is None:       # a cam or a gear (its frame at its pivot) or a lone point
+                V = sc.dashed[b][0] if sc.dashed[b] and b not in sc.shaped else np.zeros((1, 2))
             items.append((name, sc.at(b, V, i).mean(axis=0), True))
             colors.append(darker(sc.colors[b]))
         for k, name in enumerate(sc.cm.point_names):
