@@ -22,7 +22,6 @@ import numpy as np
 
 from . import jerk as J
 from .base import Kind, Param, force_at, gradient_force, relative_point, relative_velocity, omega
-from .drawing import circle_with_mark
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 
 _PARAMS = (
@@ -204,5 +203,6 @@ class RollDisc(Kind):
 
 def draw_discs(G, k, parts) -> None:
     """gear-mesh, roll-disc: both pitch circles with a radius mark that shows the rotation."""
+    from .drawing import circle_with_mark   # (a leaf module: numpy only)
     for col, (s, r) in ((0, ("si", "ri")), (1, ("sj", "rj"))):
         circle_with_mark(parts.body(G, k, col), parts.point(G, k, s), parts.point(G, k, r), parts)
