@@ -150,9 +150,10 @@ def batch(n: int, tmp: Path) -> dict:
 
 
 def _cold(mod) -> None:
-    """Forget the texts a plots module has rasterised in this process (`plots._TEXTS`), so that
+    """Forget the texts a plots module has rasterised in this process (`plots.TEXTS`), so that
     a repeated figure costs what its first drawing in a fresh process does."""
-    getattr(mod, "_TEXTS", {}).clear()
+    for name in ("TEXTS", "_TEXTS"):            # (the name before the plots package)
+        getattr(mod, name, {}).clear()
 
 
 def in_process(models, repeat: int, tmp: Path) -> list[dict]:
@@ -283,7 +284,7 @@ def forces_against(baseline: Path, repeat: int, tmp: Path) -> dict:
 
 def png_encoders(repeat: int, tmp: Path) -> dict:
     """The four-bar's bodies.png drawn once, its Agg buffer encoded by Pillow at zlib level 1
-    (RGB, what main's plots._save did) and by plots._write_png: CPU seconds (best of repeat)
+    (RGB, what main's plots._save did) and by plots.write_png: CPU seconds (best of repeat)
     and file sizes."""
     import planarkin
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -292,7 +293,7 @@ def png_encoders(repeat: int, tmp: Path) -> dict:
     from planarkin.output import plots
     cm = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
     res = planarkin.solve(cm)
-    fig = plots._bodies_figure(cm, res._chunk, res.info)
+    fig = plots.bodies_figure(cm, res._chunk, res.info)
     fig.set_dpi(plots.DPI)
     canvas = FigureCanvasAgg(fig)
     canvas.draw()
@@ -304,7 +305,7 @@ def png_encoders(repeat: int, tmp: Path) -> dict:
             path, format="png", compress_level=1, dpi=(plots.DPI, plots.DPI))
 
     def ours(path):
-        plots._write_png(path, buf, plots.DPI)
+        plots.write_png(path, buf, plots.DPI)
 
     out = {}
     for _ in range(repeat):

@@ -102,11 +102,12 @@ def derived_tables(cm, opts) -> list[DerivedTable]:
 
 
 def _plot(cm, X, ch, out, fmt):
-    """centres.png: fixed and moving centrodes of each body relative to ground."""
+    """centres.png: fixed and moving centrodes of each body relative to ground (matplotlib's
+    object-oriented API: no pyplot, no backend switch; the legend under the axes, off the
+    curves)."""
     from pathlib import Path
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+    from matplotlib.figure import Figure
     pl = pairs(cm)
     shown = []
     for k, (i, j) in enumerate(pl):
@@ -127,7 +128,8 @@ def _plot(cm, X, ch, out, fmt):
         size = max(float(np.max(hi - lo)), 1e-12)
         box = (lo - 1.0 * size, hi + 1.0 * size, lo - 4.0 * size, hi + 4.0 * size)
     n = len(shown)
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 5.0), squeeze=False)
+    fig = Figure(figsize=(5.2 * n, 5.6), layout="constrained")
+    axes = fig.subplots(1, n, squeeze=False)
     for ax, (k, j) in zip(axes[0], shown):
         x, y = X[:, 1 + 3 * k], X[:, 2 + 3 * k]
         if box is not None:
@@ -168,12 +170,11 @@ def _plot(cm, X, ch, out, fmt):
         ax.grid(alpha=0.3)
         ax.set_xlabel(f"x [{cm.spec.length_unit}]")
         ax.set_ylabel(f"y [{cm.spec.length_unit}]")
-        ax.legend(fontsize=7, loc="best")
+    fig.legend(handles=axes[0][0].get_legend_handles_labels()[0], loc="outside lower center",
+               ncol=2, fontsize=8, frameon=False)
     fig.suptitle(f"{cm.spec.name}: centrodes (instant centres relative to ground)")
-    fig.tight_layout()
     path = Path(out) / f"centres.{fmt}"
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return [path]
 
 

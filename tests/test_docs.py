@@ -23,7 +23,8 @@ import pytest
 from click.testing import CliRunner
 
 from planarkin.cli import main
-from planarkin.docs import KEYS, figure, keys_table, kinds_reference, kinds_table, options_table
+from planarkin.docs import (KEYS, figure, keys_table, kinds_reference, kinds_table, options_table,
+                            reaction_signs)
 from planarkin.elements import KINDS
 
 try:
@@ -161,8 +162,10 @@ def test_kinds_reference_covers_every_kind_with_its_keys_and_reaction():
         section = ref.split(f"{{#kind-{name}}}", 1)[1].split("{#kind-", 1)[0]
         for p in kind.params:
             assert f"| `{p.name}` |" in section, (name, p.name)
-        if kind.joint:
-            assert "reaction on i:" in section, name
+        # the sign convention is the kind's own (no hand-written notes to drift)
+        sign = kind.reaction_sign.replace("<", "&lt;")
+        assert f"- reactions in forces.csv: {sign}" in section, name
+        assert f"| `{name}` | {sign.replace('|', chr(92) + '|')} |" in reaction_signs(), name
 
 
 def test_generated_tables_have_no_stray_markers():

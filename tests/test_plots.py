@@ -100,7 +100,7 @@ def test_failed_run_marks_the_stopping_time(tmp_path):
     for f in files:
         check_file(f, "png")
 
-    fig = plots._bodies_figure(model, res._chunk, res.info)
+    fig = plots.bodies_figure(model, res._chunk, res.info)
     axes = fig.axes
     assert len(axes) == 6
     for ax in axes:
@@ -116,7 +116,7 @@ def test_failed_run_marks_the_stopping_time(tmp_path):
 def test_near_singular_warnings_are_thin_orange_lines(model, result):
     warn = [Event("near-singular", 0.25, "passed"), Event("near-singular", 0.75, "passed")]
     info = dataclasses.replace(result.info, warnings=warn)
-    fig = plots._bodies_figure(model, result._chunk, info)
+    fig = plots.bodies_figure(model, result._chunk, info)
     for ax in fig.axes:
         orange = sorted(float(ln.get_xdata()[0]) for ln in ax.get_lines()
                         if ln.get_color() == "tab:orange")
@@ -130,7 +130,7 @@ def test_positions_only(model, positions, tmp_path):
     files = plots.write_plots(model, res._chunk, res.info, tmp_path)
     assert [f.name for f in files] == ["bodies.png", "points.png", "trajectories.png",
                                        "mechanism.png"]
-    fig = plots._bodies_figure(model, res._chunk, res.info)
+    fig = plots.bodies_figure(model, res._chunk, res.info)
     assert [ax.get_ylabel() for ax in fig.axes] == ["x, y [m]", "phi [rad]"]
 
 
@@ -150,7 +150,7 @@ def test_drawing_closes_the_slider_crank_loop(model, result):
     """The drawing is built from the joints: crank and rod are bars between their pins, the
     slider a block on a ground axis along x, one ground pivot; drawn at any instant the crank
     tip meets the rod, the rod's end meets the slider and point B."""
-    sc = plots._Scene(model, result._chunk)
+    sc = plots.Scene(model, result._chunk)
     crank, rod, slider = range(3)
     a, b = 0.1, 0.3
     assert np.allclose(sc.bars[crank], [[0, 0], [a, 0]])
@@ -176,11 +176,11 @@ def test_constant_quantity_is_drawn_on_the_model_scale():
     ax = Figure().add_subplot()
     noise = np.array([1e-17, -2e-17, 0.0, 3e-17])
     ax.plot(np.arange(4), noise)
-    plots._tidy_ylim(ax, noise, ref=0.5)
+    plots.tidy_ylim(ax, noise, ref=0.5)
     assert ax.get_ylim() == pytest.approx((-0.05, 0.05))
     ax.plot(np.arange(4), [0.0, 0.2, 0.1, 0.0])        # a real motion keeps automatic limits
     lim = ax.get_ylim()
-    plots._tidy_ylim(ax, [0.0, 0.2, 0.1, 0.0], ref=0.5)
+    plots.tidy_ylim(ax, [0.0, 0.2, 0.1, 0.0], ref=0.5)
     assert ax.get_ylim() == lim
 
 
@@ -209,7 +209,7 @@ def test_bodies_figure_skips_constant_curves_and_names_each_body_once(model, res
     """Slider-crank: the crank's frame is pinned at the origin (x, y constant), the slider's
     y and phi are 0, the crank turns at 2 pi rad/s: those curves are not drawn but named with
     their values; every body appears once in the legend, with the line styles."""
-    fig = plots._bodies_figure(model, result._chunk, result.info)
+    fig = plots.bodies_figure(model, result._chunk, result.info)
     labels = _legend_labels(fig)
     assert labels == ["x, phi", "y", "crank", "rod", "slider"]
     assert len(labels) == len(set(labels))
@@ -230,13 +230,13 @@ def test_identical_curves_are_drawn_once():
     ax = Figure().add_subplot()
     t = np.linspace(0, 1, 11)
     a, b = np.sin(t), np.sin(t) * (1 + 1e-13)
-    sel = plots._Selection()
+    sel = plots.Selection()
     sel.draw(ax, t, [(a, "C0", "-", "p.x", (0, 0)), (b, "C1", "-", "q.x", (1, 0)),
                      (np.full(11, 2.0), "C2", "-", "r.x", (2, 0))], 1.0, "m", 0)
     assert len(ax.get_lines()) == 1
     assert sel.note() == "constant, not drawn: r.x = 2 m; equal to a curve drawn: q.x = p.x"
     ax = Figure().add_subplot()                # all constant: drawn all the same
-    sel = plots._Selection()
+    sel = plots.Selection()
     sel.draw(ax, t, [(np.zeros(11), "C0", "-", "p.x", (0, 0)),
                      (np.ones(11), "C1", "-", "q.x", (1, 0))], 1.0, "m", 0)
     assert len(ax.get_lines()) == 2 and sel.note() == ""
@@ -279,15 +279,15 @@ def test_mechanism_instants_few_distinct_and_the_final_pose_of_an_open_motion():
     not periodic, the frame origin pinned to ground): its final pose is drawn; trammel (there and
     back): the pose at t = 0.75 s repeats t = 0.25 s and is drawn once."""
     m, r = _run("six-bar", steps=120)
-    sc = plots._Scene(m, r._chunk)
+    sc = plots.Scene(m, r._chunk)
     assert plots.instant_count(m) == 3 and sc.closed
     assert list(sc.instants(3)) == [0, 40, 80]
     m, r = _run("boom", steps=40)
-    sc = plots._Scene(m, r._chunk)
+    sc = plots.Scene(m, r._chunk)
     assert not sc.closed
     assert list(sc.instants(plots.instant_count(m))) == [0, 13, 27, 40]
     m, r = _run("trammel", steps=120)
-    sc = plots._Scene(m, r._chunk)
+    sc = plots.Scene(m, r._chunk)
     assert list(sc.instants(4)) == [0, 30, 60]
 
 
@@ -295,15 +295,15 @@ def test_mechanism_figure_legend_and_body_colours(model, result):
     """Every body drawn in its own colour (that of bodies.png) and named in it once; the legend
     names each instant and each kind of path once."""
     from matplotlib.colors import to_rgb
-    fig = plots._mechanism_figure(model, plots._Scene(model, result._chunk))
+    fig = plots.mechanism_figure(model, plots.Scene(model, result._chunk))
     labels = _legend_labels(fig)
     assert labels == ["B", "joint paths", "t = 0 s (named)", "t = 0.25 s", "t = 0.5 s",
                       "t = 0.75 s"]
     ax = fig.axes[0]
     names = {t.get_text(): t for t in ax.texts}
-    colors = plots._palette(model.nb)
+    colors = plots.body_palette(model.nb)
     for b, name in enumerate(model.body_names):
-        assert np.allclose(to_rgb(names[name].get_color()), plots._darker(colors[b]))
+        assert np.allclose(to_rgb(names[name].get_color()), plots.darker(colors[b]))
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]
     assert {to_rgb(ln.get_color()) for ln in bars} == {to_rgb(colors[0]), to_rgb(colors[1])}
 
@@ -312,8 +312,8 @@ def test_time_histories_against_the_driver_coordinate():
     """four-bar (degrees, crank driven by f = 360 t): with x = driver every curve is drawn
     against the crank angle, ticks every 45 degrees, the labels name it with its unit."""
     m, r = _run("four-bar", steps=72)
-    for fig in (plots._bodies_figure(m, r._chunk, r.info, "driver"),
-                plots._points_figure(m, r._chunk, r.info, "driver")):
+    for fig in (plots.bodies_figure(m, r._chunk, r.info, "driver"),
+                plots.points_figure(m, r._chunk, r.info, "driver")):
         bottom = fig.axes[-1]
         assert bottom.get_xlabel() == "crank angle [deg]"
         assert "against the crank angle" in fig._suptitle.get_text()
@@ -323,7 +323,7 @@ def test_time_histories_against_the_driver_coordinate():
         for ax in fig.axes:
             for ln in ax.get_lines():
                 assert np.allclose(ln.get_xdata(), 360 * r.t)
-    fig = plots._bodies_figure(m, r._chunk, r.info)
+    fig = plots.bodies_figure(m, r._chunk, r.info)
     assert fig.axes[-1].get_xlabel() == "t [s]"
 
 
@@ -351,7 +351,7 @@ def test_legend_beside_the_drawing_is_never_cut():
     text = SLIDER_CRANK.read_text().replace("  B: {body", "  WWWWWWWWWWWWWWWWWWWWWWWWWWWWWW: {body")
     m = planarkin.load("long.yaml", text=text)
     r = planarkin.solve(m, steps=40)
-    fig = plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    fig = plots.mechanism_figure(m, plots.Scene(m, r._chunk))
     W, H = fig.get_size_inches()
     assert W > 9.0
     box = fig.legends[0].get_window_extent(RendererAgg(int(W * fig.dpi), int(H * fig.dpi),
@@ -407,7 +407,7 @@ def test_mechanism_legend_names_only_paths_that_are_drawn():
     in the legend (an entry in a colour that appears nowhere in the drawing)."""
     m = planarkin.load(ROOT / "mechanisms" / "six-bar-sketch.yaml")
     r = planarkin.solve(m, steps=40)
-    fig = plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    fig = plots.mechanism_figure(m, plots.Scene(m, r._chunk))
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert {"B", "C", "P", "F"} <= set(labels)
     assert not {"A", "D", "E"} & set(labels), labels
@@ -418,7 +418,7 @@ def test_a_slot_is_drawn_whole():
     path covers only the part it runs along), every point of it on the circle about C."""
     m = planarkin.load(ROOT / "mechanisms" / "curved-slot.yaml")
     r = planarkin.solve(m, steps=40)
-    scene = plots._Scene(m, r._chunk)
+    scene = plots.Scene(m, r._chunk)
     cx, R = 0.4, 0.3                                       # Cx and R of the file
     on_circle = [P for P in scene.axes if len(P) > 100 and np.allclose(
         np.hypot(P[:, 0] - cx, P[:, 1]), R, rtol=0, atol=1e-12)]
@@ -429,34 +429,34 @@ def test_a_slot_is_drawn_whole():
 
 
 def test_a_figure_does_not_depend_on_what_was_drawn_before(tmp_path):
-    """The process keeps the texts it has rasterised (plots._TEXTS) and the plot server draws
+    """The process keeps the texts it has rasterised (plots.TEXTS) and the plot server draws
     model after model: the six-bar's figures drawn after the four-bar's are byte-identical to
     the six-bar's drawn first, in a process that has drawn nothing."""
     six, four = _run("six-bar", steps=60), _run("four-bar", steps=60)
     for d in ("alone", "other", "after"):
         (tmp_path / d).mkdir()
-    plots._TEXTS.clear()
+    plots.TEXTS.clear()
     alone = plots.write_plots(six[0], six[1]._chunk, six[1].info, tmp_path / "alone")
-    plots._TEXTS.clear()
+    plots.TEXTS.clear()
     plots.write_plots(four[0], four[1]._chunk, four[1].info, tmp_path / "other")
     after = plots.write_plots(six[0], six[1]._chunk, six[1].info, tmp_path / "after")
     from matplotlib.backends.backend_agg import RendererAgg
     if hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"):   # the cache's matplotlib (3.11)
-        assert len(plots._TEXTS) > 0
+        assert len(plots.TEXTS) > 0
     assert [f.name for f in alone] == [f.name for f in after]
     for a, b in zip(alone, after):
         assert a.read_bytes() == b.read_bytes(), a.name
 
 
 def test_png_writer_round_trips_and_states_the_resolution(tmp_path):
-    """plots._write_png (unfiltered rows, zlib): Pillow reads back the same RGB pixels (the
+    """plots.write_png (unfiltered rows, zlib): Pillow reads back the same RGB pixels (the
     alpha channel dropped: figures are opaque) and 150 dpi."""
     from PIL import Image
     rng = np.random.default_rng(12)
     rgba = rng.integers(0, 256, size=(37, 53, 4), dtype=np.uint8)
     rgba[5:20, 10:40] = (255, 255, 255, 255)
     path = tmp_path / "x.png"
-    plots._write_png(path, rgba, 150)
+    plots.write_png(path, rgba, 150)
     with Image.open(path) as im:
         assert im.mode == "RGB" and im.size == (53, 37)
         assert round(im.info["dpi"][0]) == 150
@@ -479,7 +479,7 @@ def test_tick_labels_are_drawn_where_matplotlib_draws_them(ydata):
         with mpl.rc_context(plots.STYLE):
             fig = Figure(figsize=(4, 3), dpi=150)
             rect = (0.25, 0.2, 0.7, 0.7)
-            ax = plots._add_axes(fig, rect) if light else fig.add_axes(rect)
+            ax = plots.add_axes(fig, rect) if light else fig.add_axes(rect)
             ax.plot([0.0, 360.0], ydata)
             r = Recorder(600, 450, 150)
             r.seen = []
@@ -526,7 +526,7 @@ def _flat_face_touches_its_cam(m, r):
     """At every grid time the follower's drawn face is tangent to the cam's drawn working
     surface: no surface point beyond the face line, the nearest on it (to the polyline's
     sampling), and that point on the drawn segment."""
-    sc = plots._Scene(m, r._chunk)
+    sc = plots.Scene(m, r._chunk)
     faces = [(b, f) for b in range(sc.nb) for f in sc.faces[b]]
     assert len(faces) == 1
     bj, F = faces[0]
@@ -566,4 +566,4 @@ def test_a_flat_faced_translating_follower_is_drawn_with_its_face_on_the_cam(tmp
 
 def test_a_roller_follower_has_no_face(tmp_path):
     m, r = _offset_cam(tmp_path, "roller: rr")
-    assert not any(plots._Scene(m, r._chunk).faces)
+    assert not any(plots.Scene(m, r._chunk).faces)

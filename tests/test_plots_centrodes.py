@@ -16,7 +16,7 @@ def _figure(text):
     m = planarkin.load(EXAMPLE, text=text)
     r = planarkin.solve(m, steps=120)
     assert r.success
-    return r, plots._Scene(m, r._chunk), plots._mechanism_figure(m, plots._Scene(m, r._chunk))
+    return r, plots.Scene(m, r._chunk), plots.mechanism_figure(m, plots.Scene(m, r._chunk))
 
 
 def _labels(fig):
@@ -62,7 +62,7 @@ def _moving_scene(steps):
         "output: {centres: true}", "output: {centres: moving}"))
     assert m.spec.output.centres and m.spec.output.moving_centrodes
     r = planarkin.solve(m, steps=steps)
-    return m, r, plots._Scene(m, r._chunk)
+    return m, r, plots.Scene(m, r._chunk)
 
 
 def test_moving_centrode_rolls_on_the_fixed_one_without_slipping():
@@ -94,7 +94,7 @@ def test_moving_centrode_rolls_on_the_fixed_one_without_slipping():
 
 def test_mechanism_plot_draws_the_moving_centrode_at_the_first_instant():
     m, r, scene = _moving_scene(120)
-    fig = plots._mechanism_figure(m, scene)
+    fig = plots.mechanism_figure(m, scene)
     labels = _labels(fig)
     assert labels.count(MOVING) == 1 and labels.count("instant centre\nof coupler") == 1
     lines = fig.axes[0].get_lines()
@@ -116,5 +116,5 @@ def test_centres_fixed_is_true_and_draws_no_moving_centrode():
         "output: {centres: true}", "output: {centres: fixed}"))
     assert m.spec.output.centres and not m.spec.output.moving_centrodes
     r = planarkin.solve(m, steps=24)
-    scene = plots._Scene(m, r._chunk)
+    scene = plots.Scene(m, r._chunk)
     assert scene.moving == [] and scene.centrodes

@@ -12,6 +12,7 @@ GENERATORS = {
     "kinds": docs.kinds_table,
     "kinds-reference": docs.kinds_reference,
     "options": docs.options_table,
+    "reactions": docs.reaction_signs,
 }
 MARKER = re.compile(r"^<!-- planarkin: ([\w-]+) -->$", re.M)
 

@@ -214,6 +214,13 @@ class Kind:
         undercuts): messages in user units, reported as errors at the element's line."""
         return []
 
+    def draw(self, G: Group, k: int, parts) -> None:  # pragma: no cover - abstract
+        """How instance k of group G looks in the mechanism figures: ``draw(G, k, parts)`` adds
+        body-frame geometry in user units to parts, a `planarkin.elements.drawing.Parts` (its
+        joint points, pins, slides, pitch circles, profiles), and returns None. No matplotlib
+        here: the figures (planarkin.output.plots.scene) turn the parts into artists."""
+        raise NotImplementedError
+
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
 

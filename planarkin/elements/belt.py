@@ -102,3 +102,25 @@ class Belt(Gear):
         pi_, pj, pk = (p[2] for p in poses)
         rj = (1.0 if arrays["crossed"] > 0.5 else -1.0) * arrays["rj"]
         return {}, [arrays["ri"] * (pi_ - pk) + rj * (pj - pk)]
+
+    def draw(self, G, k, parts):
+        """The pulleys' pitch circles and, on the frame, the two straight runs between the
+        pulleys' ground pivots (on a moving carrier the runs are not drawn)."""
+        super().draw(G, k, parts)
+        ground = parts.ground
+        if parts.body(G, k, 2) != ground:
+            return
+        c = [parts.pivot(ground, parts.body(G, k, col), origin=False) for col in (0, 1)]
+        if c[0] is None or c[1] is None:
+            return
+        r1, r2 = parts.point(G, k, "ri"), parts.point(G, k, "rj")
+        crossed = G.params["crossed"][k] > 0.5
+        d = np.hypot(*(c[1] - c[0]))
+        sb = ((r1 + r2) if crossed else (r1 - r2)) / d
+        if not d > 0 or abs(sb) >= 1:
+            return
+        e = (c[1] - c[0]) / d
+        n = np.array([-e[1], e[0]])
+        for side in (1.0, -1.0):
+            m = side * n * np.sqrt(1 - sb * sb) + e * sb
+            parts.outline(ground, np.array([c[0] + r1 * m, c[1] + (-r2 if crossed else r2) * m]))

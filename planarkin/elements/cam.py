@@ -303,6 +303,10 @@ class Cam(_CamReaction, Kind):
         # theta0 (the drawn cam angle) is not a Group parameter: only `diagnose` reads it
         return {"rest": np.float64(s0), "theta0": poses[0][2] - poses[2][2]}, [s0]
 
+    def draw(self, G, k, parts):
+        """The working surface on the cam, the roller, a flat follower's face."""
+        draw_cam(G, k, parts)
+
 
 class CamRocker(_CamReaction, Kind):
     name = "cam-rocker"
@@ -366,6 +370,10 @@ class CamRocker(_CamReaction, Kind):
         th0 = poses[0][2] - poses[2][2]
         psi0 = (poses[1][2] - poses[2][2]) - float(arrays["psi"](np.array([th0]))[0][0])
         return {"rest": np.float64(psi0), "theta0": th0}, [psi0]
+
+    def draw(self, G, k, parts):
+        """The working surface on the cam, the roller, a flat rocker's face."""
+        draw_cam(G, k, parts)
 
 
 # -- the profile, by kinematic inversion ---------------------------------------------------------
@@ -664,3 +672,65 @@ def _table(cm, kind, par, bodies):
         return np.column_stack(cols)
 
     return compute
+
+
+def draw_cam(G, k: int, parts) -> None:
+    """cam, cam-rocker: the working surface over the law's range on the cam (about its pivot on
+    the frame k), the roller, and a flat follower's face."""
+    from .drawing import circle             # (a leaf module: numpy only)
+    parts.joint_points(G, k)
+    par = instance(G, k)
+    bi, bj, bk = (int(b) for b in G.bodies[k])
+    lo, hi = par["range"]
+    if not np.isfinite(lo):
+        lo, hi = 0.0, 2 * np.pi
+    P = profile(G.kind.name, par, np.linspace(lo, hi, 181))
+    centre = parts.pivot(bi, bk)
+    parts.shape(bi)
+    parts.outline(bi, centre + np.c_[P["surface_x"], P["surface_y"]] * parts.L)
+    roller = float(par["roller"]) * parts.L
+    if roller > 0:
+        parts.outline(bj, circle(parts.point(G, k, "sj"), roller, 31))
+    face = _flat_face(G, k, par, parts.phi)
+    if face is not None:
+        parts.face(bj, face * parts.L)
+
+
+def _flat_face(G, k: int, par: dict, phi):
+    """A flat follower's face (cam, cam-rocker with flat: true), in j's frame (internal units):
+    a segment over every point of contact of the law's range, with a margin, from the face's
+    own point sj on (a corner of the body's outline); None for other followers. The contact
+    point c and the face's point w (the pitch point of the profile) both lie on the face: its
+    position along the face, seen from the cam, is (c - w)^T e for the face's direction e there.
+    phi: (N, nb) the bodies' angles (rad) over the run (a translating follower's face direction
+    on its body: the angle between it and the frame its axis is given in, constant)."""
+    if not par.get("flat", 0.0) > 0.5:
+        return None
+    bj, bk = int(G.bodies[k, 1]), int(G.bodies[k, 2])
+    lo, hi = par["range"]
+    if not np.isfinite(lo):
+        lo, hi = 0.0, 2 * np.pi
+    th = np.linspace(lo, hi, 361)
+    P = profile(G.kind.name, par, th)
+    dx, dy = P["surface_x"] - P["pitch_x"], P["surface_y"] - P["pitch_y"]   # cam frame
+    ang = lambda b: phi[0, b] if b < phi.shape[1] else 0.0              # noqa: E731 - ground
+    if G.kind.name == "cam-rocker":
+        a = np.asarray(par["sj"], float) - np.asarray(par["pj"], float)
+        f = np.asarray(par["face"], float)
+        f = a / np.hypot(*a) if not np.isfinite(f).all() else f / np.hypot(*f)
+        e = par["rest"] + par["psi"](th)[0] + np.arctan2(f[1], f[0]) - th     # e's angle
+    else:       # the face perpendicular to the travel u: along R u, on j at a fixed angle
+        u = np.asarray(par["vk"], float)
+        rel = ang(bk) - ang(bj)
+        n = np.array([-u[1], u[0]]) / np.hypot(*u)
+        f = np.array([np.cos(rel) * n[0] - np.sin(rel) * n[1],
+                      np.sin(rel) * n[0] + np.cos(rel) * n[1]])
+        e = np.arctan2(n[1], n[0]) - th
+    xi = dx * np.cos(e) + dy * np.sin(e)
+    if not np.isfinite(xi).all():
+        return None
+    a0, a1 = xi.min(), xi.max()
+    pad = 0.15 * (a1 - a0) + 0.05 * np.hypot(*np.c_[P["surface_x"], P["surface_y"]].T).max()
+    a0, a1 = min(a0 - pad, 0.0), max(a1 + pad, 0.0)     # from the face's point on: the body
+    sj = np.asarray(par["sj"], float)
+    return np.array([sj + a0 * f, sj + a1 * f])

@@ -226,6 +226,13 @@ class CurveSlot(Kind):
               - (ks * beta * beta * u + kap * beta1 * u + kap * beta * u1))
         return -d3[..., None]
 
+    def draw(self, G, k, parts):
+        """The slot or track itself, its whole length, on body i (a line on the frame, dashed
+        on a moving body); the pin's path shows only the part it runs along."""
+        parts.joint_points(G, k)
+        cv = G.params["curve"][k]
+        parts.outline(parts.body(G, k, 0), cv.eval(np.linspace(cv.a0, cv.a1, 241))[0] * parts.L)
+
 
 def _curvature_rate(G, F):
     """(N, K) dkappa/ds at every pin's closest point: (c' x c''') / sigma^4 - 3 (c' x c'')

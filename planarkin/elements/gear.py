@@ -131,3 +131,10 @@ class Gear(Kind):
 
     def jerk(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
+
+    def draw(self, G, k, parts):
+        """Both pitch circles, about each gear's pivot on the carrier k."""
+        bi, _, bj, _ = parts.joint_points(G, k)
+        bk = parts.body(G, k, 2)
+        parts.disc(bi, parts.point(G, k, "ri"), bk)
+        parts.disc(bj, parts.point(G, k, "rj"), bk)

@@ -140,6 +140,10 @@ class GearMesh(Kind):
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0]
 
+    def draw(self, G, k, parts):
+        """Both pitch circles with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
+
 
 class RollDisc(Kind):
     name = "roll-disc"
@@ -191,3 +195,14 @@ class RollDisc(Kind):
 
     def prepare(self, arrays, poses):
         return {"phase": _phase(arrays, poses)}, [0.0, 0.0]
+
+    def draw(self, G, k, parts):
+        """Both discs with a radius mark that shows the rotation."""
+        draw_discs(G, k, parts)
+
+
+def draw_discs(G, k, parts) -> None:
+    """gear-mesh, roll-disc: both pitch circles with a radius mark that shows the rotation."""
+    from .drawing import circle_with_mark   # (a leaf module: numpy only)
+    for col, (s, r) in ((0, ("si", "ri")), (1, ("sj", "rj"))):
+        circle_with_mark(parts.body(G, k, col), parts.point(G, k, s), parts.point(G, k, r), parts)

@@ -128,6 +128,10 @@ class RackPinion(Kind):
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
         return {"side": np.float64(side)}, [c]
 
+    def draw(self, G, k, parts):
+        """The pinion's pitch circle (the rack is drawn by its slide)."""
+        draw_pinion(G, k, parts)
+
 
 class RollLine(Kind):
     name = "roll-line"
@@ -164,3 +168,13 @@ class RollLine(Kind):
         side, un, _ = _estimate(arrays, poses)
         c = un + side * arrays["r"] * (poses[1][2] - poses[0][2])
         return {"side": np.float64(side)}, [side * arrays["r"], c]
+
+    def draw(self, G, k, parts):
+        """The disc (the line is drawn by its slide)."""
+        draw_pinion(G, k, parts)
+
+
+def draw_pinion(G, k, parts) -> None:
+    """rack-pinion, roll-line: the pinion's (disc's) pitch circle with a radius mark."""
+    from .drawing import circle_with_mark   # (a leaf module: numpy only)
+    circle_with_mark(parts.body(G, k, 1), parts.point(G, k, "sj"), parts.point(G, k, "r"), parts)

@@ -71,6 +71,12 @@ class Revolute(Kind):
     def place(self, at, poses, given):
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1])}
 
+    def draw(self, G, k, parts):
+        """A pin at the joint (a pivot when one side is ground)."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.pin(bi, si)
+        parts.pin(bj, sj)
+
 
 def to_body(point, pose):
     """Body-frame coordinates s' = A(phi)^T (P - r) of a global point P for a body at pose."""

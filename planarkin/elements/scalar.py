@@ -46,6 +46,10 @@ class Angle(Kind):
     def jerk(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
 
+    def draw(self, G, k, parts):
+        """Nothing of its own: the bodies are drawn by their other joints."""
+        parts.joint_points(G, k)
+
 
 def _pair_chain(G, F):
     """Chain (jerk.pair) of h = P_j - P_i of the instances' points si, sj."""
@@ -95,6 +99,10 @@ class _Component(Kind):
         ai = J.third(F, bi, rotate(F, bi, pi_[:, 0], pi_[:, 1]))
         aj = J.third(F, bj, rotate(F, bj, pj[:, 0], pj[:, 1]))
         return (ai[self.axis] - aj[self.axis])[..., None]
+
+    def draw(self, G, k, parts):
+        """Its two points on the bodies' outlines, nothing between them."""
+        parts.joint_points(G, k)
 
 
 class XDistance(_Component):
@@ -187,3 +195,10 @@ class Distance(Kind):
         if "c" not in given:
             out["c"] = float(np.hypot(*(q - p)))
         return out
+
+    def draw(self, G, k, parts):
+        """A thin link between two pins (pivots on ground)."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.pin(bi, si)
+        parts.pin(bj, sj)
+        parts.link(bi, si, bj, sj)

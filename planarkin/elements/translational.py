@@ -113,6 +113,16 @@ class Translational(Kind):
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
                 "vi": dir_to_body(axis, poses[0]), "vj": dir_to_body(axis, poses[1])}
 
+    def draw(self, G, k, parts):
+        """The slide: an axis on ground or a slot on a moving guide; a lone block along it."""
+        bi, si, bj, sj = parts.axis_points(G, k)
+        vi = G.params["vi"][k]
+        parts.slide(bi, si, vi, bj, sj)
+        if bj != parts.ground:
+            parts.slide_direction(bj, G.params["vj"][k])
+        elif bi != parts.ground:
+            parts.slide_direction(bi, vi)
+
 
 class PinSlot(Kind):
     name = "pin-slot"
@@ -150,6 +160,13 @@ class PinSlot(Kind):
         return {"si": to_body(at, poses[0]), "sj": to_body(at, poses[1]),
                 "vi": dir_to_body(axis, poses[0])}
 
+    def draw(self, G, k, parts):
+        """The slot (an axis on ground) and the pin running in it."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.slide(bi, si, G.params["vi"][k], bj, sj)
+        if bj != parts.ground:
+            parts.pin(bj, sj)
+
 
 class Slide(Kind):
     """Slide of a translational joint (reference §5.6): u_i^T h = f(t), the displacement of the
@@ -170,6 +187,11 @@ class Slide(Kind):
         'u_i, positive along +u_i; the actuator pushes i back as much')
     summary = "slide along an axis: u_i^T (P_j - P_i) = f(t) (1 equation)"
     driver_equations = "u_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - f(t) = 0"
+
+    def draw(self, G, k, parts):
+        """The slide's line and the point sliding on it."""
+        bi, si, bj, sj = parts.joint_points(G, k)
+        parts.slide(bi, si, G.params["vi"][k], bj, sj)
 
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)

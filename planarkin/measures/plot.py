@@ -6,9 +6,12 @@ from pathlib import Path
 
 
 def plot_measures(cm, X, out: Path, fmt: str = "png") -> list:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """Write measures.<fmt> (one row per measure, its rate on a second axis) from the plot rows
+    X of measures.csv; returns [path]. matplotlib's object-oriented API only (no pyplot, no
+    backend switch: an API caller's matplotlib state is left alone)."""
+    from matplotlib.figure import Figure
+
+    from ..output.plots.render import save_figure
     measures = cm.spec.measures
     from . import columns
     names = [n for n in (h.split(" [", 1)[0] for h in _header(cm, X))]
@@ -16,7 +19,8 @@ def plot_measures(cm, X, out: Path, fmt: str = "png") -> list:
     index = {name: names.index(name) for name, _, _, _ in cols}
     units = {name: u for name, u, _, _ in cols}
     n = len(measures)
-    fig, axes = plt.subplots(n, 1, figsize=(8, 2.2 * n + 0.6), sharex=True, squeeze=False)
+    fig = Figure(figsize=(8, 2.2 * n + 0.6), layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)
     t = X[:, 0]
     for ax, m in zip(axes[:, 0], measures):
         if m.name not in index:             # a ratio without velocities
@@ -46,11 +50,7 @@ def plot_measures(cm, X, out: Path, fmt: str = "png") -> list:
         ax.set_title(title, fontsize=9, loc="left")
     axes[-1, 0].set_xlabel("t [s]")
     fig.suptitle(f"{cm.spec.name}: measures (solid) and their rates (dashed)")
-    fig.tight_layout(rect=(0, 0, 1, 1 - 0.4 / fig.get_figheight()))
-    path = Path(out) / f"measures.{fmt}"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path]
+    return [save_figure(fig, Path(out) / f"measures.{fmt}")]
 
 
 def _header(cm, X):

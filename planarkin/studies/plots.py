@@ -15,24 +15,24 @@ from pathlib import Path
 import numpy as np
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+def _figure(nrows: int, ncols: int, figsize):
+    """A Figure (constrained layout) and its (nrows, ncols) axes: matplotlib's object-oriented
+    API, no pyplot and no backend switch (an API caller's matplotlib state is left alone)."""
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig, fig.subplots(nrows, ncols, squeeze=False)
 
 
 def sweep_plot(path: Path, names: list[str], P: np.ndarray, status: list[str], labels: list[str],
                M: np.ndarray, grid: list | None, title: str) -> Path:
     """P: (V, p) parameter values; M: (V, m) metrics (nan unless ok); grid: the values of each
     parameter for a factorial (None for sampled variants)."""
-    plt = _plt()
+    from matplotlib import colormaps
     nm = max(len(labels), 1)
     ok = np.array([s == "ok" for s in status])
     heat = grid is not None and len(names) == 2
     ncol = 1 if (len(names) == 1 or heat) else len(names)
-    fig, axes = plt.subplots(nm, ncol, figsize=(6.4 if ncol == 1 else 3.6 * ncol, 3.2 * nm),
-                             squeeze=False, constrained_layout=True)
+    fig, axes = _figure(nm, ncol, (6.4 if ncol == 1 else 3.6 * ncol, 3.2 * nm))
     for i in range(nm):
         lab = labels[i] if labels else "status"
         for j in range(ncol):
@@ -41,11 +41,12 @@ def sweep_plot(path: Path, names: list[str], P: np.ndarray, status: list[str], l
                 gx, gy = grid
                 Z = M[:, i].reshape(len(gx), len(gy)).T if labels else \
                     ok.reshape(len(gx), len(gy)).T.astype(float)
-                cmap = plt.get_cmap("viridis").copy()
-                cmap.set_bad("#d0d0d0")
+                cmap = colormaps["viridis"].with_extremes(bad="#d0d0d0")
                 im = ax.pcolormesh(_edges(gx), _edges(gy), np.ma.masked_invalid(Z), cmap=cmap,
-                                   shading="flat")
-                fig.colorbar(im, ax=ax, label=lab)
+                                   shading="flat", **({} if labels else dict(vmin=0, vmax=1)))
+                bar = fig.colorbar(im, ax=ax, label=lab)
+                if not labels:      # no metric: whether each variant ran, not a number
+                    bar.set_ticks([0, 1], labels=["failed", "ok"])
                 bad = ~ok.reshape(len(gx), len(gy)).T
                 if bad.any():
                     X, Y = np.meshgrid(gx, gy)
@@ -67,12 +68,14 @@ def sweep_plot(path: Path, names: list[str], P: np.ndarray, status: list[str], l
                         transform=ax.get_xaxis_transform(), clip_on=False,
                         label="failed or invalid (no value)")
                 ax.legend(fontsize=8, framealpha=0.85)
+            if not labels:          # no metric: whether each variant ran, not a number
+                ax.set_yticks([0, 1], ["failed", "ok"])
+                ax.set_ylim(-0.3, 1.3)
             ax.set_xlabel(names[j])
             ax.set_ylabel(lab)
             ax.grid(True, alpha=0.3)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -88,12 +91,10 @@ def tolerance_plot(path: Path, labels: list[str], Y: np.ndarray, nominal: list[f
                    predicted_sd: list[float], pct: dict, title: str) -> Path:
     """Y: (N, k) Monte-Carlo outputs (nan for failed samples); predicted_sd: first-order standard
     deviations (nan when not available)."""
-    plt = _plt()
     k = len(labels)
     ncol = min(k, 2)
     nrow = math.ceil(k / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.4 * nrow), squeeze=False,
-                             constrained_layout=True)
+    fig, axes = _figure(nrow, ncol, (5.2 * ncol, 3.4 * nrow))
     for i, lab in enumerate(labels):
         ax = axes[i // ncol, i % ncol]
         y = Y[:, i][np.isfinite(Y[:, i])]
@@ -121,5 +122,4 @@ def tolerance_plot(path: Path, labels: list[str], Y: np.ndarray, nominal: list[f
         axes[i // ncol, i % ncol].set_visible(False)
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

@@ -1,0 +1,96 @@
+"""animation.gif: the mechanism moving over the run, blitted frames on one palette."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .plane import Drawing, fit_legend, plane_figure
+from .render import renderer_class
+from .scene import Scene
+from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, FONT, styled, text_width
+
+
+@styled
+def write_animation(cm, data, out: Path, fps: int | None = None,
+                    width: int | None = None) -> Path:
+    """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
+    joint and point paths growing), up to ANIM_FRAMES frames at fps frames per second (default
+    ANIM_FPS), width pixels wide (default 640; the height follows the drawing, the legend
+    beside it is never cut: the image widens for it).
+
+    Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
+    the moving artists on that background (a full matplotlib redraw per frame costs ten times
+    more), and every frame is mapped onto one shared palette before Pillow writes the GIF."""
+    from matplotlib.animation import PillowWriter
+    from PIL import Image
+
+    path = Path(out) / "animation.gif"
+    scene = Scene(cm, data)
+    N = len(data.t)
+    rows = np.unique(np.linspace(0, max(N - 1, 0), min(ANIM_FRAMES, max(N, 1))).round().astype(int))
+    fps = int(fps or ANIM_FPS)
+    fig, ax, beside = plane_figure(cm, scene, (width or 640) / ANIM_DPI,
+                                    0.7 + text_width(cm.body_names), dpi=ANIM_DPI)
+    traces = [ax.plot([], [], color=c, lw=w, zorder=5)[0] for _, _, c, w in scene.trace_styles]
+    drawing = Drawing(ax, scene, rows[-1], body_colors=True, zorder=10)
+    stamp = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=FONT,
+                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
+                    zorder=30)
+    legend = fig.legend(handles=drawing.legend_handles(), loc="upper left",
+                        bbox_to_anchor=beside, fontsize=FONT, frameon=False)
+    fit_legend(fig, legend, ax, beside)
+    ax.set_title(f"{cm.spec.name}: motion", fontsize=11, y=1.0)
+    moving = traces + drawing.artists + [stamp]
+    for a in moving:
+        a.set_animated(True)
+    w, h = (int(round(v * ANIM_DPI)) for v in fig.get_size_inches())
+    renderer = renderer_class()(w, h, ANIM_DPI)
+    fig.draw(renderer)                      # everything that does not move
+    background = renderer.copy_from_bbox(fig.bbox)
+
+    def render(i) -> "Image.Image":
+        drawing.set_row(i)
+        for line, xy in zip(traces, scene.traces):
+            line.set_data(xy[: i + 1, 0], xy[: i + 1, 1])
+        stamp.set_text(f"t = {data.t[i]:.4g} s")
+        renderer.restore_region(background)
+        for a in moving:
+            a.draw(renderer)
+        return Image.frombuffer("RGBA", (w, h), renderer.buffer_rgba(), "raw", "RGBA", 0,
+                                1).convert("RGB")
+
+    class BlitWriter(PillowWriter):
+        """PillowWriter whose frames come from render(); one palette for the whole GIF (taken
+        from the last frame, where every path is complete)."""
+
+        def setup(self, fig, outfile, dpi=None):
+            super().setup(fig, outfile, dpi=dpi)
+            self.images = []
+
+        def grab_frame(self, **savefig_kwargs):
+            self.images.append(render(self.row))
+
+        def finish(self):
+            dither = Image.Dither.NONE
+            palette = self.images[-1].quantize(255, method=Image.Quantize.MEDIANCUT,
+                                               dither=dither)
+            # Pillow maps colours to the palette through a cache of 4-level cells: white
+            # would become a near-white neighbour, so those all become white
+            colors = np.array(palette.getpalette(), dtype=np.uint8).reshape(-1, 3)
+            colors[colors.min(axis=1) >= 248] = 255
+            palette.putpalette(colors.ravel().tolist())
+            frames = [im.quantize(palette=palette, dither=dither) for im in self.images]
+            frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
+                           duration=int(1000 / self.fps), loop=0)
+
+    writer = BlitWriter(fps=fps)
+    writer.setup(fig, path, ANIM_DPI)       # (not writer.saving(): it changes rcParams)
+    for i in rows:
+        writer.row = i
+        writer.grab_frame()
+    writer.finish()
+    return path
+
+
