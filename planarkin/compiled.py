@@ -6,7 +6,7 @@ points, written as plain loops so that numba compiles it (issue 17): the same Ne
 block by block (solve_points: a block iterates until every point of the batch has converged, as
 the reference does, so the iteration counts agree), the same determinant signs and sigma_min
 bounds (1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks in closed form as
-the fused numpy pass), and after each block, per point, its rows of the velocity and
+the reference, system.Small2), and after each block, per point, its rows of the velocity and
 acceleration systems with the gradients and gamma at the converged positions. solve_each
 solves point by point, each to its own convergence, with per-point element parameters and the
 design studies' acceptance tests (studies.batch); hermite, cubic and layout are the grid pass's
@@ -269,7 +269,7 @@ def factor(kb, nj, src, dst, gr, J, Mi, mo, WK):
     if kb == 1:
         Mi[mo] = 1.0 / J[0]
         return abs(J[0]), sign_of(J[0])
-    if kb == 2:        # closed form, as System._invert_small (the fused numpy pass)
+    if kb == 2:        # closed form, as system.Small2 (the reference pass)
         a = J[0]
         b = J[1]
         c = J[2]
@@ -306,8 +306,8 @@ def apply(kb, Mi, mo, r, cols, co, X, xo):
 
 @inline
 def solve2(J, r, cols, co, X, xo):
-    """The same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
-    _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
+    """The same for a 2x2 block from its matrix J: Cramer's rule, as the reference's
+    Small2.solve (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
     holds the Jansen leg's accelerations to 1e-14 of the exact linkage)."""
     det = J[0] * J[3] - J[1] * J[2]
     X[xo + cols[co]] = (J[3] * r[0] - J[1] * r[1]) / det

@@ -91,7 +91,7 @@ def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_
 @helper
 def invert_small(kb, J, M, mo, WK):
     """The block's inverse into M[mo:] as solve_each takes it (1 x 1 and 2 x 2 in closed form,
-    as studies.fused): returns (sigma_min bound, determinant sign)."""
+    as system.Small2): returns (sigma_min bound, determinant sign)."""
     if kb == 1:
         M[mo] = 1.0 / J[0]
         return abs(J[0]), sign_of(J[0])
@@ -119,7 +119,7 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
     """solve_points' arguments and results, point by point (a design study, studies.batch):
     each point solves its blocks in order, each block by Newton until that point's own
     correction is at most tol (so a point's result does not depend on the other points of the
-    batch), 1 x 1 and 2 x 2 blocks inverted in closed form (as studies.fused), then its
+    batch), 1 x 1 and 2 x 2 blocks inverted in closed form (as system.Small2), then its
     velocities and accelerations as solve_points. The element parameters of point i: prm
     (E x 8) shared by all points, or with has_v the table prm (V x ne x 8) of parameter sets,
     row vrow[i] (a design study's variants). has_t: point i reads row trow[i] of T, NU and FDD

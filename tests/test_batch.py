@@ -6,7 +6,6 @@ import pytest
 
 from planarkin.studies import batch as batchmod
 from planarkin.studies.execute import executor
-from planarkin.studies.fused import Fused
 from planarkin.studies.sweep import Range, factorial
 from planarkin.studies.variants import Study
 from planarkin.studies.warm import _predictor_error
@@ -99,41 +98,6 @@ def test_path_errors_of_many_variants_are_the_followers_per_variant():
         assert np.array_equal(many[v], _predictor_error(grid, Q[v], Qd[v], Qdd[v], 9))
 
 
-@pytest.mark.parametrize("path", [FB, "mechanisms/slider-crank.yaml",
-                                  "mechanisms/klann-leg.yaml"])     # klann: a 4 x 4 block
-@pytest.mark.parametrize("spread", ["even", "few far"])
-def test_the_fused_pass_equals_the_block_by_block_solve(path, spread):
-    from planarkin.assembly import assemble
-    from planarkin.linalg import noise
-    from planarkin.results import analyse
-    s = Study(path, analysis={"steps": 90})
-    cm = s.nominal
-    _, res = analyse(cm, s.opts)
-    S = assemble(cm).system
-    assert Fused.applies(S)
-    unit = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
-    exact = np.concatenate([res.q / unit, np.zeros((len(res.t), 3))], axis=1)
-    pred = exact.copy()
-    dev = noise(pred[:, :cm.n].size, 3).reshape(len(pred), cm.n)
-    if spread == "even":
-        pred[:, :cm.n] += 1e-4 * dev
-    else:   # most rows one correction from the solution, every 8th farther: those iterate alone
-        far = np.arange(len(pred)) % 8 == 0
-        pred[:, :cm.n] += np.where(far[:, None], 3e-3, 1e-9) * dev
-    ref = [pred.copy(), np.zeros_like(pred), np.zeros_like(pred)]
-    info = S.solve_batch(res.t, *ref, policy="full", tol=1e-10, maxit=8, order=2)
-    got = [pred.copy(), np.zeros_like(pred), np.zeros_like(pred)]
-    drivers = S.driver_values(res.t)
-    fi = Fused(S).solve(cm.groups, *got, *drivers, tol=1e-10, maxit=8)
-    assert info.converged.all() and fi.converged.all()
-    for a, b in zip(got, ref):
-        scale = np.abs(b).max(axis=0) + 1e-300
-        assert (np.abs(a - b) <= 1e-12 * scale).all()
-    assert np.allclose(got[0], exact, rtol=0, atol=1e-12)
-    assert np.array_equal(fi.sign, info.sign)
-    assert np.allclose(fi.smin, info.smin, rtol=1e-10, atol=0)
-
-
 # -- the compiled route (planarkin.kernel, compiled_each.solve_each) against the numpy reference -
 
 def _kernel():
@@ -153,7 +117,7 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
     # and place the event to ~1e-11)
     kernel, _ = _kernel()
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 1)     # a small study takes it too
-    from planarkin.studies.fused import Fused
+    from planarkin.system import System
     s = Study(FB, analysis={"steps": STEPS},
               metrics=["max:rocker.phi", "stroke:rocker.phi", "max:P.x", "min:P.y", "dev:P",
                        "absmax:rocker.alpha", "max:P.vy", "min:coupler.omega"])
@@ -161,8 +125,8 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
     variants = (factorial([Range("a", 0.03, 0.05, 4), Range("b", 0.11, 0.13, 3)])
                 + [{"a": 0.08, "b": 0.12}, {"a": 0.17, "b": 0.12}, {"a": 0.041, "b": 0.12},
                    {"a": 0.06, "b": 0.12}, {"a": 0.065, "b": 0.125}])
-    calls = {"kernel": 0, "fused": 0}
-    rows, fsolve = kernel.solve_rows, Fused.solve
+    calls = {"kernel": 0, "numpy": 0}
+    rows, nsolve = kernel.solve_rows, System.solve_batch
 
     def count(name, f):
         def g(*a, **k):
@@ -170,12 +134,13 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
             return f(*a, **k)
         return g
     monkeypatch.setattr(kernel, "solve_rows", count("kernel", rows))
-    monkeypatch.setattr(Fused, "solve", count("fused", fsolve))
+    monkeypatch.setattr(System, "solve_batch", count("numpy", nsolve))
     fast = s.run(variants)
-    assert calls == {"kernel": calls["kernel"], "fused": 0} and calls["kernel"] > 0
+    assert calls["kernel"] > 0
     monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    before = dict(calls)
     ref = s.run(variants)
-    assert calls["fused"] > 0
+    assert calls["kernel"] == before["kernel"] and calls["numpy"] > before["numpy"]
     assert [(o.status, o.kind) for o in fast] == [(o.status, o.kind) for o in ref]
     assert [(o.status, o.kind) for o in fast][12:14] == [("invalid", ""), ("failed", "lock-up")]
     for f, r in zip(fast, ref):

@@ -1,10 +1,9 @@
 """The grid pass's fast routes against the reference pass (issue 12 item 3, issue 17).
 
-System._solve_batch is the reference implementation; the fused small-block pass
-(System._solve_small) and the compiled route (planarkin.kernel, planarkin.compiled: numba) must
-give the same positions, velocities and accelerations to rounding (the compiled route to
-1e-15 of each column's largest value), the same iteration counts, determinant signs and
-convergence flags, on every example model they apply to. numba is a dependency: these tests
+System._solve_batch is the numpy reference (the only numpy solve); the compiled route
+(planarkin.kernel, planarkin.compiled: numba) must give the same positions, velocities and
+accelerations to 1e-15 of each column's largest value, the same iteration counts, determinant
+signs and convergence flags, on every example model it applies to. numba is a dependency: these tests
 do not skip."""
 
 import numpy as np
@@ -28,7 +27,7 @@ def compiled():
 
 
 def _solve(path, monkeypatch, route, steps=240, **opts):
-    """Solve with the grid pass forced onto route ('reference', 'fused' or 'kernel'); returns
+    """Solve with the grid pass forced onto route ('reference' or 'kernel'); returns
     the Result and the routes the grid chunks took."""
     taken = []
     real = system.System.solve_batch
@@ -41,8 +40,6 @@ def _solve(path, monkeypatch, route, steps=240, **opts):
             kw["compiled"] = lib
             if route == "kernel" and self.kernel(lib) is not None:
                 taken.append("kernel")
-            elif route == "fused" and self.small():
-                taken.append("fused")
             else:
                 taken.append("reference")
         return real(self, t, Q, Qd, Qdd, **kw)
@@ -53,10 +50,9 @@ def _solve(path, monkeypatch, route, steps=240, **opts):
     return res, taken
 
 
-# The compiled route agrees with the reference to 1e-15 of each column's largest value, but
-# on the Jansen legs, whose chains of 2 x 2 blocks carry rounding down six blocks: there the
-# old C kernel differed from the reference as much (the compiled route equals it bit for bit)
-ROUNDING = {"jansen-holy-numbers": 3e-15, "jansen-leg": 2e-15, "peaucellier": 2e-15}
+# The compiled route agrees with the reference to 1e-15 of each column's largest value on every
+# example it covers, the Jansen legs' chains of 2 x 2 blocks included (both invert them in closed
+# form and solve their rate systems by Cramer's rule: system.Small2, compiled.factor and solve2)
 DECLINED = {"belt-drive", "cam-roller", "curved-slot", "flat-rocker-cam", "planetary",
             "rack-pinion-steering", "valve-cam"}
 
@@ -81,17 +77,13 @@ def _close(a, b, what, rel=1e-12):
 def test_fast_routes_match_reference(path, monkeypatch, compiled):
     ref, _ = _solve(path, monkeypatch, "reference")
     assert ref.status == 0
-    checked = 0
-    for route in ("fused", "kernel"):
-        res, taken = _solve(path, monkeypatch, route)
-        assert res.status == 0
-        if route in taken:                      # else a block size or kind the route lacks
-            _same(ref, res, ROUNDING.get(path.stem, 1e-15) if route == "kernel" else 1e-12)
-            checked += 1
+    res, taken = _solve(path, monkeypatch, "kernel")
+    assert res.status == 0
     # the models whose kinds (motion laws, gears, belts: not point-and-line formulas) the
-    # compiled route declines (kernel.pack), and that no fast route covers
+    # compiled route declines (kernel.pack)
     assert ("kernel" in taken) == (path.stem not in DECLINED)
-    assert checked or path.stem in DECLINED
+    if "kernel" in taken:
+        _same(ref, res, 1e-15)
 
 
 def _same(ref, fus, rel=1e-12):
@@ -139,14 +131,6 @@ def _info_match(S, t, Q0, routes, policy="reuse", order=2, lib=None, rel=1e-15):
     return i2
 
 
-def test_fused_pass_info_matches_reference(monkeypatch):
-    """BatchInfo field by field on the four-bar (a 2x2 block) at predictions off the solution."""
-    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
-    S, t, Q0 = _batch("four-bar.yaml")
-    assert S.small()
-    _info_match(S, t, Q0, (False, True))
-
-
 @pytest.mark.parametrize("name,policy,order", [
     ("four-bar.yaml", "reuse", 2), ("slider-crank.yaml", "reuse", 2),
     ("klann-leg.yaml", "reuse", 2),
@@ -191,34 +175,6 @@ def test_kernel_declines_other_kinds():
         assert kernel.pack(S) is None
 
 
-def test_zeros_of_a_straight_piece_are_not_structure():
-    """A pin on a stadium track starts on a straight piece, where the slot's equation does not
-    depend on x: zeros of the gradient at states near the start are not structural there (on
-    the arcs it does depend on x). The block structure and the fused pass must not drop that
-    coupling: the fused pass once gave vy = 0 all along the arcs."""
-    import sys
-    sys.path.insert(0, str(ROOT / "tests"))
-    from test_curve_segments import STADIUM, run
-
-    results = {}
-    for fused in (False, None):
-        real = system.System.solve_batch
-
-        def forced(self, t, Q, Qd, Qdd, _real=real, _fused=fused, **kw):
-            kw["fused"] = _fused
-            return _real(self, t, Q, Qd, Qdd, **kw)
-        system.System.solve_batch = forced
-        try:
-            results[fused] = run(STADIUM).body("pin")
-        finally:
-            system.System.solve_batch = real
-    ref, fast = results[False], results[None]
-    assert np.abs(ref["vy"]).max() > 1.0                  # the arcs are reached
-    for key in ("y", "vy", "ay"):
-        scale = np.abs(ref[key]).max()
-        assert np.abs(fast[key] - ref[key]).max() <= 1e-12 * scale, key
-
-
 def _poisoned(path, monkeypatch, route, row_t, field, steps=240):
     """Solve on route with one value of a grid chunk's results made NaN after the solve (as an
     overflow would): field 'qd' or 'qdd', at the row of time row_t, coordinate 2."""
@@ -240,23 +196,22 @@ def _poisoned(path, monkeypatch, route, row_t, field, steps=240):
 @pytest.mark.parametrize("field", ["qd", "qdd"])
 def test_a_refusal_is_the_same_on_every_route(field, monkeypatch, compiled):
     """A non-finite value in a kernel chunk (whose acceptance and refusal checks take the
-    whole-array fast paths) is refused as the numpy routes refuse it: the same row, the same
-    message, the same rows before it."""
+    whole-array fast paths) is refused as the numpy reference refuses it: the same row, the
+    same message, the same rows before it."""
     path = ROOT / "mechanisms" / "four-bar.yaml"
     out = {}
-    for route in ("reference", "fused", "kernel"):
+    for route in ("reference", "kernel"):
         res, taken = _poisoned(path, monkeypatch, route, 0.5, field)
         assert taken and set(taken) == {route}
         out[route] = res
     ref = out["reference"]
     assert ref.status == 1 and ref.event.kind == "non-finite" and len(ref.t) == 120
     assert "t = 0.5 s" in ref.message
-    for route in ("fused", "kernel"):
-        res = out[route]
-        assert (res.status, res.event.kind, res.message) == (ref.status, ref.event.kind,
-                                                             ref.message)
-        assert len(res.t) == len(ref.t)
-        _same(ref, res)
+    res = out["kernel"]
+    assert (res.status, res.event.kind, res.message) == (ref.status, ref.event.kind,
+                                                         ref.message)
+    assert len(res.t) == len(ref.t)
+    _same(ref, res, 1e-15)
 
 
 def test_refuse_keeps_finite_rows_whose_sum_overflows(monkeypatch):

@@ -16,14 +16,13 @@ equal substeps. For a study large enough (`job_points`: variants x grid times, a
 kernel.COMPILED_FROM_POINTS) the solve is the compiled route's solve_each where it covers the
 system (planarkin.kernel, planarkin.compiled_each: each row a point with its variant's element
 parameters, Newton to its own convergence block by block, the acceptance tests below and the
-cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), one Newton
-pass over the whole system for all variants x grid times at once (studies.fused;
-System.solve_batch where its blocks do not apply). A variant is
-accepted only if every grid
-point passes the tests the path follower applies to a step: Newton converged, its first
-correction at most KAPPA of the smallest singular value, finite velocities and accelerations,
-condition below COND_WARN, the determinant sign of every fine block equal to the predecessor's at
-the same time (the same assembly branch), and between consecutive grid times the Taylor
+cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), the grid
+pass's own solve (System.solve_batch) over all variants x grid times at once, its element groups
+reading per-row parameters (Batch.system). A variant is accepted only if every grid point
+passes the tests the path follower applies to a step: Newton converged, its first correction
+at most KAPPA of the smallest singular value, finite velocities and accelerations, condition
+below COND_WARN, the determinant sign of every fine block equal to the predecessor's at the same
+time (the same assembly branch), and between consecutive grid times the Taylor
 predictor error, forwards and backwards, within path_tol (the grid is a path the follower would
 have accepted). A variant that fails, and every variant of a study this does not apply to, is
 solved by the ordinary per-variant path (`Study.solve`). Chains are solved in lockstep in fixed
@@ -47,7 +46,7 @@ from ..elements.base import Group
 from ..expr import parse
 from ..solver import COND_WARN, KAPPA
 from .variants import Outcome
-from .fused import Fused, rowmax
+from ..linalg import rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -156,7 +155,6 @@ class Batch:
                            np.array([first[int(r)][1] for r in p.group.rows[:, 0]]))
                           for p in B.parts] for B in self.S.blocks]
         self.grid = study.opts.grid
-        self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
 
     def _depends_t(self, node) -> bool:
@@ -259,24 +257,6 @@ class Batch:
         S.blocks = tuple(blocks)
         return S
 
-    def row_groups(self, groups, T):
-        """The model's element groups with the varied parameters per row (variant x time, T
-        times per variant); the other parameters stay as compiled (broadcast over rows).
-        Returns (groups, per group the names of its per-row parameters)."""
-        out, keys = [], []
-        for G, params, entries in zip(self.cm.groups, groups, self.gvar):
-            p = dict(G.params)
-            for name in {e[0] for e in entries}:
-                a = np.repeat(params[name], T, axis=0)
-                if a.ndim == 3:
-                    # components outermost in memory: p[:, i] is then a contiguous (R, K)
-                    a = np.moveaxis(np.ascontiguousarray(np.moveaxis(a, 2, 0)), 0, 2)
-                    a = a.view(RowParam)
-                p[name] = a
-            out.append(Group(G.kind, G.bodies, G.cols, p, G.rows))
-            keys.append({e[0] for e in entries})
-        return out, keys
-
     def take(self, num, idx):
         """Variants idx (an index array) of numbers()' arrays: the same numbers (numbers()
         works element by element), without evaluating the file's expressions again."""
@@ -287,8 +267,8 @@ class Batch:
     def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None, k=False, work=None,
               out=None):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
-        signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
-        kernel and studies.fused solve them afresh: None will do there). num: their numbers()
+        signs are sign (Vn, T, nfine); Qd, Qdd are not read (every route solves the velocities
+        and accelerations afresh: None will do). num: their numbers()
         when known (values is then not read). hist (the kernel's route only): the last four
         solutions (Vn, T, n + 3) each and a flag per row: the predictions of the rows flagged
         are the cubic through the four, the others Q's rows (Q is not written).
@@ -311,30 +291,20 @@ class Batch:
                     info.sign.reshape(Vn, T, -1), ok, s)
         TT, NU, FDD = self.drivers(targets, env)
         Qr = Q.reshape(Vn * T, n3).copy()
-        if self.fused is not None:      # it solves the velocities and accelerations afresh
-            Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
-        else:
-            Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
+        Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)      # solved afresh
         drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
-        if self.fused is not None:
-            rg, keys = self.row_groups(groups, T)
-            info = self.fused.solve(rg, Qr, Qdr, Qddr, *drivers, tol=o.tol,
-                                    maxit=max(o.iterations, 8), rowkeys=keys)
-        else:
-            rows = lambda a: np.repeat(a, T, axis=0)
-            S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
-            info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
-                                 tol=o.tol, maxit=max(o.iterations, 8), order=2,
-                                 drivers=drivers)
+        S = self.system([{k: np.repeat(v, T, axis=0) for k, v in g.items()} for g in groups])
+        info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full", tol=o.tol,
+                             maxit=max(o.iterations, 8), order=2, drivers=drivers)
         return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
 
     def kernel(self):
         """(library, packed system) of the compiled route (planarkin.kernel) when the study is
         large enough (job_points, set by Study.units: variants x grid times; kernel.route) and the
-        route covers the system, else None: the numpy passes (studies.fused,
-        System.solve_batch) are the reference route (PLANARKIN_KERNEL read per call)."""
+        route covers the system, else None: the numpy reference, System.solve_batch
+        (PLANARKIN_KERNEL read per call)."""
         from .. import kernel
         lib = kernel.route(getattr(self, "job_points", 0), "study")
         if lib is None:
@@ -552,14 +522,12 @@ class Batch:
         def step(live, targets, at=None):
             """Solve chains `live` at parameter vectors `targets` from their current state;
             at: the targets' rows in the unit's numbers (pre), when they are variants."""
-            # copies (fancy indexing); the velocities and accelerations only for the pass
-            # that starts from them (System.solve_batch's; the others solve them afresh)
+            # copies (fancy indexing) of the positions only: every route solves the
+            # velocities and accelerations afresh
             k = self.kernel()
-            full = k is None and self.fused is None
             live = np.asarray(live, dtype=int)
             every = len(live) == C and (live == np.arange(C)).all()
-            pred = [None] + [(a.copy() if every else a[live]) if full else None
-                             for a in state[1:]]
+            pred = [None, None, None]
             dp = targets - here[live]
             # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
             slots = (nh[live][:, None] - 1 - back[None]) % 3
