@@ -505,8 +505,8 @@ def solve_points(N, W, m, nb, nblk, ekind, ebi, ebj, eprm, rowel, roweq, bk, bof
     bfix (nblk): the block's whole gradient does not depend on its own unknowns (System
     Block.fixed_grad: the rates reuse the Newton step's gradients and inverse, as the reference
     does). Outputs besides: rmax (N) the largest |Phi| of each point (numpy's R.max(axis=1)),
-    cond (N) its condition estimate (planarkin.solver._cond: the largest 1 / max(smin, 1e-300)
-    over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
+    cond (N) its condition estimate (planarkin.acceptance.condition: the largest
+    1 / max(smin, 1e-300) over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
     nbb = nb + 1
     n = W - 3
     kmax = 1

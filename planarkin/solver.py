@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .acceptance import COND_SINGULAR, COND_WARN, accepted, condition, taylor_error
 from .assembly import DENSE_LIMIT, Assembly
 from . import kernel
 from .budget import node_limit
@@ -43,12 +44,6 @@ from .model.compile import CompiledModel
 from .options import Options
 from .system import System
 
-KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
-# Past this condition estimate the path is taken to be at a singular configuration: there
-# velocities lose ~6 digits and accelerations (error ~ cond^2 eps) are no longer meaningful, so
-# neither are the predictions built from them.
-COND_SINGULAR = 1e6
-COND_WARN = 1e3       # near-singular passages above this are reported
 NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 # Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
@@ -253,8 +248,7 @@ class PathFollower:
         if jerk and k > 0 and N.t[k] > N.t[k - 1]:
             j3 = (qdd0 - N.qdd[k - 1]) / (N.t[k] - N.t[k - 1])
         h = hs[:, None]
-        Qp = q0 + h * qd0 + 0.5 * h * h * qdd0 + h ** 3 / 6.0 * j3
-        Q = Qp.copy()
+        Q = q0 + h * qd0 + 0.5 * h * h * qdd0 + h ** 3 / 6.0 * j3
         Qd = qd0 + h * qdd0 + 0.5 * h * h * j3
         Qdd = qdd0 + h * j3
         t = t0 + hs
@@ -266,16 +260,10 @@ class PathFollower:
         info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12,
                                   order=2, drivers=drivers)
         n = self.S.n
-        ef = np.abs(Q[:, :n] - Qp[:, :n]).max(axis=1)
-        j3c = (Qdd - qdd0) / h
-        qb = Q - h * Qd + 0.5 * h * h * Qdd - h ** 3 / 6.0 * j3c
-        eb = np.abs(qb[:, :n] - q0[:n]).max(axis=1)
-        err = np.maximum(ef, eb)
-        ok = info.converged & (err <= (self.opts.path_tol if tol is None else tol))
-        ok &= (info.ratio <= KAPPA) & np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
-        ok &= _cond(info) <= COND_SINGULAR
-        if check_sign:
-            ok &= (info.sign == sg0).all(axis=1)
+        err = taylor_error(h, q0[:n], qd0[:n], qdd0[:n], j3[:n], Q[:, :n], Qd[:, :n],
+                           Qdd[:, :n])
+        ok = accepted(info, sg0 if check_sign else None, (Qd, Qdd))
+        ok &= err <= (self.opts.path_tol if tol is None else tol)
         return ok, err, Q, Qd, Qdd, info
 
     def start(self, q: np.ndarray) -> bool:
@@ -288,7 +276,7 @@ class PathFollower:
         drivers = S.driver_values(np.array([t0]), side=+1)
         info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12,
                              drivers=drivers)
-        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
 
@@ -326,7 +314,7 @@ class PathFollower:
                 undeclared = self._undeclared_kink(k, tn, j)
                 if undeclared is not None:
                     return self._stop(undeclared)
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], condition(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == land and land < end:
                     ev = self._restart_at(kink)
@@ -392,7 +380,7 @@ class PathFollower:
                          f"after its breakpoint at t = {kink.t:.10g} cannot be solved "
                          f"(right-hand limits of f not finite?)")
         # the same pose on both sides (Newton above moved it by rounding at most)
-        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         self.warnings.append(Event(
             "breakpoint", kink.t, "; ".join(parts) + "; the path is followed piece by piece "
@@ -519,7 +507,7 @@ class PathFollower:
         self.systems.append((S, Sp))
         self.seg = len(self.systems) - 1
         self.S = Sp
-        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self.warnings.append(Event(
             "redundant", N.t[k],
             f"at t = {N.t[k]:.6g} the equations left out as redundant were changed (now "
@@ -647,12 +635,12 @@ class PathFollower:
             moved = np.abs(Q[:, : self.S.n] - N.q[k][: self.S.n]).max(axis=1)
             crossed = (info.sign != N.sign[k]).any(axis=1)
             good = ok & crossed & (err <= np.maximum(self.opts.path_tol, 1e-2 * moved)) \
-                & (_cond(info) <= 10 * COND_WARN)
+                & (condition(info) <= 10 * COND_WARN)
             if good.any():
                 j = int(np.nonzero(good)[0][0])
                 N.truncate(k)
                 tn = kink if hs[j] == kink - N.t[k] else N.t[k] + hs[j]
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], condition(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == kink and kink < self.opts.end:
                     k_obj = next(kk for kk in self.kinks if kk.t == kink)
@@ -710,15 +698,6 @@ def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
         v = R[i] / norms[i]
         R -= np.outer(R @ v, v)
     return np.array(chosen, dtype=np.intp)
-
-
-def _cond(info) -> np.ndarray:
-    """Per-point condition estimate: the worst diagonal block's 1/sigma_min bound (the blocks are
-    scaled, so their norms are of order one); the kernel computes it with the solve."""
-    if info.cond is not None:
-        return info.cond
-    with np.errstate(divide="ignore"):
-        return (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1)
 
 
 @dataclass
@@ -970,7 +949,7 @@ class Analysis:
                 if Qddd is not None:
                     Qddd[sel] = Qddds
             iters[sel] = info.iterations
-            cond[sel] = _cond(info)
+            cond[sel] = condition(info)
             if whole and (ok is True or ok.all()):
                 R, Rmax = info.residual, info.residual_max
             for i in (() if ok is True else sel[~ok]):
@@ -1005,22 +984,18 @@ class Analysis:
         return got[1]
 
     def _accepted(self, info, Qs, u: int, idx, sel, whole: bool):
-        """Which solved grid points are accepted as a path step would be: converged, first
-        correction within KAPPA of sigma_min, finite, the determinant signs of the bracketing
-        node. A bool array over sel, or True when all are (the kernel's chunks, checked by a
-        few whole-array reductions: its converged flags say finite already)."""
+        """Which solved grid points are accepted as a path step would be (acceptance.accepted:
+        converged, first correction within KAPPA of sigma_min, finite positions, condition at
+        most COND_SINGULAR, the determinant signs of the bracketing node). A bool array over
+        sel, or True when all are (the kernel's chunks, checked by a few whole-array
+        reductions: its converged flags say finite already)."""
         K = len(self.Tn)
         if whole and info.cond is not None and self.opts.newton != "fixed":
             one = self._signs_one(u) if K > 1 else None
-            if (info.ratio.max() <= KAPPA and info.converged.all()
-                    and (K == 1 or (one is not None and (info.sign == one).all()))):
+            if (K == 1 or one is not None) and accepted(info, one).all():
                 return True
-        ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
-        if self.opts.newton != "fixed":
-            ok &= info.converged
-        if K > 1:
-            ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
-        return ok
+        return accepted(info, self.signs[u][idx[sel]] if K > 1 else None, (Qs,),
+                        converged=self.opts.newton != "fixed")
 
     def _chunk_kernel(self, idx):
         """The compiled library when the chunk at node intervals idx is solved (not

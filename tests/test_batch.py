@@ -8,7 +8,6 @@ from planarkin.studies import batch as batchmod
 from planarkin.studies.execute import executor
 from planarkin.studies.sweep import Range, factorial
 from planarkin.studies.variants import Study
-from planarkin.studies.warm import _predictor_error
 from test_sweep import four_bar_closed_form
 
 FB = "mechanisms/four-bar.yaml"
@@ -90,12 +89,29 @@ def test_a_chain_steps_to_every_variant_at_once_rows_and_heads_included(study, m
 
 
 def test_path_errors_of_many_variants_are_the_followers_per_variant():
+    # acceptance.path_errors over many variants at once: per variant the follower's own step
+    # error (acceptance.taylor_error of each interval, the jerk from the interval before)
+    from planarkin.acceptance import path_errors, taylor_error
     rng = np.random.default_rng(7)
     grid = np.sort(rng.uniform(0, 1, 9))
     Q, Qd, Qdd = (rng.normal(size=(3, 9, 12)) for _ in range(3))
-    many = batchmod._path_errors(grid, Q, Qd, Qdd, 9)
+    many = path_errors(grid, Q, Qd, Qdd, 9)
+    assert many.shape == (3, 8)
     for v in range(3):
-        assert np.array_equal(many[v], _predictor_error(grid, Q[v], Qd[v], Qdd[v], 9))
+        assert np.array_equal(many[v], path_errors(grid, Q[v], Qd[v], Qdd[v], 9))
+        for k in range(8):
+            h = grid[k + 1] - grid[k]
+            j3 = 0 * Qdd[v, k] if k == 0 else (Qdd[v, k] - Qdd[v, k - 1]) / (grid[k] - grid[k - 1])
+            one = taylor_error(np.array([[h]]), Q[v, k, :9], Qd[v, k, :9], Qdd[v, k, :9], j3[:9],
+                               Q[v, k + 1, None, :9], Qd[v, k + 1, None, :9],
+                               Qdd[v, k + 1, None, :9])
+            assert many[v, k] == one[0]
+            # the definition: Taylor forwards from k, and backwards from k + 1 with its jerk
+            fwd = Q[v, k] + h * Qd[v, k] + h * h / 2 * Qdd[v, k] + h ** 3 / 6 * j3
+            jb = (Qdd[v, k + 1] - Qdd[v, k]) / h
+            back = Q[v, k + 1] - h * Qd[v, k + 1] + h * h / 2 * Qdd[v, k + 1] - h ** 3 / 6 * jb
+            want = max(np.abs(Q[v, k + 1] - fwd)[:9].max(), np.abs(back - Q[v, k])[:9].max())
+            assert abs(many[v, k] - want) <= 1e-13 * want
 
 
 # -- the compiled route (planarkin.kernel, compiled_each.solve_each) against the numpy reference -
@@ -156,7 +172,7 @@ def solved(study):
     """Three variants solved by the kernel from the nominal's solution, with the predecessor
     signs of the nominal (variant 1's flipped at one grid time), and what accept needs."""
     kernel, _ = _kernel()
-    from planarkin.studies.batch import COND_WARN, KAPPA
+    from planarkin.acceptance import COND_WARN, KAPPA
     B = study.batch([{"a": 0.04, "b": 0.12}])
     Q0, _, _, sg0 = B.nominal
     vals = [{"a": 0.0401, "b": 0.12}, {"a": 0.04, "b": 0.1202}, {"a": 0.0399, "b": 0.1199}]
@@ -180,8 +196,9 @@ def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
     ok_numpy = B.accept(Qr, Qdr, Qddr, info, sign, np.ones(V, dtype=bool), s)[4]
     assert ok_kernel.tolist() == ok_numpy.tolist() == [True, False, True]
     assert good.reshape(V, T)[1].tolist() == [t != 7 for t in range(T)]
-    # the path errors: warm._predictor_error's (h * h * h here, numpy's h ** 3 there)
-    ref = batchmod._path_errors(B.grid, *(a.reshape(V, T, -1) for a in (Qr, Qdr, Qddr)), B.cm.n)
+    # the path errors: acceptance.path_errors' (h * h * h here, numpy's h ** 3 there)
+    from planarkin.acceptance import path_errors
+    ref = path_errors(B.grid, *(a.reshape(V, T, -1) for a in (Qr, Qdr, Qddr)), B.cm.n)
     got = perr.reshape(V, T)
     assert (got[:, 0] == 0).all() and np.allclose(got[:, 1:], ref, rtol=1e-9, atol=1e-18)
     # a point that cannot converge (nan): refused, and the path test of its intervals too

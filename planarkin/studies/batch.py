@@ -44,9 +44,8 @@ import numpy as np
 from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
-from ..solver import COND_WARN, KAPPA
+from ..acceptance import COND_WARN, KAPPA, accepted, path_errors
 from .variants import Outcome
-from ..linalg import rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -357,18 +356,13 @@ class Batch:
         Vn, T = sign.shape[0], sign.shape[1]
         n3 = Qr.shape[1]
         o = self.study.opts
-        with np.errstate(all="ignore"):
-            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
-            good = (info.converged & (info.ratio <= KAPPA)
-                    & np.isfinite(rowmax(np.abs(Qdr))) & np.isfinite(rowmax(np.abs(Qddr)))
-                    & (cond <= COND_WARN)
-                    & (rowmax(np.abs(info.sign - sign.reshape(Vn * T, -1))) == 0))
+        good = accepted(info, sign.reshape(Vn * T, -1), (Qdr, Qddr), cond_max=COND_WARN)
         ok &= good.reshape(Vn, T).all(axis=1)
         Qs, Qds, Qdds = (a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr))
         if ok.all():
-            ok = (_path_errors(self.grid, Qs, Qds, Qdds, self.cm.n) <= o.path_tol).all(axis=1)
+            ok = (path_errors(self.grid, Qs, Qds, Qdds, self.cm.n) <= o.path_tol).all(axis=1)
         elif ok.any():
-            ok[ok] = (_path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
+            ok[ok] = (path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
                       <= o.path_tol).all(axis=1)
         return Qs, Qds, Qdds, info.sign.reshape(Vn, T, -1), ok, s
 
@@ -387,8 +381,7 @@ class Batch:
                                   maxit=self.study.opts.iterations, order=2)
         self.nominal = (Q, Qd, Qdd, info.sign)
         self.tangent = self._tangent(res)
-        from .warm import _predictor_error
-        if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
+        if not (path_errors(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
 
     # numpy sums a last axis of fewer than this many numbers left to right (pairwise above)
@@ -694,18 +687,3 @@ class Batch:
                 if out[c][j] is None:
                     out[c][j] = self.study.solve(v)[0]
         return out
-
-
-def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
-    """(V, T-1) warm._predictor_error of V variants' solutions (V, T, n + 3) at once."""
-    Q, Qd, Qdd = Q[..., :n], Qd[..., :n], Qdd[..., :n]
-    h = np.diff(grid)[None, :, None]
-    dA = (Qdd[:, 1:] - Qdd[:, :-1]) / h             # the jerk over each interval
-    j3 = np.zeros_like(dA)
-    j3[:, 1:] = dA[:, :-1]
-    hh = 0.5 * h * h
-    h3 = h ** 3 / 6.0
-    ef = np.abs(Q[:, 1:] - (Q[:, :-1] + h * Qd[:, :-1] + hh * Qdd[:, :-1] + h3 * j3))
-    eb = np.abs(Q[:, 1:] - h * Qd[:, 1:] + hh * Qdd[:, 1:] - h3 * dA - Q[:, :-1])
-    V, K = ef.shape[:2]
-    return np.maximum(rowmax(ef.reshape(V * K, n)), rowmax(eb.reshape(V * K, n))).reshape(V, K)

@@ -7,14 +7,16 @@ corrected to the variant all at once (one batched Newton solve over every node, 
 the grid pass makes over time points), and the corrected nodes are accepted only if they pass
 every test the path follower applies to a step it takes:
 
-* Newton converged at every node, its first correction small against the smallest singular
-  value (KAPPA), finite velocities and accelerations, condition below COND_SINGULAR;
+* the step-acceptance rule at every node (planarkin.acceptance: Newton converged, its first
+  correction small against the smallest singular value, finite positions, velocities and
+  accelerations), with the condition bound COND_WARN (no follower runs to report a
+  near-singular passage: such a variant gets the full follower and its warnings);
 * the determinant sign of every fine block equal at every node to the neighbour's (no other
   assembly branch) and node 0 equal to the variant's own assembled pose (the branch a plain
   run of the variant would take);
 * between consecutive nodes the Taylor predictor error, forwards and backwards, within
-  path_tol (so the nodes are as dense as the follower would have made them);
-* no node above COND_WARN (a near-singular passage gets the full follower and its warnings).
+  path_tol (acceptance.path_errors: the nodes are as dense as the follower would have made
+  them).
 
 Anything else (a neighbour that stopped, redundant constraints, a failed test) falls back to
 the ordinary path follower, so a variant's results are those of `planarkin run` with its
@@ -27,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solver import (COND_SINGULAR, COND_WARN, KAPPA, NODE_TOL, PATH_POLICY, Analysis, _cond,
-                      hermite5)
+from ..acceptance import COND_WARN, accepted, condition, path_errors
+from ..solver import NODE_TOL, PATH_POLICY, Analysis, hermite5
 
 CHAIN = 32      # variants per chain: the first starts cold, each next from its predecessor
 REFINE = 6      # rounds of interval splitting before falling back to the follower
@@ -73,9 +75,9 @@ def warm_follow(an: Analysis, start: Start) -> bool:
         # the variant's own assembly: node 0 must be its assembled pose (its branch)
         if np.abs(Q[0, :n] - an.A.q[:n]).max() > 1e-8:
             return False
-        sign, cond = info.sign, _cond(info)
+        sign, cond = info.sign, condition(info)
         for _ in range(REFINE):
-            bad = _predictor_error(T, Q, Qd, Qdd, n) > an.opts.path_tol
+            bad = path_errors(T, Q, Qd, Qdd, n) > an.opts.path_tol
             if not bad.any():
                 break
             # split the intervals the follower would not have accepted, as it splits a step
@@ -93,7 +95,7 @@ def warm_follow(an: Analysis, start: Start) -> bool:
             Q, Qd, Qdd = (np.insert(A, at, B, axis=0) for A, B in ((Q, Qm), (Qd, Qdm),
                                                                    (Qdd, Qddm)))
             sign = np.insert(sign, at, im.sign, axis=0)
-            cond = np.insert(cond, at, _cond(im))
+            cond = np.insert(cond, at, condition(im))
         else:
             return False
     N = f.nodes
@@ -112,24 +114,7 @@ def warm_follow(an: Analysis, start: Start) -> bool:
 
 def _accept(info, Q, Qd, Qdd, sign) -> bool:
     """The follower's per-node tests (see the module docstring)."""
-    return bool(info.converged.all() and (info.ratio <= KAPPA).all()
-                and np.isfinite(Q).all() and np.isfinite(Qd).all() and np.isfinite(Qdd).all()
-                and (_cond(info) <= min(COND_SINGULAR, COND_WARN)).all()
-                and (info.sign == sign).all())
-
-
-def _predictor_error(T, Q, Qd, Qdd, n) -> np.ndarray:
-    """(K-1,) the follower's step error per interval: the Taylor prediction (with the jerk from
-    the previous node) against the next node, forwards and backwards."""
-    h = np.diff(T)[:, None]
-    j3 = np.zeros_like(Q[:-1])
-    j3[1:] = (Qdd[1:-1] - Qdd[:-2]) / h[:-1]
-    pred = Q[:-1] + h * Qd[:-1] + 0.5 * h * h * Qdd[:-1] + h ** 3 / 6.0 * j3
-    ef = np.abs(Q[1:, :n] - pred[:, :n]).max(axis=1)
-    j3c = (Qdd[1:] - Qdd[:-1]) / h
-    back = Q[1:] - h * Qd[1:] + 0.5 * h * h * Qdd[1:] - h ** 3 / 6.0 * j3c
-    eb = np.abs(back[:, :n] - Q[:-1, :n]).max(axis=1)
-    return np.maximum(ef, eb)
+    return bool(accepted(info, sign, (Q, Qd, Qdd), cond_max=COND_WARN).all())
 
 
 def analyse(cm, opts, start: Start | None = None):
