@@ -596,7 +596,7 @@ def cubic(q0, q1, q2, q3, out):
 
 @jit
 def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
-    """The grid pass's predictions: quintic Hermite interpolation (planarkin.solver.hermite5,
+    """The grid pass's predictions: quintic Hermite interpolation (planarkin.path.hermite5,
     the same operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of
     W numbers."""
     for i in range(N):
@@ -629,7 +629,7 @@ def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd,
     """A chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of
     each row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
     (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
-    planarkin.solver.point_kinematics in its order (then times L). order 0: positions only,
+    planarkin.kinematics.point_kinematics in its order (then times L). order 0: positions only,
     1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order)."""
     for i in range(N):
         o = i * W
