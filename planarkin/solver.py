@@ -46,6 +46,7 @@ from .path import (KINK_TOL, NODE_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, 
                    driver_breakpoints, hermite5, path_block)
 from .singular import classify, reselect
 from .system import System
+from .warmstart import warm_nodes
 
 # Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
 # memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
@@ -432,8 +433,12 @@ class Chunk:
 class Analysis:
     """One analysis of a compiled model: assembly, path following, dense output in chunks."""
 
-    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, warm=None):
+        """warm: a warmstart.Start (a neighbouring model's path, a design study's previous
+        variant) to start the path from, or None: the path is followed from the assembly."""
         self.cm = cm
+        self.warm = warm
+        self.warmed = False         # the path came from the warm start (follow())
         self.A = A
         self.S_all = System(cm)
         self.opts = opts
@@ -453,18 +458,23 @@ class Analysis:
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
         f = self.follower
-        if not f.start(self.A.q):
-            t0 = self.opts.start
-            _, NU, FDD = self.S_all.driver_values(np.array([t0]), side=+1)
+        nodes = None if self.warm is None else warm_nodes(f.S, self.A, self.opts, self.kinks,
+                                                          self.warm)
+        self.warmed = nodes is not None
+        if nodes is not None:
+            f.nodes = nodes                 # the corrected neighbour's path, to the end
+        elif not f.start(self.A.q):
+            ts = self.opts.start
+            _, NU, FDD = self.S_all.driver_values(np.array([ts]), side=+1)
             bad = [r for r in self.cm.driver_rows
                    if not (np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r]))]
             if bad:
                 el = self.cm.element_of_row(int(bad[0]))
-                self.event = Event("driver", t0, f"{el.label}: the derivatives of f = "
+                self.event = Event("driver", ts, f"{el.label}: the derivatives of f = "
                                                  f"{el.f.text} are not finite just after t = "
-                                                 f"start = {t0:.10g}")
+                                                 f"start = {ts:.10g}")
             else:
-                self.event = Event("failure", t0,
+                self.event = Event("failure", ts,
                                    "velocities or accelerations are undefined at t = start "
                                    "(singular Jacobian at the assembly pose)")
             self.t_stop = self.opts.start
@@ -677,8 +687,7 @@ class Analysis:
     def _signs_one(self, u: int):
         """The determinant signs all nodes of segment u share (the common case: no branch
         changes), or None: a chunk's rows then compare with that one row, not with a row
-        gathered per point. Kept with the signs array it was read from (studies.warm sets
-        them without following a path)."""
+        gathered per point. Kept with the signs array it was read from."""
         signs = self.signs[u]
         got = self.__dict__.setdefault("_one", {}).get(u)
         if got is None or got[0] is not signs:
