@@ -61,6 +61,19 @@ class RowParam(np.ndarray):
         raise TypeError("per-row parameters are read as p[:, i] only")
 
 
+class VariantDriver:
+    """A driver function f(t) of one variant (its parameter values), user units, as
+    budget.preflight reads a model's driver functions."""
+
+    is_constant = False
+
+    def __init__(self, expr, values: dict):
+        self.expr, self.values = expr, values
+
+    def __call__(self, t):
+        return self.expr.evaluate({**self.values, "t": np.asarray(t, dtype=float)})
+
+
 class Unsupported(Exception):
     """The study cannot be batched (the message says why); it runs variant by variant."""
 
@@ -84,6 +97,11 @@ class Batch:
             raise Unsupported("a metric reads a derived table")
         if study.opts.interpolate:
             raise Unsupported("interpolate: true")
+        from ..derived import row_checks
+        if row_checks(cm, study.opts):
+            # a room refuses rows by the variant's own model (a non-finite force, a cam past
+            # its law): each variant takes `run`'s refusal of rows (results.refuse)
+            raise Unsupported("a room checks the rows (forces, a cam's range)")
         texts = study.texts()
         self.order = list(spec.parameters)
         self.pexpr = {k: parse(texts[k], self.order[:i]) for i, k in enumerate(self.order)}
@@ -208,11 +226,33 @@ class Batch:
         for j, ex, ey in self.svar:
             s[:, j, 0] = np.broadcast_to(ex.evaluate(env), (Vn,)) / self.L
             s[:, j, 1] = np.broadcast_to(ey.evaluate(env), (Vn,)) / self.L
-        ok = np.ones(Vn, dtype=bool)
+        ok = self.preflight(env, Vn) & np.isfinite(s.reshape(Vn, -1)).all(axis=1) \
+            & np.isfinite(targets).all(axis=1)
         for params in groups:
             for a in params.values():
                 ok &= np.isfinite(a.reshape(Vn, -1)).all(axis=1)
         return groups, targets, s, env, ok
+
+    def preflight(self, env, Vn: int) -> np.ndarray:
+        """(Vn,) the variants (parameters env) whose drivers pass `run`'s check before a run
+        (budget.preflight: finite over the time range, within the node budget, resolvable to
+        the solver's tolerance), each with its own driver functions where a varied parameter
+        reaches them; every variant where none does (the nominal's check holds for all).
+        A variant that fails is left to the per-variant path, which refuses it as `run` does."""
+        ok = np.ones(Vn, dtype=bool)
+        if not self.fvar:
+            return ok
+        from dataclasses import replace
+        from ..budget import preflight
+        cm = self.cm
+        where = {int(r): i for i, r in enumerate(cm.driver_rows)}
+        for v in range(Vn):
+            funcs = list(cm.driver_funcs)
+            values = {k: a[v] for k, a in env.items()}
+            for r, (f, _, _), _ in self.fvar:
+                funcs[where[r]] = VariantDriver(f, values)
+            ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), self.study.opts) is None
+        return ok
 
     def drivers(self, targets, env):
         """(Vn, T, m) targets, nu and f'' on the grid."""

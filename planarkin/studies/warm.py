@@ -16,21 +16,13 @@ CHAIN = 32      # variants per chain: the first starts cold, each next from its 
 
 
 def analyse(cm, opts, start: Start | None = None):
-    """Like planarkin.results.analyse (in memory), started from a neighbour when one is given.
-    Returns (info, result, Start for the next variant or None, warm: whether it was used)."""
-    import time
-    from ..assembly import assemble
-    from ..results import Result, run_info
-    from ..solver import Analysis
-    from ..output.writer import _concat
-    t0 = time.perf_counter()
-    A = assemble(cm)
-    an = Analysis(cm, A, opts, warm=start)
-    an.timings["assembly"] = time.perf_counter() - t0
-    an.follow()
-    parts = list(an.chunks())
-    info = run_info(an)
-    res = Result(cm, _concat(parts) if parts else None, info)
+    """planarkin.results' analysis (in memory), started from a neighbour when one is given:
+    the preflight and budgets, the grid pass and the refusal of rows of `planarkin run`.
+    Returns (info, result, Start for the next variant or None, warm: whether it was used);
+    raises InputError where `run` refuses the model before it starts."""
+    from ..results import prepare, stream
+    an = prepare(cm, opts, warm=start)
+    info, res = stream(an)
     return info, res, Start.of(an), an.warmed
 
 
