@@ -31,8 +31,11 @@ over processes: parallel runs equal the serial run bit for bit.
 
 Applies when the varied parameters reach only body-frame points (si, sj), joint constants, other
 scalar keys of the kinds except gear radii, driver functions and the points' s; not through
-directions, gear radii or global placements (at); not with redundant constraints or derived
-tables among the metrics. Variants follow the nominal's assembly branch.
+directions, gear radii or global placements (at); not with redundant constraints, derived
+tables among the metrics, or rows a room checks (forces, a cam's range: those variants take
+`run`'s refusal of rows, results.refuse, one by one). Variants follow the nominal's assembly
+branch. Every variant's drivers pass `run`'s check before a run (budget.preflight) or the
+variant is solved by the per-variant path, which refuses it as `run` does.
 """
 
 from __future__ import annotations
