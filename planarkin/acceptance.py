@@ -31,6 +31,9 @@ KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma
 # neither are the predictions built from them.
 COND_SINGULAR = 1e6
 COND_WARN = 1e3       # near-singular passages above this are reported
+# points from which a row's largest value is taken column by column (linalg.rowmax: a grid
+# chunk's or a study's many rows); a path step's few candidates take numpy's reductions
+ROWMAX_FROM = 256
 
 
 def condition(info) -> np.ndarray:
@@ -40,7 +43,7 @@ def condition(info) -> np.ndarray:
     if info.cond is not None:
         return info.cond
     with np.errstate(divide="ignore"):
-        return 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)
+        return 1.0 / np.maximum(-_rowmax(-info.smin), 1e-300)
 
 
 def accepted(info, sign=None, arrays=(), *, cond_max: float = COND_SINGULAR,
@@ -49,17 +52,24 @@ def accepted(info, sign=None, arrays=(), *, cond_max: float = COND_SINGULAR,
     False: the 'fixed' policy, finite positions only), first correction within KAPPA,
     every array of arrays ((N, k) each) finite, condition at most cond_max, fine-block signs
     equal to sign ((N, nfine) or (nfine,); None: not compared)."""
-    with np.errstate(invalid="ignore"):
-        ok = info.ratio <= KAPPA
-        if converged:
-            ok &= info.converged
-        for a in arrays:
-            ok &= np.isfinite(rowmax(np.abs(a)))
-        if cond_max < np.inf:
-            ok &= condition(info) <= cond_max
-        if sign is not None:
-            ok &= rowmax(np.abs(info.sign - sign)) == 0
+    ok = info.ratio <= KAPPA
+    if converged:
+        ok &= info.converged
+    big = len(ok) >= ROWMAX_FROM
+    for a in arrays:
+        ok &= np.isfinite(rowmax(np.abs(a))) if big else np.isfinite(a).all(axis=1)
+    if cond_max < np.inf:
+        ok &= condition(info) <= cond_max
+    if sign is not None:
+        ok &= rowmax(np.abs(info.sign - sign)) == 0 if big else (info.sign == sign).all(axis=1)
     return ok
+
+
+def _rowmax(a: np.ndarray) -> np.ndarray:
+    """a.max(axis=1): for the few points of a path step directly (one call), for a grid's or a
+    study's many rows column by column (linalg.rowmax, several times faster there)."""
+    return rowmax(a) if len(a) >= ROWMAX_FROM else a.max(axis=1)
+
 
 
 def taylor_error(h, q0, qd0, qdd0, j3, q1, qd1, qdd1) -> np.ndarray:
@@ -72,7 +82,7 @@ def taylor_error(h, q0, qd0, qdd0, j3, q1, qd1, qdd1) -> np.ndarray:
     h3 = h ** 3 / 6.0
     ef = np.abs(q1 - (q0 + h * qd0 + hh * qdd0 + h3 * j3))
     eb = np.abs(q1 - h * qd1 + hh * qdd1 - h3 * ((qdd1 - qdd0) / h) - q0)
-    return np.maximum(rowmax(ef), rowmax(eb))
+    return np.maximum(_rowmax(ef), _rowmax(eb))
 
 
 def path_errors(T, Q, Qd, Qdd, n) -> np.ndarray:
