@@ -3,14 +3,15 @@ consistent redundant constraints may switch which rows it leaves out (`reselect`
 singular configuration met is classified from the singular vectors of the Jacobian (`classify`:
 lock-up of a driver when the joints alone keep full rank, bifurcation when they lose rank, a
 driver or joint not defined beyond the last node) and its time extrapolated from sigma_min
-(`singular_time`). f: the planarkin.solver.PathFollower (its model, systems, nodes, options).
+(`singular_time`); the near-singular passages it got through become warnings
+(`near_singular_warnings`). f: the planarkin.solver.PathFollower (its model, systems, nodes, options).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .acceptance import condition
+from .acceptance import COND_WARN, condition
 from .assembly import DENSE_LIMIT
 from .path import NODE_TOL, Event, path_block
 from .system import System
@@ -166,3 +167,30 @@ def independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
         v = R[i] / norms[i]
         R -= np.outer(R @ v, v)
     return np.array(chosen, dtype=np.intp)
+
+
+def near_singular_warnings(f, threshold: float = COND_WARN) -> None:
+    """Local maxima of the condition estimate above threshold that the path got through, as
+    warnings of the path follower f."""
+    c = np.array(f.nodes.cond)
+    t = np.array(f.nodes.t)
+    if len(c) < 3:
+        return
+    stop_t = f.event.t if f.event else None
+    peaks = [i for i in range(1, len(c) - 1) if c[i] >= c[i - 1] and c[i] >= c[i + 1]
+             and c[i] > threshold]
+    for i in peaks:
+        if stop_t is not None and abs(t[i] - stop_t) < 1e-6 * f.span:
+            continue
+        f.warnings.append(Event(
+            "near-singular", float(t[i]),
+            f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
+            f"{c[i]:.3g}): the assembly branches come close here; results were followed "
+            f"with smaller internal steps" + forces_note(f.cm), cond=float(c[i])))
+
+
+def forces_note(cm) -> str:
+    """The warning's sentence for models whose forces are computed (planarkin.forces)."""
+    from .forces.model import has_forces
+    return ("; joint reactions and driver efforts grow without bound near such a configuration "
+            "(forces.csv)") if has_forces(cm) else ""

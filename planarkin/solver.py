@@ -44,7 +44,7 @@ from .kinematics import point_jerk, point_kinematics
 from .options import Options
 from .path import (KINK_TOL, NODE_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, Kink, Nodes,
                    driver_breakpoints, hermite5, path_block)
-from .singular import classify, reselect
+from .singular import classify, near_singular_warnings, reselect
 from .system import System
 from .warmstart import warm_nodes
 
@@ -203,7 +203,7 @@ class PathFollower:
                         continue
                     ev.message += "; stepping over it on the smooth branch failed"
                 return self._stop(ev)
-        self._near_singular_warnings()
+        near_singular_warnings(self)
         return None
 
     def _restart_at(self, kink: Kink) -> Event | None:
@@ -325,7 +325,7 @@ class PathFollower:
 
     def _stop(self, ev: Event) -> Event:
         self.event = ev
-        self._near_singular_warnings()
+        near_singular_warnings(self)
         return ev
 
     def _step_over(self, ev: Event) -> bool:
@@ -373,31 +373,6 @@ class PathFollower:
                     f"less accurate")
                 return True
         return False
-
-    def _near_singular_warnings(self, threshold: float = COND_WARN) -> None:
-        """Local maxima of the condition estimate above threshold that the path got through."""
-        c = np.array(self.nodes.cond)
-        t = np.array(self.nodes.t)
-        if len(c) < 3:
-            return
-        stop_t = self.event.t if self.event else None
-        peaks = [i for i in range(1, len(c) - 1) if c[i] >= c[i - 1] and c[i] >= c[i + 1]
-                 and c[i] > threshold]
-        for i in peaks:
-            if stop_t is not None and abs(t[i] - stop_t) < 1e-6 * self.span:
-                continue
-            self.warnings.append(Event(
-                "near-singular", float(t[i]),
-                f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
-                f"{c[i]:.3g}): the assembly branches come close here; results were followed "
-                f"with smaller internal steps" + _forces_note(self.cm), cond=float(c[i])))
-
-
-def _forces_note(cm) -> str:
-    """The warning's sentence for models whose forces are computed (planarkin.forces)."""
-    from .forces.model import has_forces
-    return ("; joint reactions and driver efforts grow without bound near such a configuration "
-            "(forces.csv)") if has_forces(cm) else ""
 
 
 def _distinct(a: np.ndarray) -> np.ndarray:
