@@ -410,7 +410,7 @@ class Batch:
 
     def nominal_solution(self):
         """The nominal run on the grid (internal units) and its fine-block signs."""
-        res = getattr(self.study, "nominal_result", None) or self.study._nominal()
+        res = getattr(self.study, "nominal_result", None) or self.study.nominal_run()
         self.study.nominal_result = res
         cm = self.cm
         unit = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
