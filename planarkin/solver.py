@@ -9,19 +9,23 @@ Two passes, so that a coarse grid changes the cost and never the answer:
    Jacobian's smallest singular value (a Kantorovich-style radius: Newton cannot reach another
    root from there), and the sign of every diagonal block's determinant is unchanged (crossing
    to another assembly branch flips it); poses whose condition estimate exceeds COND_SINGULAR
-   are not accepted (their accelerations would be meaningless). Failing steps are subdivided.
+   are not accepted (their accelerations would be meaningless): the one step-acceptance rule
+   of planarkin.acceptance. Failing steps are subdivided.
    When steps shrink below ``h_min`` the path has met a singular configuration, approached by
    this very process (bisection in effect); its time is extrapolated from sigma_min and it is
    classified from the singular vectors: lock-up of a driver (toggle, dead centre) when the
    joints alone keep full rank, bifurcation (change point) when they lose rank. A model with
-   consistent redundant constraints may first switch which rows it leaves out. The drivers'
+   consistent redundant constraints may first switch which rows it leaves out (both in
+   planarkin.singular). A warm start (`Analysis(..., warm=Start)`, planarkin.warmstart: a
+   neighbouring model's path corrected to this one, for design studies) replaces the follower
+   when its corrected nodes pass the same rule. The drivers'
    breakpoints (TimeFunction.breakpoints: kinks and steps of f' or f'') are landed on exactly
    and the path restarts there from the right-hand limits: that node appears twice, so no
    step and no interpolant spans a jump; a kink a driver does not declare is refused.
 2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
    quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
    velocity and acceleration systems are solved exactly. Every point is checked like a path step
-   (convergence, Kantorovich radius, determinant signs); a point that fails is solved by
+   (acceptance.accepted: convergence, Kantorovich radius, condition, determinant signs); a point that fails is solved by
    following the path from its left node. Rows exactly at a breakpoint take the right-hand
    limit (the end row the left-hand one); a non-finite driver value at a row refuses it.
 
