@@ -72,15 +72,16 @@ def _rowmax(a: np.ndarray) -> np.ndarray:
 
 
 
-def taylor_error(h, q0, qd0, qdd0, j3, q1, qd1, qdd1) -> np.ndarray:
+def taylor_error(h, q0, qd0, qdd0, j3, q1, qd1, qdd1, pred=None) -> np.ndarray:
     """The path follower's step error of steps h ((M, 1)) from states q0, qd0, qdd0 (with the
     jerk estimate j3 from the step before, zero for none; (M, n) or (n,) each) to the solved
     q1, qd1, qdd1 ((M, n) each): the larger of the Taylor predictor's error forwards and of
     the backward prediction of q0 from q1, whose jerk is the step's own change of
-    acceleration. Returns (M,), the largest over the n columns."""
+    acceleration. pred: the forward prediction when the caller has it (the path's Newton
+    start, these operations). Returns (M,), the largest over the n columns."""
     hh = 0.5 * h * h
     h3 = h ** 3 / 6.0
-    ef = np.abs(q1 - (q0 + h * qd0 + hh * qdd0 + h3 * j3))
+    ef = np.abs(q1 - (q0 + h * qd0 + hh * qdd0 + h3 * j3 if pred is None else pred))
     eb = np.abs(q1 - h * qd1 + hh * qdd1 - h3 * ((qdd1 - qdd0) / h) - q0)
     return np.maximum(_rowmax(ef), _rowmax(eb))
 

@@ -110,7 +110,8 @@ class PathFollower:
         if jerk and k > 0 and N.t[k] > N.t[k - 1]:
             j3 = (qdd0 - N.qdd[k - 1]) / (N.t[k] - N.t[k - 1])
         h = hs[:, None]
-        Q = q0 + h * qd0 + 0.5 * h * h * qdd0 + h ** 3 / 6.0 * j3
+        Qp = q0 + h * qd0 + 0.5 * h * h * qdd0 + h ** 3 / 6.0 * j3
+        Q = Qp.copy()
         Qd = qd0 + h * qdd0 + 0.5 * h * h * j3
         Qdd = qdd0 + h * j3
         t = t0 + hs
@@ -123,7 +124,7 @@ class PathFollower:
                                   order=2, drivers=drivers)
         n = self.S.n
         err = taylor_error(h, q0[:n], qd0[:n], qdd0[:n], j3[:n], Q[:, :n], Qd[:, :n],
-                           Qdd[:, :n])
+                           Qdd[:, :n], Qp[:, :n])
         ok = accepted(info, sg0 if check_sign else None, (Qd, Qdd))
         ok &= err <= (self.opts.path_tol if tol is None else tol)
         return ok, err, Q, Qd, Qdd, info
