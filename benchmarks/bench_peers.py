@@ -9,8 +9,8 @@ a grid of --steps intervals), positions + velocities + accelerations:
 * planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call),
   by each grid-pass route of --routes: compiled (the numba route, planarkin/compiled.py through
   planarkin/kernel.py, taken whatever the job's size; compiled or loaded from numba's cache by
-  the warm-up call), numpy (PLANARKIN_KERNEL=0: the fused numpy pass of small blocks), reference
-  (the reference numpy pass, System._solve_batch: the code before issue 12 item 3);
+  the warm-up call), numpy (PLANARKIN_KERNEL=0: the numpy reference, System._solve_batch, the
+  only numpy solve since issue 17 folded the fused passes into it);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
   simulation with velocities and accelerations) on the same mechanism and step, built and
   compiled once; the JIT start-up (first call) is reported separately and not counted.
@@ -119,7 +119,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--peer-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--json", metavar="PATH")
-    ap.add_argument("--routes", default="compiled,numpy,reference",
+    ap.add_argument("--routes", default="compiled,numpy",
                     help="planarkin grid-pass routes to time, comma-separated")
     a = ap.parse_args(argv)
     routes = [r for r in a.routes.split(",") if r]
@@ -208,27 +208,24 @@ class _route:
     """Context: planarkin's grid pass takes one route (see the module docstring)."""
 
     def __init__(self, route):
-        if route not in ("compiled", "numpy", "reference"):
-            sys.exit(f"unknown route {route!r} (compiled, numpy, reference)")
+        if route not in ("compiled", "numpy"):
+            sys.exit(f"unknown route {route!r} (compiled, numpy)")
         self.route = route
 
     def __enter__(self):
         import os
 
-        from planarkin import kernel, system
-        self.saved = (os.environ.get("PLANARKIN_KERNEL"), system.SMALL_BATCH,
-                      kernel.COMPILED_FROM_POINTS)
+        from planarkin import kernel
+        self.saved = (os.environ.get("PLANARKIN_KERNEL"), kernel.COMPILED_FROM_POINTS)
         os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
         kernel.COMPILED_FROM_POINTS = 0
-        if self.route == "reference":
-            system.SMALL_BATCH = 1 << 62
         return self
 
     def __exit__(self, *exc):
         import os
 
-        from planarkin import kernel, system
-        env, system.SMALL_BATCH, kernel.COMPILED_FROM_POINTS = self.saved
+        from planarkin import kernel
+        env, kernel.COMPILED_FROM_POINTS = self.saved
         if env is None:
             os.environ.pop("PLANARKIN_KERNEL", None)
         else:

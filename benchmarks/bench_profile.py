@@ -54,7 +54,6 @@ PHASES = (  # (module, attribute, phase): the functions timed, CPU time
     ("planarkin.kernel", "hermite", "prediction (compiled Hermite)"),
     ("planarkin.solver.Analysis", "_driver_values", "driver values"),
     ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
-    ("planarkin.system.System", "_solve_small", "P+V+A solve, fused numpy pass"),
     ("planarkin.kernel", "solve", "P+V+A solve, compiled route"),
     ("planarkin.solver.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
     ("planarkin.results", "refuse", "refusal checks"),

@@ -7,8 +7,8 @@ DIR is another checkout (e.g. `git archive main | tar -x -C DIR`). Each checkout
 process of its own (`PYTHONPATH` = the checkout), which loads the models once and makes one
 warm-up call each (that compiles the kernel of its source version into the cache if missing);
 then, round by round, the parent lets each worker in turn time --calls calls of every model.
-Printed per model: the best round's CPU and wall time per call for both, and the ratio this
-checkout / baseline (the issue's rule: a 360-step run must not get slower). The workers run
+Printed per model: the median round's CPU and wall time per call for both, with the spread of
+the rounds (min-max), and the ratio of the medians this checkout / baseline (the issue's rule: a 360-step run must not get slower). The workers run
 OpenBLAS on one thread, as `planarkin run` does, unless OPENBLAS_NUM_THREADS is set.
 """
 
@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -70,22 +71,28 @@ def main(argv=None):
         first = json.loads(w.stdout.readline())
         print(f"{name:9s}  {first['planarkin']}")
         workers[name] = w
-    best = {name: [[float("inf")] * 2 for _ in paths] for name in trees}
+    rounds = {name: [[[], []] for _ in paths] for name in trees}
     for _ in range(a.rounds):
         for name, w in workers.items():
             w.stdin.write("go\n")
             w.stdin.flush()
             for k, (cpu, wall) in enumerate(json.loads(w.stdout.readline())):
-                best[name][k][0] = min(best[name][k][0], cpu)
-                best[name][k][1] = min(best[name][k][1], wall)
+                rounds[name][k][0].append(cpu)
+                rounds[name][k][1].append(wall)
     for w in workers.values():
         w.stdin.close()
         w.wait()
-    print(f"\nbest of {a.rounds} rounds of {a.calls} calls, per call:")
+    print(f"\nmedian [min-max] of {a.rounds} rounds of {a.calls} calls, per call, ms "
+          f"(baseline -> this):")
+    med = statistics.median
     for k, p in enumerate(a.models):
-        (tc, tw), (bc, bw) = best["this"][k], best["baseline"][k]
-        print(f"  {p:34s} CPU {bc * 1e3:7.2f} -> {tc * 1e3:7.2f} ms ({tc / bc:5.2f} x)   "
-              f"wall {bw * 1e3:7.2f} -> {tw * 1e3:7.2f} ms ({tw / bw:5.2f} x)")
+        parts = []
+        for j, what in enumerate(("CPU", "wall")):
+            b, t = rounds["baseline"][k][j], rounds["this"][k][j]
+            parts.append(f"{what} {med(b) * 1e3:6.2f} [{min(b) * 1e3:.2f}-{max(b) * 1e3:.2f}] -> "
+                         f"{med(t) * 1e3:6.2f} [{min(t) * 1e3:.2f}-{max(t) * 1e3:.2f}] "
+                         f"({med(t) / med(b):4.2f} x)")
+        print(f"  {p:30s} " + "   ".join(parts))
     la = os.getloadavg()
     print(f"load avg at end {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}")
 

@@ -20,7 +20,7 @@ and accelerations.
   neighbours are farther apart); variants/s extrapolates. The batch solves through the
   compiled route (planarkin/compiled_each.py on numba) when the sweep has at least
   kernel.COMPILED_FROM_POINTS rows (variants x grid times: 10,000 x 361 does), else through the
-  numpy passes; `--numpy` also times the numpy passes (studies/fused.py, PLANARKIN_KERNEL=0:
+  numpy reference; `--numpy` also times the numpy reference (System.solve_batch, PLANARKIN_KERNEL=0:
   the reference route) in the same rounds and compares the outcomes.
   planarkin and pylinkage alternate, --rounds rounds; printed are the medians and every round.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.

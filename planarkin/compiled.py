@@ -6,7 +6,7 @@ points, written as plain loops so that numba compiles it (issue 17): the same Ne
 block by block (solve_points: a block iterates until every point of the batch has converged, as
 the reference does, so the iteration counts agree), the same determinant signs and sigma_min
 bounds (1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks in closed form as
-the fused numpy pass), and after each block, per point, its rows of the velocity and
+the reference, system.Small2), and after each block, per point, its rows of the velocity and
 acceleration systems with the gradients and gamma at the converged positions. solve_each
 solves point by point, each to its own convergence, with per-point element parameters and the
 design studies' acceptance tests (studies.batch); hermite, cubic and layout are the grid pass's
@@ -269,7 +269,7 @@ def factor(kb, nj, src, dst, gr, J, Mi, mo, WK):
     if kb == 1:
         Mi[mo] = 1.0 / J[0]
         return abs(J[0]), sign_of(J[0])
-    if kb == 2:        # closed form, as System._invert_small (the fused numpy pass)
+    if kb == 2:        # closed form, as system.Small2 (the reference pass)
         a = J[0]
         b = J[1]
         c = J[2]
@@ -306,8 +306,8 @@ def apply(kb, Mi, mo, r, cols, co, X, xo):
 
 @inline
 def solve2(J, r, cols, co, X, xo):
-    """The same for a 2x2 block from its matrix J: Cramer's rule, as the fused numpy pass's
-    _forward (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
+    """The same for a 2x2 block from its matrix J: Cramer's rule, as the reference's
+    Small2.solve (one rounding less than through the inverse's entries; tests/test_sketch_exact.py
     holds the Jansen leg's accelerations to 1e-14 of the exact linkage)."""
     det = J[0] * J[3] - J[1] * J[2]
     X[xo + cols[co]] = (J[3] * r[0] - J[1] * r[1]) / det
@@ -505,8 +505,8 @@ def solve_points(N, W, m, nb, nblk, ekind, ebi, ebj, eprm, rowel, roweq, bk, bof
     bfix (nblk): the block's whole gradient does not depend on its own unknowns (System
     Block.fixed_grad: the rates reuse the Newton step's gradients and inverse, as the reference
     does). Outputs besides: rmax (N) the largest |Phi| of each point (numpy's R.max(axis=1)),
-    cond (N) its condition estimate (planarkin.solver._cond: the largest 1 / max(smin, 1e-300)
-    over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
+    cond (N) its condition estimate (planarkin.acceptance.condition: the largest
+    1 / max(smin, 1e-300) over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
     nbb = nb + 1
     n = W - 3
     kmax = 1
@@ -596,7 +596,7 @@ def cubic(q0, q1, q2, q3, out):
 
 @jit
 def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
-    """The grid pass's predictions: quintic Hermite interpolation (planarkin.solver.hermite5,
+    """The grid pass's predictions: quintic Hermite interpolation (planarkin.path.hermite5,
     the same operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of
     W numbers."""
     for i in range(N):
@@ -629,7 +629,7 @@ def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd,
     """A chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of
     each row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
     (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
-    planarkin.solver.point_kinematics in its order (then times L). order 0: positions only,
+    planarkin.kinematics.point_kinematics in its order (then times L). order 0: positions only,
     1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order)."""
     for i in range(N):
         o = i * W

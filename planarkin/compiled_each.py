@@ -13,6 +13,7 @@ import math
 import numba
 import numpy as np
 
+from .acceptance import COND_WARN, KAPPA
 from .compiled import (BOOL, DBL, F64, HELPER, I64, INT, KFINE, KMAX, U8, dot6, fine_signs,
                        gauss_jordan, helper, jit, row_eval, sign_of)
 
@@ -31,20 +32,22 @@ def block_matrix(kb, brows, bo, rpos, gr, go, J):
 
 
 @numba.njit([(INT, INT, INT, INT, INT, F64, F64, F64, F64, F64, numba.uint8, DBL, INT, I64, INT,
-              I64, F64, F64, DBL, DBL, F64, BOOL, U8, F64)], **HELPER)
+              I64, F64, F64, F64, BOOL, U8, F64)], **HELPER)
 def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_t, trow,
-                 has_v, vrow, tg, sign0, kappa, cond_max, jerk, jerk_ok, good, perr):
+                 has_v, vrow, tg, sign0, jerk, jerk_ok, good, perr):
     """studies.batch's acceptance tests of point i (Batch.accept is the numpy reference), while
     its numbers are at hand: good[i] = converged, finite q, qd, qdd (W columns: the point's
     rows of the results, the rows before them the point before's), first correction at most
-    kappa sigma_min, 1 / min(smin) at most cond_max and every fine-block sign equal to sign0's;
-    perr[i] = the Taylor predictor error (studies.warm._predictor_error, forwards and
-    backwards, first n columns) of the interval from the point before when that is the same
-    variant (vrow) at the grid time before (times tg, indexed by trow), else 0. jerk: the last
-    interval's change of acceleration, carried from point to point, valid when jerk_ok.
+    KAPPA sigma_min, 1 / min(smin) at most COND_WARN (the bounds of planarkin.acceptance, the
+    studies' rule acceptance.accepted with cond_max=COND_WARN, compiled in) and every
+    fine-block sign equal to sign0's; perr[i] = the Taylor predictor error
+    (acceptance.taylor_error, forwards and backwards, first n columns) of the interval from
+    the point before when that is the same variant (vrow) at the grid time before (times tg,
+    indexed by trow), else 0. jerk: the last interval's change of acceleration, carried from
+    point to point, valid when jerk_ok.
     Returns the new jerk_ok."""
     o = i * W
-    g = conv != 0 and ratio <= kappa
+    g = conv != 0 and ratio <= KAPPA
     c = 0
     while c < W and g:
         g = (math.isfinite(Q[o + c]) and math.isfinite(Qd[o + c])
@@ -58,7 +61,7 @@ def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_
     if lo != lo:
         g = False
     elif g:
-        g = 1.0 / (lo if lo > 1e-300 else 1e-300) <= cond_max
+        g = 1.0 / (lo if lo > 1e-300 else 1e-300) <= COND_WARN
     c = 0
     while c < nfine and g:
         g = sign[i * nfine + c] == sign0[i * nfine + c]
@@ -91,7 +94,7 @@ def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_
 @helper
 def invert_small(kb, J, M, mo, WK):
     """The block's inverse into M[mo:] as solve_each takes it (1 x 1 and 2 x 2 in closed form,
-    as studies.fused): returns (sigma_min bound, determinant sign)."""
+    as system.Small2): returns (sigma_min bound, determinant sign)."""
     if kb == 1:
         M[mo] = 1.0 / J[0]
         return abs(J[0]), sign_of(J[0])
@@ -119,12 +122,14 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
     """solve_points' arguments and results, point by point (a design study, studies.batch):
     each point solves its blocks in order, each block by Newton until that point's own
     correction is at most tol (so a point's result does not depend on the other points of the
-    batch), 1 x 1 and 2 x 2 blocks inverted in closed form (as studies.fused), then its
+    batch), 1 x 1 and 2 x 2 blocks inverted in closed form (as system.Small2), then its
     velocities and accelerations as solve_points. The element parameters of point i: prm
     (E x 8) shared by all points, or with has_v the table prm (V x ne x 8) of parameter sets,
     row vrow[i] (a design study's variants). has_t: point i reads row trow[i] of T, NU and FDD
     (a study's grid times, the same for every variant), else row i. test: with the acceptance
-    tests of every point (accept_point) into good and perr."""
+    tests of every point (accept_point) into good and perr; kappa and cond_max are not read
+    (accept_point's bounds are planarkin.acceptance's, compiled in: kernel.solve_rows passes
+    the same ones)."""
     nbb = nb + 1
     n = W - 3
     total = 0
@@ -283,8 +288,8 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
                     X[qo + bcols[bo + a]] = x
         if test:
             jerk_ok = accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv[i],
-                                   ratio[i], has_t, trow, has_v, vrow, tg, sign0, kappa,
-                                   cond_max, jerk, jerk_ok, good, perr)
+                                   ratio[i], has_t, trow, has_v, vrow, tg, sign0, jerk,
+                                   jerk_ok, good, perr)
 
 
 # the entry points' one signature each, compiled (or loaded from the cache) when a job takes

@@ -110,6 +110,18 @@ def _inv_gauss_jordan(J):
     return out, sign, ok
 
 
+def rowmax(a: np.ndarray) -> np.ndarray:
+    """(N, k) -> (N,) largest entry of each row, NaN if any is: a.max(axis=1), column by
+    column (numpy reduces a short trailing axis several times slower than it takes the
+    elementwise maximum of a few columns)."""
+    if a.shape[1] > 32 or a.shape[1] == 0:
+        return a.max(axis=1)
+    m = a[:, 0].copy()
+    for i in range(1, a.shape[1]):
+        np.maximum(m, a[:, i], out=m)
+    return m
+
+
 def matvec(M: np.ndarray, x: np.ndarray) -> np.ndarray:
     """(N, k, k) @ (N, k) -> (N, k)."""
     return np.einsum("nij,nj->ni", M, x)

@@ -17,7 +17,7 @@ import numpy as np
 from .derived import derived_tables
 from .model.compile import CompiledModel
 from .output.tables import Layout
-from .output.writer import DirectoryWriter, _concat, _take  # noqa: F401 (_concat: studies)
+from .output.writer import DirectoryWriter, _take
 from .solver import Analysis, Chunk, Event, Options
 
 @dataclass
@@ -194,10 +194,11 @@ def _index(names, name: str, what: str) -> int:
         raise KeyError(f"no {what} '{name}' in this model{hint}") from None
 
 
-def prepare(cm: CompiledModel, opts: Options) -> Analysis:
-    """Everything before the first row: the budget check, assembly and path following.
-    Invalid input (the budget, a model that cannot be assembled) raises InputError, so nothing
-    has been written yet when it does."""
+def prepare(cm: CompiledModel, opts: Options, warm=None) -> Analysis:
+    """Everything before the first row: the budget check, assembly and path following (from
+    the warm start warm, a warmstart.Start, when given: a design study's neighbour). Invalid
+    input (the budget, a model that cannot be assembled) raises InputError, so nothing has been
+    written yet when it does."""
     from .assembly import assemble
     from .budget import check_preflight
     from .diagnostics import Diagnostic, InputError
@@ -214,7 +215,7 @@ def prepare(cm: CompiledModel, opts: Options) -> Analysis:
     t0 = time.perf_counter()
     A = assemble(cm, opts.start)
     A.warnings += lock_ups(cm, A.q, opts.start, opts.end, opts.steps)
-    an = Analysis(cm, A, opts)
+    an = Analysis(cm, A, opts, warm=warm)
     an.timings["assembly"] = time.perf_counter() - t0
     an.follow()
     return an
@@ -294,10 +295,10 @@ class Collect:
         return Chunk(*(g(f) for f in self.FIELDS))
 
 
-def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None):
-    """Run an analysis: prepare (raises InputError), then the grid pass into sink or a Result.
-    Returns (info, result or None)."""
-    return stream(prepare(cm, opts), sink, progress)
+def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None, warm=None):
+    """Run an analysis: prepare (raises InputError; warm: its warm start), then the grid pass
+    into sink or a Result. Returns (info, result or None)."""
+    return stream(prepare(cm, opts, warm), sink, progress)
 
 
 REFUSALS = ("non-finite", "residual", "range")   # range: a room's check (a cam past its law)

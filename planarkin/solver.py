@@ -9,19 +9,23 @@ Two passes, so that a coarse grid changes the cost and never the answer:
    Jacobian's smallest singular value (a Kantorovich-style radius: Newton cannot reach another
    root from there), and the sign of every diagonal block's determinant is unchanged (crossing
    to another assembly branch flips it); poses whose condition estimate exceeds COND_SINGULAR
-   are not accepted (their accelerations would be meaningless). Failing steps are subdivided.
+   are not accepted (their accelerations would be meaningless): the one step-acceptance rule
+   of planarkin.acceptance. Failing steps are subdivided.
    When steps shrink below ``h_min`` the path has met a singular configuration, approached by
    this very process (bisection in effect); its time is extrapolated from sigma_min and it is
    classified from the singular vectors: lock-up of a driver (toggle, dead centre) when the
    joints alone keep full rank, bifurcation (change point) when they lose rank. A model with
-   consistent redundant constraints may first switch which rows it leaves out. The drivers'
+   consistent redundant constraints may first switch which rows it leaves out (both in
+   planarkin.singular). A warm start (`Analysis(..., warm=Start)`, planarkin.warmstart: a
+   neighbouring model's path corrected to this one, for design studies) replaces the follower
+   when its corrected nodes pass the same rule. The drivers'
    breakpoints (TimeFunction.breakpoints: kinks and steps of f' or f'') are landed on exactly
    and the path restarts there from the right-hand limits: that node appears twice, so no
    step and no interpolant spans a jump; a kink a driver does not declare is refused.
 2. Dense output (`Analysis.chunks`): every grid point is solved by Newton-Raphson from the
    quintic Hermite interpolant of the bracketing nodes (q, qdot, qddot at both ends), then the
    velocity and acceleration systems are solved exactly. Every point is checked like a path step
-   (convergence, Kantorovich radius, determinant signs); a point that fails is solved by
+   (acceptance.accepted: convergence, Kantorovich radius, condition, determinant signs); a point that fails is solved by
    following the path from its left node. Rows exactly at a breakpoint take the right-hand
    limit (the end row the left-hand one); a non-finite driver value at a row refuses it.
 
@@ -30,27 +34,24 @@ Results are streamed in chunks of grid points, so memory does not grow with the 
 
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import DENSE_LIMIT, Assembly
+from .acceptance import COND_WARN, accepted, condition, taylor_error
+from .assembly import Assembly
 from . import kernel
 from .budget import node_limit
 from .model.compile import CompiledModel
+from .kinematics import point_jerk, point_kinematics
 from .options import Options
+from .path import (KINK_TOL, NODE_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, Kink, Nodes,
+                   driver_breakpoints, hermite5, path_block)
+from .singular import classify, near_singular_warnings, reselect
 from .system import System
+from .warmstart import warm_nodes
 
-KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma_min
-# Past this condition estimate the path is taken to be at a singular configuration: there
-# velocities lose ~6 digits and accelerations (error ~ cond^2 eps) are no longer meaningful, so
-# neither are the predictions built from them.
-COND_SINGULAR = 1e6
-COND_WARN = 1e3       # near-singular passages above this are reported
-NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
-PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 # Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
 # memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
 # numpy, scipy and the path nodes: measured 205-222 MB for the 300-coordinate arch at 1,000 and
@@ -64,150 +65,6 @@ CHUNK_BYTES = 64 << 20
 CHUNK_MANY_BLOCKS = 64
 CHUNK_MIN_POINTS = 256
 CHUNK_BYTES_MANY = 256 << 20
-def path_block(n: int) -> int:
-    """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
-    Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
-    the N = 1000 four-bar chain spend 8 s in LAPACK, 12-blocks keep both costs small)."""
-    return n if n <= 64 else 12
-
-
-@dataclass
-class Nodes:
-    """Internal nodes of the path (exact solutions): t (K,), q, qd, qdd (K, n + 3) internal units,
-    sign: per node the determinant signs of the fine blocks, cond (K,) condition estimate,
-    seg (K,) which set of equations (segment) the node was solved with: a model with redundant
-    constraints may switch the set along the path, the switch node then appears twice."""
-
-    t: list = field(default_factory=list)
-    q: list = field(default_factory=list)
-    qd: list = field(default_factory=list)
-    qdd: list = field(default_factory=list)
-    sign: list = field(default_factory=list)
-    cond: list = field(default_factory=list)
-    seg: list = field(default_factory=list)
-
-    def add(self, t, q, qd, qdd, sign, cond, seg=0):
-        self.t.append(float(t))
-        self.q.append(q)
-        self.qd.append(qd)
-        self.qdd.append(qdd)
-        self.sign.append(sign)
-        self.cond.append(float(cond))
-        self.seg.append(seg)
-
-    def truncate(self, k: int) -> None:
-        """Keep nodes 0..k."""
-        for lst in (self.t, self.q, self.qd, self.qdd, self.sign, self.cond, self.seg):
-            del lst[k + 1:]
-
-    def copy_from(self, other: "Nodes", k: int) -> None:
-        for name in ("t", "q", "qd", "qdd", "sign", "cond", "seg"):
-            getattr(self, name).append(getattr(other, name)[k])
-
-    def __len__(self):
-        return len(self.t)
-
-
-@dataclass
-class Event:
-    """Why the path stopped (or what it passed, for warnings).
-
-    kind: 'lock-up', 'bifurcation', 'near-singular', 'driver', 'redundant', 'failure',
-    'breakpoint' (a warning: a driver's kink, followed piece by piece)."""
-
-    kind: str
-    t: float
-    message: str
-    cond: float = float("nan")
-    constraints: list = field(default_factory=list)
-    bodies: list = field(default_factory=list)
-
-    def as_dict(self):
-        d = {"kind": self.kind, "t": self.t, "message": self.message}
-        if math.isfinite(self.cond):
-            d["condition"] = self.cond
-        if self.constraints:
-            d["constraints"] = self.constraints
-        if self.bodies:
-            d["bodies"] = self.bodies
-        return d
-
-
-@dataclass
-class Kink:
-    """A time where one or more drivers' derivatives jump (their TimeFunction.breakpoints):
-    t (s) and jumps: list of (driver row, Breakpoint), jumps in the driver's user units."""
-
-    t: float
-    jumps: list = field(default_factory=list)
-
-
-# rows exactly at a breakpoint take this one-sided limit (documented in the README, stated in
-# summary.json): the right-hand one, which continues into the run; the end row the left-hand one
-ROWS_AT_BREAKPOINTS = ("right-hand limit (t+) of velocities and accelerations; a row at the end "
-                       "time: left-hand limit (t-)")
-# An undeclared kink inside an accepted step shows as a mismatch of the trapezoid rule for the
-# driver's f' = integral of f''. A smooth driver on an accepted step (h omega <= ~0.2) misses it
-# by h^2 omega^2 / 12 <= ~0.004 of the scale below; a kink by about half of it or more.
-KINK_TOL = 0.1
-
-
-def driver_breakpoints(cm: CompiledModel, start: float, end: float) -> list[Kink]:
-    """The breakpoints of every driver function in [start, end], sorted, those of different
-    drivers at the same time (within rounding) merged into one Kink."""
-    found = []
-    for r, f in zip(cm.driver_rows, cm.driver_funcs):
-        for bp in f.breakpoints(start, end):
-            if math.isfinite(bp.t) and start <= bp.t <= end:
-                found.append((bp.t, int(r), bp))
-    found.sort(key=lambda x: (x[0], x[1]))
-    out: list[Kink] = []
-    span = max(abs(start), abs(end), end - start, 1e-300)
-    for t, r, bp in found:
-        if out and t - out[-1].t <= 4 * np.finfo(float).eps * span:
-            out[-1].jumps.append((r, bp))
-        else:
-            out.append(Kink(t, [(r, bp)]))
-    return out
-
-
-def hermite5(s, h, y0, d0, a0, y1, d1, a1, deriv=0):
-    """Quintic Hermite interpolant on [0, 1] (s: (N, 1)) matching value, first and second
-    derivative at both ends; deriv = 0, 1, 2 returns the value or a time derivative."""
-    s2 = s * s
-    s3 = s2 * s
-    if deriv == 0:
-        s4, s5 = s3 * s, s3 * s2
-        H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
-        H1 = s - 6 * s3 + 8 * s4 - 3 * s5
-        H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
-        H3 = 10 * s3 - 15 * s4 + 6 * s5
-        H4 = -4 * s3 + 7 * s4 - 3 * s5
-        H5 = 0.5 * s3 - s4 + 0.5 * s5
-        return H0 * y0 + H1 * h * d0 + H2 * h * h * a0 + H3 * y1 + H4 * h * d1 + H5 * h * h * a1
-    s4 = s3 * s
-    if deriv == 1:
-        H0 = -30 * s2 + 60 * s3 - 30 * s4
-        H1 = 1 - 18 * s2 + 32 * s3 - 15 * s4
-        H2 = s - 4.5 * s2 + 6 * s3 - 2.5 * s4
-        H4 = -12 * s2 + 28 * s3 - 15 * s4
-        H5 = 1.5 * s2 - 4 * s3 + 2.5 * s4
-        return (H0 * (y0 - y1)) / h + H1 * d0 + H2 * h * a0 + H4 * d1 + H5 * h * a1
-    if deriv == 3:          # only rows the solver cannot solve (inside a bifurcation crossing)
-        H0 = -60 + 360 * s - 360 * s2
-        H1 = -36 + 192 * s - 180 * s2
-        H2 = -9 + 36 * s - 30 * s2
-        H4 = -24 + 168 * s - 180 * s2
-        H5 = 3 - 24 * s + 30 * s2
-        return (H0 * (y0 - y1)) / h ** 3 + (H1 * d0 + H4 * d1) / (h * h) + (H2 * a0 + H5 * a1) / h
-    H0 = -60 * s + 180 * s2 - 120 * s3
-    H1 = -36 * s + 96 * s2 - 60 * s3
-    H2 = 1 - 9 * s + 18 * s2 - 10 * s3
-    H4 = -24 * s + 84 * s2 - 60 * s3
-    H5 = 3 * s - 12 * s2 + 10 * s3
-    return (H0 * (y0 - y1)) / (h * h) + (H1 * d0 + H4 * d1) / h + H2 * a0 + H5 * a1
-
-
 class PathFollower:
     """Adaptive continuation along the assembled branch; see the module docstring."""
 
@@ -266,16 +123,10 @@ class PathFollower:
         info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12,
                                   order=2, drivers=drivers)
         n = self.S.n
-        ef = np.abs(Q[:, :n] - Qp[:, :n]).max(axis=1)
-        j3c = (Qdd - qdd0) / h
-        qb = Q - h * Qd + 0.5 * h * h * Qdd - h ** 3 / 6.0 * j3c
-        eb = np.abs(qb[:, :n] - q0[:n]).max(axis=1)
-        err = np.maximum(ef, eb)
-        ok = info.converged & (err <= (self.opts.path_tol if tol is None else tol))
-        ok &= (info.ratio <= KAPPA) & np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
-        ok &= _cond(info) <= COND_SINGULAR
-        if check_sign:
-            ok &= (info.sign == sg0).all(axis=1)
+        err = taylor_error(h, q0[:n], qd0[:n], qdd0[:n], j3[:n], Q[:, :n], Qd[:, :n],
+                           Qdd[:, :n], Qp[:, :n])
+        ok = accepted(info, sg0 if check_sign else None, (Qd, Qdd))
+        ok &= err <= (self.opts.path_tol if tol is None else tol)
         return ok, err, Q, Qd, Qdd, info
 
     def start(self, q: np.ndarray) -> bool:
@@ -288,7 +139,7 @@ class PathFollower:
         drivers = S.driver_values(np.array([t0]), side=+1)
         info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12,
                              drivers=drivers)
-        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
 
@@ -326,7 +177,7 @@ class PathFollower:
                 undeclared = self._undeclared_kink(k, tn, j)
                 if undeclared is not None:
                     return self._stop(undeclared)
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], condition(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == land and land < end:
                     ev = self._restart_at(kink)
@@ -346,10 +197,10 @@ class PathFollower:
             self.rejected += len(hs)
             h = hs[0] / 8.0
             if h < self.h_min:
-                if self.A.redundant_rows and self._reselect(k):
+                if self.A.redundant_rows and reselect(self, k):
                     h = max(self.span * 1e-6, self.h_min * 100)
                     continue
-                ev = self._singular(k)
+                ev = classify(self, k)
                 if ev.kind == "bifurcation" and self.opts.bifurcation == "continue":
                     if self._step_over(ev):
                         self.warnings.append(ev)
@@ -357,7 +208,7 @@ class PathFollower:
                         continue
                     ev.message += "; stepping over it on the smooth branch failed"
                 return self._stop(ev)
-        self._near_singular_warnings()
+        near_singular_warnings(self)
         return None
 
     def _restart_at(self, kink: Kink) -> Event | None:
@@ -392,7 +243,7 @@ class PathFollower:
                          f"after its breakpoint at t = {kink.t:.10g} cannot be solved "
                          f"(right-hand limits of f not finite?)")
         # the same pose on both sides (Newton above moved it by rounding at most)
-        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         self.warnings.append(Event(
             "breakpoint", kink.t, "; ".join(parts) + "; the path is followed piece by piece "
@@ -479,146 +330,8 @@ class PathFollower:
 
     def _stop(self, ev: Event) -> Event:
         self.event = ev
-        self._near_singular_warnings()
+        near_singular_warnings(self)
         return ev
-
-    # -- redundant constraints ---------------------------------------------------------------
-    def _reselect(self, k: int) -> bool:
-        """The equations solved (all but the redundant ones) became singular at node k: if the
-        whole set is still regular there, solve from here on with another choice of the rows to
-        leave out (the n most independent rows at node k). Returns True when switched."""
-        cm, N = self.cm, self.nodes
-        if cm.n > DENSE_LIMIT:
-            return False
-        S_all = System(cm)
-        J = S_all.jacobian(S_all.ext(N.q[k][: cm.n]))[0]
-        nrm = np.linalg.norm(J, axis=1)
-        Jn = J / np.where(nrm > 0, nrm, 1)[:, None]
-        sv = np.linalg.svd(Jn, compute_uv=False)
-        if len(sv) < cm.n or sv[cm.n - 1] < 1e-4 * sv[0]:
-            return False              # singular with every equation: a real singularity
-        rows = _independent_rows(Jn, cm.n)
-        if set(rows.tolist()) == set(self.S.rows.tolist()):
-            return False
-        from .structure import StructurallySingular
-        S = System(cm, np.sort(rows))
-        try:
-            S.build_blocks()
-        except StructurallySingular:
-            return False
-        Sp = S.merged(path_block(cm.n))
-        Q = S.ext(N.q[k][: cm.n])
-        Qd = np.zeros_like(Q)
-        Qdd = np.zeros_like(Q)
-        info = Sp.solve_batch(np.array([N.t[k]]), Q, Qd, Qdd, policy="full", tol=NODE_TOL,
-                              maxit=12)
-        if not info.converged[0]:
-            return False
-        old = sorted(set(self.S.rows.tolist()) - set(rows.tolist()))
-        new = sorted(set(range(cm.m)) - set(rows.tolist()))
-        self.systems.append((S, Sp))
-        self.seg = len(self.systems) - 1
-        self.S = Sp
-        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
-        self.warnings.append(Event(
-            "redundant", N.t[k],
-            f"at t = {N.t[k]:.6g} the equations left out as redundant were changed (now "
-            f"{'; '.join(cm.row_label[r] for r in new)} instead of "
-            f"{'; '.join(cm.row_label[r] for r in old) or 'none'}): the former set became "
-            f"singular while the whole mechanism stays regular", cond=float(1 / (sv[cm.n - 1]
-                                                                                / sv[0]))))
-        return True
-
-    # -- singular configurations -------------------------------------------------------------
-    def _singular(self, k: int) -> Event:
-        """Classify why steps collapsed after node k (reference §7.4)."""
-        cm, S, N = self.cm, self.S, self.nodes
-        t = N.t[k]
-        # a driver that is not defined beyond t?
-        T, NU, FDD = S.driver_values(np.array([t + 4 * self.h_min]))
-        bad = [r for r in cm.driver_rows if not (np.isfinite(T[0, r]) and np.isfinite(NU[0, r])
-                                                 and np.isfinite(FDD[0, r]))]
-        if bad:
-            el = cm.element_of_row(bad[0])
-            return Event("driver", t, f"{el.label}: f = {el.f.text} or its derivatives are not "
-                                      f"finite just after t = {t:.10g}")
-        # a joint not defined beyond t (a pin driven past the end of an open curve-slot)?
-        dt = max(1e-6 * self.span, 100 * self.h_min)
-        ahead = S.residual(S.ext(N.q[k][: S.n] + dt * N.qd[k][: S.n]), t + dt)[0]
-        lost = [r for r in S.rows if not np.isfinite(ahead[r]) and r < cm.m_joint]
-        if lost and np.isfinite(N.q[k]).all():
-            el = cm.element_of_row(lost[0])
-            return Event("failure", t, f"{el.label} is not defined just after t = {t:.10g}"
-                                       + (": the pin leaves the open curve at its end"
-                                          if el.kind == "curve-slot" else ""))
-        Q = S.ext(N.q[k][: S.n])
-        if S.n > DENSE_LIMIT:
-            # too large for a dense SVD: classify within the worst-conditioned solve block
-            F = S.frame(Q)
-            mats = [S.block_matrix(B, S.block_grads(B, F))[0] for B in S.blocks]
-            b = int(np.argmin([np.linalg.svd(M, compute_uv=False)[-1] for M in mats]))
-            J = np.zeros((len(S.blocks[b].rows), S.n))
-            J[:, S.blocks[b].cols] = mats[b]
-            rows_of = S.blocks[b].rows
-        else:
-            J = S.jacobian(Q)[0][S.rows]
-            rows_of = S.rows
-        nrm = np.linalg.norm(J, axis=1)
-        Jn = J / np.where(nrm > 0, nrm, 1)[:, None]
-        U, sv, Vt = np.linalg.svd(Jn, full_matrices=False)
-        srel = sv[-1] / sv[0]
-        cond = 1.0 / max(srel, 1e-300)
-        if srel > 1e-4:
-            return Event("failure", t,
-                         f"the path cannot be continued after t = {t:.10g} although the "
-                         f"Jacobian is regular (condition {cond:.3g}): the motion is not smooth "
-                         f"there (a kink or jump in a driver function?)", cond=cond)
-        u = np.abs(U[:, -1])
-        big = [i for i in np.argsort(-u) if u[i] >= 0.3 * u.max()]
-        rows = rows_of[np.array(big, dtype=np.intp)]
-        labels = list(dict.fromkeys(cm.element_of_row(r).label for r in rows))[:5]
-        v = np.abs(Vt[-1])
-        per_body = v.reshape(-1, 3).max(axis=1)
-        bodies = [cm.body_names[b] for b in np.nonzero(per_body >= 0.3 * per_body.max())[0]]
-        kin = rows_of < cm.m_joint
-        skrel = 1.0
-        if kin.any():
-            svk = np.linalg.svd(Jn[kin], compute_uv=False)
-            kmin = svk[min(int(kin.sum()), Jn.shape[1]) - 1] if len(svk) else 1.0
-            skrel = kmin / svk[0]
-        unit = "s"
-        if skrel < 1e-4:
-            kind = "bifurcation"
-            what = ("bifurcation of the mechanism (change point): the joints themselves become "
-                    "dependent and assembly branches cross")
-            fix = ("; to follow the smooth branch through it, set analysis: {bifurcation: "
-                   "continue} (or --bifurcation continue)")
-        else:
-            kind = "lock-up"
-            drv = [cm.element_of_row(r).label for r in rows if r >= cm.m_joint] or \
-                  [cm.element_of_row(r).label for r in cm.driver_rows]
-            what = (f"lock-up of {', '.join(dict.fromkeys(drv))} (toggle / dead centre): the "
-                    f"mechanism cannot move the way the driver demands")
-            fix = "; drive another link or limit the driver's range"
-        ts = self._singular_time(k, kind)
-        msg = (f"singular configuration at t = {ts:.10g} {unit}: {what}; constraints involved: "
-               f"{'; '.join(labels)}; bodies: {', '.join(bodies)}; results are written up to "
-               f"t = {t:.10g}{fix}")
-        return Event(kind, ts, msg, cond=cond, constraints=labels, bodies=bodies)
-
-    def _singular_time(self, k: int, kind: str) -> float:
-        """Where sigma_min reaches zero, extrapolated from the last nodes: sigma_min is linear in
-        time through a transversal crossing (bifurcation) and goes like the square root of the
-        remaining time at a fold (lock-up)."""
-        N = self.nodes
-        tk, sk = N.t[k], 1.0 / N.cond[k]
-        for j in range(k - 1, max(k - 30, -1), -1):
-            sj = 1.0 / N.cond[j]
-            if sj >= 2 * sk and N.t[j] < tk:
-                p = 1 if kind == "bifurcation" else 2
-                dt = (tk - N.t[j]) * sk ** p / (sj ** p - sk ** p)
-                return tk + min(max(dt, 0.0), tk - N.t[j])
-        return tk
 
     def _step_over(self, ev: Event) -> bool:
         """Continue on the smooth branch past a bifurcation at ev.t: from an earlier node where the
@@ -647,12 +360,12 @@ class PathFollower:
             moved = np.abs(Q[:, : self.S.n] - N.q[k][: self.S.n]).max(axis=1)
             crossed = (info.sign != N.sign[k]).any(axis=1)
             good = ok & crossed & (err <= np.maximum(self.opts.path_tol, 1e-2 * moved)) \
-                & (_cond(info) <= 10 * COND_WARN)
+                & (condition(info) <= 10 * COND_WARN)
             if good.any():
                 j = int(np.nonzero(good)[0][0])
                 N.truncate(k)
                 tn = kink if hs[j] == kink - N.t[k] else N.t[k] + hs[j]
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], condition(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == kink and kink < self.opts.end:
                     k_obj = next(kk for kk in self.kinks if kk.t == kink)
@@ -666,59 +379,10 @@ class PathFollower:
                 return True
         return False
 
-    def _near_singular_warnings(self, threshold: float = COND_WARN) -> None:
-        """Local maxima of the condition estimate above threshold that the path got through."""
-        c = np.array(self.nodes.cond)
-        t = np.array(self.nodes.t)
-        if len(c) < 3:
-            return
-        stop_t = self.event.t if self.event else None
-        peaks = [i for i in range(1, len(c) - 1) if c[i] >= c[i - 1] and c[i] >= c[i + 1]
-                 and c[i] > threshold]
-        for i in peaks:
-            if stop_t is not None and abs(t[i] - stop_t) < 1e-6 * self.span:
-                continue
-            self.warnings.append(Event(
-                "near-singular", float(t[i]),
-                f"near-singular configuration passed at t = {t[i]:.6g} (condition estimate "
-                f"{c[i]:.3g}): the assembly branches come close here; results were followed "
-                f"with smaller internal steps" + _forces_note(self.cm), cond=float(c[i])))
-
-
-def _forces_note(cm) -> str:
-    """The warning's sentence for models whose forces are computed (planarkin.forces)."""
-    from .forces.model import has_forces
-    return ("; joint reactions and driver efforts grow without bound near such a configuration "
-            "(forces.csv)") if has_forces(cm) else ""
-
 
 def _distinct(a: np.ndarray) -> np.ndarray:
     """Sorted distinct small non-negative integers (np.unique imports numpy.ma: 10 ms)."""
     return np.flatnonzero(np.bincount(a)) if len(a) else a
-
-
-def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
-    """n rows of a full-column-rank Jn chosen greedily by largest remaining norm (pivoted
-    Gram-Schmidt): the best-conditioned square subsystem a greedy choice finds."""
-    R = Jn.copy()
-    chosen = []
-    for _ in range(n):
-        norms = np.linalg.norm(R, axis=1)
-        norms[chosen] = -1
-        i = int(np.argmax(norms))
-        chosen.append(i)
-        v = R[i] / norms[i]
-        R -= np.outer(R @ v, v)
-    return np.array(chosen, dtype=np.intp)
-
-
-def _cond(info) -> np.ndarray:
-    """Per-point condition estimate: the worst diagonal block's 1/sigma_min bound (the blocks are
-    scaled, so their norms are of order one); the kernel computes it with the solve."""
-    if info.cond is not None:
-        return info.cond
-    with np.errstate(divide="ignore"):
-        return (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1)
 
 
 @dataclass
@@ -749,8 +413,12 @@ class Chunk:
 class Analysis:
     """One analysis of a compiled model: assembly, path following, dense output in chunks."""
 
-    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options):
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, warm=None):
+        """warm: a warmstart.Start (a neighbouring model's path, a design study's previous
+        variant) to start the path from, or None: the path is followed from the assembly."""
         self.cm = cm
+        self.warm = warm
+        self.warmed = False         # the path came from the warm start (follow())
         self.A = A
         self.S_all = System(cm)
         self.opts = opts
@@ -770,18 +438,23 @@ class Analysis:
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
         f = self.follower
-        if not f.start(self.A.q):
-            t0 = self.opts.start
-            _, NU, FDD = self.S_all.driver_values(np.array([t0]), side=+1)
+        nodes = None if self.warm is None else warm_nodes(f.S, self.A, self.opts, self.kinks,
+                                                          self.warm)
+        self.warmed = nodes is not None
+        if nodes is not None:
+            f.nodes = nodes                 # the corrected neighbour's path, to the end
+        elif not f.start(self.A.q):
+            ts = self.opts.start
+            _, NU, FDD = self.S_all.driver_values(np.array([ts]), side=+1)
             bad = [r for r in self.cm.driver_rows
                    if not (np.isfinite(NU[0, r]) and np.isfinite(FDD[0, r]))]
             if bad:
                 el = self.cm.element_of_row(int(bad[0]))
-                self.event = Event("driver", t0, f"{el.label}: the derivatives of f = "
+                self.event = Event("driver", ts, f"{el.label}: the derivatives of f = "
                                                  f"{el.f.text} are not finite just after t = "
-                                                 f"start = {t0:.10g}")
+                                                 f"start = {ts:.10g}")
             else:
-                self.event = Event("failure", t0,
+                self.event = Event("failure", ts,
                                    "velocities or accelerations are undefined at t = start "
                                    "(singular Jacobian at the assembly pose)")
             self.t_stop = self.opts.start
@@ -973,7 +646,7 @@ class Analysis:
                 if Qddd is not None:
                     Qddd[sel] = Qddds
             iters[sel] = info.iterations
-            cond[sel] = _cond(info)
+            cond[sel] = condition(info)
             if whole and (ok is True or ok.all()):
                 R, Rmax = info.residual, info.residual_max
             for i in (() if ok is True else sel[~ok]):
@@ -997,8 +670,7 @@ class Analysis:
     def _signs_one(self, u: int):
         """The determinant signs all nodes of segment u share (the common case: no branch
         changes), or None: a chunk's rows then compare with that one row, not with a row
-        gathered per point. Kept with the signs array it was read from (studies.warm sets
-        them without following a path)."""
+        gathered per point. Kept with the signs array it was read from."""
         signs = self.signs[u]
         got = self.__dict__.setdefault("_one", {}).get(u)
         if got is None or got[0] is not signs:
@@ -1008,22 +680,18 @@ class Analysis:
         return got[1]
 
     def _accepted(self, info, Qs, u: int, idx, sel, whole: bool):
-        """Which solved grid points are accepted as a path step would be: converged, first
-        correction within KAPPA of sigma_min, finite, the determinant signs of the bracketing
-        node. A bool array over sel, or True when all are (the kernel's chunks, checked by a
-        few whole-array reductions: its converged flags say finite already)."""
+        """Which solved grid points are accepted as a path step would be (acceptance.accepted:
+        converged, first correction within KAPPA of sigma_min, finite positions, condition at
+        most COND_SINGULAR, the determinant signs of the bracketing node). A bool array over
+        sel, or True when all are (the kernel's chunks, checked by a few whole-array
+        reductions: its converged flags say finite already)."""
         K = len(self.Tn)
         if whole and info.cond is not None and self.opts.newton != "fixed":
             one = self._signs_one(u) if K > 1 else None
-            if (info.ratio.max() <= KAPPA and info.converged.all()
-                    and (K == 1 or (one is not None and (info.sign == one).all()))):
+            if (K == 1 or one is not None) and accepted(info, one).all():
                 return True
-        ok = (info.ratio <= KAPPA) & np.isfinite(Qs).all(axis=1)
-        if self.opts.newton != "fixed":
-            ok &= info.converged
-        if K > 1:
-            ok &= (info.sign == self.signs[u][idx[sel]]).all(axis=1)
-        return ok
+        return accepted(info, self.signs[u][idx[sel]] if K > 1 else None, (Qs,),
+                        converged=self.opts.newton != "fixed")
 
     def _chunk_kernel(self, idx):
         """The compiled library when the chunk at node intervals idx is solved (not
@@ -1118,43 +786,3 @@ class Analysis:
             pddd = point_jerk(cm, Q, Qd, Qdd, Qddd) * L
         return Chunk(t, q, qd, qdd, p * L, None if pd is None else pd * L,
                      None if pdd is None else pdd * L, iters, cond, residual, qddd, pddd)
-
-
-def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):
-    """Positions, velocities, accelerations of the model's points (internal units), (N, P, 2) each:
-    r_P = r + s, v_P = rdot + w R s, a_P = rddot + alpha R s - w^2 s with s = A s' (reference §0)."""
-    b = cm.point_body
-    if len(b) == 0:
-        z = np.zeros((Q.shape[0], 0, 2))
-        return z, (z if Qd is not None else None), (z if Qdd is not None else None)
-    phi = Q[:, 3 * b + 2]
-    c, s = np.cos(phi), np.sin(phi)
-    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
-    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
-    p = np.stack([Q[:, 3 * b] + sx, Q[:, 3 * b + 1] + sy], axis=-1)
-    pd = pdd = None
-    if Qd is not None:
-        w = Qd[:, 3 * b + 2]
-        pd = np.stack([Qd[:, 3 * b] - w * sy, Qd[:, 3 * b + 1] + w * sx], axis=-1)
-        if Qdd is not None:
-            a = Qdd[:, 3 * b + 2]
-            pdd = np.stack([Qdd[:, 3 * b] - a * sy - w * w * sx,
-                            Qdd[:, 3 * b + 1] + a * sx - w * w * sy], axis=-1)
-    return p, pd, pdd
-
-
-def point_jerk(cm: CompiledModel, Q, Qd, Qdd, Qddd):
-    """Jerks of the model's points (internal units), (N, P, 2): with s = A s' (reference §0),
-    j_P = r^(3) + phi^(3) R s - 3 omega alpha s - omega^3 R s."""
-    b = cm.point_body
-    if len(b) == 0:
-        return np.zeros((Q.shape[0], 0, 2))
-    phi = Q[:, 3 * b + 2]
-    c, s = np.cos(phi), np.sin(phi)
-    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
-    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
-    w, a, j = Qd[:, 3 * b + 2], Qdd[:, 3 * b + 2], Qddd[:, 3 * b + 2]
-    k = j - w ** 3                      # coefficient of R s
-    m = -3.0 * w * a                    # coefficient of s
-    return np.stack([Qddd[:, 3 * b] - k * sy + m * sx, Qddd[:, 3 * b + 1] + k * sx + m * sy],
-                    axis=-1)

@@ -41,16 +41,6 @@ PIN_BLAS_FROM = 32
 # Models with at least this many drivers evaluate them all in one expression pass
 # (System._driver_values_joint); below, each driver's own TimeFunction.derivatives.
 JOINT_DRIVERS = 16
-# The fused small-block pass (System._solve_small) serves systems whose solve blocks all have at
-# most SMALL_BLOCK unknowns (closed-form 1x1 and 2x2 inverses, no batched linalg call) at batches
-# of at least SMALL_BATCH points (the grid chunks; the path's handful of candidates keep the
-# reference pass). It computes the same Newton iterations block by block, then the velocity
-# and acceleration systems of all blocks by one forward substitution each, from the gradients
-# and gamma of every element evaluated once at the converged positions: the reference pass
-# evaluates them per block, an element with rows in two blocks twice (benchmarks/bench_peers.py,
-# README "Against pylinkage + numba").
-SMALL_BLOCK = 2
-SMALL_BATCH = 64
 
 
 @dataclass(frozen=True)
@@ -94,7 +84,7 @@ class BatchInfo:
     # and its largest value per point (N,)
     residual: np.ndarray | None = None
     residual_max: np.ndarray | None = None
-    # (N,) the condition estimate (solver._cond), where the pass computed it (the kernel)
+    # (N,) the condition estimate (acceptance.condition), where the pass computed it (the kernel)
     cond: np.ndarray | None = None
 
 
@@ -466,11 +456,10 @@ class System:
         order: 0 positions only, 1 with velocities, 2 with accelerations, 3 with jerks (into
         Qddd, (N, n + 3), ground columns zero). drivers: the (T, NU, FDD) of driver_values(t)
         when the caller already has them; third: the drivers' f''' (driver_third) likewise.
-        fused: False, the reference pass; True or None, the compiled route (compiled: the
-        planarkin.kernel Library a large job took, see kernel.route) where it applies (policies
-        reuse and full), else the fused small-block pass where it applies (small blocks, see
-        SMALL_BLOCK; None: for batches of SMALL_BATCH points or more), else the reference
-        pass; all give the same results to rounding.
+        fused: False, the reference pass (the numpy solve that defines the results); True or
+        None, the compiled route (compiled: the planarkin.kernel Library a large job took, see
+        kernel.route) where it applies (policies reuse and full), else the reference pass; both
+        give the same results to rounding.
         Systems whose blocks were replaced after building, and jerks (order 3), take the
         reference pass.
         Returns BatchInfo.
@@ -482,17 +471,13 @@ class System:
             k = self.kernel(compiled)
             if k is not None:
                 return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
-        if fused is None:
-            fused = Q.shape[0] >= SMALL_BATCH
-        if fused and self.small():
-            return self._solve_small(t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
             return self._solve_batch(*args)
         with one_blas_thread():
             return self._solve_batch(*args)
 
     def _batch_start(self, t, Q, drivers):
-        """What both numpy passes start from: the points, the blocks, the drivers' (T, NU, FDD),
+        """What the reference pass starts from: the points, the blocks, the drivers' (T, NU, FDD),
         the angles' cos and sin and their Frame (updated in place as Q moves), and the
         per-point diagnostics (iterations, ratio, converged, fine-block signs, sigma_min)."""
         N = Q.shape[0]
@@ -576,63 +561,6 @@ class System:
                 self._direct(B, grads, Minv, one, rhs, Qddd)
         return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
 
-    # -- the fused small-block pass ----------------------------------------------------------
-    def small(self) -> bool:
-        """Every solve block is one fine block of at most SMALL_BLOCK unknowns (and the fused
-        pass's layout exists: each block entry comes from one gradient entry)."""
-        if not self.blocks or any(len(B.cols) > SMALL_BLOCK or len(B.sizes) != 1
-                                  for B in self.blocks):
-            return False
-        return self._small_layout() is not None
-
-    def _small_layout(self):
-        """Where the fused pass finds each block's numbers in the gradients of all elements, laid
-        out as one (E + 1, N) table (the groups' flat (K * neq * nc) entries one after another,
-        a zero row last). Per block: (cols, rows, diag, off_idx, off_row, off_col): diag the
-        table rows of the block matrix's entries in row-major order (the zero row where an
-        entry is structurally zero), off_* the structurally nonzero entries in the block's
-        rows and the columns of earlier blocks (ground columns left out: their rates are
-        zero). None when an element lists a column twice (the entries would add)."""
-        if "small" in self._csc:
-            return self._csc["small"]
-        cm, n = self.cm, self.n
-        states = np.stack([cm.q0 + noise(n, 31 + k) for k in range(3)])
-        F = self.frame(self.ext(states))
-        where, offset, nz = {}, [], []
-        total = 0
-        for gi, G in enumerate(cm.groups):
-            offset.append(total)
-            total += G.grad(F)[0].size
-            nz.append(self.pattern(G, F))                     # (K, neq, nc)
-            for k in range(len(G)):
-                for e in range(G.kind.neq):
-                    where[int(G.rows[k, e])] = (gi, k, e)
-        zero = total
-        out = []
-        for B in self.blocks:
-            colpos = {int(c): j for j, c in enumerate(B.cols)}
-            kb = len(B.cols)
-            diag = np.full(kb * kb, zero, dtype=np.intp)
-            off = []
-            for rp, r in enumerate(B.rows.tolist()):
-                gi, k, e = where[r]
-                G = cm.groups[gi]
-                nc = G.cols.shape[1]
-                if len(set(G.cols[k].tolist())) != nc:
-                    self._csc["small"] = None
-                    return None
-                for c in range(nc):
-                    col = int(G.cols[k, c])
-                    flat = offset[gi] + (k * G.kind.neq + e) * nc + c
-                    if col in colpos:
-                        diag[rp * kb + colpos[col]] = flat
-                    elif col < n and nz[gi][k, e, c]:
-                        off.append((flat, rp, col))
-            o = np.array(off, dtype=np.intp).reshape(-1, 3)
-            out.append((B.cols, B.rows, diag, o[:, 0], o[:, 1], o[:, 2]))
-        self._csc["small"] = (out, zero)
-        return self._csc["small"]
-
     def kernel(self, lib):
         """(lib, packed system) for the compiled route (lib: a planarkin.kernel Library), or
         None where it does not apply (kernel.pack: kinds or blocks it does not cover)."""
@@ -651,83 +579,12 @@ class System:
             k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
         return BatchInfo(iters, conv, ratio, sign, smin, R, rmax, cond)
 
-    def _solve_small(self, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
-        """solve_batch for small blocks (see SMALL_BLOCK): the reference pass's Newton
-        iterations block by block with closed-form inverses, then velocities and accelerations
-        of all blocks by forward substitution (_forward) at the converged positions."""
-        N, nblk, T, NU, FDD, c, s, F, iters, ratio, conv, sign, smin = \
-            self._batch_start(t, Q, drivers)
-        with np.errstate(all="ignore"):
-            for b, B in enumerate(self.blocks):
-                cols = B.cols
-                one = len(cols) == 1
-                c0 = int(cols[0])
-                pcol = 3 * B.phis + 2
-                Minv = None
-                size = np.zeros(N)
-                for it in range(maxit):
-                    if Minv is None or (policy == "full" and not B.affine):
-                        Minv, sg, sm = _invert_small(self.block_matrix(B, self.block_grads(B, F)))
-                        if it == 0:
-                            sign[:, B.first] = sg
-                            smin[:, b] = sm
-                    r = self.block_residual(B, F, T)
-                    if one:
-                        dx = r[:, 0] * Minv[0]
-                        Q[:, c0] -= dx
-                        size = np.abs(dx)
-                    else:
-                        a, bb, cc, d = Minv
-                        dx0 = a * r[:, 0] + bb * r[:, 1]
-                        dx1 = cc * r[:, 0] + d * r[:, 1]
-                        Q[:, c0] -= dx0
-                        Q[:, int(cols[1])] -= dx1
-                        size = np.maximum(np.abs(dx0), np.abs(dx1))
-                    if len(pcol):
-                        c[:, B.phis] = np.cos(Q[:, pcol])
-                        s[:, B.phis] = np.sin(Q[:, pcol])
-                    size[~np.isfinite(size)] = np.inf
-                    if it == 0:
-                        ratio = np.maximum(ratio, np.where(sm > 0, size / sm, np.inf))
-                    iters = np.maximum(iters, it + 1)
-                    if B.affine and policy != "fixed":
-                        size = np.where(np.isfinite(size), 0.0, np.inf)   # one step is exact
-                        break
-                    if policy != "fixed" and (size <= tol).all():
-                        break
-                if policy != "fixed":
-                    conv &= size <= tol
-                else:
-                    conv &= np.isfinite(size)
-            if order >= 1:
-                layout, zero = self._small_layout()
-                # every element's gradient at the converged positions, one row per entry
-                GT = np.empty((zero + 1, N))
-                o = 0
-                for G in self.cm.groups:
-                    g = G.grad(F).reshape(N, -1)
-                    GT[o:o + g.shape[1]] = g.T
-                    o += g.shape[1]
-                GT[zero] = 0.0
-                XT = np.zeros((Qd.shape[1], N))
-                _forward(layout, GT, NU.T, XT)
-                Qd[:, : self.n] = XT[: self.n].T
-                if order >= 2:
-                    F2 = Frame(Q, c, s, Qd)
-                    rhs = FDD.T.copy()
-                    for G in self.cm.groups:
-                        rhs[G.rows.ravel()] += G.gamma(F2).reshape(N, -1).T
-                    XT[:] = 0.0
-                    _forward(layout, GT, rhs, XT)
-                    Qdd[:, : self.n] = XT[: self.n].T
-        return BatchInfo(iters, conv & np.isfinite(Q).all(axis=1), ratio, sign, smin)
-
     def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:
         """Block rows of Phi_q x = rhs solved for the block's columns of X (in place), the other
         columns of X known (earlier blocks)."""
         X[:, B.cols] = 0.0
         r = rhs - self.block_product(B, grads, X)
-        X[:, B.cols] = _apply(Minv, r, one)
+        X[:, B.cols] = _apply(Minv, r, one, exact=True)
 
 
 class _ClassifyState:
@@ -763,10 +620,44 @@ class _ClassifyState:
         return replace(B, affine=affine, fixed_grad=fixed)
 
 
-def _apply(Minv, r: np.ndarray, one: bool) -> np.ndarray:
-    """The solution of J x = r for each point, from _invert's inverse or a SparseLU."""
+class Small2:
+    """A batch of 2 x 2 diagonal blocks J (N, 2, 2) in closed form (no batched linalg call: the
+    grid chunks' common case, the four-bar's and the Jansen leg's blocks): the entries of the
+    inverse (row-major, nan where singular), the determinant's sign (0 where singular) and the
+    sigma_min lower bound 1 / ||J^-1||_F = |det| / ||J||_F (0 where singular). The same
+    operations in the same order as the compiled route (planarkin.compiled.factor, solve2)."""
+
+    def __init__(self, J: np.ndarray):
+        a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+        self.J = (a, b, c, d)
+        self.det = det = a * d - b * c
+        ok = np.isfinite(det) & (det != 0)
+        inv = 1.0 / np.where(ok, det, np.nan)
+        self.inv = (d * inv, -b * inv, -c * inv, a * inv)
+        self.sign = np.where(ok, np.sign(det), 0.0)
+        self.smin = np.where(ok, np.abs(det) / np.sqrt(a * a + b * b + c * c + d * d), 0.0)
+
+    def newton(self, r: np.ndarray) -> np.ndarray:
+        """J^-1 r (N, 2) through the inverse's entries (a Newton correction)."""
+        m0, m1, m2, m3 = self.inv
+        return np.stack([m0 * r[:, 0] + m1 * r[:, 1], m2 * r[:, 0] + m3 * r[:, 1]], axis=1)
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """The solution of J x = r (N, 2) by Cramer's rule: one rounding less than through the
+        inverse's entries (the velocity and acceleration systems; tests/test_sketch_exact.py
+        holds the Jansen leg's accelerations to 1e-14 of the exact linkage)."""
+        a, b, c, d = self.J
+        return np.stack([(d * r[:, 0] - b * r[:, 1]) / self.det,
+                         (a * r[:, 1] - c * r[:, 0]) / self.det], axis=1)
+
+
+def _apply(Minv, r: np.ndarray, one: bool, exact: bool = False) -> np.ndarray:
+    """The solution of J x = r for each point, from _invert's inverse, a Small2 or a SparseLU;
+    exact (the velocity and acceleration systems): a Small2 by Cramer's rule."""
     if one:
         return r * Minv
+    if isinstance(Minv, Small2):
+        return Minv.solve(r) if exact else Minv.newton(r)
     if isinstance(Minv, SparseLU):
         return Minv.solve(r)
     return matvec(Minv, r)
@@ -774,49 +665,17 @@ def _apply(Minv, r: np.ndarray, one: bool) -> np.ndarray:
 
 def _invert(J: np.ndarray, one: bool, want: bool = True):
     """(inverse, det sign, sigma_min lower bound) of a batch of diagonal blocks; for 1x1 blocks
-    the inverse is returned as an (N, 1) array. want False (the velocity and acceleration
-    systems, whose sign and sigma_min nobody reads): sign and bound are None, and the dense
-    route skips its second factorisation (slogdet) and the norms."""
+    the inverse is returned as an (N, 1) array, 2x2 blocks as a Small2 (closed form). want
+    False (the velocity and acceleration systems, whose sign and sigma_min nobody reads): sign
+    and bound are None, and the dense route skips its second factorisation (slogdet) and the
+    norms."""
     if one:
         j = J[:, 0, :]
         return 1.0 / j, np.sign(j[:, 0]), np.abs(j[:, 0])
+    if J.shape[1] == 2:
+        M = Small2(J)
+        return M, M.sign, M.smin
     Minv, sg, ok = inv_batched(J, want_sign=want)
     if not want:
         return Minv, None, None
     return Minv, sg, np.where(ok, sigma_min_lower(Minv), 0.0)
-
-
-def _invert_small(J: np.ndarray):
-    """Closed-form inverses of a batch of 1x1 or 2x2 blocks J (N, k, k): (entries of the inverse
-    as a tuple of (N,) arrays, row-major; det sign (N,); sigma_min lower bound 1 / ||J^-1||_F
-    (N,), 0 where singular). A singular block's inverse holds nan or inf."""
-    if J.shape[1] == 1:
-        j = J[:, 0, 0]
-        return (1.0 / j,), np.sign(j), np.abs(j)
-    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
-    det = a * d - b * c
-    ok = np.isfinite(det) & (det != 0)
-    inv = 1.0 / np.where(ok, det, np.nan)
-    smin = np.where(ok, np.abs(det) / np.sqrt(a * a + b * b + c * c + d * d), 0.0)
-    return (d * inv, -b * inv, -c * inv, a * inv), np.where(ok, np.sign(det), 0.0), smin
-
-
-def _forward(layout, GT: np.ndarray, rhsT: np.ndarray, XT: np.ndarray) -> None:
-    """Forward substitution through the block-triangular Jacobian, transposed arrays: GT
-    (E + 1, N) the gradient table of System._small_layout, rhsT (m, N) the right-hand sides of
-    all rows, XT (n + 3, N) the unknowns, zero on entry, filled block by block."""
-    for cols, rows, diag, oi, orow, ocol in layout:
-        r = rhsT[rows]
-        if len(oi):
-            p = GT[oi] * XT[ocol]
-            if len(rows) == 1:
-                r[0] -= p.sum(axis=0)
-            else:
-                np.subtract.at(r, orow, p)
-        if len(cols) == 1:
-            XT[cols[0]] = r[0] / GT[diag[0]]
-        else:
-            a, b, c, d = GT[diag[0]], GT[diag[1]], GT[diag[2]], GT[diag[3]]
-            det = a * d - b * c
-            XT[cols[0]] = (d * r[0] - b * r[1]) / det
-            XT[cols[1]] = (a * r[1] - c * r[0]) / det

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import bigmodels  # noqa: E402
 import planarkin  # noqa: E402
-from planarkin import assembly, linalg, solver, system  # noqa: E402
+from planarkin import assembly, linalg, singular, solver, system  # noqa: E402
 
 
 # -- the mechanisms' pins, from their definitions in bigmodels --------------------------------
@@ -278,7 +278,7 @@ def test_one_blas_thread_pins_and_restores():
 def test_large_model_never_builds_a_dense_jacobian(monkeypatch):
     """Above DENSE_LIMIT neither assembly nor the analysis calls the dense Jacobian."""
     monkeypatch.setattr(assembly, "DENSE_LIMIT", 30)
-    monkeypatch.setattr(solver, "DENSE_LIMIT", 30)
+    monkeypatch.setattr(singular, "DENSE_LIMIT", 30)      # (the singular-point analysis)
     monkeypatch.setattr(system, "SPARSE_BLOCK", 32)
 
     def refuse(self, Q):

@@ -562,7 +562,7 @@ def moved_points(cm, Q, tol: float | None = None) -> list:
     `assembly: sketch_tolerance` (default 1e-9 of the model's length scale; tol, when given, in
     its place), at its line."""
     from ..diagnostics import Diagnostic
-    from ..solver import point_kinematics
+    from ..kinematics import point_kinematics
     spec = cm.spec
     p, _, _ = point_kinematics(cm, Q[None, :])
     out = []

@@ -16,14 +16,13 @@ equal substeps. For a study large enough (`job_points`: variants x grid times, a
 kernel.COMPILED_FROM_POINTS) the solve is the compiled route's solve_each where it covers the
 system (planarkin.kernel, planarkin.compiled_each: each row a point with its variant's element
 parameters, Newton to its own convergence block by block, the acceptance tests below and the
-cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), one Newton
-pass over the whole system for all variants x grid times at once (studies.fused;
-System.solve_batch where its blocks do not apply). A variant is
-accepted only if every grid
-point passes the tests the path follower applies to a step: Newton converged, its first
-correction at most KAPPA of the smallest singular value, finite velocities and accelerations,
-condition below COND_WARN, the determinant sign of every fine block equal to the predecessor's at
-the same time (the same assembly branch), and between consecutive grid times the Taylor
+cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), the grid
+pass's own solve (System.solve_batch) over all variants x grid times at once, its element groups
+reading per-row parameters (Batch.system). A variant is accepted only if every grid point
+passes the tests the path follower applies to a step: Newton converged, its first correction
+at most KAPPA of the smallest singular value, finite velocities and accelerations, condition
+below COND_WARN, the determinant sign of every fine block equal to the predecessor's at the same
+time (the same assembly branch), and between consecutive grid times the Taylor
 predictor error, forwards and backwards, within path_tol (the grid is a path the follower would
 have accepted). A variant that fails, and every variant of a study this does not apply to, is
 solved by the ordinary per-variant path (`Study.solve`). Chains are solved in lockstep in fixed
@@ -32,22 +31,23 @@ over processes: parallel runs equal the serial run bit for bit.
 
 Applies when the varied parameters reach only body-frame points (si, sj), joint constants, other
 scalar keys of the kinds except gear radii, driver functions and the points' s; not through
-directions, gear radii or global placements (at); not with redundant constraints or derived
-tables among the metrics. Variants follow the nominal's assembly branch.
+directions, gear radii or global placements (at); not with redundant constraints, derived
+tables among the metrics, or rows a room checks (forces, a cam's range: those variants take
+`run`'s refusal of rows, results.refuse, one by one). Variants follow the nominal's assembly
+branch. Every variant's drivers pass `run`'s check before a run (budget.preflight) or the
+variant is solved by the per-variant path, which refuses it as `run` does.
 """
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
-from ..solver import COND_WARN, KAPPA
+from ..acceptance import COND_WARN, KAPPA, accepted, path_errors
 from .variants import Outcome
-from .fused import Fused, rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps
@@ -62,6 +62,19 @@ class RowParam(np.ndarray):
                 and isinstance(key[1], (int, np.integer)):
             return np.asarray(self)[..., key[1]]
         raise TypeError("per-row parameters are read as p[:, i] only")
+
+
+class VariantDriver:
+    """A driver function f(t) of one variant (its parameter values), user units, as
+    budget.preflight reads a model's driver functions."""
+
+    is_constant = False
+
+    def __init__(self, expr, values: dict):
+        self.expr, self.values = expr, values
+
+    def __call__(self, t):
+        return self.expr.evaluate({**self.values, "t": np.asarray(t, dtype=float)})
 
 
 class Unsupported(Exception):
@@ -87,6 +100,11 @@ class Batch:
             raise Unsupported("a metric reads a derived table")
         if study.opts.interpolate:
             raise Unsupported("interpolate: true")
+        from ..derived import row_checks
+        if row_checks(cm, study.opts):
+            # a room refuses rows by the variant's own model (a non-finite force, a cam past
+            # its law): each variant takes `run`'s refusal of rows (results.refuse)
+            raise Unsupported("a room checks the rows (forces, a cam's range)")
         texts = study.texts()
         self.order = list(spec.parameters)
         self.pexpr = {k: parse(texts[k], self.order[:i]) for i, k in enumerate(self.order)}
@@ -156,7 +174,6 @@ class Batch:
                            np.array([first[int(r)][1] for r in p.group.rows[:, 0]]))
                           for p in B.parts] for B in self.S.blocks]
         self.grid = study.opts.grid
-        self.fused = Fused(self.S) if Fused.applies(self.S) else None
         self.nominal_solution()
 
     def _depends_t(self, node) -> bool:
@@ -212,11 +229,33 @@ class Batch:
         for j, ex, ey in self.svar:
             s[:, j, 0] = np.broadcast_to(ex.evaluate(env), (Vn,)) / self.L
             s[:, j, 1] = np.broadcast_to(ey.evaluate(env), (Vn,)) / self.L
-        ok = np.ones(Vn, dtype=bool)
+        ok = self.preflight(env, Vn) & np.isfinite(s.reshape(Vn, -1)).all(axis=1) \
+            & np.isfinite(targets).all(axis=1)
         for params in groups:
             for a in params.values():
                 ok &= np.isfinite(a.reshape(Vn, -1)).all(axis=1)
         return groups, targets, s, env, ok
+
+    def preflight(self, env, Vn: int) -> np.ndarray:
+        """(Vn,) the variants (parameters env) whose drivers pass `run`'s check before a run
+        (budget.preflight: finite over the time range, within the node budget, resolvable to
+        the solver's tolerance), each with its own driver functions where a varied parameter
+        reaches them; every variant where none does (the nominal's check holds for all).
+        A variant that fails is left to the per-variant path, which refuses it as `run` does."""
+        ok = np.ones(Vn, dtype=bool)
+        if not self.fvar:
+            return ok
+        from dataclasses import replace
+        from ..budget import preflight
+        cm = self.cm
+        where = {int(r): i for i, r in enumerate(cm.driver_rows)}
+        for v in range(Vn):
+            funcs = list(cm.driver_funcs)
+            values = {k: a[v] for k, a in env.items()}
+            for r, (f, _, _), _ in self.fvar:
+                funcs[where[r]] = VariantDriver(f, values)
+            ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), self.study.opts) is None
+        return ok
 
     def drivers(self, targets, env):
         """(Vn, T, m) targets, nu and f'' on the grid."""
@@ -259,24 +298,6 @@ class Batch:
         S.blocks = tuple(blocks)
         return S
 
-    def row_groups(self, groups, T):
-        """The model's element groups with the varied parameters per row (variant x time, T
-        times per variant); the other parameters stay as compiled (broadcast over rows).
-        Returns (groups, per group the names of its per-row parameters)."""
-        out, keys = [], []
-        for G, params, entries in zip(self.cm.groups, groups, self.gvar):
-            p = dict(G.params)
-            for name in {e[0] for e in entries}:
-                a = np.repeat(params[name], T, axis=0)
-                if a.ndim == 3:
-                    # components outermost in memory: p[:, i] is then a contiguous (R, K)
-                    a = np.moveaxis(np.ascontiguousarray(np.moveaxis(a, 2, 0)), 0, 2)
-                    a = a.view(RowParam)
-                p[name] = a
-            out.append(Group(G.kind, G.bodies, G.cols, p, G.rows))
-            keys.append({e[0] for e in entries})
-        return out, keys
-
     def take(self, num, idx):
         """Variants idx (an index array) of numbers()' arrays: the same numbers (numbers()
         works element by element), without evaluating the file's expressions again."""
@@ -287,8 +308,8 @@ class Batch:
     def solve(self, values, Q, Qd, Qdd, sign, num=None, hist=None, k=False, work=None,
               out=None):
         """Solve variants (dicts) from predictions Q, Qd, Qdd (Vn, T, n + 3) whose fine-block
-        signs are sign (Vn, T, nfine); Qd, Qdd are read only by System.solve_batch's pass (the
-        kernel and studies.fused solve them afresh: None will do there). num: their numbers()
+        signs are sign (Vn, T, nfine); Qd, Qdd are not read (every route solves the velocities
+        and accelerations afresh: None will do). num: their numbers()
         when known (values is then not read). hist (the kernel's route only): the last four
         solutions (Vn, T, n + 3) each and a flag per row: the predictions of the rows flagged
         are the cubic through the four, the others Q's rows (Q is not written).
@@ -311,30 +332,20 @@ class Batch:
                     info.sign.reshape(Vn, T, -1), ok, s)
         TT, NU, FDD = self.drivers(targets, env)
         Qr = Q.reshape(Vn * T, n3).copy()
-        if self.fused is not None:      # it solves the velocities and accelerations afresh
-            Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)
-        else:
-            Qdr, Qddr = (a.reshape(Vn * T, n3).copy() for a in (Qd, Qdd))
+        Qdr, Qddr = np.zeros_like(Qr), np.zeros_like(Qr)      # solved afresh
         drivers = tuple(a.reshape(Vn * T, -1) for a in (TT, NU, FDD))
         # full Newton: from a neighbour's solution the chord iteration converges only
         # linearly, and its last correction below tol would leave ~1e-13 in the results
-        if self.fused is not None:
-            rg, keys = self.row_groups(groups, T)
-            info = self.fused.solve(rg, Qr, Qdr, Qddr, *drivers, tol=o.tol,
-                                    maxit=max(o.iterations, 8), rowkeys=keys)
-        else:
-            rows = lambda a: np.repeat(a, T, axis=0)
-            S = self.system([{k: rows(v) for k, v in g.items()} for g in groups])
-            info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full",
-                                 tol=o.tol, maxit=max(o.iterations, 8), order=2,
-                                 drivers=drivers)
+        S = self.system([{k: np.repeat(v, T, axis=0) for k, v in g.items()} for g in groups])
+        info = S.solve_batch(np.tile(self.grid, Vn), Qr, Qdr, Qddr, policy="full", tol=o.tol,
+                             maxit=max(o.iterations, 8), order=2, drivers=drivers)
         return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
 
     def kernel(self):
         """(library, packed system) of the compiled route (planarkin.kernel) when the study is
         large enough (job_points, set by Study.units: variants x grid times; kernel.route) and the
-        route covers the system, else None: the numpy passes (studies.fused,
-        System.solve_batch) are the reference route (PLANARKIN_KERNEL read per call)."""
+        route covers the system, else None: the numpy reference, System.solve_batch
+        (PLANARKIN_KERNEL read per call)."""
         from .. import kernel
         lib = kernel.route(getattr(self, "job_points", 0), "study")
         if lib is None:
@@ -387,24 +398,19 @@ class Batch:
         Vn, T = sign.shape[0], sign.shape[1]
         n3 = Qr.shape[1]
         o = self.study.opts
-        with np.errstate(all="ignore"):
-            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
-            good = (info.converged & (info.ratio <= KAPPA)
-                    & np.isfinite(rowmax(np.abs(Qdr))) & np.isfinite(rowmax(np.abs(Qddr)))
-                    & (cond <= COND_WARN)
-                    & (rowmax(np.abs(info.sign - sign.reshape(Vn * T, -1))) == 0))
+        good = accepted(info, sign.reshape(Vn * T, -1), (Qdr, Qddr), cond_max=COND_WARN)
         ok &= good.reshape(Vn, T).all(axis=1)
         Qs, Qds, Qdds = (a.reshape(Vn, T, n3) for a in (Qr, Qdr, Qddr))
         if ok.all():
-            ok = (_path_errors(self.grid, Qs, Qds, Qdds, self.cm.n) <= o.path_tol).all(axis=1)
+            ok = (path_errors(self.grid, Qs, Qds, Qdds, self.cm.n) <= o.path_tol).all(axis=1)
         elif ok.any():
-            ok[ok] = (_path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
+            ok[ok] = (path_errors(self.grid, Qs[ok], Qds[ok], Qdds[ok], self.cm.n)
                       <= o.path_tol).all(axis=1)
         return Qs, Qds, Qdds, info.sign.reshape(Vn, T, -1), ok, s
 
     def nominal_solution(self):
         """The nominal run on the grid (internal units) and its fine-block signs."""
-        res = getattr(self.study, "nominal_result", None) or self.study._nominal()
+        res = getattr(self.study, "nominal_result", None) or self.study.nominal_run()
         self.study.nominal_result = res
         cm = self.cm
         unit = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
@@ -417,8 +423,7 @@ class Batch:
                                   maxit=self.study.opts.iterations, order=2)
         self.nominal = (Q, Qd, Qdd, info.sign)
         self.tangent = self._tangent(res)
-        from .warm import _predictor_error
-        if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
+        if not (path_errors(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
 
     # numpy sums a last axis of fewer than this many numbers left to right (pairwise above)
@@ -552,14 +557,12 @@ class Batch:
         def step(live, targets, at=None):
             """Solve chains `live` at parameter vectors `targets` from their current state;
             at: the targets' rows in the unit's numbers (pre), when they are variants."""
-            # copies (fancy indexing); the velocities and accelerations only for the pass
-            # that starts from them (System.solve_batch's; the others solve them afresh)
+            # copies (fancy indexing) of the positions only: every route solves the
+            # velocities and accelerations afresh
             k = self.kernel()
-            full = k is None and self.fused is None
             live = np.asarray(live, dtype=int)
             every = len(live) == C and (live == np.arange(C)).all()
-            pred = [None] + [(a.copy() if every else a[live]) if full else None
-                             for a in state[1:]]
+            pred = [None, None, None]
             dp = targets - here[live]
             # same[:, j]: the step repeats history step 2 - j (to rounding; that one not zero)
             slots = (nh[live][:, None] - 1 - back[None]) % 3
@@ -726,18 +729,3 @@ class Batch:
                 if out[c][j] is None:
                     out[c][j] = self.study.solve(v)[0]
         return out
-
-
-def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
-    """(V, T-1) warm._predictor_error of V variants' solutions (V, T, n + 3) at once."""
-    Q, Qd, Qdd = Q[..., :n], Qd[..., :n], Qdd[..., :n]
-    h = np.diff(grid)[None, :, None]
-    dA = (Qdd[:, 1:] - Qdd[:, :-1]) / h             # the jerk over each interval
-    j3 = np.zeros_like(dA)
-    j3[:, 1:] = dA[:, :-1]
-    hh = 0.5 * h * h
-    h3 = h ** 3 / 6.0
-    ef = np.abs(Q[:, 1:] - (Q[:, :-1] + h * Qd[:, :-1] + hh * Qdd[:, :-1] + h3 * j3))
-    eb = np.abs(Q[:, 1:] - h * Qd[:, 1:] + hh * Qdd[:, 1:] - h3 * dA - Q[:, :-1])
-    V, K = ef.shape[:2]
-    return np.maximum(rowmax(ef.reshape(V * K, n)), rowmax(eb.reshape(V * K, n))).reshape(V, K)

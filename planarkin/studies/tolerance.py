@@ -110,7 +110,7 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
                                f"{', '.join(DISTRIBUTIONS)}, not {dist!r}")
     names = list(sigma)
     check_study(study, samples, len(names) + len(study.metrics), "--samples")
-    nominal_res = getattr(study, "nominal_result", None) or study._nominal()
+    nominal_res = getattr(study, "nominal_result", None) or study.nominal_run()
     from .variants import metric_values
     nominal = metric_values(study.metrics, study.nominal, study.opts, nominal_res._chunk,
                             nominal_res.p)

@@ -187,10 +187,11 @@ class Study:
         self.group = GROUP              # chains per unit of work when batched
         self.reference = None
         if any(m.kind == "dev" for m in self.metrics):
-            self.nominal_result = self._nominal()
+            self.nominal_result = self.nominal_run()
             self.reference = self.nominal_result.p
 
-    def _nominal(self):
+    def nominal_run(self):
+        """The nominal model's Result (run's analysis); InputError when it fails."""
         from ..results import analyse
         info, res = analyse(self.nominal, self.opts)
         if info.status != 0:
@@ -218,7 +219,7 @@ class Study:
         next variant) started from a neighbour's Start when one is given (studies.warm)."""
         from ..results import analyse
         from ..solver import Options
-        from . import warm as _warm
+        from .warm import analyse as warm_analyse
         nan = float("nan")
         none = (nan,) * len(self.metrics)
         nxt = None
@@ -226,7 +227,7 @@ class Study:
             cm = self.model(values)
             opts = Options.from_model(cm, **self.analysis)
             if warm:
-                info, res, nxt, _ = _warm.analyse(cm, opts, start)
+                info, res, nxt, _ = warm_analyse(cm, opts, start)
             else:
                 info, res = analyse(cm, opts)
         except InputError as e:
