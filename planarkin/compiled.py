@@ -505,7 +505,7 @@ def solve_points(N, W, m, nb, nblk, ekind, ebi, ebj, eprm, rowel, roweq, bk, bof
     bfix (nblk): the block's whole gradient does not depend on its own unknowns (System
     Block.fixed_grad: the rates reuse the Newton step's gradients and inverse, as the reference
     does). Outputs besides: rmax (N) the largest |Phi| of each point (numpy's R.max(axis=1)),
-    cond (N) its condition estimate (planarkin.solver._cond: the largest 1 / max(smin, 1e-300)
+    cond (N) its condition estimate (planarkin.solver.cond_of: the largest 1 / max(smin, 1e-300)
     over the blocks); conv[i] is 0 where a coordinate of the result is not finite."""
     nbb = nb + 1
     n = W - 3
@@ -629,7 +629,7 @@ def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd,
     """A chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of
     each row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
     (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
-    planarkin.solver.point_kinematics in its order (then times L). order 0: positions only,
+    planarkin.kinematics.point_kinematics in its order (then times L). order 0: positions only,
     1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order)."""
     for i in range(N):
         o = i * W

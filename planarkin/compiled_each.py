@@ -38,7 +38,7 @@ def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_
     its numbers are at hand: good[i] = converged, finite q, qd, qdd (W columns: the point's
     rows of the results, the rows before them the point before's), first correction at most
     kappa sigma_min, 1 / min(smin) at most cond_max and every fine-block sign equal to sign0's;
-    perr[i] = the Taylor predictor error (studies.warm._predictor_error, forwards and
+    perr[i] = the Taylor predictor error (studies.warm.predictor_error, forwards and
     backwards, first n columns) of the interval from the point before when that is the same
     variant (vrow) at the grid time before (times tg, indexed by trow), else 0. jerk: the last
     interval's change of acceleration, carried from point to point, valid when jerk_ok.

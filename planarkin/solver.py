@@ -39,6 +39,8 @@ import numpy as np
 from .assembly import DENSE_LIMIT, Assembly
 from . import kernel
 from .budget import node_limit
+from .kinematics import point_jerk, point_kinematics
+from .tolerances import NODE_TOL
 from .model.compile import CompiledModel
 from .options import Options
 from .system import System
@@ -49,7 +51,6 @@ KAPPA = 0.25          # accepted first Newton correction, as a fraction of sigma
 # neither are the predictions built from them.
 COND_SINGULAR = 1e6
 COND_WARN = 1e3       # near-singular passages above this are reported
-NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 # Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
 # memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
@@ -273,7 +274,7 @@ class PathFollower:
         err = np.maximum(ef, eb)
         ok = info.converged & (err <= (self.opts.path_tol if tol is None else tol))
         ok &= (info.ratio <= KAPPA) & np.isfinite(Qd).all(axis=1) & np.isfinite(Qdd).all(axis=1)
-        ok &= _cond(info) <= COND_SINGULAR
+        ok &= cond_of(info) <= COND_SINGULAR
         if check_sign:
             ok &= (info.sign == sg0).all(axis=1)
         return ok, err, Q, Qd, Qdd, info
@@ -288,7 +289,7 @@ class PathFollower:
         drivers = S.driver_values(np.array([t0]), side=+1)
         info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12,
                              drivers=drivers)
-        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], cond_of(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
 
@@ -326,7 +327,7 @@ class PathFollower:
                 undeclared = self._undeclared_kink(k, tn, j)
                 if undeclared is not None:
                     return self._stop(undeclared)
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], cond_of(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == land and land < end:
                     ev = self._restart_at(kink)
@@ -392,7 +393,7 @@ class PathFollower:
                          f"after its breakpoint at t = {kink.t:.10g} cannot be solved "
                          f"(right-hand limits of f not finite?)")
         # the same pose on both sides (Newton above moved it by rounding at most)
-        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        N.add(kink.t, N.q[-1].copy(), Qd[0], Qdd[0], info.sign[0], cond_of(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         self.warnings.append(Event(
             "breakpoint", kink.t, "; ".join(parts) + "; the path is followed piece by piece "
@@ -519,7 +520,7 @@ class PathFollower:
         self.systems.append((S, Sp))
         self.seg = len(self.systems) - 1
         self.S = Sp
-        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], _cond(info)[0], self.seg)
+        N.add(N.t[k], Q[0], Qd[0], Qdd[0], info.sign[0], cond_of(info)[0], self.seg)
         self.warnings.append(Event(
             "redundant", N.t[k],
             f"at t = {N.t[k]:.6g} the equations left out as redundant were changed (now "
@@ -647,12 +648,12 @@ class PathFollower:
             moved = np.abs(Q[:, : self.S.n] - N.q[k][: self.S.n]).max(axis=1)
             crossed = (info.sign != N.sign[k]).any(axis=1)
             good = ok & crossed & (err <= np.maximum(self.opts.path_tol, 1e-2 * moved)) \
-                & (_cond(info) <= 10 * COND_WARN)
+                & (cond_of(info) <= 10 * COND_WARN)
             if good.any():
                 j = int(np.nonzero(good)[0][0])
                 N.truncate(k)
                 tn = kink if hs[j] == kink - N.t[k] else N.t[k] + hs[j]
-                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], _cond(info)[j], self.seg)
+                N.add(tn, Q[j], Qd[j], Qdd[j], info.sign[j], cond_of(info)[j], self.seg)
                 self._keep_drv(self._last_drivers, j)
                 if tn == kink and kink < self.opts.end:
                     k_obj = next(kk for kk in self.kinks if kk.t == kink)
@@ -712,7 +713,7 @@ def _independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
     return np.array(chosen, dtype=np.intp)
 
 
-def _cond(info) -> np.ndarray:
+def cond_of(info) -> np.ndarray:
     """Per-point condition estimate: the worst diagonal block's 1/sigma_min bound (the blocks are
     scaled, so their norms are of order one); the kernel computes it with the solve."""
     if info.cond is not None:
@@ -970,7 +971,7 @@ class Analysis:
                 if Qddd is not None:
                     Qddd[sel] = Qddds
             iters[sel] = info.iterations
-            cond[sel] = _cond(info)
+            cond[sel] = cond_of(info)
             if whole and (ok is True or ok.all()):
                 R, Rmax = info.residual, info.residual_max
             for i in (() if ok is True else sel[~ok]):
@@ -1117,41 +1118,3 @@ class Analysis:
                      None if pdd is None else pdd * L, iters, cond, residual, qddd, pddd)
 
 
-def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):
-    """Positions, velocities, accelerations of the model's points (internal units), (N, P, 2) each:
-    r_P = r + s, v_P = rdot + w R s, a_P = rddot + alpha R s - w^2 s with s = A s' (reference §0)."""
-    b = cm.point_body
-    if len(b) == 0:
-        z = np.zeros((Q.shape[0], 0, 2))
-        return z, (z if Qd is not None else None), (z if Qdd is not None else None)
-    phi = Q[:, 3 * b + 2]
-    c, s = np.cos(phi), np.sin(phi)
-    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
-    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
-    p = np.stack([Q[:, 3 * b] + sx, Q[:, 3 * b + 1] + sy], axis=-1)
-    pd = pdd = None
-    if Qd is not None:
-        w = Qd[:, 3 * b + 2]
-        pd = np.stack([Qd[:, 3 * b] - w * sy, Qd[:, 3 * b + 1] + w * sx], axis=-1)
-        if Qdd is not None:
-            a = Qdd[:, 3 * b + 2]
-            pdd = np.stack([Qdd[:, 3 * b] - a * sy - w * w * sx,
-                            Qdd[:, 3 * b + 1] + a * sx - w * w * sy], axis=-1)
-    return p, pd, pdd
-
-
-def point_jerk(cm: CompiledModel, Q, Qd, Qdd, Qddd):
-    """Jerks of the model's points (internal units), (N, P, 2): with s = A s' (reference §0),
-    j_P = r^(3) + phi^(3) R s - 3 omega alpha s - omega^3 R s."""
-    b = cm.point_body
-    if len(b) == 0:
-        return np.zeros((Q.shape[0], 0, 2))
-    phi = Q[:, 3 * b + 2]
-    c, s = np.cos(phi), np.sin(phi)
-    sx = c * cm.point_s[:, 0] - s * cm.point_s[:, 1]
-    sy = s * cm.point_s[:, 0] + c * cm.point_s[:, 1]
-    w, a, j = Qd[:, 3 * b + 2], Qdd[:, 3 * b + 2], Qddd[:, 3 * b + 2]
-    k = j - w ** 3                      # coefficient of R s
-    m = -3.0 * w * a                    # coefficient of s
-    return np.stack([Qddd[:, 3 * b] - k * sy + m * sx, Qddd[:, 3 * b + 1] + k * sx + m * sy],
-                    axis=-1)

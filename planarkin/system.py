@@ -94,7 +94,7 @@ class BatchInfo:
     # and its largest value per point (N,)
     residual: np.ndarray | None = None
     residual_max: np.ndarray | None = None
-    # (N,) the condition estimate (solver._cond), where the pass computed it (the kernel)
+    # (N,) the condition estimate (solver.cond_of), where the pass computed it (the kernel)
     cond: np.ndarray | None = None
 
 

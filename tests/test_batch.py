@@ -9,7 +9,7 @@ from planarkin.studies.execute import executor
 from planarkin.studies.fused import Fused
 from planarkin.studies.sweep import Range, factorial
 from planarkin.studies.variants import Study
-from planarkin.studies.warm import _predictor_error
+from planarkin.studies.warm import predictor_error
 from test_sweep import four_bar_closed_form
 
 FB = "mechanisms/four-bar.yaml"
@@ -96,7 +96,7 @@ def test_path_errors_of_many_variants_are_the_followers_per_variant():
     Q, Qd, Qdd = (rng.normal(size=(3, 9, 12)) for _ in range(3))
     many = batchmod._path_errors(grid, Q, Qd, Qdd, 9)
     for v in range(3):
-        assert np.array_equal(many[v], _predictor_error(grid, Q[v], Qd[v], Qdd[v], 9))
+        assert np.array_equal(many[v], predictor_error(grid, Q[v], Qd[v], Qdd[v], 9))
 
 
 @pytest.mark.parametrize("path", [FB, "mechanisms/slider-crank.yaml",
@@ -215,7 +215,7 @@ def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
     ok_numpy = B.accept(Qr, Qdr, Qddr, info, sign, np.ones(V, dtype=bool), s)[4]
     assert ok_kernel.tolist() == ok_numpy.tolist() == [True, False, True]
     assert good.reshape(V, T)[1].tolist() == [t != 7 for t in range(T)]
-    # the path errors: warm._predictor_error's (h * h * h here, numpy's h ** 3 there)
+    # the path errors: warm.predictor_error's (h * h * h here, numpy's h ** 3 there)
     ref = batchmod._path_errors(B.grid, *(a.reshape(V, T, -1) for a in (Qr, Qdr, Qddr)), B.cm.n)
     got = perr.reshape(V, T)
     assert (got[:, 0] == 0).all() and np.allclose(got[:, 1:], ref, rtol=1e-9, atol=1e-18)

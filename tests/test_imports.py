@@ -56,14 +56,28 @@ def _resolve(mod: str, is_package: bool, level: int, target: str | None) -> str:
     return ".".join(base + ([target] if target else []))
 
 
+def _type_only(tree) -> set[int]:
+    """ids of the nodes under ``if TYPE_CHECKING:``: imports for annotations, never run."""
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) \
+                and node.test.id == "TYPE_CHECKING":
+            out.update(id(n) for b in node.body for n in ast.walk(b))
+    return out
+
+
 def imports(mods: dict[str, Path]):
-    """Every import of a package module, at any depth of the file (functions too):
-    a list of (importer, imported module, names taken from it, line)."""
+    """Every import of a package module that runs, at any depth of the file (functions too;
+    not those under ``if TYPE_CHECKING:``): a list of (importer, imported module, names taken
+    from it, line)."""
     out = []
     for mod, path in mods.items():
         tree = ast.parse(path.read_text(), str(path))
         pkg = path.name == "__init__.py"
+        skip = _type_only(tree)
         for node in ast.walk(tree):
+            if id(node) in skip:
+                continue
             if isinstance(node, ast.Import):
                 for a in node.names:
                     if a.name.split(".")[0] == "planarkin":
@@ -213,6 +227,9 @@ def _package(tmp_path, files: dict[str, str]) -> dict[str, Path]:
     # a package and its submodule
     ({"__init__.py": "", "m/__init__.py": "def f():\n    from .plot import p\n",
       "m/plot.py": "from . import columns\n"}, [["planarkin.m", "planarkin.m.plot"]]),
+    # an import for annotations only is no edge
+    ({"__init__.py": "", "a.py": "from . import b\n",
+      "b.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .a import A\n"}, []),
     # three modules, absolute and relative
     ({"__init__.py": "", "a.py": "import planarkin.b\n", "b.py": "from .c import x\n",
       "c.py": "from planarkin import a\n"}, [["planarkin.a", "planarkin.b", "planarkin.c"]]),

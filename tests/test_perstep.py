@@ -164,7 +164,7 @@ def test_kernel_info_matches_reference(name, policy, order, monkeypatch, compile
     R = np.abs(S.residual(Q, t))
     assert np.abs(info.residual - R).max() <= 1e-15
     # what the kernel reduces for the grid pass: each point's largest residual and the
-    # condition estimate of solver._cond, as numpy computes them from its arrays
+    # condition estimate of solver.cond_of, as numpy computes them from its arrays
     assert np.array_equal(info.residual_max, info.residual.max(axis=1))
     assert np.array_equal(info.cond, (1.0 / np.maximum(info.smin, 1e-300)).max(axis=1))
 

@@ -19,7 +19,7 @@ from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check, override_word
 from .spec import (X_AXES, AnalysisSpec, BodySpec, ElementSpec, ModelSpec, OutputSpec, PointSpec,
                    x_axis_problem)
 from .spec import TABLE_FORMATS, table_format_problem
-from .yamlread import Node
+from .yamlread import Node, raw_text, type_name
 from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
@@ -36,19 +36,6 @@ MAX_SEGMENTS = 100       # segments of one motion: profile (longer motions: a ta
 MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker",
                  "curve-slot")
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
-
-
-def _type_name(node: Node) -> str:
-    if node.kind == "map":
-        return "a mapping"
-    if node.kind == "seq":
-        return "a list"
-    v = node.value
-    if v is None:
-        return "empty (null)"
-    if isinstance(v, bool):
-        return f"a boolean ({node.text})"
-    return f"'{node.text}'" if isinstance(v, str) else f"the number {node.text}"
 
 
 class _Validator:
@@ -74,7 +61,7 @@ class _Validator:
     def keys(self, node: Node, allowed, what: str) -> bool:
         """Report unknown keys of a mapping; False if node is not a mapping."""
         if node.kind != "map":
-            self.err(node, f"{what} must be a mapping (key: value), not {_type_name(node)}")
+            self.err(node, f"{what} must be a mapping (key: value), not {type_name(node)}")
             return False
         for key in node.value:
             if key not in allowed:
@@ -84,7 +71,7 @@ class _Validator:
 
     def number(self, node: Node, what: str) -> float | None:
         if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
-            self.err(node, f"{what} must be a number or an expression, not {_type_name(node)}")
+            self.err(node, f"{what} must be a number or an expression, not {type_name(node)}")
             return None
         v = node.value
         try:
@@ -107,7 +94,7 @@ class _Validator:
 
     def vector(self, node: Node, what: str, size: int = 2) -> tuple | None:
         if node.kind != "seq":
-            self.err(node, f"{what} must be a list of {size} numbers, not {_type_name(node)}")
+            self.err(node, f"{what} must be a list of {size} numbers, not {type_name(node)}")
             return None
         if len(node.value) != size:
             self.err(node, f"{what} must have {size} numbers, got {len(node.value)}")
@@ -141,7 +128,7 @@ class _Validator:
                 n = v[key]
                 if n.kind != "scalar" or n.value is None or isinstance(n.value, bool):
                     self.err(n, f"{what}: {key} must be a column name or number, not "
-                                f"{_type_name(n)}")
+                                f"{type_name(n)}")
                     return None
                 cols[key] = n.value if isinstance(n.value, int) else str(n.text)
         return fname, cols, v
@@ -158,7 +145,7 @@ class _Validator:
 
     def text(self, node: Node, what: str) -> str | None:
         if node.kind != "scalar" or node.value is None:
-            self.err(node, f"{what} must be a text, not {_type_name(node)}")
+            self.err(node, f"{what} must be a text, not {type_name(node)}")
             return None
         return str(node.text if node.text is not None else node.value)
 
@@ -205,7 +192,7 @@ class _Validator:
         root = self.root
         if root.kind != "map":
             self.err(root, f"a model file must be a mapping with keys {', '.join(TOP_KEYS)}; "
-                           f"found {_type_name(root)}")
+                           f"found {type_name(root)}")
             self.C.raise_if_any()
         self.keys(root, TOP_KEYS, "model")
         sketched = "links" in root.value
@@ -294,7 +281,7 @@ class _Validator:
 
     def parameters(self, node: Node | None) -> None:
         if node is not None and node.kind != "map":
-            self.err(node, f"parameters must be a mapping of names to values, not {_type_name(node)}")
+            self.err(node, f"parameters must be a mapping of names to values, not {type_name(node)}")
             return
         items = node.value.items() if node is not None else ()
         known = [k for k, _ in items]
@@ -358,7 +345,7 @@ class _Validator:
             return out
         if node.kind != "map":
             self.err(node, "bodies must be a mapping of body names to {q: [x, y, phi]}, "
-                           f"not {_type_name(node)}")
+                           f"not {type_name(node)}")
             self.bodies_ok = False
             return out
         # names first, so that joints can refer to any body regardless of order
@@ -396,7 +383,7 @@ class _Validator:
         section = role + "s"
         if node.kind != "seq":
             self.err(node, f"{section} must be a list of {{type: ..., ...}} entries, "
-                           f"not {_type_name(node)}")
+                           f"not {type_name(node)}")
             return out
         for idx, item in enumerate(node.value, start=1):
             spec = self.element(item, role, idx)
@@ -409,7 +396,7 @@ class _Validator:
         what = f"{role} {idx}"
         if node.kind != "map":
             self.err(node, f"{what} must be a mapping like {{type: revolute, i: ..., j: ...}}, "
-                           f"not {_type_name(node)}")
+                           f"not {type_name(node)}")
             return None
         v = node.value
         if "type" not in v:
@@ -461,8 +448,8 @@ class _Validator:
                 if key in v:
                     self.err(v[key], f"{what} ({kname}): {key} is fixed by between; drop it")
         use_body = role == "driver" and "body" in v
-        raw = ["ground", _raw(v["body"])] if use_body else list(between[0]) if between else \
-            [_raw(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
+        raw = ["ground", raw_text(v["body"])] if use_body else list(between[0]) if between else \
+            [raw_text(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
         shown = f" {'-'.join(raw)}" if any(r != "?" for r in raw) else ""
         what = (f"{role} '{ename}'" if ename else what) + f" ({kname}{shown})"
         bodies: list[str | None] = []
@@ -603,7 +590,7 @@ class _Validator:
                 return cam_law_form(self, node, p, what)
             if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
                 self.err(node, f"{what}: {p.name} must be an expression of the cam angle theta "
-                               f"(or {{motion: ...}} or {{table: FILE}}), not {_type_name(node)}")
+                               f"(or {{motion: ...}} or {{table: FILE}}), not {type_name(node)}")
                 return None
             try:
                 return Law(node.value if isinstance(node.value, str) else float(node.value),
@@ -625,7 +612,7 @@ class _Validator:
         if p.unit == "flag":
             if node.kind == "scalar" and isinstance(node.value, bool):
                 return float(node.value)
-            self.err(node, f"{what}: {p.name} must be true or false, not {_type_name(node)}")
+            self.err(node, f"{what}: {p.name} must be true or false, not {type_name(node)}")
             return None
         if p.unit == "point":
             return self.vector(node, f"{what}: {p.name}")
@@ -646,7 +633,7 @@ class _Validator:
         if node.kind != "seq":
             self.err(node, f"{what} must be a list of points [[x, y], ...] or one of {{circle: "
                            f"...}}, {{segments: [...]}}, {{table: FILE.csv}}, not "
-                           f"{_type_name(node)}")
+                           f"{type_name(node)}")
             return None
         pts = [self.vector(item, what) for item in node.value]
         if any(p is None for p in pts):
@@ -687,7 +674,7 @@ class _Validator:
 
     def function(self, node: Node, what: str):
         if node.kind != "scalar" or node.value is None or isinstance(node.value, bool):
-            self.err(node, f"{what}: f must be an expression of t, not {_type_name(node)}")
+            self.err(node, f"{what}: f must be an expression of t, not {type_name(node)}")
             return None
         v = node.value
         try:
@@ -737,7 +724,7 @@ class _Validator:
             if n.kind == "scalar" and isinstance(n.value, bool):
                 repeat = n.value
             else:
-                self.err(n, f"{what}: repeat must be true or false, not {_type_name(n)}")
+                self.err(n, f"{what}: repeat must be true or false, not {type_name(n)}")
         segs = v.get("segments")
         if segs is None:
             self.err(node, f"{what}: missing segments (a list such as [{{rise: 90, in: 0.3, law: "
@@ -746,7 +733,7 @@ class _Validator:
         if segs.kind != "seq" or not segs.value:
             self.err(segs, f"{what}: segments must be a non-empty list of {{rise|return|move: "
                            f"h, in: T, law: NAME}} or {{dwell: T}}, not "
-                           f"{'an empty list' if segs.kind == 'seq' else _type_name(segs)}")
+                           f"{'an empty list' if segs.kind == 'seq' else type_name(segs)}")
             return None
         if len(segs.value) > MAX_SEGMENTS:
             self.err(segs, f"{what}: at most {MAX_SEGMENTS} segments")
@@ -832,7 +819,7 @@ class _Validator:
             if n.kind == "scalar" and isinstance(n.value, bool):
                 periodic = n.value
             else:
-                self.err(n, f"{what}: periodic must be true or false, not {_type_name(n)}")
+                self.err(n, f"{what}: periodic must be true or false, not {type_name(n)}")
                 return None
         path = Path(self.file).parent / fname
         shown = str(path)
@@ -885,7 +872,7 @@ class _Validator:
             return out
         if node.kind != "map":
             self.err(node, "points must be a mapping of point names to {body: NAME, s: [x, y]}, "
-                           f"not {_type_name(node)}")
+                           f"not {type_name(node)}")
             return out
         for key, val in node.value.items():
             line = node.key_lines[key]
@@ -948,7 +935,7 @@ class _Validator:
                 return None
         elif opt.kind == "bool":
             if not (n.kind == "scalar" and isinstance(n.value, bool)):
-                self.err(n, f"{what} must be true or false, not {_type_name(n)}")
+                self.err(n, f"{what} must be true or false, not {type_name(n)}")
                 return None
             x = n.value
         else:
@@ -979,7 +966,7 @@ class _Validator:
                 continue
             n = v[key]
             if n.kind != "seq":
-                self.err(n, f"output: {key} must be a list of names, not {_type_name(n)}")
+                self.err(n, f"output: {key} must be a list of names, not {type_name(n)}")
                 continue
             chosen = []
             for item in n.value:
@@ -1001,7 +988,7 @@ class _Validator:
             else:
                 self.err(n, f"output: centres must be true, false, fixed or moving (moving: "
                             f"mechanism.png also draws the moving centrodes), not "
-                            f"{_type_name(n)}")
+                            f"{type_name(n)}")
         if "up_to" in v:
             c = self.option(v["up_to"], "up_to", "output: up_to")
             if c is not None:
@@ -1038,7 +1025,7 @@ class _Validator:
             return {}, {}
         if b.kind != "map":
             self.err(b, "assembly: branch must map a body name to + or - (see `planarkin check`), "
-                        f"not {_type_name(b)}")
+                        f"not {type_name(b)}")
             return {}, {}
         out, lines = {}, {}
         for key, val in b.value.items():
@@ -1053,17 +1040,10 @@ class _Validator:
             elif s in ("-", "-1"):
                 out[key] = -1
             else:
-                self.err(val, f"assembly: branch: {key} must be + or -, not {_type_name(val)}")
+                self.err(val, f"assembly: branch: {key} must be + or -, not {type_name(val)}")
                 continue
             lines[key] = line
         return out, lines
-
-
-def _raw(node: Node) -> str:
-    """A scalar's text as written, for labels ('?' for anything else)."""
-    if node.kind == "scalar" and node.value is not None:
-        return str(node.text if node.text is not None else node.value)
-    return "?"
 
 
 def _target_param(kind):

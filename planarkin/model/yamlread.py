@@ -612,3 +612,24 @@ def _copy(node: Node, line: int) -> Node:
                 if child.kind != "scalar":
                     todo.append((child, c))
     return root
+
+
+def type_name(node: Node) -> str:
+    """What a node is, for messages: 'a mapping', 'the number 3', 'empty (null)' ..."""
+    if node.kind == "map":
+        return "a mapping"
+    if node.kind == "seq":
+        return "a list"
+    v = node.value
+    if v is None:
+        return "empty (null)"
+    if isinstance(v, bool):
+        return f"a boolean ({node.text})"
+    return f"'{node.text}'" if isinstance(v, str) else f"the number {node.text}"
+
+
+def raw_text(node: Node) -> str:
+    """A scalar's text as written, for labels ('?' for anything else)."""
+    if node.kind == "scalar" and node.value is not None:
+        return str(node.text if node.text is not None else node.value)
+    return "?"

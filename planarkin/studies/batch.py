@@ -46,7 +46,7 @@ from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
 from ..solver import COND_WARN, KAPPA
-from .variants import Outcome
+from .outcome import Outcome
 from .fused import Fused, rowmax
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
@@ -388,7 +388,7 @@ class Batch:
         n3 = Qr.shape[1]
         o = self.study.opts
         with np.errstate(all="ignore"):
-            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver._cond
+            cond = 1.0 / np.maximum(-rowmax(-info.smin), 1e-300)    # as solver.cond_of
             good = (info.converged & (info.ratio <= KAPPA)
                     & np.isfinite(rowmax(np.abs(Qdr))) & np.isfinite(rowmax(np.abs(Qddr)))
                     & (cond <= COND_WARN)
@@ -417,8 +417,8 @@ class Batch:
                                   maxit=self.study.opts.iterations, order=2)
         self.nominal = (Q, Qd, Qdd, info.sign)
         self.tangent = self._tangent(res)
-        from .warm import _predictor_error
-        if not (_predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
+        from .warm import predictor_error
+        if not (predictor_error(self.grid, Q, Qd, Qdd, cm.n) <= self.study.opts.path_tol).all():
             raise Unsupported("the grid is coarser than the path follower's steps")
 
     # numpy sums a last axis of fewer than this many numbers left to right (pairwise above)
@@ -729,7 +729,7 @@ class Batch:
 
 
 def _path_errors(grid, Q, Qd, Qdd, n) -> np.ndarray:
-    """(V, T-1) warm._predictor_error of V variants' solutions (V, T, n + 3) at once."""
+    """(V, T-1) warm.predictor_error of V variants' solutions (V, T, n + 3) at once."""
     Q, Qd, Qdd = Q[..., :n], Qd[..., :n], Qdd[..., :n]
     h = np.diff(grid)[None, :, None]
     dA = (Qdd[:, 1:] - Qdd[:, :-1]) / h             # the jerk over each interval

@@ -210,7 +210,7 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     """Run the variants (factorial of ranges, or samples of a Latin hypercube) and write
     sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
     in order (default: serially in this process)."""
-    from ..budget import check_study
+    from .budget import check_study
     count = math.prod(r.n for r in ranges) if samples is None else samples
     check_study(study, count, len(ranges) + len(study.metrics),
                 "the N of each --vary" if samples is None else "--samples")

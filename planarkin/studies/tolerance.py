@@ -94,7 +94,7 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
                   ) -> ToleranceResult:
     """Monte-Carlo samples of the toleranced parameters, their outputs and the first-order
     prediction; writes tolerance.csv, samples.csv, sensitivities.csv (+ tolerance.png)."""
-    from ..budget import check_study
+    from .budget import check_study
     names = list(sigma)
     check_study(study, samples, len(names) + len(study.metrics), "--samples")
     nominal_res = getattr(study, "nominal_result", None) or study._nominal()

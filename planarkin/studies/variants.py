@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Diagnostic, InputError, did_you_mean
+from .outcome import Outcome
 
 KINDS = {
     "max": "largest value over the grid",
@@ -60,19 +61,6 @@ class Metric:
         quantities with exact sensitivities."""
         return self.source in ("bodies.csv", "points.csv") and \
             self.column.rsplit(".", 1)[-1] in ("x", "y", "phi") and self.kind != "dev"
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """One variant's result: status 'ok' | 'failed' | 'invalid'; kind: the stopping event's kind
-    (lock-up, bifurcation, ...) or '' ; t: its time, s (nan when none); message: the reason;
-    metrics: one value per metric (nan unless ok)."""
-
-    status: str
-    kind: str
-    t: float
-    message: str
-    metrics: tuple
 
 
 def tables(cm, opts):

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solver import (COND_SINGULAR, COND_WARN, KAPPA, NODE_TOL, PATH_POLICY, Analysis, _cond,
+from ..solver import (COND_SINGULAR, COND_WARN, KAPPA, NODE_TOL, PATH_POLICY, Analysis, cond_of,
                       hermite5)
 
 CHAIN = 32      # variants per chain: the first starts cold, each next from its predecessor
@@ -73,9 +73,9 @@ def warm_follow(an: Analysis, start: Start) -> bool:
         # the variant's own assembly: node 0 must be its assembled pose (its branch)
         if np.abs(Q[0, :n] - an.A.q[:n]).max() > 1e-8:
             return False
-        sign, cond = info.sign, _cond(info)
+        sign, cond = info.sign, cond_of(info)
         for _ in range(REFINE):
-            bad = _predictor_error(T, Q, Qd, Qdd, n) > an.opts.path_tol
+            bad = predictor_error(T, Q, Qd, Qdd, n) > an.opts.path_tol
             if not bad.any():
                 break
             # split the intervals the follower would not have accepted, as it splits a step
@@ -93,7 +93,7 @@ def warm_follow(an: Analysis, start: Start) -> bool:
             Q, Qd, Qdd = (np.insert(A, at, B, axis=0) for A, B in ((Q, Qm), (Qd, Qdm),
                                                                    (Qdd, Qddm)))
             sign = np.insert(sign, at, im.sign, axis=0)
-            cond = np.insert(cond, at, _cond(im))
+            cond = np.insert(cond, at, cond_of(im))
         else:
             return False
     N = f.nodes
@@ -114,11 +114,11 @@ def _accept(info, Q, Qd, Qdd, sign) -> bool:
     """The follower's per-node tests (see the module docstring)."""
     return bool(info.converged.all() and (info.ratio <= KAPPA).all()
                 and np.isfinite(Q).all() and np.isfinite(Qd).all() and np.isfinite(Qdd).all()
-                and (_cond(info) <= min(COND_SINGULAR, COND_WARN)).all()
+                and (cond_of(info) <= min(COND_SINGULAR, COND_WARN)).all()
                 and (info.sign == sign).all())
 
 
-def _predictor_error(T, Q, Qd, Qdd, n) -> np.ndarray:
+def predictor_error(T, Q, Qd, Qdd, n) -> np.ndarray:
     """(K-1,) the follower's step error per interval: the Taylor prediction (with the jerk from
     the previous node) against the next node, forwards and backwards."""
     h = np.diff(T)[:, None]
@@ -137,7 +137,8 @@ def analyse(cm, opts, start: Start | None = None):
     Returns (info, result, Start for the next variant or None, warm: whether it was used)."""
     import time
     from ..assembly import assemble
-    from ..results import Result, _concat, run_info
+    from ..chunks import concat
+    from ..results import Result, run_info
     t0 = time.perf_counter()
     A = assemble(cm)
     an = Analysis(cm, A, opts)
@@ -147,7 +148,7 @@ def analyse(cm, opts, start: Start | None = None):
         an.follow()
     parts = list(an.chunks())
     info = run_info(an)
-    res = Result(cm, _concat(parts) if parts else None, info)
+    res = Result(cm, concat(parts) if parts else None, info)
     return info, res, (Start(an) if Start.usable(an) else None), warm
 
 

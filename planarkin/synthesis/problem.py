@@ -100,7 +100,7 @@ class Model:
 
     def solve_at(self, cm, res, t, sens: bool = True):
         """State at times t (N,) from the analysed grid result, or Rejected."""
-        from ..solver import point_kinematics
+        from ..kinematics import point_kinematics
         from ..system import System
         t = np.asarray(t, dtype=float)
         L, af = cm.L, cm.angle_factor
