@@ -1,11 +1,12 @@
 """The import graph of planarkin, read with ast so that function-level imports count as well as
-module-level ones (import-linter, in .ci/run, checks the same layers on its own graph):
+module-level ones:
 
 1. no import cycles between modules of the package;
-2. no private name (``_x``) of one module imported or used by another module;
-3. the layers model -> elements -> system -> solver -> results -> output -> cli, each importing
-   only from the layers below it (LAYERS; studies, forces, measures and synthesis are rooms
-   above the results, below the cli).
+2. no private name (``_x``) of one module imported or used by another module.
+
+Imports under ``if TYPE_CHECKING:`` (annotations only) never run and are left out. The layers
+(model, elements, system, solver, results, output, cli) are import-linter's contract in
+pyproject.toml, which .ci/run checks.
 
 ``python tests/test_imports.py`` prints the cycles and private names it finds.
 """
@@ -19,19 +20,6 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "planarkin"
-
-# Lowest first. A module in a layer may import modules of its own layer and of the layers below;
-# modules named in no layer are not checked here (import-linter's contract lists them all).
-LAYERS = (
-    ("planarkin.model",),
-    ("planarkin.elements",),
-    ("planarkin.system",),
-    ("planarkin.solver",),
-    ("planarkin.results",),
-    ("planarkin.output",),
-    ("planarkin.cli",),
-)
-
 
 def module_name(path: Path, root: Path = PACKAGE) -> str:
     parts = list(path.relative_to(root.parent).with_suffix("").parts)
@@ -151,7 +139,7 @@ def private_imports(mods: dict[str, Path]) -> list[str]:
     for a, b, names, line in imports(mods):
         for n in names:
             if _private(n) and b != a:
-                found.append(f"{mods[a].relative_to(PACKAGE.parent)}:{line}: {n} from {b}")
+                found.append(f"{a}:{line}: {n} from {b}")
     for mod, path in mods.items():
         tree = ast.parse(path.read_text(), str(path))
         pkg = path.name == "__init__.py"
@@ -170,25 +158,8 @@ def private_imports(mods: dict[str, Path]) -> list[str]:
             if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
                     and node.value.id in aliases and _private(node.attr)
                     and aliases[node.value.id] != mod):
-                found.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno}: {node.attr} "
-                             f"of {aliases[node.value.id]}")
+                found.append(f"{mod}:{node.lineno}: {node.attr} of {aliases[node.value.id]}")
     return sorted(set(found))
-
-
-def layer_of(mod: str):
-    for k, names in enumerate(LAYERS):
-        if any(mod == n or mod.startswith(n + ".") for n in names):
-            return k
-    return None
-
-
-def layer_violations(mods: dict[str, Path]) -> list[str]:
-    bad = []
-    for a, b, _, line in imports(mods):
-        la, lb = layer_of(a), layer_of(b)
-        if la is not None and lb is not None and lb > la:
-            bad.append(f"{mods[a].relative_to(PACKAGE.parent)}:{line}: {a} imports {b}")
-    return sorted(set(bad))
 
 
 # -- the tests --------------------------------------------------------------------------------
@@ -202,11 +173,6 @@ def test_no_import_cycles():
 def test_no_private_names_across_modules():
     found = private_imports(modules())
     assert not found, "private names used across modules:\n" + "\n".join(found)
-
-
-def test_layers():
-    found = layer_violations(modules())
-    assert not found, "imports against the layers:\n" + "\n".join(found)
 
 
 # -- the checks themselves, on small packages written here -------------------------------------
@@ -249,19 +215,9 @@ def test_private_names_are_found(tmp_path):
     assert [f.split(": ", 1)[1] for f in found] == ["_h from planarkin.a", "_K of planarkin.a"]
 
 
-def test_layer_violations_are_found(tmp_path):
-    mods = _package(tmp_path, {
-        "__init__.py": "", "model/__init__.py": "", "model/v.py": "from ..solver import s\n",
-        "solver.py": "from .model import v\n"})
-    assert layer_violations(mods) == [
-        "planarkin/model/v.py:1: planarkin.model.v imports planarkin.solver"]
-
-
 if __name__ == "__main__":
     mods = modules()
     for c in cycles(graph(mods)):
         print("cycle:", " <-> ".join(c))
     for p in private_imports(mods):
         print("private:", p)
-    for v in layer_violations(mods):
-        print("layer:", v)

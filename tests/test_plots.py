@@ -301,7 +301,7 @@ def test_mechanism_figure_legend_and_body_colours(model, result):
                       "t = 0.75 s"]
     ax = fig.axes[0]
     names = {t.get_text(): t for t in ax.texts}
-    colors = plots._palette(model.nb)
+    colors = plots.body_palette(model.nb)
     for b, name in enumerate(model.body_names):
         assert np.allclose(to_rgb(names[name].get_color()), plots._darker(colors[b]))
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() == 4.5]
@@ -479,7 +479,7 @@ def test_tick_labels_are_drawn_where_matplotlib_draws_them(ydata):
         with mpl.rc_context(plots.STYLE):
             fig = Figure(figsize=(4, 3), dpi=150)
             rect = (0.25, 0.2, 0.7, 0.7)
-            ax = plots._add_axes(fig, rect) if light else fig.add_axes(rect)
+            ax = plots.add_axes(fig, rect) if light else fig.add_axes(rect)
             ax.plot([0.0, 360.0], ydata)
             r = Recorder(600, 450, 150)
             r.seen = []

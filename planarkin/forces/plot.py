@@ -18,10 +18,10 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     transmit a moment (angle, gear) are left out of the plot (their columns are in the table)."""
     from matplotlib.figure import Figure
 
-    from ..output.plots import (_add_axes, _finish_time_axes, _palette, _pretty as _pretty2,
-                                _save, _tick_label_width, _title)
+    from ..output.plots import (add_axes, finish_time_axes, body_palette, pretty as _pretty2,
+                                save_figure, tick_label_width, plot_title)
 
-    def _pretty(unit):
+    def pretty(unit):
         return _pretty2(unit).replace("*", "\u00b7")
     from .model import unit_names
 
@@ -50,7 +50,7 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
     axes = [[None] * ncol for _ in range(2)]
     for c in range(ncol):
         for r in range(2):
-            axes[r][c] = _add_axes(fig, spec[r, c], xlabels=r == 1, sharex=axes[0][c],
+            axes[r][c] = add_axes(fig, spec[r, c], xlabels=r == 1, sharex=axes[0][c],
                                    grid=("0.88", 0.6))
     xs = [(t, "time t [s]")]
     if one:
@@ -60,15 +60,15 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         unit = cm.spec.angle_unit if kind.target_unit == "angle" else cm.spec.length_unit
         f = np.broadcast_to(cm.driver_funcs[0](t), t.shape)
         what = "angle" if kind.target_unit == "angle" else "length"
-        xs.append((f, f"{_driver_name(el)}: driven {what} f(t) [{_pretty(unit)}]"))
-    colors = _palette(max(len(efforts), len(mags), 1))
+        xs.append((f, f"{_driver_name(el)}: driven {what} f(t) [{pretty(unit)}]"))
+    colors = body_palette(max(len(efforts), len(mags), 1))
     for c, (x, xlabel) in enumerate(xs):
         ax = axes[0][c]
         for n, (k, h) in enumerate(efforts):
             name, rest = h.split(" [", 1)
             ax.plot(x, X[:, k], color=colors[n], lw=1.4, label=name)
         units = sorted({h.split(" [", 1)[1].rstrip("]") for _, h in efforts})
-        ax.set_ylabel("driver effort" + (f" [{_pretty(', '.join(units))}]" if units else ""))
+        ax.set_ylabel("driver effort" + (f" [{pretty(', '.join(units))}]" if units else ""))
         ax.axhline(0, color="0.6", lw=0.6, zorder=1)
         if efforts:
             ax.legend(fontsize=9, loc="best", frameon=False)
@@ -77,18 +77,18 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
             # dashes cycle so that coinciding curves (a massless link's two pins) stay visible
             ax.plot(x, v, color=colors[n % len(colors)], lw=1.3, ls=DASHES[n % len(DASHES)],
                     label=name)
-        ax.set_ylabel(f"joint reaction |F| [{_pretty(u['force'])}]")
+        ax.set_ylabel(f"joint reaction |F| [{pretty(u['force'])}]")
         ax.set_ylim(bottom=0)
         if mags:
             ax.legend(fontsize=9, loc="best", frameon=False, ncol=1 if len(mags) < 5 else 2)
         ax.set_xlabel(xlabel)
-    _finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
-    fig.suptitle(_title(cm, "driver efforts and joint reactions (on body j of each joint)",
+    finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
+    fig.suptitle(plot_title(cm, "driver efforts and joint reactions (on body j of each joint)",
                         info), fontsize=11, y=1 - 0.1 / 6.6, va="top")
     # a fixed layout, in inches: constrained layout measured every text, half of the time of
     # this figure; the tick labels' widths come from the axes' locators and formatters
     width = fig.get_figwidth()
-    room = [0.55 + max(_tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
+    room = [0.55 + max(tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
             for col in zip(*axes)]
     aw = (width - sum(room) - 0.2) / ncol
     fig.subplots_adjust(left=room[0] / width, right=1 - 0.2 / width, top=1 - 0.45 / 6.6,
@@ -99,7 +99,7 @@ def forces_plot(cm, X, info, out: Path, fmt: str = "png") -> list:
         for ax in col:
             ax.yaxis.set_label_coords(-(room[c] - 0.4) / aw, 0.5)
             ax.xaxis.set_label_coords(0.5, -0.31 / ah)
-    return [_save(fig, Path(out) / f"forces.{fmt}")]
+    return [save_figure(fig, Path(out) / f"forces.{fmt}")]
 
 
 class _Data:

@@ -4,7 +4,7 @@ Called by `output.writer.DirectoryWriter.finish` with the decimated plot buffer 
 few thousand rows, user units). matplotlib is imported inside the functions only, and only through
 its object-oriented API (``matplotlib.figure.Figure``, rendered by Agg): no pyplot, no backend
 switch, no windows, no global state (rcParams only inside rc_context: the axes style while a
-figure is built and drawn, `_styled`, and an svg id salt while it is saved, `_save`).
+figure is built and drawn, `_styled`, and an svg id salt while it is saved, `save_figure`).
 
 Files (``<fmt>`` is png at 150 dpi, svg or pdf):
 
@@ -86,7 +86,7 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
              "points": lambda: _points_figure(cm, data, info, x),
              "trajectories": lambda: _trajectories_figure(cm, scene),
              "mechanism": lambda: _mechanism_figure(cm, scene)}
-    return [_save(build[n](), out / f"{n}.{fmt}") for n in names]
+    return [save_figure(build[n](), out / f"{n}.{fmt}") for n in names]
 
 
 @_styled
@@ -181,7 +181,7 @@ def _bodies_figure(cm, data, info, x: str = "time"):
     are left out and named, with their value, in a note under the legend (an axes whose curves
     are all constant keeps them)."""
     series = [a for a in (data.q, data.qd, data.qdd, data.qddd) if a is not None]
-    colors = _palette(cm.nb)
+    colors = body_palette(cm.nb)
     xa = _XAxis(cm, x)
     X = xa(data.t)
     fig, axes = _time_grid(len(series), 2, xa.label)
@@ -189,7 +189,7 @@ def _bodies_figure(cm, data, info, x: str = "time"):
     T = _duration(data, info)
     sel = _Selection()
     for o, arr in enumerate(series):
-        tu, ru = (_pretty(u) for u in units(lu, au, o))
+        tu, ru = (pretty(u) for u in units(lu, au, o))
         qx, qy, qphi = BODY_QUANTITIES[o]
         left, right = axes[o]
         lin = [(arr[:, 3 * b + k], colors[b], ls, f"{name}.{q}", (b, k))
@@ -205,8 +205,8 @@ def _bodies_figure(cm, data, info, x: str = "time"):
     axes[0][1].set_title("rotation", fontsize=10, y=1.0)
     handles = _style_handles([("-", "x, phi"), ("--", "y")]) + _name_handles(
         cm.body_names, colors, sel.drawn)
-    _finish_time_axes(axes, data, info, xa)
-    title = _title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
+    finish_time_axes(axes, data, info, xa)
+    title = plot_title(cm, "body frames: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against,
                    info)
     _arrange_time_grid(fig, axes, handles, title, width=10.0, row_height=1.75,
                        note=sel.note())
@@ -225,7 +225,7 @@ def _points_figure(cm, data, info, x: str = "time"):
     T = _duration(data, info)
     sel = _Selection()
     for o, arr in enumerate(series):
-        tu, _ = (_pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
+        tu, _ = (pretty(u) for u in units(cm.spec.length_unit, cm.spec.angle_unit, o))
         qx, qy = POINT_QUANTITIES[o]
         ax = axes[o][0]
         curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
@@ -235,8 +235,8 @@ def _points_figure(cm, data, info, x: str = "time"):
         ax.set_ylabel(f"{qx}, {qy} [{tu}]")
     handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
         cm.point_names, colors, sel.drawn)
-    _finish_time_axes(axes, data, info, xa)
-    title = _title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
+    finish_time_axes(axes, data, info, xa)
+    title = plot_title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
     _arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
     return fig
 
@@ -331,7 +331,7 @@ class _XAxis:
             who = el.name or "-".join(b for b in el.bodies if b != "ground")
             self.f = el.f
             self.degrees = unit == "deg"
-            self.label = f"{who} {el.kind}" + (f" [{_pretty(unit)}]" if unit else "")
+            self.label = f"{who} {el.kind}" + (f" [{pretty(unit)}]" if unit else "")
             self.against = f" against the {who} {el.kind}"
 
     def __call__(self, t):
@@ -356,7 +356,7 @@ def _time_grid(nrows, ncols, xlabel="t [s]"):
     for r in range(nrows):
         row = []
         for c in range(ncols):
-            ax = _add_axes(fig, grid[r, c], xlabels=r == nrows - 1, sharex=first)
+            ax = add_axes(fig, grid[r, c], xlabels=r == nrows - 1, sharex=first)
             first = first or ax
             # at most five intervals on each y axis (1.7 in high)
             ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
@@ -380,7 +380,7 @@ def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
     from matplotlib.lines import Line2D
 
     nrows, ncols = len(axes), len(axes[0])
-    label_w = [max(_tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
+    label_w = [max(tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
                for col in zip(*axes)]
     room = [w + 0.5 for w in label_w]           # tick labels, ticks, y label (inches)
     right = 0.2
@@ -416,7 +416,7 @@ def _arrange_time_grid(fig, axes, handles, title, width, row_height, note=""):
     fig.suptitle(title, fontsize=12, y=1 - 0.12 / height, va="top")
 
 
-def _finish_time_axes(axes, data, info, xa=None):
+def finish_time_axes(axes, data, info, xa=None):
     """Time range (the planned one, so that a failed run shows where it stopped) and the event
     lines: the stop (red dashed), near-singular passages (thin orange), bifurcations stepped
     over (purple); each kind labelled once, beside its first line, in the top row. xa (an
@@ -497,7 +497,7 @@ def _entry_width(handles) -> float:
     return 0.5 + _text_width([h.get_label() for h in handles])
 
 
-def _tick_label_width(axis, lo, hi) -> float:
+def tick_label_width(axis, lo, hi) -> float:
     """Rough width in inches of the widest tick label the axis shows for the range lo..hi."""
     ticks = np.asarray(axis.get_major_locator().tick_values(min(lo, hi), max(lo, hi)))
     eps = 1e-9 * abs(hi - lo)
@@ -505,7 +505,7 @@ def _tick_label_width(axis, lo, hi) -> float:
     return _text_width(axis.get_major_formatter().format_ticks(ticks) if len(ticks) else ["0"])
 
 
-def _add_axes(fig, where, xlabels=True, sharex=None, grid=None):
+def add_axes(fig, where, xlabels=True, sharex=None, grid=None):
     """fig.add_subplot(where) (a subplot spec) or fig.add_axes(where) (a rectangle), its grid,
     ticks and labels drawn by `_Ticks`; xlabels: whether the x tick labels are drawn; grid:
     (colour, line width) of the grid lines (default: rcParams grid.color, grid.linewidth).
@@ -556,7 +556,7 @@ def _axes_class():
 
 class _Ticks:
     """Grid, tick marks, tick labels and axis labels of one axes, drawn by one artist in one pass
-    (`_add_axes` makes it).
+    (`add_axes` makes it).
 
     matplotlib builds an object of three lines and two texts for every tick, copies the first
     tick's properties into each new one and measures every tick label at each draw: in the time
@@ -694,14 +694,14 @@ def _duration(data, info) -> float:
     return T if T > 0 and math.isfinite(T) else 1.0
 
 
-def _title(cm, what, info=None) -> str:
+def plot_title(cm, what, info=None) -> str:
     s = f"{cm.spec.name}: {what}"
     if info is not None and info.status == 1 and getattr(info, "event", None) is not None:
         s += f"\nrun stopped at t = {info.event.t:.6g} s ({info.event.kind})"
     return s
 
 
-def _pretty(unit: str) -> str:
+def pretty(unit: str) -> str:
     return unit.replace("^2", "\u00b2").replace("^3", "\u00b3")
 
 
@@ -723,7 +723,7 @@ class _Scene:
         self.t = data.t
         self.nb = cm.nb
         self.names = cm.body_names
-        self.colors = _palette(cm.nb)
+        self.colors = body_palette(cm.nb)
         self.point_colors = _point_palette(len(cm.point_names))
         q = data.q
         self.x, self.y = q[:, 0::3], q[:, 1::3]
@@ -1078,10 +1078,10 @@ def _plane_figure(cm, scene: _Scene, width, beside, dpi=DPI, ground_alpha=1.0):
     from matplotlib.figure import Figure
 
     fig = Figure(dpi=dpi)
-    ax = _add_axes(fig, (0, 0, 1, 1))
+    ax = add_axes(fig, (0, 0, 1, 1))
     _mechanism_axes(ax, cm, scene, ground_alpha)
     x0, x1, y0, y1 = scene.bounds
-    label_w = _tick_label_width(ax.yaxis, y0, y1)
+    label_w = tick_label_width(ax.yaxis, y0, y1)
     left = label_w + 0.5
     bottom, top = 0.55, 0.45
     aw = width - left - beside
@@ -1329,7 +1329,7 @@ def _fit_legend(fig, legend, ax, anchor):
 
 # -- small helpers -------------------------------------------------------------------------------
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
     """Save a figure: png at DPI (drawn by `_renderer_class`, encoded by `_write_png`); svg and
     pdf without a date and (svg) with fixed element ids, so that the same run gives
     byte-identical files."""
@@ -1457,7 +1457,7 @@ def _renderer_class():
     return cls
 
 
-def _palette(n: int) -> list:
+def body_palette(n: int) -> list:
     """Body colours: tab10, tab20 beyond ten bodies, then evenly spaced hues."""
     from matplotlib import colormaps
     if n <= 10:
@@ -1473,7 +1473,7 @@ def _point_palette(n: int) -> list:
     from matplotlib import colormaps
     if n <= 8:
         return [colormaps["Dark2"](k) for k in (0, 3, 5, 6, 2, 4, 1, 7)[:n]]
-    return _palette(n)
+    return body_palette(n)
 
 
 def _darker(color, f=0.7):
