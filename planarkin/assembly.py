@@ -24,7 +24,7 @@ from .closure import short_loops
 from .linalg import one_blas_thread
 from .meshing import centre_distances
 from .system import System
-from .branches import apply_branch_hints, block_modes, residual_text, row_diagnostic
+from .branches import apply_branch_hints, block_modes, fmt_res, diag
 from .tolerances import ASSEMBLED
 
 RANK_TOL = 1e-8          # relative singular value / R diagonal below which a direction is lost
@@ -195,10 +195,10 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
     # on top of each other) would poison every step of the assembly
     bad_rows = _undifferentiable_rows(S_all, cm.q0)
     if bad_rows.size:
-        raise InputError([row_diagnostic(cm, int(r), f"{cm.element_of_row(r).label}: its two points "
-                                            f"coincide at the body estimates q, where the "
-                                            f"distance has no direction; move the estimates "
-                                            f"apart (a distance of zero is a revolute joint)")
+        raise InputError([diag(cm, int(r), f"{cm.element_of_row(r).label}: its two points "
+                                           f"coincide at the body estimates q, where the "
+                                           f"distance has no direction; move the estimates "
+                                           f"apart (a distance of zero is a revolute joint)")
                           for r in bad_rows[:1]])
     if n > DENSE_LIMIT:
         return _assemble_large(cm, S_all)
@@ -214,9 +214,9 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
     J = S_all.jacobian(S_all.ext(q))[0]
     if not np.isfinite(J).all():
         row = int(np.nonzero(~np.isfinite(J).all(axis=1))[0][0])
-        raise InputError([row_diagnostic(cm, row, f"{cm.element_of_row(row).label} has no direction at "
-                                         f"the assembled pose (its two points coincide); a "
-                                         f"distance of zero is a revolute joint")])
+        raise InputError([diag(cm, row, f"{cm.element_of_row(row).label} has no direction at "
+                                        f"the assembled pose (its two points coincide); a "
+                                        f"distance of zero is a revolute joint")])
     Jn = _row_normalised(J)
     sv = np.linalg.svd(Jn, compute_uv=False) if m else np.zeros(0)
     rank = int((sv > RANK_TOL * (sv[0] if sv.size else 1.0)).sum())
@@ -256,23 +256,23 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
                f"{_plural(ndrv, 'driver')} for {cm.nb} bodies ({n} coordinates)")
         problems.append(Diagnostic(spec.file, line, msg))
         for d in kin:
-            problems.append(row_diagnostic(cm, d, f"{cm.row_label[d]} is redundant: it repeats what the "
-                                         f"other joints already impose"))
+            problems.append(diag(cm, d, f"{cm.row_label[d]} is redundant: it repeats what the "
+                                        f"other joints already impose"))
         for d in drv:
-            problems.append(row_diagnostic(cm, d, f"{cm.element_of_row(d).label} does not drive a free "
-                                         f"degree of freedom: it repeats what the joints and "
-                                         f"other drivers impose"))
+            problems.append(diag(cm, d, f"{cm.element_of_row(d).label} does not drive a free "
+                                        f"degree of freedom: it repeats what the joints and "
+                                        f"other drivers impose"))
         raise InputError(problems)
     for d in drv:
-        problems.append(row_diagnostic(cm, d, f"{cm.element_of_row(d).label} is one driver too many: the "
-                                     f"joints leave {_plural(dof, 'degree')} of freedom and "
-                                     f"{_plural(ndrv, 'driver')} {'is' if ndrv == 1 else 'are'} "
-                                     f"given; remove a driver"))
+        problems.append(diag(cm, d, f"{cm.element_of_row(d).label} is one driver too many: the "
+                                    f"joints leave {_plural(dof, 'degree')} of freedom and "
+                                    f"{_plural(ndrv, 'driver')} {'is' if ndrv == 1 else 'are'} "
+                                    f"given; remove a driver"))
     if problems:
         raise InputError(problems)
-    warnings = [row_diagnostic(cm, d, f"{cm.row_label[d]} is redundant (consistent with the other joints "
-                             f"at the assembly pose): it is left out of the solve and checked at "
-                             f"every step", severity="warning") for d in kin]
+    warnings = [diag(cm, d, f"{cm.row_label[d]} is redundant (consistent with the other joints "
+                            f"at the assembly pose): it is left out of the solve and checked at "
+                            f"every step", severity="warning") for d in kin]
     redundant = kin
     meshing = centre_distances(cm, q)
     if any(d.severity == "error" for d in meshing):
@@ -341,11 +341,11 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
             if (sv > RANK_TOL * sv[0]).sum() + len(rows_e) <= n:
                 continue      # e only takes away freedom the others leave: not redundant
             worst = int(rows_e[np.argmax(np.abs(r2[rows_e]))])
-            return [row_diagnostic(cm, worst, f"{spec.elements[e].label} is redundant and contradicts the "
-                                     f"other constraints: without it the mechanism assembles, "
-                                     f"and there it is violated by "
-                                     f"{residual_text(cm, worst, r2[worst])}; remove it or correct its "
-                                     f"dimensions")]
+            return [diag(cm, worst, f"{spec.elements[e].label} is redundant and contradicts the "
+                                    f"other constraints: without it the mechanism assembles, "
+                                    f"and there it is violated by "
+                                    f"{fmt_res(cm, worst, r2[worst])}; remove it or correct its "
+                                    f"dimensions")]
     worst = np.argsort(-np.abs(np.nan_to_num(r, nan=np.inf)))
     named: list[int] = []
     for row in worst:
@@ -353,10 +353,10 @@ def _not_assembled(cm: CompiledModel, S_all: System, q, r, its) -> list[Diagnost
             break
         if int(cm.row_element[row]) not in {int(cm.row_element[k]) for k in named}:
             named.append(int(row))
-    parts = [f"{cm.row_label[k]} is violated by {residual_text(cm, k, r[k])}" for k in named]
-    return [row_diagnostic(cm, named[0], f"cannot assemble the mechanism at t = {t0:g} ({its} iterations "
-                                f"from the body estimates): {'; '.join(parts)}; check the "
-                                f"dimensions and the estimates q")]
+    parts = [f"{cm.row_label[k]} is violated by {fmt_res(cm, k, r[k])}" for k in named]
+    return [diag(cm, named[0], f"cannot assemble the mechanism at t = {t0:g} ({its} iterations "
+                               f"from the body estimates): {'; '.join(parts)}; check the "
+                               f"dimensions and the estimates q")]
 
 
 def _contradicting_drivers(cm: CompiledModel, S_all: System, q, r) -> list | None:
@@ -374,14 +374,14 @@ def _contradicting_drivers(cm: CompiledModel, S_all: System, q, r) -> list | Non
     if nd <= dof:
         return None
     labels = [cm.element_of_row(d).label for d in cm.driver_rows]
-    worst = [f"{cm.row_label[d]} by {residual_text(cm, d, r[d])}" for d in cm.driver_rows
+    worst = [f"{cm.row_label[d]} by {fmt_res(cm, d, r[d])}" for d in cm.driver_rows
              if abs(r[d]) > ASSEMBLED]
-    return [row_diagnostic(cm, int(cm.driver_rows[-1]),
-                  f"{_plural(nd, 'driver')} for {_plural(dof, 'degree')} of freedom, and they "
-                  f"contradict each other at t = {cm.spec.analysis.start:g}: "
-                  f"{', '.join(labels[:-1])} and {labels[-1]} cannot all hold (at the closest "
-                  f"pose: {'; '.join(worst) or 'violated'}); remove the driver{'s' if nd - dof > 1 else ''} "
-                  f"you do not mean ({_plural(nd - dof, 'too many')})")]
+    return [diag(cm, int(cm.driver_rows[-1]),
+                 f"{_plural(nd, 'driver')} for {_plural(dof, 'degree')} of freedom, and they "
+                 f"contradict each other at t = {cm.spec.analysis.start:g}: "
+                 f"{', '.join(labels[:-1])} and {labels[-1]} cannot all hold (at the closest "
+                 f"pose: {'; '.join(worst) or 'violated'}); remove the driver{'s' if nd - dof > 1 else ''} "
+                 f"you do not mean ({_plural(nd - dof, 'too many')})")]
 
 
 def _newton_by_blocks(cm: CompiledModel, S: System):
@@ -449,23 +449,23 @@ def _assemble_large(cm: CompiledModel, S_all: System) -> Assembly:
         S.build_blocks()
     except StructurallySingular as e:
         rows = e.rows_left[:3]
-        raise InputError([row_diagnostic(cm, r, f"{cm.row_label[r]} cannot be matched to a free coordinate:"
-                                       f" the model is over-constrained here and under-"
-                                       f"constrained elsewhere") for r in rows])
+        raise InputError([diag(cm, r, f"{cm.row_label[r]} cannot be matched to a free "
+                                        f"coordinate: the model is over-constrained here and "
+                                        f"under-constrained elsewhere") for r in rows]) from None
     t0 = spec.analysis.start
     Q, r, info = _newton_by_blocks(cm, S)
     if not info.converged[0] or np.abs(r).max() > ASSEMBLED:
         row = int(np.argmax(np.abs(np.nan_to_num(r, nan=np.inf))))
-        raise InputError([row_diagnostic(cm, row, f"cannot assemble the mechanism at t = {t0:g}: "
-                                         f"{cm.row_label[row]} is violated by "
-                                         f"{residual_text(cm, row, r[row])}; check its dimensions and "
-                                         f"the body estimates q")])
+        raise InputError([diag(cm, row, f"cannot assemble the mechanism at t = {t0:g}: "
+                                        f"{cm.row_label[row]} is violated by "
+                                        f"{fmt_res(cm, row, r[row])}; check its dimensions and "
+                                        f"the body estimates q")])
     if (info.smin[0] <= RANK_TOL).any():
         b = int(np.argmin(info.smin[0]))
         row = int(S.blocks[b].rows[0])
-        raise InputError([row_diagnostic(cm, row, f"the Jacobian is singular at the assembly pose near "
-                                         f"{cm.row_label[row]}: redundant constraints or a missing "
-                                         f"driver")])
+        raise InputError([diag(cm, row, f"the Jacobian is singular at the assembly pose near "
+                                        f"{cm.row_label[row]}: redundant constraints or a missing "
+                                        f"driver")])
     A = Assembly(q=Q[0, : cm.n].copy(), residual=float(np.abs(r).max()), iterations=int(
         info.iterations[0]), active_rows=S.rows, redundant_rows=[], dof=cm.n - cm.m_joint,
         system=S)

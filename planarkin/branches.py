@@ -31,12 +31,12 @@ class Mode:
     block: int = -1                 # index of the loop's own diagonal block in System.blocks
 
 
-def row_diagnostic(cm: CompiledModel, row: int | None, msg: str, severity="error") -> Diagnostic:
+def diag(cm: CompiledModel, row: int | None, msg: str, severity="error") -> Diagnostic:
     line = cm.element_of_row(row).line if row is not None else None
     return Diagnostic(cm.spec.file, line, msg, severity)
 
 
-def residual_text(cm: CompiledModel, row: int, value: float) -> str:
+def fmt_res(cm: CompiledModel, row: int, value: float) -> str:
     el = cm.element_of_row(row)
     from .elements import KINDS
     kind = KINDS[el.kind]
@@ -170,9 +170,9 @@ def apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
             if ok:
                 Q = Qn
                 continue
-            raise InputError([row_diagnostic(cm, int(B.rows[0]),
-                                    f"assembly: branch: after changing the loop's branch, "
-                                    f"{cm.row_label[int(B.rows[0])]} cannot be satisfied")])
+            raise InputError([diag(cm, int(B.rows[0]),
+                                   f"assembly: branch: after changing the loop's branch, "
+                                   f"{cm.row_label[int(B.rows[0])]} cannot be satisfied")])
         want = wanted[b][0] if b in wanted else current[b]
         if ok and _block_sign(S, B, Qn) == want:
             Q = Qn
@@ -209,7 +209,7 @@ def apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
         raise InputError([Diagnostic(spec.file, next(iter(wanted.values()))[2],
                                      f"assembly: branch: on the requested branches "
                                      f"{cm.row_label[row]} is violated by "
-                                     f"{residual_text(cm, row, r[row])}")])
+                                     f"{fmt_res(cm, row, r[row])}")])
     # the loop's own block, not one that merely shares a body, must have the sign asked for
     got = {md.block: md.sign for md in block_modes(cm, S, q)}
     for b, (want, name, line) in wanted.items():

@@ -263,6 +263,8 @@ def table_function(t: np.ndarray, y: np.ndarray, periodic: bool, shown: str) -> 
     tt = Expr("name", (), "t")
     if periodic:
         t0, period = float(t[0]), float(t[-1] - t[0])
-        arg = bin_node("+", num_node(t0), sugar_node("mod", (bin_node("-", tt, num_node(t0)), num_node(period))))
+        arg = bin_node("+", num_node(t0),
+                       sugar_node("mod", (bin_node("-", tt, num_node(t0)), num_node(period))))
         return TimeFunction.from_expr(pw_node(pw, arg), f"table {shown} (periodic)")
-    return TimeFunction.from_expr(pw_node(pw, tt), f"table {shown}", domain=(float(t[0]), float(t[-1])))
+    return TimeFunction.from_expr(pw_node(pw, tt), f"table {shown}",
+                                  domain=(float(t[0]), float(t[-1])))

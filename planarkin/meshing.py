@@ -22,7 +22,7 @@ def centre_distances(cm, q: np.ndarray) -> list[Diagnostic]:
     belt pulleys must not overlap (an error). The centres of the kinds on a carrier (gear,
     belt) are their revolute joints to the carrier k; a pair without them is not checked."""
     from .elements.base import make_frame, rotate
-    L, lu, ground = cm.L, cm.spec.length_unit, cm.nb
+    L, lu = cm.L, cm.spec.length_unit
     F = make_frame(np.concatenate([q, np.zeros(3)])[None, :])
     pivots = {}
     for G in cm.groups:

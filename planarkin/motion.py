@@ -58,7 +58,8 @@ def profile(segments, initial: float = 0.0, t0: float = 0.0, repeat: bool = Fals
         start += s.duration
     net = sum(s.amount for s in segments)
     if repeat and net != 0:  # an indexing motion: each cycle starts where the last one ended
-        terms.append(bin_node("*", num_node(net), call_node("floor", (bin_node("/", tau, num_node(period)),))))
+        cycles = call_node("floor", (bin_node("/", tau, num_node(period)),))
+        terms.append(bin_node("*", num_node(net), cycles))
     text = "motion: " + ", ".join(s.describe() for s in segments) + (", repeat" if repeat else "")
     try:
         return TimeFunction.from_expr(_sum(terms), text)

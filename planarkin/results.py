@@ -17,7 +17,7 @@ import numpy as np
 from .chunks import take
 from .derived import derived_tables
 from .model.compile import CompiledModel
-from .output.tables import Layout
+from .layout import Layout
 from .solver import Analysis, Chunk, Event, Options
 
 @dataclass

@@ -230,7 +230,7 @@ class PathFollower:
         span = opts.end - opts.start
         self.span = span
         self.h_min = 1e-11 * max(span, 1e-300)
-        self.h_max = min(span, opts.max_step or span) 
+        self.h_max = min(span, opts.max_step or span)
         self.nodes = Nodes()
         self.max_nodes = node_limit(cm, opts)
         self.rejected = 0

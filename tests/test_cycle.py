@@ -4,7 +4,6 @@ crank-rocker four-bar (the rocker's limit angles by the law of cosines)."""
 
 import math
 
-import pytest
 
 import planarkin
 

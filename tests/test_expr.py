@@ -359,7 +359,7 @@ def test_error_messages(call, message):
     ("(1, 2)[0]", "subscripts ('[...]') are not allowed"), ("1 is 2", "only < <= > >= == != compare"),
     ("~1", "operator '~' is not allowed"), ("f'{1}'", "f-strings are not allowed"),
     ("__import__('os')", "unknown function '__import__'"), ("(lambda: 0)()", "only functions named directly"),
-    ("import os", "cannot parse expression"), 
+    ("import os", "cannot parse expression"),
     ("(x := 1)", "':=' is not allowed"), ("sin(*[1])", "'*' is not allowed"),
     ("[x for x in ()]", "comprehensions are not allowed"), ("{1: 2}", "dicts are not allowed"),
     ("2 @ 3", "operator '@' is not allowed"),

@@ -182,7 +182,7 @@ class _CamReaction:
 
     def _contact(self, G, F, lam):
         """(f, Cx, Cy, Nx, Ny), (N, K) each, global, internal units."""
-        bi, bj, bk = G.bodies[:, 0], G.bodies[:, 1], G.bodies[:, 2]
+        bk = G.bodies[:, 2]
         th, _ = _cam_angle(G, F)
         N, K = th.shape
         cx, cy, nx, ny = (np.empty((N, K)) for _ in range(4))
@@ -627,7 +627,6 @@ def derived_tables(cm, opts) -> list:
     from ..derived import DerivedTable
 
     out = []
-    L, af = cm.L, cm.angle_factor
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
     for G in cm.groups:
         if G.kind.name not in ("cam", "cam-rocker"):

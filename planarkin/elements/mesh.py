@@ -68,7 +68,6 @@ def _phase(arrays, poses):
 
 class GearMesh(Kind):
     name = "gear-mesh"
-    params = _PARAMS
     derived = _PHASE
     summary = ("gear pair with moving centres (planet gears): the pitch circles of i and j roll "
                "without slip; the centre distance comes from other joints (1 equation)")

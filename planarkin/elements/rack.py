@@ -77,7 +77,6 @@ _SIDE = (Param("side", "real", "+1: centre on the +n_i side of the pitch line, -
 
 class RackPinion(Kind):
     name = "rack-pinion"
-    params = _PARAMS
     derived = _SIDE
     summary = ("rack-and-pinion, rolling only: rack i, pinion j of pitch radius r; the centre "
                "distance comes from other joints (1 equation)")

@@ -423,12 +423,14 @@ def _derive(e: Expr, var: str, memo: dict) -> Expr:
         if op == "/":
             if var not in w._names:
                 return bin_node("/", du, w)
-            return bin_node("/", bin_node("-", bin_node("*", du, w), bin_node("*", u, dw)), bin_node("**", w, _TWO))
+            return bin_node("/", bin_node("-", bin_node("*", du, w), bin_node("*", u, dw)),
+                            bin_node("**", w, _TWO))
         if var not in w._names:  # u**c -> c*u**(c-1)*u'
             return bin_node("*", bin_node("*", w, bin_node("**", u, bin_node("-", w, _ONE))), du)
         if var not in u._names:  # c**v -> c**v*log(c)*v'
             return bin_node("*", bin_node("*", e, call_node("log", (u,))), dw)
-        inner = bin_node("+", bin_node("*", dw, call_node("log", (u,))), bin_node("/", bin_node("*", w, du), u))
+        inner = bin_node("+", bin_node("*", dw, call_node("log", (u,))),
+                         bin_node("/", bin_node("*", w, du), u))
         return bin_node("*", e, inner)  # u**v -> u**v*(v'*log(u) + v*u'/u)
     if op == "atan2":  # (x*y' - y*x')/(x**2 + y**2)
         x, dx = args[1], diff_expr(args[1], var, memo)
@@ -550,8 +552,8 @@ def call_node(fn: str, args: tuple, strict: bool = False) -> Expr:
     a = args[0]
     if fn == "sqrt" and a.op == "**" and _even(a.args[1]):  # sqrt(u**2k) = abs(u)**k, exact
         k = a.args[1].value / 2  # derivatives at u = 0 (the rule 1/(2*sqrt) would give 0/0)
-        return call_node("abs", (a.args[0],)) if k == 1 else bin_node("**", call_node("abs", (a.args[0],)),
-                                                               num_node(k))
+        absu = call_node("abs", (a.args[0],))
+        return absu if k == 1 else bin_node("**", absu, num_node(k))
     if fn in ("abs", "sign") and a.op == "neg":
         return call_node(fn, (a.args[0],)) if fn == "abs" else neg_node(call_node(fn, (a.args[0],)))
     return Expr(fn, args)

@@ -105,7 +105,8 @@ class _Builder:
             return self.call(node, depth)
         if kind is ast.Constant:
             kind = type(node.value)
-        raise BuildError(_BAD_NODES.get(kind, f"'{kind.__name__}' is") + " not allowed in expression {}")
+        raise BuildError(_BAD_NODES.get(kind, f"'{kind.__name__}' is")
+                         + " not allowed in expression {}")
 
     def name(self, n: str) -> Expr:
         if n == "t" and self.allow_t:
@@ -116,14 +117,16 @@ class _Builder:
             try:
                 v = float(self.values[n])
             except (TypeError, ValueError):
-                raise BuildError(f"parameter '{n}' has no numeric value, in expression {{}}") from None
+                raise BuildError(f"parameter '{n}' has no numeric value, in expression "
+                                 "{}") from None
             if not math.isfinite(v):
                 raise BuildError(f"parameter '{n}' is not finite ({v!r}) in expression {{}}")
             return num_node(v)
         if n in CONSTANTS:
             return num_node(CONSTANTS[n])
         if n == "t":
-            raise BuildError("'t' (time) is only allowed in driver functions f, not in expression {}")
+            raise BuildError("'t' (time) is only allowed in driver functions f, not in "
+                             "expression {}")
         if n in function_names():
             raise BuildError(f"function '{n}' must be called, e.g. {n}(x), in expression {{}}")
         # values before functions: 'aa' is far more likely a slip for the parameter 'a' than 'atan'
@@ -145,7 +148,8 @@ class _Builder:
         n = FUNCS[fn][0] if fn in FUNCS else SUGAR.get(fn, 1)
         if (len(node.args) != n) if n else len(node.args) < 2:
             form = _FORMS.get(fn, "1 argument (x)")
-            raise BuildError(f"function '{fn}' takes {form}, got {len(node.args)}, in expression {{}}")
+            raise BuildError(f"function '{fn}' takes {form}, got {len(node.args)}, in "
+                             "expression {}")
         args = tuple(self.build(a, depth + 1) for a in node.args)
         if fn in SUGAR:
             return sugar_node(fn, args)

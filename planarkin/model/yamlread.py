@@ -268,7 +268,7 @@ def _decode(data: bytes, col: Collector) -> str:
             _fail(col, _line_of(prefix, len(prefix)), "the file contains a NUL byte (binary data?)")
         prefix = data[: e.start].decode("utf-8")
         _fail(col, _line_of(prefix, len(prefix)), f"the file is not UTF-8 text (byte 0x{data[e.start]:02x})")
-        raise AssertionError("unreachable")  # pragma: no cover
+        raise AssertionError("unreachable") from None  # pragma: no cover
     if nul != -1:
         pos = len(data[:nul].decode("utf-8"))
         _fail(col, _line_of(text, pos), "the file contains a NUL byte (binary data?)")

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .tables import BODY_QUANTITIES, POINT_QUANTITIES, units
+from ..layout import BODY_QUANTITIES, POINT_QUANTITIES, units
 
 DPI = 150                      # raster output (png)
 ANIM_FRAMES = 80               # frames of animation.gif (fewer when the run has fewer rows)

@@ -21,7 +21,7 @@ from ..solver import Chunk, Options
 from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpoint, critical,
                         signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
-from .tables import Layout
+from ..layout import Layout
 
 if TYPE_CHECKING:                     # annotations only: results imports this module
     from ..model.compile import CompiledModel

@@ -38,7 +38,6 @@ tables among the metrics. Variants follow the nominal's assembly branch.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 

@@ -228,7 +228,6 @@ class Fused:
         n = self.n
         phi = Q[:, 2::3]
         F = Frame(Q, np.cos(phi), np.sin(phi))
-        nblk = len(self.plan)
         iters = np.zeros(N, dtype=np.int64)
         done = np.zeros(N, dtype=bool)
         size = np.full(N, np.inf)

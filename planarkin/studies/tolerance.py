@@ -57,13 +57,11 @@ def output_gradients(study: Study, res, names: list[str]) -> np.ndarray:
     """(outputs, parameters) exact d(output)/dp at the nominal result res (nan where the
     output is not a max/min/stroke/absmax of a position column)."""
     from .sensitivity import sensitivities
-    from .variants import split_unit, tables
     cm = study.nominal
     G = np.full((len(study.metrics), len(names)), np.nan)
     if not any(m.position for m in study.metrics):
         return G
     dq, dP = sensitivities(cm, study.root, study.texts(), names, res.t, res.q)
-    header = tables(cm, study.opts)
     for i, m in enumerate(study.metrics):
         if not m.position:
             continue

@@ -66,7 +66,7 @@ class Metric:
 def tables(cm, opts):
     """Every table a run of cm writes: file name -> (header, function(chunk) -> array)."""
     from ..derived import derived_tables
-    from ..output.tables import Layout
+    from ..layout import Layout
     lay = Layout(cm, opts.order)
     out = {"bodies.csv": (lay.body_header, lay.body_table),
            "points.csv": (lay.point_header, lay.point_table)}
