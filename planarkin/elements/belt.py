@@ -20,6 +20,7 @@ class Belt(Gear):
     """The gear relation (g, grad, gamma of `Gear`) with the sign of rj set by `crossed`."""
 
     name = "belt"
+    reaction_columns = ("fx", "fy", "torque")    # the tight run's pull, its moment about j
     nbody = 3
     params = (
         Param("ri", "length", "pitch radius of pulley i, > 0"),
@@ -41,6 +42,13 @@ class Belt(Gear):
         "carries nothing and the tight one dT); torque: their moment about j's centre (its "
         "revolute joint to the carrier k), counter-clockwise positive. Pulley i gets minus the "
         "force with the same moment about that point; the carrier nothing")
+
+    def validate(self, V, params, given, what):
+        for key in ("ri", "rj"):
+            if params.get(key) is not None and params[key] < 0:
+                V.err(given[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
+                                  f"pulley's pitch radius; for a crossed belt write crossed: "
+                                  f"true)")
 
     def diagnose(self, arrays, L, af, lu, au):
         T0 = float(arrays["pretension"])

@@ -55,6 +55,7 @@ def global_point(F, b, s):
 
 class Gear(Kind):
     name = "gear"
+    reaction_columns = ("fx", "fy", "torque")    # the tooth force, its moment about j
     nbody = 3
     params = (
         Param("ri", "length", "signed pitch radius of gear i (negative for an internal ring gear)"),

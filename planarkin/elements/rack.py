@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param, force_at, gradient_force, relative_velocity
+from .base import Kind, Param, check_positive, force_at, gradient_force, relative_velocity
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
 from .translational import along_jerk, slide_line, normal_gamma, normal_jerk, normal_row
 
@@ -77,6 +77,7 @@ _SIDE = (Param("side", "real", "+1: centre on the +n_i side of the pitch line, -
 
 class RackPinion(Kind):
     name = "rack-pinion"
+    reaction_columns = ("fx", "fy", "torque")    # the contact force on j, its moment about sj
     derived = _SIDE
     summary = ("rack-and-pinion, rolling only: rack i, pinion j of pitch radius r; the centre "
                "distance comes from other joints (1 equation)")
@@ -89,6 +90,9 @@ class RackPinion(Kind):
         "(the constraint's own force) and |F_t| tan(pressure_angle) pushing the pinion away "
         "from the rack; torque: its moment about the pinion's centre sj, counter-clockwise "
         "positive. The rack i gets minus the force at the same point")
+
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("r",))
 
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
@@ -130,6 +134,7 @@ class RackPinion(Kind):
 
 class RollLine(Kind):
     name = "roll-line"
+    reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = _PARAMS
     derived = _SIDE
@@ -142,6 +147,9 @@ class RollLine(Kind):
                "road; a rack and pinion that also keeps the centre distance) (2 equations)")
     equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "
                  "- c0 = 0")
+
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("r",))
 
     def g(self, G, F):
         ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)

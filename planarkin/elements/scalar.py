@@ -19,6 +19,7 @@ _POINTS = (
 
 class Angle(Kind):
     name = "angle"
+    reaction_columns = ("torque",)               # a pure moment
     driver = True
     params = ()
     target = "c"
@@ -99,6 +100,7 @@ class _Component(Kind):
 
 class XDistance(_Component):
     name = "x"
+    reaction_columns = ("fx", "fy")
     axis = 0
     reaction_sign = (
         'fx: the force on j at P_j along the global x axis (fy = 0); i gets minus it at P_i (a '
@@ -111,6 +113,7 @@ class XDistance(_Component):
 
 class YDistance(_Component):
     name = "y"
+    reaction_columns = ("fx", "fy")
     axis = 1
     reaction_sign = (
         'fy: the force on j at P_j along the global y axis (fx = 0); i gets minus it at P_i. As a '
@@ -125,6 +128,7 @@ class Distance(Kind):
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
+    reaction_columns = ("fx", "fy")              # along the line between the points
     driver = True
     params = _POINTS
     target = "c"

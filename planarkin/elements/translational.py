@@ -69,6 +69,7 @@ def _normal_g(G: Group, F: Frame):
 
 class Translational(Kind):
     name = "translational"
+    reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = (
         Param("si", "point", "a point of the sliding axis on body i in its frame"),
@@ -116,6 +117,7 @@ class Translational(Kind):
 
 class PinSlot(Kind):
     name = "pin-slot"
+    reaction_columns = ("fx", "fy")              # normal to the slot, no moment about the pin
     params = (
         Param("si", "point", "a point of the slot's centre line on body i in its frame"),
         Param("vi", "vector", "slot direction on body i in its frame"),

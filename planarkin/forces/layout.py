@@ -8,6 +8,7 @@ import re
 import numpy as np
 
 from ..elements import KINDS
+from ..elements.base import Kind
 from .model import unit_names
 from .solve import JOINT_OUTPUT
 
@@ -15,9 +16,10 @@ UNIQUE_TOL = 1e-9       # a left null vector of Phi_q with an entry above this m
                         # multiplier non-unique (normalised rows, unit null vectors)
 
 
-# kinds with a signed normal contact force (Kind.contact_force): bilateral joints standing for
-# contacts that only press; forces.csv gets <name>.contact, positive while pressing
-CONTACT_KINDS = ("cam", "cam-rocker")
+# kinds with a signed normal contact force (their own Kind.contact_force): bilateral joints
+# standing for contacts that only press; forces.csv gets <name>.contact, positive while pressing
+CONTACT_KINDS = tuple(name for name, k in KINDS.items()
+                      if type(k).contact_force is not Kind.contact_force)
 
 
 def column_name(el) -> str:

@@ -33,8 +33,6 @@ TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"} | set(function_names())
 MAX_SEGMENTS = 100       # segments of one motion: profile (longer motions: a table)
-MACHINE_KINDS = ("rack-pinion", "roll-line", "gear-mesh", "roll-disc", "belt", "cam", "cam-rocker",
-                 "curve-slot")
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
 
 
@@ -550,37 +548,15 @@ class _Validator:
             f = self.driver_function(node, v, what, lines)
         if "vi" in params and "vj" in params and kind.name == "translational":
             pass
-        self.machine_element(kind, params, v, what)
+        kind.validate(self, params, v, what)
+        if any(p.unit in ("law", "angle-law") for p in kind.params):
+            from .camlaws import check_law
+            check_law(self, params, v, what)
         if None in bodies:
             return None
         return ElementSpec(role=role, index=idx, kind=kname, bodies=tuple(bodies), params=params,
                            line=node.line, name=ename, target=target, f=f, at=at, axis=axis,
                            param_lines=lines)
-
-    def machine_element(self, kind, params: dict, v: dict, what: str) -> None:
-        """Radii of the machine-element kinds (rack, rolling discs, gears, belts, cams)."""
-        for key in ("r", "roller", "base") if kind.name in MACHINE_KINDS else ():
-            x = params.get(key)
-            if x is not None and (x < 0 or (x == 0 and key != "roller")):
-                self.err(v[key], f"{what}: {key} must be positive, not {x:g}")
-        if kind.name == "belt":
-            for key in ("ri", "rj"):
-                if params.get(key) is not None and params[key] < 0:
-                    self.err(v[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
-                                     f"pulley's pitch radius; for a crossed belt write crossed: "
-                                     f"true)")
-        if kind.name in ("cam", "cam-rocker"):
-            from .camlaws import check_law
-            check_law(self, params, v, what)
-        if kind.name == "curve-slot" and hasattr(params.get("curve"), "segments") and \
-                params.get("closed") and not params["curve"].closed:
-            self.err(v["closed"], f"{what}: closed: true, but the curve's last segment does not "
-                                  f"end where its first starts (a circle or a chain of segments "
-                                  f"is closed by its geometry; drop closed)")
-        if kind.name in ("gear-mesh", "roll-disc") and params.get("ri") is not None \
-                and params.get("rj") is not None and params["ri"] + params["rj"] == 0:
-            self.err(v["rj"], f"{what}: ri + rj must not be zero (the centre distance |ri + rj| "
-                              f"of the pair)")
 
     def param(self, node: Node, p, what: str):
         if p.unit in ("law", "angle-law"):
