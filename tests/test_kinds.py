@@ -23,7 +23,8 @@ PARTS = {
     1: ("name", "neq", "nbody", "joint", "driver", "params", "target", "target_unit", "summary",
         "equations", "driver_equations"),
     2: ("g", "grad", "gamma", "jerk"),
-    3: ("validate", "diagnose", "at_form", "place"),
+    3: ("validate", "diagnose", "at_form", "place", "at_points", "at_axis", "target_from_at",
+        "target_default", "between"),
     4: ("prepare", "derived", "sampled_zeros"),
     5: ("reaction_columns", "reaction_sign", "reaction_setup", "reaction", "reaction_point",
         "contact_force"),
@@ -62,6 +63,13 @@ def missing_parts(kind: Kind) -> list[str]:
     out += [f"part 3: {m}" for m in ("validate", "diagnose") if not callable(getattr(kind, m))]
     if kind.at_form is not None and not own(kind, "place"):
         out.append("part 3: place (the kind has an at_form)")
+    if kind.at_points not in (1, 2) or ((kind.at_axis or kind.target_from_at or
+                                         kind.at_points != 1) and kind.at_form is None):
+        out.append("part 3: at_points, at_axis, target_from_at (without an at_form)")
+    if kind.target_default is not None and not (kind.joint and kind.target):
+        out.append("part 3: target_default (the kind has no joint target)")
+    if kind.between and not (kind.driver and {"si", "sj"} <= {p.name for p in kind.params}):
+        out.append("part 3: between (not a driver with points si and sj)")
     # 4. estimates: derived parameters need prepare to fill them
     if kind.derived and not own(kind, "prepare"):
         out.append("part 4: prepare (the kind has derived parameters)")
@@ -144,6 +152,11 @@ def test_a_complete_kind_passes():
      ["part 4: prepare (the kind has derived parameters)"]),
     ({"params": (Param("si", "pointy", "a point"),)}, ["part 1: params"]),
     ({"validate": None}, ["part 3: validate"]),
+    ({"at_axis": True}, ["part 3: at_points, at_axis, target_from_at (without an at_form)"]),
+    ({"at_points": 3, "at_form": "[x, y]", "place": lambda self, at, poses, given: {}},
+     ["part 3: at_points, at_axis, target_from_at (without an at_form)"]),
+    ({"target_default": 0.0}, ["part 3: target_default (the kind has no joint target)"]),
+    ({"between": True}, ["part 3: between (not a driver with points si and sj)"]),
 ])
 def test_a_kind_without_a_part_is_named(changes, missing):
     assert missing_parts(_without(**changes)) == missing

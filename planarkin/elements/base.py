@@ -118,7 +118,8 @@ class Kind:
        checks of the parameters' values once read (radii, a closed curve), and
        ``diagnose(arrays, L, af, lu, au)``, what only the compiled parameters show (a cam
        that undercuts). ``at_form`` and ``place``: a global ``at:`` placement turned into
-       body-frame parameters.
+       body-frame parameters (``at_points``, ``at_axis``, ``target_from_at``);
+       ``target_default``, ``between``: what the file may leave out or name otherwise.
     4. Assembly estimates: ``prepare(arrays, poses)`` and the ``derived`` parameters it fills
        from the estimated poses (a rolling phase, a side); ``sampled_zeros`` (whether a zero of
        the gradient at random states is structural).
@@ -163,8 +164,17 @@ class Kind:
     derived: tuple = ()
 
     # The validator converts 'at' (global placement) into body-frame parameters through this.
-    # at_form: None (no global placement) or a description of the 'at' value for messages.
+    # at_form: None (no global placement) or a description of the 'at' value for messages;
+    # at_points: how many global points 'at' gives; at_axis: with 'at', the slide direction is
+    # given as 'axis'; target_from_at: the joint's constant follows from 'at' when not given.
     at_form: str | None = None
+    at_points: int = 1
+    at_axis: bool = False
+    target_from_at: bool = False
+    # the constant of a joint whose target may be left out (None: it must be given)
+    target_default: float | None = None
+    # a driver of this kind may name two sketch pins, between: [C, D], for its bodies and points
+    between: bool = False
 
     def g(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -73,6 +73,11 @@ class Gear(Kind):
         "torque the teeth put on j, counter-clockwise positive). Gear i gets minus the force at "
         "the same point; the carrier nothing (its bearings take the rest)")
 
+    def prepare(self, arrays, poses):
+        # the phase constant: the gears mesh as drawn
+        pi_, pj, pk = (p[2] for p in poses)
+        return {}, [arrays["ri"] * (pi_ - pk) + arrays["rj"] * (pj - pk)]
+
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 

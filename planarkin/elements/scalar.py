@@ -128,6 +128,9 @@ class Distance(Kind):
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
+    at_points = 2
+    target_from_at = True
+    between = True
     reaction_columns = ("fx", "fy")              # along the line between the points
     driver = True
     params = _POINTS
@@ -141,6 +144,12 @@ class Distance(Kind):
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"
+
+    def validate(self, V, params, given, what):
+        c = params.get("c")
+        if c is not None and c <= 0:
+            V.err(given["c"], f"{what}: the distance c must be positive, not {c:g} (for a zero "
+                              f"distance use a revolute joint)")
 
     def g(self, G, F):
         h = relative_point(G, F)

@@ -8,6 +8,8 @@ anti-parallel root); c is fixed when the model is compiled from vi, vj and the b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import jerk as J
@@ -69,6 +71,7 @@ def _normal_g(G: Group, F: Frame):
 
 class Translational(Kind):
     name = "translational"
+    at_axis = True
     reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = (
@@ -84,6 +87,9 @@ class Translational(Kind):
         'minus both')
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
     equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
+
+    def prepare(self, arrays, poses):
+        return {}, [parallel_constant(arrays["vi"], arrays["vj"], poses[0][2], poses[1][2]), 0.0]
 
     def g(self, G, F):
         out = empty(F, len(G), 2)
@@ -117,6 +123,8 @@ class Translational(Kind):
 
 class PinSlot(Kind):
     name = "pin-slot"
+    at_axis = True
+    target_default = 0.0              # the pin on the slot's line
     reaction_columns = ("fx", "fy")              # normal to the slot, no moment about the pin
     params = (
         Param("si", "point", "a point of the slot's centre line on body i in its frame"),
@@ -198,3 +206,11 @@ class Slide(Kind):
 
     def jerk(self, G, F):
         return along_jerk(G, F)[..., None]
+
+
+def parallel_constant(vi, vj, phi_i, phi_j) -> float:
+    """c of phi_j - phi_i = c making A_i vi parallel to A_j vj, the multiple of pi nearest the
+    estimates (an axis given anti-parallel on one body still means the same slide line)."""
+    base = math.atan2(vi[1], vi[0]) - math.atan2(vj[1], vj[0])
+    k = round(((phi_j - phi_i) - base) / math.pi)
+    return base + k * math.pi

@@ -82,10 +82,10 @@ class ElementSections:
                     self.err(v["link"], f"{what}: give either link or body, not both")
                 v = dict(v)
                 v["body"] = v.pop("link")
-            if kind.name == "distance":
+            if kind.between:
                 allowed.append("between")
         between = None
-        if role == "driver" and "between" in v and kind.name == "distance":
+        if role == "driver" and "between" in v and kind.between:
             if "i" in v or "j" in v or "body" in v:
                 self.err(v["between"], f"{what} ({kname}): give either between: [C, D] or the "
                                        f"bodies i and j, not both")
@@ -130,7 +130,7 @@ class ElementSections:
         has_at = kind.at_form is not None and role == "joint"
         if has_at:
             allowed.append("at")
-            if kind.name in ("translational", "pin-slot"):
+            if kind.at_axis:
                 allowed.append("axis")
         if role == "joint" and kind.target:
             allowed.append(kind.target)
@@ -188,19 +188,15 @@ class ElementSections:
             if kind.target in v:
                 target = self.param(v[kind.target], _target_param(kind), what)
                 lines[kind.target] = v[kind.target].line
-            elif kind.name == "pin-slot":
-                target = 0.0
-            elif not (kind.name == "distance" and at is not None):
+            elif kind.target_default is not None:
+                target = kind.target_default
+            elif not (kind.target_from_at and at is not None):
                 self.err(node, f"{what}: missing {kind.target} (the constant value"
                                f"{', in ' + kind.target_unit + ' units' if kind.target_unit else ''})")
-            if kind.name == "distance" and target is not None and target <= 0:
-                self.err(v[kind.target], f"{what}: the distance c must be positive, not {target:g} "
-                                         f"(for a zero distance use a revolute joint)")
         if role == "driver":
             f = self.driver_function(node, v, what, lines)
-        if "vi" in params and "vj" in params and kind.name == "translational":
-            pass
-        kind.validate(self, params, v, what)
+        kind.validate(self, {**params, kind.target: target} if target is not None else params,
+                      v, what)
         if any(p.unit in ("law", "angle-law") for p in kind.params):
             from .camlaws import check_law
             check_law(self, params, v, what)
@@ -286,7 +282,7 @@ class ElementSections:
         return vec
 
     def placement(self, node: Node, kind, what: str):
-        if kind.name == "distance":
+        if kind.at_points == 2:
             if node.kind != "seq" or len(node.value) != 2:
                 self.err(node, f"{what}: at must be [[x1, y1], [x2, y2]] (the two points)")
                 return None
