@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,7 +24,7 @@ from .model.compile import CompiledModel
 from .closure import short_loops
 from .linalg import one_blas_thread
 from .meshing import centre_distances
-from .system import System
+from .system import PIN_BLAS_FROM, System
 from .branches import apply_branch_hints, block_modes, fmt_res, diag
 from .tolerances import ASSEMBLED
 
@@ -165,8 +166,10 @@ def assemble(cm: CompiledModel, start: float | None = None) -> Assembly:
         cm = replace(cm, spec=replace(cm.spec, analysis=replace(cm.spec.analysis, start=start)))
         sketched = False
     # dense SVDs and least squares of up to DENSE_LIMIT columns: on one BLAS thread, because
-    # a busy second core made OpenBLAS's threads take 50 times longer (linalg.one_blas_thread)
-    with np.errstate(all="ignore"), one_blas_thread():
+    # a busy second core made OpenBLAS's threads take 50 times longer (linalg.one_blas_thread);
+    # below PIN_BLAS_FROM coordinates OpenBLAS does not thread them (as for the solver's blocks)
+    pin = one_blas_thread() if cm.n >= PIN_BLAS_FROM else contextlib.nullcontext()
+    with np.errstate(all="ignore"), pin:
         return _assemble(cm, sketched)
 
 
