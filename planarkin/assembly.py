@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .diagnostics import Diagnostic, InputError
+from .elements import KINDS
 from .model.compile import CompiledModel
 from .closure import short_loops
 from .linalg import one_blas_thread
@@ -190,7 +191,7 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
                 raise InputError([Diagnostic(spec.file, line,
                                              f"{el.label}: f or its derivatives are not finite at "
                                              f"t = start = {t0:g} (f = {el.f.text})")])
-            if el.kind == "distance" and not T[0, r] > 0:
+            if KINDS[el.kind].positive_target and not T[0, r] > 0:
                 raise InputError([Diagnostic(spec.file, line,
                                              f"{el.label}: f must be a positive distance, but "
                                              f"f({t0:g}) = {T[0, r] * cm.L:g}")])

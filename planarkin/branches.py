@@ -40,7 +40,7 @@ def fmt_res(cm: CompiledModel, row: int, value: float) -> str:
     el = cm.element_of_row(row)
     from .elements import KINDS
     kind = KINDS[el.kind]
-    if kind.target_unit == "angle" or (el.kind == "translational" and row == first_row(cm, row)):
+    if kind.row_unit(row - first_row(cm, row)) == "angle":
         v = value / cm.angle_factor
         return f"{abs(v):.3g} {cm.spec.angle_unit}"
     return f"{abs(value) * cm.L:.3g} {cm.spec.length_unit}"

@@ -22,9 +22,9 @@ from planarkin.forces.solve import JOINT_OUTPUT
 PARTS = {
     1: ("name", "neq", "nbody", "joint", "driver", "params", "target", "target_unit", "summary",
         "equations", "driver_equations"),
-    2: ("g", "grad", "gamma", "jerk"),
+    2: ("g", "grad", "gamma", "jerk", "row_unit"),
     3: ("validate", "diagnose", "at_form", "place", "at_points", "at_axis", "target_from_at",
-        "target_default", "between"),
+        "target_default", "between", "positive_target"),
     4: ("prepare", "derived", "sampled_zeros"),
     5: ("reaction_columns", "reaction_sign", "reaction_setup", "reaction", "reaction_point",
         "contact_force"),
@@ -58,7 +58,9 @@ def missing_parts(kind: Kind) -> list[str]:
     if kind.driver and not (kind.driver_equations and kind.target_unit in ("length", "angle")):
         out.append("part 1: driver_equations and target_unit")
     # 2. the equations
-    out += [f"part 2: {m}" for m in PARTS[2] if not own(kind, m)]
+    out += [f"part 2: {m}" for m in PARTS[2][:4] if not own(kind, m)]
+    if any(kind.row_unit(k) not in ("angle", "length") for k in range(kind.neq)):
+        out.append("part 2: row_unit")
     # 3. validation: the hooks are callables; a kind placed by 'at' says how
     out += [f"part 3: {m}" for m in ("validate", "diagnose") if not callable(getattr(kind, m))]
     if kind.at_form is not None and not own(kind, "place"):
@@ -157,6 +159,7 @@ def test_a_complete_kind_passes():
      ["part 3: at_points, at_axis, target_from_at (without an at_form)"]),
     ({"target_default": 0.0}, ["part 3: target_default (the kind has no joint target)"]),
     ({"between": True}, ["part 3: between (not a driver with points si and sj)"]),
+    ({"row_unit": lambda self, k: "radian"}, ["part 2: row_unit"]),
 ])
 def test_a_kind_without_a_part_is_named(changes, missing):
     assert missing_parts(_without(**changes)) == missing

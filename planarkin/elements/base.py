@@ -113,13 +113,15 @@ class Kind:
        joint, the unit of a driver's f), ``summary``, ``equations`` and, for drivers,
        ``driver_equations`` (the reference tables of the docs are made from them).
     2. Equations, batched over N states and K instances (reference §0, §5): ``g``, ``grad``,
-       ``gamma`` and ``jerk`` (the third-derivative right-hand side, up_to: jerk).
+       ``gamma`` and ``jerk`` (the third-derivative right-hand side, up_to: jerk);
+       ``row_unit`` (what each equation's residual measures).
     3. Validation, at the element's line in the file: ``validate(V, params, given, what)``,
        checks of the parameters' values once read (radii, a closed curve), and
        ``diagnose(arrays, L, af, lu, au)``, what only the compiled parameters show (a cam
        that undercuts). ``at_form`` and ``place``: a global ``at:`` placement turned into
        body-frame parameters (``at_points``, ``at_axis``, ``target_from_at``);
-       ``target_default``, ``between``: what the file may leave out or name otherwise.
+       ``target_default``, ``between``: what the file may leave out or name otherwise;
+       ``positive_target`` (a distance's c and f).
     4. Assembly estimates: ``prepare(arrays, poses)`` and the ``derived`` parameters it fills
        from the estimated poses (a rolling phase, a side); ``sampled_zeros`` (whether a zero of
        the gradient at random states is structural).
@@ -173,6 +175,8 @@ class Kind:
     target_from_at: bool = False
     # the constant of a joint whose target may be left out (None: it must be given)
     target_default: float | None = None
+    # the target (a joint's c, a driver's f) must be positive (a distance)
+    positive_target: bool = False
     # a driver of this kind may name two sketch pins, between: [C, D], for its bodies and points
     between: bool = False
 
@@ -184,6 +188,11 @@ class Kind:
 
     def gamma(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def row_unit(self, k: int) -> str:
+        """'angle' or 'length': what the residual of equation k measures (messages give it in
+        the file's angle or length unit)."""
+        return "angle" if self.target_unit == "angle" else "length"
 
     def jerk(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         """(N, K, neq) jerk_g at (F.q, F.qd, F.qdd). With g this kind's function,

@@ -131,6 +131,7 @@ class Distance(Kind):
     at_points = 2
     target_from_at = True
     between = True
+    positive_target = True
     reaction_columns = ("fx", "fy")              # along the line between the points
     driver = True
     params = _POINTS

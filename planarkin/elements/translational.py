@@ -88,6 +88,9 @@ class Translational(Kind):
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
     equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
 
+    def row_unit(self, k):
+        return "angle" if k == 0 else "length"        # phi_j - phi_i = c0; n_i^T h = 0
+
     def prepare(self, arrays, poses):
         return {}, [parallel_constant(arrays["vi"], arrays["vj"], poses[0][2], poses[1][2]), 0.0]
 
