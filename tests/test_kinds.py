@@ -25,7 +25,7 @@ PARTS = {
     2: ("g", "grad", "gamma", "jerk", "row_unit"),
     3: ("validate", "diagnose", "at_form", "place", "at_points", "at_axis", "target_from_at",
         "target_default", "between", "positive_target"),
-    4: ("prepare", "derived", "sampled_zeros"),
+    4: ("prepare", "derived", "check_pose", "sampled_zeros"),
     5: ("reaction_columns", "reaction_sign", "reaction_setup", "reaction", "reaction_point",
         "contact_force"),
 }
@@ -75,6 +75,8 @@ def missing_parts(kind: Kind) -> list[str]:
     # 4. estimates: derived parameters need prepare to fill them
     if kind.derived and not own(kind, "prepare"):
         out.append("part 4: prepare (the kind has derived parameters)")
+    if not callable(kind.check_pose):
+        out.append("part 4: check_pose")
     if not isinstance(kind.sampled_zeros, bool):
         out.append("part 4: sampled_zeros")
     # 5. reactions: what a joint's columns are and what their signs mean

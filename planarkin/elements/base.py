@@ -122,9 +122,10 @@ class Kind:
        body-frame parameters (``at_points``, ``at_axis``, ``target_from_at``);
        ``target_default``, ``between``: what the file may leave out or name otherwise;
        ``positive_target`` (a distance's c and f).
-    4. Assembly estimates: ``prepare(arrays, poses)`` and the ``derived`` parameters it fills
-       from the estimated poses (a rolling phase, a side); ``sampled_zeros`` (whether a zero of
-       the gradient at random states is structural).
+    4. Assembly: ``prepare(arrays, poses)`` and the ``derived`` parameters it fills from the
+       estimated poses (a rolling phase, a side, a phase constant); ``check_pose``, what the
+       assembled pose must satisfy beyond the equations (a gear pair's centre distance);
+       ``sampled_zeros`` (whether a zero of the gradient at random states is structural).
     5. Reactions (the forces room): ``reaction_columns`` (what a joint's forces.csv columns
        are: fx, fy, torque), ``reaction_sign`` (their meaning and signs), ``reaction_setup``,
        ``reaction`` (the physical force where -g_q^T lambda is not), ``reaction_point`` (where
@@ -208,6 +209,12 @@ class Kind:
         Returns a dict of parameters to add.
         """
         raise NotImplementedError
+
+    def check_pose(self, G: Group, F: Frame, pivots: dict, L: float, lu: str) -> list:
+        """What the assembled pose F (one state) must satisfy beyond the equations (a gear
+        pair's centre distance, pulleys that do not overlap): (instance k, 'error' or
+        'warning', message in user units: lengths times L, in lu). pivots: see `pivots`."""
+        return []
 
     def prepare(self, arrays, poses):
         """Derived parameters and constant targets from the estimated poses, for kinds whose

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import jerk as J
 from .base import Kind, Param, force_at, gradient_force, relative_point, relative_velocity, omega
-from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
+from .gear import PRESSURE_ANGLE, centre_gap, check_pressure_angle, mesh_check, pressure_tan
 
 _PARAMS = (
     Param("si", "point", "centre of gear (disc) i on body i in its frame"),
@@ -80,6 +80,13 @@ class GearMesh(Kind):
         "point: the tangential part (the constraint's own force) and the radial part |F_t| tan"
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre sj, "
         "counter-clockwise positive. Gear i gets minus the force at the same point")
+
+    def check_pose(self, G, F, pivots, L, lu):
+        out = []
+        for k in range(len(G)):
+            d = centre_gap(F, G, k, G.params["si"][k], G.params["sj"][k])
+            out += mesh_check(k, d, float(G.params["ri"][k]), float(G.params["rj"][k]), L, lu)
+        return out
 
     def validate(self, V, params, given, what):
         if params.get("ri") is not None and params.get("rj") is not None \
