@@ -193,7 +193,7 @@ def main(argv=None):
                                     "ratio_wall": pk / pl, "ratio_cpu": pkc / plc,
                                     "planarkin_err": pk_err}
             out["rounds"][route] = walls[route]
-        print(f"  all rounds (s): " + "; ".join(
+        print("  all rounds (s): " + "; ".join(
             f"{r} {', '.join(f'{x:.3f}' for x in walls[r])}" for r in routes)
             + f"; pylinkage {', '.join(f'{x:.3f}' for x in peer_out['wall'])}\n", flush=True)
         results["mechanisms"][name] = out

@@ -11,7 +11,7 @@ units) -> assemble -> solve (path following, then every grid point) -> write (CS
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from .version import __version__
 
 __all__ = ["load", "solve", "synthesize", "fit", "InputError", "__version__"]
 

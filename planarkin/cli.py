@@ -13,7 +13,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
+from .version import __version__
 from .model.spec import TABLE_FORMATS, X_AXES, table_format_problem
 from .options import OPTIONS
 from .report import Report
@@ -179,7 +179,7 @@ def check(models, quiet, derived, overrides):
             from .model.sketch import derived_yaml
             click.echo(derived_yaml(model.spec), nl=False)
         ndrv = len(model.driver_rows)
-        from .assembly import describe_modes
+        from .branches import describe_modes
         words = describe_modes(model, A) if A.modes else []
         modes = "; ".join(f"{'+'.join(md.bodies)}: {'+' if md.sign > 0 else '-'}"
                           + (f" ({w})" if w else "") for md, w in zip(A.modes, words))
@@ -348,7 +348,7 @@ def _run_study(model_path, report: Report, outdir: Path, work):
             report.failed(model_path, str(e))
         except OutputError as e:
             report.invalid(model_path, [Diagnostic(model_path, None, str(e))])
-        except InputError as e:         # the study's size (planarkin.budget.check_study)
+        except InputError as e:         # the study's size (planarkin.studies.budget.check_study)
             report.invalid(model_path, e.diagnostics)
     sys.exit(report.exit_code)
 

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .expr import Expr, TimeFunction, _bin, _Num, _pw, _sugar
+from .expr import Expr, TimeFunction
+from .expr.core import bin_node, num_node, pw_node, sugar_node
 from .piecewise import Piece, Piecewise
 
 __all__ = ["TableError", "confined", "read_columns", "read_table", "spline", "table_function"]
@@ -262,6 +263,8 @@ def table_function(t: np.ndarray, y: np.ndarray, periodic: bool, shown: str) -> 
     tt = Expr("name", (), "t")
     if periodic:
         t0, period = float(t[0]), float(t[-1] - t[0])
-        arg = _bin("+", _Num(t0), _sugar("mod", (_bin("-", tt, _Num(t0)), _Num(period))))
-        return TimeFunction.from_expr(_pw(pw, arg), f"table {shown} (periodic)")
-    return TimeFunction.from_expr(_pw(pw, tt), f"table {shown}", domain=(float(t[0]), float(t[-1])))
+        arg = bin_node("+", num_node(t0),
+                       sugar_node("mod", (bin_node("-", tt, num_node(t0)), num_node(period))))
+        return TimeFunction.from_expr(pw_node(pw, arg), f"table {shown} (periodic)")
+    return TimeFunction.from_expr(pw_node(pw, tt), f"table {shown}",
+                                  domain=(float(t[0]), float(t[-1])))

@@ -212,7 +212,7 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     Returns (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False
     where a coordinate is not finite), the residual |Phi| (N, m) of every equation at the
     results (redundant ones included), its largest value per point (N,) and the condition
-    estimate (N,) of solver._cond."""
+    estimate (N,) of solver.cond_of."""
     N, W = Q.shape
     nblk = P.nblk
     iters = np.empty(N, dtype=np.int64)

@@ -271,59 +271,30 @@ def _inv_norm1_estimate(lu, k: int, maxit: int = 3) -> float:
 
 # -- BLAS threads ---------------------------------------------------------------------------------
 
-_BLAS_NAMES = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
-               ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
-               ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
-               ("openblas_set_num_threads", "openblas_get_num_threads"))
-_blas_cache: list = [-1, []]          # [len(sys.modules) when scanned, [(set, get), ...]]
+_blas_cache: list = [-1, None]        # [len(sys.modules) when scanned, ThreadpoolController]
 
 
-def _blas_controls() -> list:
-    """(set_num_threads, get_num_threads) of every OpenBLAS loaded in this process (numpy's and,
-    once imported, scipy's). Found through /proc/self/maps (Linux; elsewhere: none, and the
-    threads are left alone); rescanned only when modules were imported since."""
-    if _blas_cache[0] == len(sys.modules):
-        return _blas_cache[1]
-    import ctypes                 # here: 3 ms of import that small models never need
-    found = []
-    try:
-        with open("/proc/self/maps") as f:
-            paths = sorted({ln.split()[-1] for ln in f if "openblas" in ln.lower()
-                            and ln.split()[-1].startswith("/")})
-    except OSError:
-        paths = []
-    for p in paths:
-        try:
-            lib = ctypes.CDLL(p)
-        except OSError:
-            continue
-        for set_name, get_name in _BLAS_NAMES:
-            if hasattr(lib, set_name) and hasattr(lib, get_name):
-                st, gt = getattr(lib, set_name), getattr(lib, get_name)
-                st.argtypes, st.restype, gt.restype = [ctypes.c_int], None, ctypes.c_int
-                found.append((st, gt))
-                break
-    _blas_cache[:] = [len(sys.modules), found]
-    return found
+def blas_controller():
+    """threadpoolctl's controller of every BLAS loaded in this process (numpy's and, once
+    imported, scipy's OpenBLAS); rescanned only when modules were imported since (a scan
+    costs about 0.7 ms, pinning through the controller 7 us)."""
+    if _blas_cache[0] != len(sys.modules):
+        from threadpoolctl import ThreadpoolController      # 3 ms: small models never pay it
+        _blas_cache[:] = [len(sys.modules), ThreadpoolController().select(user_api="blas")]
+    return _blas_cache[1]
 
 
 class one_blas_thread:
-    """Context: OpenBLAS runs on one thread inside (restored on exit). The solver's linear
-    algebra is many small factorisations; with the threads of OpenBLAS spinning on a core that
-    another process holds, the same run took 50 times longer (issue 12: 3.5 s -> 165-184 s).
-    An environment variable would have to be set before numpy loads, which a library called from
-    someone's program cannot do; threadpoolctl would be a dependency."""
+    """Context: the BLAS libraries run on one thread inside (restored on exit). The solver's
+    linear algebra is many small factorisations; with the threads of OpenBLAS spinning on a core
+    that another process holds, the same run took 50 times longer (issue 12: 3.5 s -> 165-184
+    s). An environment variable would have to be set before numpy loads, which a library called
+    from someone's program cannot do: threadpoolctl sets the libraries' own thread counts."""
 
     def __enter__(self):
-        self.saved = []
-        for st, gt in _blas_controls():
-            n = gt()
-            if n != 1:
-                st(1)
-                self.saved.append((st, n))
+        self.limiter = blas_controller().limit(limits=1)
         return self
 
     def __exit__(self, *exc):
-        for st, n in self.saved:
-            st(n)
+        self.limiter.restore_original_limits()
         return False

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .expr import Expr, ExprError, TimeFunction, _bin, _call, _Fail, _Num, _pw, _sugar
+from .expr import Expr, ExprError, TimeFunction
+from .expr.core import BuildError, bin_node, call_node, num_node, pw_node, sugar_node
 from .laws import law
 
 __all__ = ["Segment", "profile", "short_segment"]
@@ -49,23 +50,24 @@ class Segment:
 def profile(segments, initial: float = 0.0, t0: float = 0.0, repeat: bool = False) -> TimeFunction:
     """The TimeFunction of a chain of `Segment` (validated: durations > 0, laws known)."""
     t = Expr("name", (), "t")
-    tau = _bin("-", t, _Num(t0))
+    tau = bin_node("-", t, num_node(t0))
     period = sum(s.duration for s in segments)
-    local = _sugar("mod", (tau, _Num(period))) if repeat else tau
-    terms = [_Num(initial)]
+    local = sugar_node("mod", (tau, num_node(period))) if repeat else tau
+    terms = [num_node(initial)]
     start = 0.0
     for s in segments:
         if s.kind != "dwell" and s.amount != 0:
-            u = _bin("/", _bin("-", local, _Num(start)), _Num(s.duration))
-            terms.append(_bin("*", _Num(s.amount), _pw(law(s.law), u)))
+            u = bin_node("/", bin_node("-", local, num_node(start)), num_node(s.duration))
+            terms.append(bin_node("*", num_node(s.amount), pw_node(law(s.law), u)))
         start += s.duration
     net = sum(s.amount for s in segments)
     if repeat and net != 0:  # an indexing motion: each cycle starts where the last one ended
-        terms.append(_bin("*", _Num(net), _call("floor", (_bin("/", tau, _Num(period)),))))
+        cycles = call_node("floor", (bin_node("/", tau, num_node(period)),))
+        terms.append(bin_node("*", num_node(net), cycles))
     text = "motion: " + ", ".join(s.describe() for s in segments) + (", repeat" if repeat else "")
     try:
         return TimeFunction.from_expr(_sum(terms), text)
-    except _Fail as exc:
+    except BuildError as exc:
         raise ExprError(exc.args[0].replace("{}", "'" + text[:77] + "'")) from None
 
 
@@ -86,4 +88,4 @@ def _sum(terms: list) -> Expr:
     if len(terms) == 1:
         return terms[0]
     h = len(terms) // 2
-    return _bin("+", _sum(terms[:h]), _sum(terms[h:]))
+    return bin_node("+", _sum(terms[:h]), _sum(terms[h:]))

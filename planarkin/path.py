@@ -12,7 +12,7 @@ import numpy as np
 
 from .model.compile import CompiledModel
 
-NODE_TOL = 1e-12      # Newton tolerance at internal nodes (internal units)
+from .tolerances import NODE_TOL  # noqa: F401  (the path's Newton tolerance, shared)
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 
 

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .chunks import take
 from .derived import derived_tables
 from .model.compile import CompiledModel
-from .output.tables import Layout
-from .output.writer import DirectoryWriter, _take
+from .layout import Layout
 from .solver import Analysis, Chunk, Event, Options
 
 @dataclass
@@ -160,6 +160,7 @@ class Result:
         ...; needs pyarrow; default: the model's output: table_format)."""
         from .diagnostics import Diagnostic, InputError
         from .output.directory import OutputError
+        from .output.writer import DirectoryWriter
         if x is not None:
             from .model.spec import X_AXES, x_axis_problem
             problem = (f"x must be one of {', '.join(X_AXES)}, not {x!r}" if x not in X_AXES
@@ -326,7 +327,7 @@ def refuse(an: Analysis, ch: Chunk) -> Chunk:
             i, msg, kind = (tuple(cut) + ("non-finite",))[:3]
             an.event = Event(kind, float(ch.t[i]), msg)
             an.t_stop = float(ch.t[i])
-            ch = _take(ch, np.arange(i))
+            ch = take(ch, np.arange(i))
     return ch
 
 
@@ -356,7 +357,7 @@ def _refuse_rows(an: Analysis, ch: Chunk) -> Chunk:
     if bad[i]:
         cols = []
         layout = Layout(cm, an.opts.order)
-        row = layout.body_table(_take(ch, np.array([i])))[0]
+        row = layout.body_table(take(ch, np.array([i])))[0]
         cols = [h for h, v in zip(layout.body_header, row) if not np.isfinite(v)]
         if not cols:
             cols = ["a point's coordinates" if np.isfinite(ch.residual[i]) else "the residual"]
@@ -372,4 +373,4 @@ def _refuse_rows(an: Analysis, ch: Chunk) -> Chunk:
         kind = "residual"
     an.event = Event(kind, t, msg)
     an.t_stop = t
-    return _take(ch, np.arange(i))
+    return take(ch, np.arange(i))

@@ -43,10 +43,11 @@ from .acceptance import COND_WARN, accepted, condition, taylor_error
 from .assembly import Assembly
 from . import kernel
 from .budget import node_limit
-from .model.compile import CompiledModel
 from .kinematics import point_jerk, point_kinematics
+from .tolerances import NODE_TOL
+from .model.compile import CompiledModel
 from .options import Options
-from .path import (KINK_TOL, NODE_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, Kink, Nodes,
+from .path import (KINK_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, Kink, Nodes,
                    driver_breakpoints, hermite5, path_block)
 from .singular import classify, near_singular_warnings, reselect
 from .system import System
@@ -86,7 +87,7 @@ class PathFollower:
         span = opts.end - opts.start
         self.span = span
         self.h_min = 1e-11 * max(span, 1e-300)
-        self.h_max = min(span, opts.max_step or span) 
+        self.h_max = min(span, opts.max_step or span)
         self.nodes = Nodes()
         self.max_nodes = node_limit(cm, opts)
         self.rejected = 0

@@ -184,7 +184,7 @@ def solved(study):
     Q0, _, _, sg0 = B.nominal
     vals = [{"a": 0.0401, "b": 0.12}, {"a": 0.04, "b": 0.1202}, {"a": 0.0399, "b": 0.1199}]
     groups, targets, s, env, ok = B.numbers(vals)
-    V, T = len(vals), len(Q0)
+    V = len(vals)
     Q = np.repeat(Q0[None], V, axis=0)
     sign = np.repeat(sg0[None], V, axis=0)
     sign[1, 7, 0] *= -1

@@ -68,7 +68,8 @@ def test_peaks_never_skip_a_non_finite_value():
 # at theta = 180 deg: P - m omega^2 h / 2.
 @pytest.mark.parametrize("P", [0.05, 200.0])
 def test_cam_lift_off_is_warned_with_time_and_margin(tmp_path, P):
-    from planarkin.forces.output import cycle_contact, format_contact
+    from planarkin.forces.output import cycle_contact
+    from planarkin.measures.cycle import format_contact
     text = VALVE.replace('f: ["0", "-200"]', f'f: ["0", "-{P}"]')
     r, summary, lines = run(tmp_path, text, "valve")
     assert r.exit_code == 0, r.output

@@ -95,7 +95,7 @@ def test_a_wrong_jerk_is_detected():
 # -- runs with up_to: jerk against closed forms ------------------------------------------------
 
 import planarkin  # noqa: E402
-from closedforms import rel
+from closedforms import rel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 TWO_PI = 2 * math.pi

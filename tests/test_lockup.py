@@ -180,5 +180,5 @@ def test_a_change_point_loop_with_a_pin_carried_by_three_links(tmp_path):
             "0.1, rocker 0.04)") in r.output
     # the dyad's loop through the arm, as before
     dyad = math.dist((0.02, 0.034641016151377546), (0.08, -0.05))
-    assert f"four-bar loop ground-link2-arm-crank: crank-rocker (crank turns fully)" in r.output
+    assert "four-bar loop ground-link2-arm-crank: crank-rocker (crank turns fully)" in r.output
     assert f"arm {dyad:.6g}" in r.output

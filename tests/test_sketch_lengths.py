@@ -212,7 +212,7 @@ def test_a_very_rough_sketch_is_assembled_on_the_branches_it_draws(monkeypatch):
     # from there Levenberg-Marquardt closes two loops the other way; the sketch draws F below
     # the line B-A and the knee G on the published side of E-F, and that is what is kept
     import linkages as L
-    from planarkin.model import sketch
+    from planarkin import branches
     exact = L.jansen(math.radians(30))
     m = _jansen_rough()
     A = assemble(m)
@@ -221,7 +221,7 @@ def test_a_very_rough_sketch_is_assembled_on_the_branches_it_draws(monkeypatch):
     for p, xy in exact.items():
         assert math.dist((r.point(p)["x"][0], r.point(p)["y"][0]), xy) < 1e-12, p
     # without keeping the drawn branches the same sketch lands on others
-    monkeypatch.setattr(sketch, "keep_drawn_branches", lambda cm, A: None)
+    monkeypatch.setattr(branches, "keep_drawn_branches", lambda cm, A: None)
     assert [md.sign for md in assemble(_jansen_rough()).modes] != [1, -1, 1]
 
 
@@ -240,7 +240,7 @@ def test_a_four_bar_drawn_crossed_is_assembled_crossed():
 def test_a_drawn_branch_that_cannot_be_reached_is_an_input_error_at_the_link(monkeypatch):
     # every dyad closes both ways when it closes at all, so the refusal is forced here: the
     # branch search reports no assembly with the drawn sign
-    from planarkin import assembly
+    from planarkin import branches
     from planarkin.diagnostics import Diagnostic
 
     def refuse(cm, A):
@@ -248,7 +248,7 @@ def test_a_drawn_branch_that_cannot_be_reached_is_an_input_error_at_the_link(mon
             return
         raise InputError([Diagnostic(cm.spec.file, None, "assembly: branch: no assembly with "
                                      "sign - found for the loop lower+rocker (only +)")])
-    monkeypatch.setattr(assembly, "_apply_branch_hints", refuse)
+    monkeypatch.setattr(branches, "apply_branch_hints", refuse)
     with pytest.raises(InputError) as e:
         assemble(_jansen_rough())
     assert [d.format() for d in e.value.diagnostics] == [

@@ -71,7 +71,7 @@ def test_parameters_reaching_a_direction_are_refused():
 def test_seeded_tolerance_reproduces_itself_bit_for_bit(tmp_path):
     study = Study(SC, analysis={"steps": 12}, metrics=["max:slider.x", "dev:B"])
     r1 = run_tolerance(study, {"a": 1e-4, "b": 2e-4}, tmp_path / "1", 6, seed=5, plots=None)
-    r2 = run_tolerance(study, {"a": 1e-4, "b": 2e-4}, tmp_path / "2", 6, seed=5, plots=None)
+    run_tolerance(study, {"a": 1e-4, "b": 2e-4}, tmp_path / "2", 6, seed=5, plots=None)
     for name in ("tolerance.csv", "samples.csv", "sensitivities.csv"):
         assert (tmp_path / "1" / name).read_bytes() == (tmp_path / "2" / name).read_bytes()
     assert draw(["a"], {"a": 0.1}, {"a": 1e-4}, 6, 6, "normal") != r1.variants

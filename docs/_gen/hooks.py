@@ -22,5 +22,6 @@ def on_page_markdown(markdown, page, config, files):
         try:
             return GENERATORS[m.group(1)]()
         except KeyError:
-            raise ValueError(f"{page.file.src_path}: unknown generated table {m.group(1)!r}")
+            raise ValueError(f"{page.file.src_path}: unknown generated table "
+                             f"{m.group(1)!r}") from None
     return MARKER.sub(sub, markdown)

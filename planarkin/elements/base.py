@@ -19,12 +19,20 @@ from dataclasses import dataclass
 import numpy as np
 
 
+# What a parameter is, as the validator reads it (planarkin.model.validate, Validator.param)
+UNITS = ("point", "vector", "length", "angle", "real", "flag", "range", "curve", "law",
+         "angle-law")
+
+
 @dataclass(frozen=True)
 class Param:
     """One YAML key of a kind.
 
-    unit: 'point' (2-vector of lengths, body frame), 'vector' (2-vector direction, normalised),
-    'length' (scalar length), 'angle' (scalar angle in the file's angle unit), 'real' (number).
+    unit (one of UNITS): 'point' (2-vector of lengths, body frame), 'vector' (2-vector
+    direction, normalised), 'length' (scalar length), 'angle' (scalar angle in the file's angle
+    unit), 'real' (number), 'flag' (true/false), 'range' ([from, to] of a cam angle), 'curve' (a
+    curve-slot's path), 'law' / 'angle-law' (a cam's motion law of the cam angle: a lift, an
+    angle).
     """
 
     name: str
@@ -95,14 +103,41 @@ class Group:
 
 
 class Kind:
-    """A constraint kind. Subclasses set the class attributes and implement g, grad, gamma and
-    jerk (the third-derivative right-hand side, for up_to: jerk; planarkin.elements.jerk).
+    """A constraint kind: everything planarkin knows about one YAML ``type``, in the kind's own
+    module of this package, registered once in `planarkin.elements.KINDS`. The contract (what
+    `tests/test_kinds.py` checks for every registered kind):
 
-    name: YAML ``type``; neq: equations per instance; nbody: bodies per instance (i, j[, k]);
-    joint/driver: whether the kind may appear under ``joints:`` / ``drivers:``;
-    params: joint parameters (drivers use the same minus the constant target);
-    target: name of the constant target parameter for joints (``c``) or None when fixed at 0;
-    target_unit: unit of that target and of a driver's f ('length', 'angle' or None).
+    1. Identity and reference: ``name`` (the YAML type), ``neq`` equations and ``nbody``
+       bodies (i, j[, k]) per instance, ``joint`` / ``driver`` (where it may appear),
+       ``params`` (`Param`: its YAML keys), ``target`` and ``target_unit`` (the constant of a
+       joint, the unit of a driver's f), ``summary``, ``equations`` and, for drivers,
+       ``driver_equations`` (the reference tables of the docs are made from them).
+    2. Equations, batched over N states and K instances (reference §0, §5): ``g``, ``grad``,
+       ``gamma`` and ``jerk`` (the third-derivative right-hand side, up_to: jerk);
+       ``row_unit`` (what each equation's residual measures).
+    3. Validation, at the element's line in the file: ``validate(V, params, given, what)``,
+       checks of the parameters' values once read (radii, a closed curve), and
+       ``diagnose(arrays, L, af, lu, au)``, what only the compiled parameters show (a cam
+       that undercuts). ``at_form`` and ``place``: a global ``at:`` placement turned into
+       body-frame parameters (``at_points``, ``at_axis``, ``target_from_at``);
+       ``target_default``, ``between``: what the file may leave out or name otherwise;
+       ``positive_target`` (a distance's c and f).
+    4. Assembly: ``prepare(arrays, poses)`` and the ``derived`` parameters it fills from the
+       estimated poses (a rolling phase, a side, a phase constant); ``check_pose``, what the
+       assembled pose must satisfy beyond the equations (a gear pair's centre distance);
+       ``sampled_zeros`` (whether a zero of the gradient at random states is structural).
+    5. Reactions (the forces room): ``reaction_columns`` (what a joint's forces.csv columns
+       are: fx, fy, torque), ``reaction_sign`` (their meaning and signs), ``reaction_setup``,
+       ``reaction`` (the physical force where -g_q^T lambda is not), ``reaction_point`` (where
+       the moment is taken) and ``contact_force`` (contacts that only press); see the notes at
+       `reaction_sign` below.
+    6. Drawing: ``draw`` (the kind's part of the mechanism figure). Pending: the figures are
+       drawn by planarkin.output.plots until the kinds' draw hooks land.
+
+    A method left as here means "nothing to add" (parts 3-5: no checks, no estimates, the
+    constraint force is the physical one); parts 1, 2 and, for joints, 5's reaction_columns and
+    reaction_sign every kind states itself. The compiled route matches the kinds it compiles by
+    class (planarkin.kernel); the others take the numpy route.
     """
 
     name: str = ""
@@ -116,6 +151,8 @@ class Kind:
     summary: str = ""
     equations: str = ""
     driver_equations: str = ""
+    # the forces.csv columns of a joint of this kind (part 5): ("fx", "fy"), ("torque",) ...
+    reaction_columns: tuple = ()
 
     # Whether a zero of the gradient at a few random states is structural (it comes from
     # constant parameters: the phi column of a pin at a body's origin). False for kinds whose
@@ -130,8 +167,19 @@ class Kind:
     derived: tuple = ()
 
     # The validator converts 'at' (global placement) into body-frame parameters through this.
-    # at_form: None (no global placement) or a description of the 'at' value for messages.
+    # at_form: None (no global placement) or a description of the 'at' value for messages;
+    # at_points: how many global points 'at' gives; at_axis: with 'at', the slide direction is
+    # given as 'axis'; target_from_at: the joint's constant follows from 'at' when not given.
     at_form: str | None = None
+    at_points: int = 1
+    at_axis: bool = False
+    target_from_at: bool = False
+    # the constant of a joint whose target may be left out (None: it must be given)
+    target_default: float | None = None
+    # the target (a joint's c, a driver's f) must be positive (a distance)
+    positive_target: bool = False
+    # a driver of this kind may name two sketch pins, between: [C, D], for its bodies and points
+    between: bool = False
 
     def g(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -141,6 +189,11 @@ class Kind:
 
     def gamma(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def row_unit(self, k: int) -> str:
+        """'angle' or 'length': what the residual of equation k measures (messages give it in
+        the file's angle or length unit)."""
+        return "angle" if self.target_unit == "angle" else "length"
 
     def jerk(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         """(N, K, neq) jerk_g at (F.q, F.qd, F.qdd). With g this kind's function,
@@ -156,6 +209,12 @@ class Kind:
         Returns a dict of parameters to add.
         """
         raise NotImplementedError
+
+    def check_pose(self, G: Group, F: Frame, pivots: dict, L: float, lu: str) -> list:
+        """What the assembled pose F (one state) must satisfy beyond the equations (a gear
+        pair's centre distance, pulleys that do not overlap): (instance k, 'error' or
+        'warning', message in user units: lengths times L, in lu). pivots: see `pivots`."""
+        return []
 
     def prepare(self, arrays, poses):
         """Derived parameters and constant targets from the estimated poses, for kinds whose
@@ -207,6 +266,12 @@ class Kind:
     def contact_force(self, G: Group, F: Frame, lam: np.ndarray, setup):
         """(N, K) signed normal contact force (internal units), positive while the parts press
         on each other, for unilateral contacts modelled as bilateral; None for other kinds."""
+        return None
+
+    def validate(self, V, params: dict, given: dict, what: str) -> None:
+        """Checks of one instance's parameter values once read (user units), reported through
+        the validator V (``V.err(node, message)``) at the offending key's node in given (the
+        element's YAML mapping); what: the element's label for messages."""
         return None
 
     def diagnose(self, arrays, L, af, length_unit, angle_unit) -> list:
@@ -313,6 +378,15 @@ def pivots(groups) -> dict:
             out.setdefault((int(bi), int(bj)), np.asarray(si, float))
             out.setdefault((int(bj), int(bi)), np.asarray(sj, float))
     return out
+
+
+def check_positive(V, params: dict, given: dict, what: str, keys, zero_ok=()) -> None:
+    """Kind.validate's common check: each of keys given must be positive (zero allowed for the
+    keys in zero_ok, a roller of radius 0 being a knife edge)."""
+    for key in keys:
+        x = params.get(key)
+        if x is not None and (x < 0 or (x == 0 and key not in zero_ok)):
+            V.err(given[key], f"{what}: {key} must be positive, not {x:g}")
 
 
 def force_at(F: Frame, bodies, px, py, fx, fy, out, slot, sign=1.0):

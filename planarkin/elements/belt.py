@@ -13,13 +13,14 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Param, force_at, gradient_force
-from .gear import Gear, carrier_centres, global_point
+from .gear import Gear, carrier_centres, carrier_pairs, centre_gap, global_point
 
 
 class Belt(Gear):
     """The gear relation (g, grad, gamma of `Gear`) with the sign of rj set by `crossed`."""
 
     name = "belt"
+    reaction_columns = ("fx", "fy", "torque")    # the tight run's pull, its moment about j
     nbody = 3
     params = (
         Param("ri", "length", "pitch radius of pulley i, > 0"),
@@ -41,6 +42,23 @@ class Belt(Gear):
         "carries nothing and the tight one dT); torque: their moment about j's centre (its "
         "revolute joint to the carrier k), counter-clockwise positive. Pulley i gets minus the "
         "force with the same moment about that point; the carrier nothing")
+
+    def check_pose(self, G, F, pivots, L, lu):
+        out = []
+        for k, ci, cj in carrier_pairs(G, pivots):
+            d = centre_gap(F, G, k, ci, cj)
+            r = float(G.params["ri"][k] + G.params["rj"][k])
+            if not d > r:
+                out.append((k, "error", f"the pulleys overlap: their centres are {d * L:.6g} {lu} "
+                                        f"apart, not more than ri + rj = {r * L:.6g} {lu}"))
+        return out
+
+    def validate(self, V, params, given, what):
+        for key in ("ri", "rj"):
+            if params.get(key) is not None and params[key] < 0:
+                V.err(given[key], f"{what}: {key} must be positive, not {params[key]:g} (the "
+                                  f"pulley's pitch radius; for a crossed belt write crossed: "
+                                  f"true)")
 
     def diagnose(self, arrays, L, af, lu, au):
         T0 = float(arrays["pretension"])

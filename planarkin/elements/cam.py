@@ -30,7 +30,7 @@ import numpy as np
 
 from ..expr import parse
 from . import jerk as J
-from .base import Kind, Param, body_xy, force_at, omega, relative_velocity, rotate
+from .base import Kind, Param, body_xy, check_positive, force_at, omega, relative_velocity, rotate
 
 VAR = "theta"
 DEFAULT_LIMIT = {"cam": math.radians(30.0), "cam-rocker": math.radians(45.0)}
@@ -182,7 +182,7 @@ class _CamReaction:
 
     def _contact(self, G, F, lam):
         """(f, Cx, Cy, Nx, Ny), (N, K) each, global, internal units."""
-        bi, bj, bk = G.bodies[:, 0], G.bodies[:, 1], G.bodies[:, 2]
+        bk = G.bodies[:, 2]
         th, _ = _cam_angle(G, F)
         N, K = th.shape
         cx, cy, nx, ny = (np.empty((N, K)) for _ in range(4))
@@ -213,6 +213,7 @@ class _CamReaction:
 
 class Cam(_CamReaction, Kind):
     name = "cam"
+    reaction_columns = ("fx", "fy", "torque")
     reaction_sign = CAM_SIGN
     sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
@@ -233,6 +234,9 @@ class Cam(_CamReaction, Kind):
     summary = ("cam i turning on frame k (default ground) drives a translating follower j (knife "
                "edge, roller or flat face) by the law s(theta); writes cam-<name>.csv (1 equation)")
     equations = "u_k^T (P_j - C_k) - s(phi_i - phi_k) - s0 = 0 (s0: follower on the base circle)"
+
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("roller", "base"), zero_ok=("roller",))
 
     def _h(self, G, F):
         bj, bk = G.bodies[:, 1], G.bodies[:, 2]
@@ -310,6 +314,7 @@ class Cam(_CamReaction, Kind):
 
 class CamRocker(_CamReaction, Kind):
     name = "cam-rocker"
+    reaction_columns = ("fx", "fy", "torque")
     reaction_sign = CAM_SIGN
     sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     nbody = 3
@@ -332,6 +337,9 @@ class CamRocker(_CamReaction, Kind):
     summary = ("cam i turning on frame k (default ground) swings a rocker j (knife edge, roller "
                "or flat face) by the law psi(theta); writes cam-<name>.csv (1 equation)")
     equations = "phi_j - phi_k - psi(phi_i - phi_k) - psi0 = 0 (psi0 as drawn)"
+
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("roller", "base"), zero_ok=("roller",))
 
     def g(self, G, F):
         bj, bk = G.bodies[:, 1], G.bodies[:, 2]
@@ -640,7 +648,6 @@ def derived_tables(cm, opts) -> list:
     from ..derived import DerivedTable
 
     out = []
-    L, af = cm.L, cm.angle_factor
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
     for G in cm.groups:
         if G.kind.name not in ("cam", "cam-rocker"):

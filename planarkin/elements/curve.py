@@ -142,6 +142,7 @@ def _geometry(G, F):
 
 class CurveSlot(Kind):
     name = "curve-slot"
+    reaction_columns = ("fx", "fy", "torque")
     sampled_zeros = False     # straight pieces, dwells: zeros on whole regions
     params = (
         Param("sj", "point", "the pin on body j in its frame"),
@@ -158,6 +159,13 @@ class CurveSlot(Kind):
     summary = ("pin sj of j follows a curve of body i (a curved slot, a track): exact lines and "
                "arcs, or a table of points interpolated by a quintic spline (1 equation)")
     equations = "signed distance of A_i^T (r_j + A_j s'_j - r_i) to the curve = 0"
+
+    def validate(self, V, params, given, what):
+        if hasattr(params.get("curve"), "segments") and params.get("closed") \
+                and not params["curve"].closed:
+            V.err(given["closed"], f"{what}: closed: true, but the curve's last segment does "
+                                   f"not end where its first starts (a circle or a chain of "
+                                   f"segments is closed by its geometry; drop closed)")
 
     def diagnose(self, arrays, L, af, lu, au):
         cv = arrays["curve"]

@@ -46,6 +46,43 @@ def carrier_centres(G, pivots):
     return {"ci": ci, "cj": cj, "ok": np.isfinite(ci).all(axis=1) & np.isfinite(cj).all(axis=1)}
 
 
+MESH_WARN = 1e-6      # relative centre-distance error of a gear pair that is worth a warning
+MESH_ERROR = 0.1      # ... and that no tooth form can take up: an error
+
+
+def mesh_check(k, d, ri, rj, L, lu) -> list:
+    """check_pose of a gear pair whose centres are d apart (internal units): its centre distance
+    must be |ri + rj| (a warning above MESH_WARN relative, an error above MESH_ERROR: the teeth
+    cannot mesh)."""
+    want = abs(ri + rj)
+    dev = abs(d - want) / want
+    if not dev > MESH_WARN:
+        return []
+    grossly = dev > MESH_ERROR
+    return [(k, "error" if grossly else "warning",
+             f"the centre distance is {d * L:.6g} {lu} but the pitch radii give |ri + rj| = "
+             f"{want * L:.6g} {lu}" + (" (more than 10% off: the teeth cannot mesh); correct the "
+                                       "radii or the centres" if grossly else "; the gears turn "
+                                       "at the ratio of the radii all the same"))]
+
+
+def centre_gap(F, G, k, ci, cj) -> float:
+    """Distance (internal units) of instance k's centres ci on i and cj on j (body frames)."""
+    bi, bj = G.bodies[k:k + 1, 0], G.bodies[k:k + 1, 1]
+    xi, yi = global_point(F, bi, np.asarray(ci, float)[None, :])
+    xj, yj = global_point(F, bj, np.asarray(cj, float)[None, :])
+    return float(np.hypot(xj - xi, yj - yi)[0, 0])
+
+
+def carrier_pairs(G, pivots):
+    """(k, centre of i, centre of j) of the instances whose bodies turn on revolute joints to
+    their carrier k (the others are not checked)."""
+    for k, (bi, bj, bk) in enumerate(G.bodies):
+        ci, cj = pivots.get((int(bi), int(bk))), pivots.get((int(bj), int(bk)))
+        if ci is not None and cj is not None:
+            yield k, ci, cj
+
+
 def global_point(F, b, s):
     """Global (x, y), (N, K), of body-frame points s (K, 2) of bodies b (K,)."""
     x, y = body_xy(F, b)
@@ -55,6 +92,7 @@ def global_point(F, b, s):
 
 class Gear(Kind):
     name = "gear"
+    reaction_columns = ("fx", "fy", "torque")    # the tooth force, its moment about j
     nbody = 3
     params = (
         Param("ri", "length", "signed pitch radius of gear i (negative for an internal ring gear)"),
@@ -71,6 +109,18 @@ class Gear(Kind):
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre (the "
         "torque the teeth put on j, counter-clockwise positive). Gear i gets minus the force at "
         "the same point; the carrier nothing (its bearings take the rest)")
+
+    def check_pose(self, G, F, pivots, L, lu):
+        out = []
+        for k, ci, cj in carrier_pairs(G, pivots):
+            out += mesh_check(k, centre_gap(F, G, k, ci, cj), float(G.params["ri"][k]),
+                              float(G.params["rj"][k]), L, lu)
+        return out
+
+    def prepare(self, arrays, poses):
+        # the phase constant: the gears mesh as drawn
+        pi_, pj, pk = (p[2] for p in poses)
+        return {}, [arrays["ri"] * (pi_ - pk) + arrays["rj"] * (pj - pk)]
 
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import jerk as J
 from .base import Kind, Param, force_at, gradient_force, relative_point, relative_velocity, omega
-from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
+from .gear import PRESSURE_ANGLE, centre_gap, check_pressure_angle, mesh_check, pressure_tan
 
 _PARAMS = (
     Param("si", "point", "centre of gear (disc) i on body i in its frame"),
@@ -68,7 +68,7 @@ def _phase(arrays, poses):
 
 class GearMesh(Kind):
     name = "gear-mesh"
-    params = _PARAMS
+    reaction_columns = ("fx", "fy", "torque")
     derived = _PHASE
     summary = ("gear pair with moving centres (planet gears): the pitch circles of i and j roll "
                "without slip; the centre distance comes from other joints (1 equation)")
@@ -80,6 +80,19 @@ class GearMesh(Kind):
         "point: the tangential part (the constraint's own force) and the radial part |F_t| tan"
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre sj, "
         "counter-clockwise positive. Gear i gets minus the force at the same point")
+
+    def check_pose(self, G, F, pivots, L, lu):
+        out = []
+        for k in range(len(G)):
+            d = centre_gap(F, G, k, G.params["si"][k], G.params["sj"][k])
+            out += mesh_check(k, d, float(G.params["ri"][k]), float(G.params["rj"][k]), L, lu)
+        return out
+
+    def validate(self, V, params, given, what):
+        if params.get("ri") is not None and params.get("rj") is not None \
+                and params["ri"] + params["rj"] == 0:
+            V.err(given["rj"], f"{what}: ri + rj must not be zero (the centre distance "
+                               f"|ri + rj| of the pair)")
 
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
@@ -147,6 +160,7 @@ class GearMesh(Kind):
 
 class RollDisc(Kind):
     name = "roll-disc"
+    reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = _PARAMS
     derived = _PHASE
@@ -157,6 +171,12 @@ class RollDisc(Kind):
     summary = ("disc j rolls without slipping on disc i, outside (ri, rj > 0) or inside (the "
                "outer radius negative); also keeps the centre distance |ri + rj| (2 equations)")
     equations = "P_j - P_i - (ri + rj) e(theta*) = 0, theta* as for gear-mesh"
+
+    def validate(self, V, params, given, what):
+        if params.get("ri") is not None and params.get("rj") is not None \
+                and params["ri"] + params["rj"] == 0:
+            V.err(given["rj"], f"{what}: ri + rj must not be zero (the centre distance "
+                               f"|ri + rj| of the pair)")
 
     def g(self, G, F):
         th, _, S = _theta(G, F)

@@ -19,21 +19,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param, force_at, gradient_force, relative_velocity
+from .base import Kind, Param, check_positive, force_at, gradient_force, relative_velocity
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
-from .translational import _along_jerk, _line, _normal_gamma, _normal_jerk, _normal_row
+from .translational import along_jerk, slide_line, normal_gamma, normal_jerk, normal_row
 
 
 def _along(G, F):
     """u_i^T h + sigma r (phi_j - phi_i): (N, K)."""
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     bi, bj = G.bodies[:, 0], G.bodies[:, 1]
     sr = G.params["side"] * G.params["r"]
     return ux * hx + uy * hy + sr * (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])
 
 
 def _along_row(G, F, out, row):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     sr = G.params["side"] * G.params["r"]
     out[..., row, 0] = -ux
     out[..., row, 1] = -uy
@@ -45,7 +45,7 @@ def _along_row(G, F, out, row):
 
 def _along_gamma(G, F):
     # the sigma r (phi_j - phi_i) term is linear: gamma is that of the slide u_i^T h (§5.6)
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
     kx = wj * wj * sjx - wi * wi * six
     ky = wj * wj * sjy - wi * wi * siy
@@ -77,7 +77,7 @@ _SIDE = (Param("side", "real", "+1: centre on the +n_i side of the pitch line, -
 
 class RackPinion(Kind):
     name = "rack-pinion"
-    params = _PARAMS
+    reaction_columns = ("fx", "fy", "torque")    # the contact force on j, its moment about sj
     derived = _SIDE
     summary = ("rack-and-pinion, rolling only: rack i, pinion j of pitch radius r; the centre "
                "distance comes from other joints (1 equation)")
@@ -91,6 +91,9 @@ class RackPinion(Kind):
         "from the rack; torque: its moment about the pinion's centre sj, counter-clockwise "
         "positive. The rack i gets minus the force at the same point")
 
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("r",))
+
     def diagnose(self, arrays, L, af, lu, au):
         return check_pressure_angle(arrays, af, au)
 
@@ -99,7 +102,7 @@ class RackPinion(Kind):
         P_j - sigma r n_i; the radial part, along sigma n_i on the pinion, is carried by the
         joints that hold the centre distance (pinion bearing, rack guide)."""
         out = gradient_force(G, F, lam)
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
         sr = G.params["side"] * G.params["r"]
         px = F.q[:, 3 * bj] + sjx - sr * nx
@@ -121,7 +124,7 @@ class RackPinion(Kind):
         return _along_gamma(G, F)[..., None]
 
     def jerk(self, G, F):
-        return _along_jerk(G, F)[..., None]
+        return along_jerk(G, F)[..., None]
 
     def prepare(self, arrays, poses):
         side, un, _ = _estimate(arrays, poses)
@@ -135,6 +138,7 @@ class RackPinion(Kind):
 
 class RollLine(Kind):
     name = "roll-line"
+    reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = _PARAMS
     derived = _SIDE
@@ -148,21 +152,24 @@ class RollLine(Kind):
     equations = ("n_i^T (P_j - P_i) - sigma r = 0; u_i^T (P_j - P_i) + sigma r (phi_j - phi_i) "
                  "- c0 = 0")
 
+    def validate(self, V, params, given, what):
+        check_positive(V, params, given, what, ("r",))
+
     def g(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         return np.stack([nx * hx + ny * hy, _along(G, F)], axis=-1)
 
     def grad(self, G, F):
         out = np.empty((F.q.shape[0], len(G), 2, 6))
-        _normal_row(G, F, out, 0)
+        normal_row(G, F, out, 0)
         _along_row(G, F, out, 1)
         return out
 
     def gamma(self, G, F):
-        return np.stack([_normal_gamma(G, F), _along_gamma(G, F)], axis=-1)
+        return np.stack([normal_gamma(G, F), _along_gamma(G, F)], axis=-1)
 
     def jerk(self, G, F):
-        return np.stack([_normal_jerk(G, F), _along_jerk(G, F)], axis=-1)
+        return np.stack([normal_jerk(G, F), along_jerk(G, F)], axis=-1)
 
     def prepare(self, arrays, poses):
         side, un, _ = _estimate(arrays, poses)

@@ -13,6 +13,7 @@ from .base import Frame, Group, Kind, Param, empty, omega, rotate
 
 class Revolute(Kind):
     name = "revolute"
+    reaction_columns = ("fx", "fy")              # no moment about the pin
     neq = 2
     params = (
         Param("si", "point", "joint point on body i in its frame"),

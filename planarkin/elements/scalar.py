@@ -19,6 +19,7 @@ _POINTS = (
 
 class Angle(Kind):
     name = "angle"
+    reaction_columns = ("torque",)               # a pure moment
     driver = True
     params = ()
     target = "c"
@@ -107,6 +108,7 @@ class _Component(Kind):
 
 class XDistance(_Component):
     name = "x"
+    reaction_columns = ("fx", "fy")
     axis = 0
     reaction_sign = (
         'fx: the force on j at P_j along the global x axis (fy = 0); i gets minus it at P_i (a '
@@ -119,6 +121,7 @@ class XDistance(_Component):
 
 class YDistance(_Component):
     name = "y"
+    reaction_columns = ("fx", "fy")
     axis = 1
     reaction_sign = (
         'fy: the force on j at P_j along the global y axis (fx = 0); i gets minus it at P_i. As a '
@@ -133,6 +136,11 @@ class Distance(Kind):
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
+    at_points = 2
+    target_from_at = True
+    between = True
+    positive_target = True
+    reaction_columns = ("fx", "fy")              # along the line between the points
     driver = True
     params = _POINTS
     target = "c"
@@ -145,6 +153,12 @@ class Distance(Kind):
     summary = "distance |P_j - P_i| = c, a massless link pinned at both ends (1 equation)"
     equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - c = 0"
     driver_equations = "|r_j + A_j s'_j - r_i - A_i s'_i| - f(t) = 0   (f > 0)"
+
+    def validate(self, V, params, given, what):
+        c = params.get("c")
+        if c is not None and c <= 0:
+            V.err(given["c"], f"{what}: the distance c must be positive, not {c:g} (for a zero "
+                              f"distance use a revolute joint)")
 
     def g(self, G, F):
         h = relative_point(G, F)

@@ -8,6 +8,8 @@ anti-parallel root); c is fixed when the model is compiled from vi, vj and the b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import jerk as J
@@ -15,7 +17,7 @@ from .base import Frame, Group, Kind, Param, empty, relative_point, relative_vel
 from .revolute import dir_to_body, to_body
 
 
-def _line(G: Group, F: Frame):
+def slide_line(G: Group, F: Frame):
     """(u, n, s_i, s_j, h) of the slide line of body i, each as x, y arrays (N, K)."""
     six, siy, sjx, sjy, hx, hy = relative_point(G, F)
     v = G.params["vi"]
@@ -23,9 +25,9 @@ def _line(G: Group, F: Frame):
     return ux, uy, -uy, ux, six, siy, sjx, sjy, hx, hy
 
 
-def _normal_row(G: Group, F: Frame, out, row):
+def normal_row(G: Group, F: Frame, out, row):
     """Gradient of n_i^T h into out[..., row, :] (reference §2.6, Phi2)."""
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     out[..., row, 0] = -nx
     out[..., row, 1] = -ny
     out[..., row, 2] = -(ux * (hx + six) + uy * (hy + siy))
@@ -34,8 +36,8 @@ def _normal_row(G: Group, F: Frame, out, row):
     out[..., row, 5] = ux * sjx + uy * sjy
 
 
-def _normal_gamma(G: Group, F: Frame):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+def normal_gamma(G: Group, F: Frame):
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
     kx = wj * wj * sjx - wi * wi * six
     ky = wj * wj * sjy - wi * wi * siy
@@ -45,30 +47,32 @@ def _normal_gamma(G: Group, F: Frame):
 
 def _line_chains(G: Group, F: Frame):
     """Chains (planarkin.elements.jerk) of u_i, n_i and h of the slide line."""
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     bi, bj = G.bodies[:, 0], G.bodies[:, 1]
     return (J.fixed(F, bi, (ux, uy)), J.fixed(F, bi, (nx, ny)),
             J.pair(F, bi, (six, siy), bj, (sjx, sjy)))
 
 
-def _normal_jerk(G: Group, F: Frame):
+def normal_jerk(G: Group, F: Frame):
     _, n, h = _line_chains(G, F)
     return -J.dot(n, h)
 
 
-def _along_jerk(G: Group, F: Frame):
+def along_jerk(G: Group, F: Frame):
     """jerk_g of u_i^T h (the slide; a rolling constraint adds only a linear angle term)."""
     u, _, h = _line_chains(G, F)
     return -J.dot(u, h)
 
 
 def _normal_g(G: Group, F: Frame):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
     return nx * hx + ny * hy
 
 
 class Translational(Kind):
     name = "translational"
+    at_axis = True
+    reaction_columns = ("fx", "fy", "torque")
     neq = 2
     params = (
         Param("si", "point", "a point of the sliding axis on body i in its frame"),
@@ -84,6 +88,12 @@ class Translational(Kind):
     summary = "prismatic joint: j slides along an axis of i without relative rotation (2 equations)"
     equations = "phi_j - phi_i - c0 = 0 (c0 from vi, vj); n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) = 0"
 
+    def row_unit(self, k):
+        return "angle" if k == 0 else "length"        # phi_j - phi_i = c0; n_i^T h = 0
+
+    def prepare(self, arrays, poses):
+        return {}, [parallel_constant(arrays["vi"], arrays["vj"], poses[0][2], poses[1][2]), 0.0]
+
     def g(self, G, F):
         out = empty(F, len(G), 2)
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
@@ -95,17 +105,17 @@ class Translational(Kind):
         out = np.zeros((F.q.shape[0], len(G), 2, 6))
         out[..., 0, 2] = -1.0
         out[..., 0, 5] = 1.0
-        _normal_row(G, F, out, 1)
+        normal_row(G, F, out, 1)
         return out
 
     def gamma(self, G, F):
         out = np.zeros((F.q.shape[0], len(G), 2))
-        out[..., 1] = _normal_gamma(G, F)
+        out[..., 1] = normal_gamma(G, F)
         return out
 
     def jerk(self, G, F):
         out = np.zeros((F.q.shape[0], len(G), 2))
-        out[..., 1] = _normal_jerk(G, F)
+        out[..., 1] = normal_jerk(G, F)
         return out
 
     def place(self, at, poses, given):
@@ -126,6 +136,9 @@ class Translational(Kind):
 
 class PinSlot(Kind):
     name = "pin-slot"
+    at_axis = True
+    target_default = 0.0              # the pin on the slot's line
+    reaction_columns = ("fx", "fy")              # normal to the slot, no moment about the pin
     params = (
         Param("si", "point", "a point of the slot's centre line on body i in its frame"),
         Param("vi", "vector", "slot direction on body i in its frame"),
@@ -146,14 +159,14 @@ class PinSlot(Kind):
 
     def grad(self, G, F):
         out = np.empty((F.q.shape[0], len(G), 1, 6))
-        _normal_row(G, F, out, 0)
+        normal_row(G, F, out, 0)
         return out
 
     def gamma(self, G, F):
-        return _normal_gamma(G, F)[..., None]
+        return normal_gamma(G, F)[..., None]
 
     def jerk(self, G, F):
-        return _normal_jerk(G, F)[..., None]
+        return normal_jerk(G, F)[..., None]
 
     def place(self, at, poses, given):
         axis = given["axis"]
@@ -194,11 +207,11 @@ class Slide(Kind):
         parts.slide(bi, si, G.params["vi"][k], bj, sj)
 
     def g(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         return (ux * hx + uy * hy)[..., None]
 
     def grad(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         out = np.empty((F.q.shape[0], len(G), 1, 6))
         out[..., 0, 0] = -ux
         out[..., 0, 1] = -uy
@@ -209,7 +222,7 @@ class Slide(Kind):
         return out
 
     def gamma(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = _line(G, F)
+        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
         kx = wj * wj * sjx - wi * wi * six
         ky = wj * wj * sjy - wi * wi * siy
@@ -217,4 +230,12 @@ class Slide(Kind):
                 + ux * kx + uy * ky)[..., None]
 
     def jerk(self, G, F):
-        return _along_jerk(G, F)[..., None]
+        return along_jerk(G, F)[..., None]
+
+
+def parallel_constant(vi, vj, phi_i, phi_j) -> float:
+    """c of phi_j - phi_i = c making A_i vi parallel to A_j vj, the multiple of pi nearest the
+    estimates (an axis given anti-parallel on one body still means the same slide line)."""
+    base = math.atan2(vi[1], vi[0]) - math.atan2(vj[1], vj[0])
+    k = round(((phi_j - phi_i) - base) / math.pi)
+    return base + k * math.pi

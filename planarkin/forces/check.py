@@ -13,7 +13,8 @@ import numpy as np
 
 from ..elements import KINDS
 from ..solver import Event
-from .output import ROWS_MEMO, CONTACT_KINDS, forces_table
+from .layout import CONTACT_KINDS
+from .output import ROWS_MEMO, forces_table
 from .solve import Kinetostatics
 
 
@@ -43,7 +44,7 @@ class RowCheck:
             self.table = forces_table(cm, opts)
             self.header = self.table.header
             self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
-            from .output import column_name
+            from .layout import column_name
             self.labels = {column_name(el): el.label for el in cm.spec.joints}
 
     def __call__(self, an, ch):

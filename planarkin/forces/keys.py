@@ -92,8 +92,8 @@ def _loads(V, node) -> list[LoadSpec]:
 
 
 def _type(node) -> str:
-    from ..model.validate import _type_name
-    return _type_name(node)
+    from ..model.yamlread import type_name
+    return type_name(node)
 
 
 def _load(V, node, idx: int) -> LoadSpec | None:
@@ -115,8 +115,8 @@ def _load(V, node, idx: int) -> LoadSpec | None:
         return None
     name = V.text(v["name"], f"{what}: name") if "name" in v else None
     body_keys = ("body",) if kind in ("force", "torque") else ("i", "j")
-    from ..model.validate import _raw
-    raw = [_raw(v[k]) if k in v else "?" for k in body_keys]
+    from ..model.yamlread import raw_text
+    raw = [raw_text(v[k]) if k in v else "?" for k in body_keys]
     what = (f"load '{name}'" if name else what) + f" ({kind} {'-'.join(raw)})"
     V.keys(node, LOAD_KEYS[kind], what)
     bodies = []

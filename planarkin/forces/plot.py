@@ -148,14 +148,14 @@ class _Data:
 
 
 def _driver_name(el) -> str:
-    from .output import column_name
+    from .layout import column_name
     return column_name(el)
 
 
 def _header_of(cm, X):
     """(column index, header, role) of the forces table that X was computed for."""
-    from .output import _redundancy, columns
-    _, left_out, _ = _redundancy(cm)
+    from .layout import columns, redundancy
+    _, left_out, _ = redundancy(cm)
     cols = columns(cm, left_out)
     assert len(cols) + 1 == X.shape[1]
     return [(k, h, role) for k, (h, _, role) in enumerate(cols, start=1)]

@@ -34,32 +34,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..elements import KINDS
+from ..elements import JOINT_KINDS, KINDS
 from ..elements.base import Kind, make_frame, pivots
 from ..system import System
 from .model import ForceModel, force_model
 
-# what a joint of each kind transmits (the columns of forces.csv); every joint kind is listed
-JOINT_OUTPUT = {
-    "revolute": ("fx", "fy"),            # no moment about the pin
-    "translational": ("fx", "fy", "torque"),
-    "pin-slot": ("fx", "fy"),            # normal to the slot, no moment about the pin
-    "distance": ("fx", "fy"),            # along the line between the points
-    "x": ("fx", "fy"),
-    "y": ("fx", "fy"),
-    "angle": ("torque",),                # a pure moment
-    "gear": ("fx", "fy", "torque"),      # the tooth force, its moment about j's centre
-    # machine elements: the contact force on j and its moment about j's point (sj, a gear's or
-    # pulley's centre; Kind.reaction_point); the sign conventions are each kind's reaction_sign
-    "rack-pinion": ("fx", "fy", "torque"),
-    "roll-line": ("fx", "fy", "torque"),
-    "gear-mesh": ("fx", "fy", "torque"),
-    "roll-disc": ("fx", "fy", "torque"),
-    "belt": ("fx", "fy", "torque"),      # the tight run's pull, its moment about j's centre
-    "cam": ("fx", "fy", "torque"),
-    "cam-rocker": ("fx", "fy", "torque"),
-    "curve-slot": ("fx", "fy", "torque"),
-}
+# what a joint of each kind transmits (the columns of forces.csv), as each kind states it
+# (Kind.reaction_columns); the sign conventions are each kind's reaction_sign
+JOINT_OUTPUT = {name: k.reaction_columns for name, k in JOINT_KINDS.items()}
 # largest number of (point x coordinate^2) entries of a dense (N, n, n) stack solved at once
 SOLVE_ENTRIES = 1 << 21
 # up to this many coordinates one dense solve per point; beyond, the block-triangular form of

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..derived import DerivedTable
+from .units import columns
 
 KINDS = ("distance", "angle", "between", "joint", "transmission", "ratio", "advantage")
 
@@ -366,45 +367,6 @@ def evaluate(cm, ch, m: MeasureSpec, done: dict):
             r2 = (b[3] * a[1] - b[1] * a[3]) / (a[1] * a[1]) \
                 - 2 * n1 * a[2] / (a[1] * a[1] * a[1])
     return r, r1, r2, None
-
-
-def unit_of(cm, m: MeasureSpec, units: dict) -> str:
-    lu, au = cm.spec.length_unit, cm.spec.angle_unit
-    if m.kind == "distance":
-        return lu
-    if m.kind == "joint":
-        el = next(el for el in cm.spec.joints if el.name == m.refs[0])
-        return au if el.kind == "revolute" else lu
-    if m.kind in ("ratio", "advantage"):
-        a, b = units[m.refs[0]], units[m.refs[1]]
-        if m.kind == "advantage":
-            a, b = b, a
-        return "-" if a == b else f"{b}/{a}"
-    return au
-
-
-def _orders(m: MeasureSpec, order: int) -> tuple[int, ...]:
-    """The derivative orders of m that can be written with q up to `order` (3: the jerk; a
-    ratio of rates needs q' for its value, q'' for its rate and the jerk for its acceleration,
-    and has no jerk column)."""
-    order = min(order, 3)
-    if m.kind in ("ratio", "advantage"):
-        return tuple(k for k in (0, 1, 2) if k + 1 <= order)
-    return tuple(range(order + 1))
-
-
-def columns(cm, measures, order: int = 2) -> list[tuple[str, str, int, int]]:
-    """(header name, unit, derivative order, measure index) of every column after t."""
-    units: dict[str, str] = {}
-    out = []
-    for k, m in enumerate(measures):
-        u = units[m.name] = unit_of(cm, m, units)
-        suffix = ("", ".rate", ".accel", ".jerk")
-        per = ("", "/s", "/s^2", "/s^3")
-        for d in _orders(m, order):
-            unit = (u + per[d]) if u != "-" or d == 0 else ("1" + per[d])
-            out.append((m.name + suffix[d], unit, d, k))
-    return out
 
 
 def compute(cm, measures, ch, order: int = 2) -> np.ndarray:

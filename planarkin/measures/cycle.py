@@ -274,11 +274,11 @@ class CoordinateFigures(CycleFigures):
 
 
 def cycle_section(bodies: dict, points: dict | None, measures: dict | None,
-                  forces: dict | None = None) -> dict:
+                  contact: dict | None = None) -> dict:
     """summary.json's ``cycle``: the driver and its period, the figures of every body and point
-    coordinate (``coordinates.bodies``, ``coordinates.points``), of every measure and, with
-    forces (summary.json's forces section), every cam's smallest contact force (``contact``)."""
-    from ..forces.output import cycle_contact
+    coordinate (``coordinates.bodies``, ``coordinates.points``), of every measure and, given
+    contact (planarkin.forces.output.cycle_contact of the forces section, which the writer
+    passes: the rooms do not import each other), every cam's smallest contact force."""
     out = {"driver": bodies["driver"], "period": bodies["period"],
            "coordinates": {"bodies": bodies["coordinates"],
                            "points": points["coordinates"] if points else {}}}
@@ -287,9 +287,22 @@ def cycle_section(bodies: dict, points: dict | None, measures: dict | None,
             out["error"] = part["error"]
     if measures:
         out["measures"] = measures["measures"]
-    if cycle_contact(forces):
-        out["contact"] = cycle_contact(forces)
+    if contact:
+        out["contact"] = dict(contact)
     out["note"] = NOTE
+    return out
+
+
+def format_contact(contact: dict | None) -> list[str]:
+    """Report lines of the smallest contact force of every cam (for --report cycle), from the
+    cycle section's ``contact`` (planarkin.forces.output.cycle_contact)."""
+    out = []
+    for name, rec in (contact or {}).items():
+        if rec["min"] is None:
+            continue
+        out.append(f"         {name}: min contact force {rec['min']:.6g} {rec['unit']} at t = "
+                   f"{rec['t']:.6g} s" + (" (negative: the follower would lift off)"
+                                          if rec["lift_off"] else ""))
     return out
 
 
@@ -331,7 +344,6 @@ def format_cycle(section: dict | None) -> list[str]:
         out.append("         measures:")
         out += [_line(name, rec) for name, rec in section["measures"].items()]
     if section.get("contact"):
-        from ..forces.output import format_contact
         out += ["         cam contact:"] + format_contact(section["contact"])
     if section.get("driver"):
         out.append(f"         (driver: {section['driver']})")

@@ -13,7 +13,7 @@ def plot_measures(cm, X, out: Path, fmt: str = "png") -> list:
 
     from ..output.plots.render import save_figure
     measures = cm.spec.measures
-    from . import columns
+    from .units import columns
     names = [n for n in (h.split(" [", 1)[0] for h in _header(cm, X))]
     cols = [c for c in columns(cm, measures, 2) if c[0] in names]
     index = {name: names.index(name) for name, _, _, _ in cols}
@@ -55,7 +55,7 @@ def plot_measures(cm, X, out: Path, fmt: str = "png") -> list:
 
 def _header(cm, X):
     """The header of the measures table X, rebuilt from its width (order 0, 1 or 2)."""
-    from . import columns
+    from .units import columns
     for order in (2, 1, 0):
         cols = columns(cm, cm.spec.measures, order)
         if len(cols) + 1 == X.shape[1]:

@@ -103,7 +103,7 @@ def _characteristic_length(spec: ModelSpec) -> float:
         if el.target is not None and kind.target_unit == "length":
             sizes.append(abs(el.target))
         if el.at is not None:
-            pts = el.at if el.kind == "distance" else (el.at,)
+            pts = el.at if kind.at_points == 2 else (el.at,)
             sizes += [math.hypot(*p) for p in pts]
     for p in spec.points:
         sizes.append(math.hypot(*(p.s if p.s is not None else p.at)))
@@ -165,12 +165,6 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         if el.role == "joint" and kind.target:
             c = el.target if el.target is not None else target_from_at
             consts[0] = c * tscale
-        if el.kind == "translational":
-            consts[0] = _parallel_constant(arrays["vi"], arrays["vj"],
-                                           poses[el.bodies[0]][2], poses[el.bodies[1]][2])
-        if el.kind == "gear":
-            pi_, pj, pk = (poses[b][2] for b in el.bodies)
-            consts[0] = arrays["ri"] * (pi_ - pk) + arrays["rj"] * (pj - pk)
         prepared = kind.prepare(arrays, [(poses[b][0] / L, poses[b][1] / L, poses[b][2])
                                          for b in el.bodies])
         if prepared is not None:
@@ -222,14 +216,6 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
         row_element=ro(row_element, np.intp), row_label=tuple(row_label),
         point_names=tuple(pnames), point_body=ro(pbody, np.intp),
         point_s=ro(np.reshape(ps, (-1, 2))))
-
-
-def _parallel_constant(vi, vj, phi_i, phi_j) -> float:
-    """c of phi_j - phi_i = c making A_i vi parallel to A_j vj, the multiple of pi nearest the
-    estimates (an axis given anti-parallel on one body still means the same slide line)."""
-    base = math.atan2(vi[1], vi[0]) - math.atan2(vj[1], vj[0])
-    k = round(((phi_j - phi_i) - base) / math.pi)
-    return base + k * math.pi
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -543,8 +543,8 @@ class Sketch:
 
 
 def _type(node) -> str:
-    from .validate import _type_name
-    return _type_name(node)
+    from .yamlread import type_name
+    return type_name(node)
 
 
 def _is_body_point(points_node, name: str) -> bool:
@@ -552,72 +552,6 @@ def _is_body_point(points_node, name: str) -> bool:
         return False
     val = points_node.value[name]
     return val.kind == "map" and "body" in val.value
-
-
-def moved_points(cm, Q, tol: float | None = None) -> list:
-    """Warnings for the points placed by global coordinates (sketch pins, ``at:`` points) that
-    the assembly moved: the sketch did not satisfy every joint and driver at t = start (e.g. a
-    driver's f(start) differs from the sketched crank angle). Q: (n + 3,) assembled coordinates
-    with the ground's, internal units. One warning per point moved by more than the model's
-    `assembly: sketch_tolerance` (default 1e-9 of the model's length scale; tol, when given, in
-    its place), at its line."""
-    from ..diagnostics import Diagnostic
-    from ..kinematics import point_kinematics
-    spec = cm.spec
-    p, _, _ = point_kinematics(cm, Q[None, :])
-    out = []
-    for k, pt in enumerate(spec.points):
-        if pt.at is None:
-            continue
-        d = math.hypot(p[0, k, 0] * cm.L - pt.at[0], p[0, k, 1] * cm.L - pt.at[1])
-        if d > (tol if tol is not None else spec.sketch_tolerance
-                if spec.sketch_tolerance is not None else 1e-9 * cm.L):
-            out.append(Diagnostic(spec.file, pt.line, f"point '{pt.name}': the sketched position "
-                                  f"[{pt.at[0]:.10g}, {pt.at[1]:.10g}] is not consistent with the "
-                                  f"joints and drivers at t = start; assembled {d:.3g} "
-                                  f"{spec.length_unit} away, at [{p[0, k, 0] * cm.L:.10g}, "
-                                  f"{p[0, k, 1] * cm.L:.10g}]", "warning"))
-    return out
-
-
-def keep_drawn_branches(cm, A) -> None:
-    """A rough sketch is assembled on the branches it draws. When the assembly moved a sketched
-    point, every loop with two assemblies (a diagonal block's determinant sign, as
-    `assembly: branch:` reads it) is compared with its sign at the sketch's own poses (cm.q0:
-    each link's frame at its drawn pins); a loop that the assembly closed the other way is
-    re-assembled the drawn way, unless `assembly: branch:` names it. Raises InputError, at the
-    loop's first link, when the lengths and drivers cannot close it the drawn way at t = start.
-    A: the Assembly, updated in place (q, residual, modes)."""
-    from dataclasses import replace
-
-    from ..assembly import _apply_branch_hints, block_modes
-    from ..diagnostics import Diagnostic, InputError
-    spec = cm.spec
-    Q = A.system.ext(A.q[None, :])[0]
-    if not moved_points(cm, Q, 1e-9 * cm.L):
-        return                       # the sketch is the pose: its branches are the drawn ones
-    drawn = {md.block: md for md in block_modes(cm, A.system, cm.q0)}
-    asked = {md.block for md in A.modes if set(md.bodies) & set(spec.branch)}
-    hints = {md.key: drawn[md.block].sign for md in A.modes
-             if md.block in drawn and md.block not in asked and md.sign != drawn[md.block].sign}
-    if not hints:
-        return
-    lines = {b.name: b.line for b in spec.bodies}
-    cm2 = replace(cm, spec=replace(spec, branch={**hints, **spec.branch},
-                                   branch_lines={**{k: lines.get(k) for k in hints},
-                                                 **spec.branch_lines}))
-    try:
-        _apply_branch_hints(cm2, A)
-    except InputError as e:
-        key = next(iter(hints))
-        loop = next(md for md in A.modes if md.key == key)
-        raise InputError([Diagnostic(spec.file, lines.get(key),
-                                     f"the sketch draws the loop {'+'.join(loop.bodies)} on "
-                                     f"branch {'+' if hints[key] > 0 else '-'}, but with its "
-                                     f"lengths and drivers it closes at t = "
-                                     f"{spec.analysis.start:g} only the other way; redraw it "
-                                     f"({e.diagnostics[0].message})")]) from None
-    A.modes = block_modes(cm, A.system, A.q)
 
 
 def derived_yaml(spec) -> str:

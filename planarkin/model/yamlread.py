@@ -268,7 +268,7 @@ def _decode(data: bytes, col: Collector) -> str:
             _fail(col, _line_of(prefix, len(prefix)), "the file contains a NUL byte (binary data?)")
         prefix = data[: e.start].decode("utf-8")
         _fail(col, _line_of(prefix, len(prefix)), f"the file is not UTF-8 text (byte 0x{data[e.start]:02x})")
-        raise AssertionError("unreachable")  # pragma: no cover
+        raise AssertionError("unreachable") from None  # pragma: no cover
     if nul != -1:
         pos = len(data[:nul].decode("utf-8"))
         _fail(col, _line_of(text, pos), "the file contains a NUL byte (binary data?)")
@@ -612,3 +612,24 @@ def _copy(node: Node, line: int) -> Node:
                 if child.kind != "scalar":
                     todo.append((child, c))
     return root
+
+
+def type_name(node: Node) -> str:
+    """What a node is, for messages: 'a mapping', 'the number 3', 'empty (null)' ..."""
+    if node.kind == "map":
+        return "a mapping"
+    if node.kind == "seq":
+        return "a list"
+    v = node.value
+    if v is None:
+        return "empty (null)"
+    if isinstance(v, bool):
+        return f"a boolean ({node.text})"
+    return f"'{node.text}'" if isinstance(v, str) else f"the number {node.text}"
+
+
+def raw_text(node: Node) -> str:
+    """A scalar's text as written, for labels ('?' for anything else)."""
+    if node.kind == "scalar" and node.value is not None:
+        return str(node.text if node.text is not None else node.value)
+    return "?"

@@ -14,33 +14,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..chunks import concat, take
 from ..derived import derived_tables
 from ..options import ORDERS
 from ..solver import Chunk, Options
 from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpoint, critical,
                         signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
-from .tables import Layout
+from ..layout import Layout
 
 if TYPE_CHECKING:                     # annotations only: results imports this module
     from ..model.compile import CompiledModel
     from ..results import RunInfo
 
 PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
-
-
-def _take(ch: Chunk, sel) -> Chunk:
-    g = lambda a: None if a is None else a[sel]
-    return Chunk(ch.t[sel], ch.q[sel], g(ch.qd), g(ch.qdd), ch.p[sel], g(ch.pd), g(ch.pdd),
-                 ch.iterations[sel], ch.cond[sel], ch.residual[sel], g(ch.qddd), g(ch.pddd))
-
-
-def _concat(parts: list[Chunk]) -> Chunk:
-    def cat(name):
-        arrays = [getattr(p, name) for p in parts]
-        return None if arrays[0] is None else np.concatenate(arrays)
-    return Chunk(*(cat(f) for f in ("t", "q", "qd", "qdd", "p", "pd", "pdd", "iterations", "cond",
-                                    "residual", "qddd", "pddd")))
 
 
 class PlotBuffer:
@@ -56,8 +43,8 @@ class PlotBuffer:
         n = len(ch.t)
         first = (-self.seen) % self.stride
         sel = np.arange(first, n, self.stride)
-        self.parts.append(_take(ch, sel))
-        self.last = _take(ch, np.array([n - 1])) if n else self.last
+        self.parts.append(take(ch, sel))
+        self.last = take(ch, np.array([n - 1])) if n else self.last
         self.seen += n
 
     def chunk(self) -> Chunk | None:
@@ -66,7 +53,7 @@ class PlotBuffer:
                                       or parts[-1].t[-1] != self.last.t[0]):
             parts = parts + [self.last]
         parts = [p for p in parts if len(p.t)]
-        return _concat(parts) if parts else None
+        return concat(parts) if parts else None
 
 
 class DirectoryWriter:
@@ -245,10 +232,11 @@ class DirectoryWriter:
             summary["columns"][d.filename] = stats.as_dict()
             if d.section is not None and extra is not None:
                 summary[d.section] = extra
+        from ..forces.output import cycle_contact
         from ..measures.cycle import cycle_section
         summary["cycle"] = cycle_section(closed["bodies.csv"][1],
                                          closed.get("points.csv", (None, None))[1],
-                                         summary.get("cycle"), summary.get("forces"))
+                                         summary.get("cycle"), cycle_contact(summary.get("forces")))
         summary["files"] = {name: {"rows": self.rows, "columns": len(closed[name][0].header)}
                             for name in self.sinks}
         return summary
@@ -284,7 +272,7 @@ def _interrupted_status(info: RunInfo, how: str) -> dict:
 
 def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats: ColumnStats,
                   point_stats: ColumnStats | None, wall: float | None) -> dict:
-    from .. import __version__
+    from ..version import __version__
     o = info.options
     spec = cm.spec
     grid_rows = o.steps + 1

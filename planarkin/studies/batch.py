@@ -47,7 +47,7 @@ from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
 from ..acceptance import COND_WARN, KAPPA, accepted, path_errors
-from .variants import Outcome
+from .outcome import Outcome
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
 SUBSTEPS = (4, 16)  # a failed parameter step is retried in this many equal steps

@@ -234,7 +234,7 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     """Run the variants (factorial of ranges, or samples of a Latin hypercube) and write
     sweep.csv (+ sweep.parquet, + sweep.png) into outdir. execute(study, variants) -> outcomes
     in order (default: serially in this process)."""
-    from ..budget import check_study
+    from .budget import check_study
     if not isinstance(ranges, (list, tuple)) or not all(isinstance(r, Range) for r in ranges) \
             or not ranges:
         raise api_error(study, f"run_sweep(): ranges must be a non-empty list of Range (from "

@@ -57,13 +57,11 @@ def output_gradients(study: Study, res, names: list[str]) -> np.ndarray:
     """(outputs, parameters) exact d(output)/dp at the nominal result res (nan where the
     output is not a max/min/stroke/absmax of a position column)."""
     from .sensitivity import sensitivities
-    from .variants import split_unit, tables
     cm = study.nominal
     G = np.full((len(study.metrics), len(names)), np.nan)
     if not any(m.position for m in study.metrics):
         return G
     dq, dP = sensitivities(cm, study.root, study.texts(), names, res.t, res.q)
-    header = tables(cm, study.opts)
     for i, m in enumerate(study.metrics):
         if not m.position:
             continue
@@ -94,7 +92,7 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
                   ) -> ToleranceResult:
     """Monte-Carlo samples of the toleranced parameters, their outputs and the first-order
     prediction; writes tolerance.csv, samples.csv, sensitivities.csv (+ tolerance.png)."""
-    from ..budget import check_study
+    from .budget import check_study
     from .sweep import api_error, check_count, check_names
     if not isinstance(sigma, dict) or not sigma:
         raise api_error(study, f"run_tolerance(): sigma must be a non-empty dict of parameter "

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Diagnostic, InputError, did_you_mean
+from .outcome import Outcome
 
 KINDS = {
     "max": "largest value over the grid",
@@ -62,23 +63,10 @@ class Metric:
             self.column.rsplit(".", 1)[-1] in ("x", "y", "phi") and self.kind != "dev"
 
 
-@dataclass(frozen=True)
-class Outcome:
-    """One variant's result: status 'ok' | 'failed' | 'invalid'; kind: the stopping event's kind
-    (lock-up, bifurcation, ...) or '' ; t: its time, s (nan when none); message: the reason;
-    metrics: one value per metric (nan unless ok)."""
-
-    status: str
-    kind: str
-    t: float
-    message: str
-    metrics: tuple
-
-
 def tables(cm, opts):
     """Every table a run of cm writes: file name -> (header, function(chunk) -> array)."""
     from ..derived import derived_tables
-    from ..output.tables import Layout
+    from ..layout import Layout
     lay = Layout(cm, opts.order)
     out = {"bodies.csv": (lay.body_header, lay.body_table),
            "points.csv": (lay.point_header, lay.point_table)}

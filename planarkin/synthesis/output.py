@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ..version import __version__
 
 
 def model_yaml(path, values: dict, q0=None, header: str = "") -> str:
