@@ -44,3 +44,27 @@ points:
   B: {body: rod, s: [b, 0]}
 analysis: {start: 0, end: 1, steps: 360}
 """
+
+
+HOLD = Path(__file__).resolve().parent / "hold"
+
+
+def start_held(args, moment: str, ready: Path, cwd=ROOT, count=1, timeout=120, **popen):
+    """Start `planarkin ARGS` held at `moment` (tests/hold/sitecustomize.py) and return the
+    process once `count` of its processes wait there for a signal: what an interruption test
+    interrupts is then always what it says. ready: an empty directory for the hook's files."""
+    import time
+    ready.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ)
+    env.setdefault("MPLBACKEND", "Agg")
+    env["PYTHONPATH"] = os.pathsep.join([str(HOLD), str(ROOT), env.get("PYTHONPATH", "")])
+    env["PLANARKIN_HOLD"], env["PLANARKIN_HOLD_READY"] = moment, str(ready)
+    p = subprocess.Popen(command() + [str(a) for a in args], cwd=cwd, env=env, text=True,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
+    deadline = time.time() + timeout
+    while len(list(ready.iterdir())) < count and p.poll() is None and time.time() < deadline:
+        time.sleep(0.005)
+    if len(list(ready.iterdir())) < count:
+        p.kill()
+        raise AssertionError(f"planarkin never reached {moment}: {p.communicate()}")
+    return p
