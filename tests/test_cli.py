@@ -1,4 +1,5 @@
-"""The command line end to end, through the installed console script."""
+"""The command line end to end: the installed console script once, then the commands in
+process (click's CliRunner)."""
 
 import csv
 import os
@@ -9,13 +10,13 @@ import sys
 import numpy as np
 import pytest
 
-from clitools import ROOT, run_cli
+from clitools import ROOT, run_cli, run_process
 
 SC = "mechanisms/slider-crank.yaml"
 
 
 def test_version_and_help():
-    r = run_cli("--version")
+    r = run_process("--version")                    # the installed console script
     assert r.returncode == 0 and "planarkin" in r.stdout
     r = run_cli("--help")
     assert r.returncode == 0 and "run" in r.stdout and "check" in r.stdout

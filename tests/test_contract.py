@@ -172,13 +172,13 @@ def test_a_directory_that_is_not_ours_is_left_alone(tmp_path):
 def test_unwritable_out_is_a_usage_error(tmp_path):
     f = tmp_path / "file"
     f.write_text("")
-    r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots", timeout=60)
+    r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "Invalid value for '--out'" in r.stderr and "cannot write into" in r.stderr
     if os.geteuid() != 0:          # root writes anywhere; a read-only directory needs a user
         ro = tmp_path / "ro"
         ro.mkdir(mode=0o500)
-        r = run_cli("run", SLIDER, "--out", ro, "--no-plots", timeout=60)
+        r = run_cli("run", SLIDER, "--out", ro, "--no-plots")
         assert r.returncode == 2
 
 
