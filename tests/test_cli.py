@@ -108,16 +108,6 @@ def test_check_reports_dof_and_branches():
     assert "1 DOF" in r.stdout and "coupler+rocker: -" in r.stdout
 
 
-def test_no_plots_does_not_import_matplotlib(tmp_path):
-    code = ("import sys; from planarkin.cli import main\n"
-            "try:\n    main(['run', %r, '--out', %r, '--no-plots'])\n"
-            "except SystemExit as e:\n    assert e.code == 0\n"
-            "assert 'matplotlib' not in sys.modules, 'matplotlib imported'\n") % (
-        str(ROOT / SC), str(tmp_path))
-    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-
-
 @pytest.mark.parametrize("fmt", ["svg", "pdf"])
 def test_plot_formats(tmp_path, fmt):
     r = run_cli("run", SC, "--out", tmp_path, "--steps", "40", "--format", fmt)
