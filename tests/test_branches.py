@@ -376,16 +376,23 @@ def test_check_says_what_each_sign_means(tmp_path, closure):
 
 
 @pytest.mark.slow
-def test_branch_hint_in_a_large_model():
-    """Models past the dense limit (n > 3000) are assembled block by block; a hint is applied
-    there too (it was ignored). The IFToMM A02 chain of N = 500 parallelograms (n = 3003),
-    the middle loop asked for its other sign: its knee (the pin of k250 on c251) is on the
-    other side of the line from c500's tip to c501's pivot, checked by a cross product; every
-    loop after it is re-assembled (the residual of every equation stays at rounding)."""
+def test_branch_hint_in_a_large_model(monkeypatch):
+    """Models past the dense limit (n > DENSE_LIMIT, 3000) are assembled block by block; a hint
+    is applied there too (it was ignored). Here the limit is lowered to 300 so that the IFToMM
+    A02 chain of N = 60 parallelograms (n = 363) takes that path (N = 500, n = 3003, took 7 s
+    more for the same assertion): the middle loop asked for its other sign, its knee (the pin
+    of k30 on c31) is on the other side of the line from c30's tip to c31's pivot, checked by
+    a cross product; every loop after it is re-assembled (the residual of every equation
+    stays at rounding)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
     import models
+    from planarkin import assembly
     from planarkin.assembly import assemble
-    N = 500
+    N = 60
+    monkeypatch.setattr(assembly, "DENSE_LIMIT", 300)
+    large = []
+    monkeypatch.setattr(assembly, "_assemble_large",
+                        lambda *a, _f=assembly._assemble_large: large.append(1) or _f(*a))
     plain = planarkin.load("chain.yaml", text=models.chain_yaml(N))
     A0 = assemble(plain)
     key = f"k{N // 2}"
@@ -406,6 +413,7 @@ def test_branch_hint_in_a_large_model():
         knee = o + np.array([math.cos(th_k), math.sin(th_k)])
         return np.sign(cross(o - a, knee - a))
     assert side(A.q) == -side(A0.q) != 0
+    assert large == [1, 1]                      # both assembled block by block
 
 
 def test_two_bodies_of_one_loop_asking_different_signs_refused():
