@@ -14,7 +14,7 @@ PLANARKIN_HOLD, the moment (NAMES: result directory names, comma-separated, or *
                   names, name: in the YAML)
   staged:NAMES    the model's new directory is staged, as its writer is made
   opened:NAMES    the model's new directory is staged, its first rows solved but not written
-  rows:NAMES      the model's first block of rows is in its tables
+  rows:NAMES[:K]  the model's first block of rows (its first K blocks) is in its tables
   finish:NAMES    every row is in the tables, before they are closed
   figure:NAMES:F  the model's figure F (bodies.png ...) is drawn, the others not yet
   sweep-plot      a sweep's tables are staged, its plot not drawn
@@ -82,11 +82,15 @@ def _patch_writer(mod):
         if moment == "staged" and _wanted(self.final.name):
             hold(self.final.name, self.stop)
 
+    blocks = int(SPEC.split(":")[2]) if moment == "rows" and SPEC.count(":") > 1 else 1
+    added = {}
+
     def rows(self, ch):
         if moment == "opened" and _wanted(self.final.name):
             hold(self.final.name, self.stop)
         add(self, ch)
-        if moment == "rows" and _wanted(self.final.name):
+        added[self.final] = added.get(self.final, 0) + 1
+        if moment == "rows" and _wanted(self.final.name) and added[self.final] >= blocks:
             hold(self.final.name, self.stop)
 
     def finishing(self, *a, **k):
