@@ -9,6 +9,7 @@ numpy, no planarkin code; benchmarks/models.py uses them too.
 - four_bar_pose, four_bar: the four-bar O2-A-B-O4 (crank a at O2 = origin, coupler b, rocker c
   at O4 = (d, 0)) on either branch;
 - slider_crank: the offset slider-crank (crank r at O = origin, rod l, slider on y = e);
+  slider_crank_jerk: the in-line one's slider jerk at a constant crank speed;
 - run, rel: a model solved from its text, and the error measure of the machine-element tests.
 """
 
@@ -93,6 +94,19 @@ def slider_crank(th, thd, thdd, r, l, e=0.0):
     xd = -r * st * thd - l * sb * bed
     xdd = -r * ct * thd ** 2 - r * st * thdd - l * cb * bed ** 2 - l * sb * bedd
     return be, bed, bedd, x, xd, xdd
+
+
+def slider_crank_jerk(th, w, r, l):
+    """x''' of the in-line slider-crank's slider (e = 0) at crank angle th turning at the
+    constant speed w: x(th) = r cos th + D, D = sqrt(l^2 - r^2 sin^2 th), differentiated by hand
+    in th: with u = r^2 sin th cos th (u' = r^2 cos 2th, u'' = -2 r^2 sin 2th), D' = -u/D,
+    D'' = -u'/D - u^2/D^3, D''' = -u''/D - 3 u u'/D^3 - 3 u^3/D^5, so
+    x''' = w^3 (r sin th + D''')."""
+    S = np.sin(th)
+    D = np.sqrt(l * l - r * r * S * S)
+    u = r * r * S * np.cos(th)
+    u1, u2 = r * r * np.cos(2 * th), -2 * r * r * np.sin(2 * th)
+    return w ** 3 * (r * S - u2 / D - 3 * u * u1 / D ** 3 - 3 * u ** 3 / D ** 5)
 
 
 def run(text: str, name: str = "model.yaml"):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import reference_models as R
-from closedforms import four_bar, four_bar_pose, slider_crank
+from closedforms import four_bar, four_bar_pose, slider_crank, slider_crank_jerk
 from test_extremes import rod_equals_crank_smooth_cf, slider_driven_theta
 
 TWO_PI = 2 * math.pi
@@ -117,6 +117,21 @@ def test_slider_crank_against_a_50_digit_solution(name):
     for i, label in enumerate(("be", "bed", "bedd", "x", "xd", "xdd")):
         assert worst(got[i], want[i]) < tol, (label, worst(got[i], want[i]))
     assert np.all(np.cos(got[0]) > 0)                    # the branch: B right of A
+
+
+def test_slider_crank_jerk_against_a_50_digit_solution():
+    r, l, w = 0.1, 0.3, TWO_PI
+    got = slider_crank_jerk(w * T, w, r, l)
+    want = []
+    for t in T:
+        x_mp = mp_slider_crank(r, l, 0, lambda s: 2 * mp.pi * s, 0.0)[1]
+        with mp.workdps(50):
+            want.append(float(mp.diff(x_mp, mp.mpf(float(t)), 3)))
+    assert worst(got, want) < 1e-12, worst(got, want)
+    # and the derivative of slider_crank's own x'', by central differences
+    h = 1e-5
+    xdd = lambda t: slider_crank(w * t, w, 0.0, r, l)[5]          # noqa: E731
+    assert worst((xdd(T + h) - xdd(T - h)) / (2 * h), got) < 1e-7
 
 
 def central(f, t, h=1e-5):
