@@ -94,9 +94,9 @@ def test_analysis_failure_exits_1_and_keeps_results(tmp_path):
 
 
 def test_missing_file_and_usage_errors(tmp_path):
-    r = run_cli("run", tmp_path / "nope.yaml")
+    r = run_cli("run", tmp_path / "nope.yaml", "--out", tmp_path)   # (not into the checkout)
     assert r.returncode == 2 and "cannot read file" in r.stderr and "Traceback" not in r.stderr
-    r = run_cli("run", SC, "--steps", "0")
+    r = run_cli("run", SC, "--steps", "0", "--out", tmp_path)
     assert r.returncode == 2
     r = run_cli("frobnicate")
     assert r.returncode == 2
