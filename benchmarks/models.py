@@ -1,5 +1,6 @@
 """Benchmark mechanisms: YAML text for planarkin, the same mechanisms for the textbook solver,
-and vectorised closed forms (positions, velocities, accelerations) of all three.
+and vectorised closed forms (positions, velocities, accelerations) of all three (the slider-crank
+and the four-bar from tests/closedforms.py).
 
 Every closed form returns a dict with t (K,), q, qd, qdd (K, 3 nb), with the columns in
 planarkin's order (per body, in the YAML's body order: x, y, phi) and in the units of the YAML
@@ -19,9 +20,14 @@ planarkin's order (per body, in the YAML's body order: x, y, phi) and in the uni
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from closedforms import four_bar, slider_crank  # noqa: E402  (the closed forms, written once)
 
 TWO_PI = 2.0 * math.pi
 
@@ -56,23 +62,16 @@ analysis: {{start: 0, end: 1, steps: 360}}
 
 
 def slider_crank_closed_form(t, r: float = SC_R, l: float = SC_L) -> dict:
+    """tests/closedforms.py's slider_crank, crank angle 2 pi t, in planarkin's columns."""
     t = np.asarray(t, dtype=float)
     th, w, al = TWO_PI * t, TWO_PI + 0 * t, 0 * t
     c, s = np.cos(th), np.sin(th)
-    sb = -r * s / l                     # rod angle beta: l sin(beta) = -r sin(theta)
-    be = np.arcsin(sb)
-    cb = np.cos(be)
-    bd = -r * c * w / (l * cb)
-    bdd = (l * sb * bd * bd - r * c * al + r * s * w * w) / (l * cb)
+    be, bd, bdd, xb, xbd, xbdd = slider_crank(th, w, al, r, l)
     # crank pin A (rod frame)
     ax, ay = r * c, r * s
     axd, ayd = -r * s * w, r * c * w
     axdd = -r * c * w * w - r * s * al
     aydd = -r * s * w * w + r * c * al
-    # slider B on the x axis
-    xb = ax + l * cb
-    xbd = axd - l * sb * bd
-    xbdd = axdd - l * cb * bd * bd - l * sb * bdd
     z = 0 * t
     q = np.stack([z, z, th, ax, ay, be, xb, z, z], axis=1)
     qd = np.stack([z, z, w, axd, ayd, bd, xbd, z, z], axis=1)
@@ -114,30 +113,13 @@ analysis: {start: 0, end: 1, steps: 360}
 
 
 def four_bar_closed_form(t, a=FB_A, b=FB_B, c=FB_C, d=FB_D) -> dict:
-    """Loop closure a e^{i th} + b e^{i p3} - c e^{i p4} - d = 0, upper (open) branch; the
-    velocity and acceleration equations are 2x2 linear systems solved by Cramer's rule."""
+    """tests/closedforms.py's four_bar (open branch), crank angle 2 pi t, in planarkin's
+    columns."""
     t = np.asarray(t, dtype=float)
     th, w, al = TWO_PI * t, TWO_PI + 0 * t, 0 * t
     ct, st = np.cos(th), np.sin(th)
+    p3, w3, a3, p4, w4, a4 = four_bar(th, w, al, a, b, c, d)
     bx, by = a * ct, a * st                      # pin B
-    ex, ey = d - bx, -by                         # B -> D
-    f2 = ex * ex + ey * ey
-    f = np.sqrt(f2)
-    gam = np.arccos((b * b + f2 - c * c) / (2 * b * f))
-    p3 = np.arctan2(ey, ex) + gam
-    cx, cy = bx + b * np.cos(p3), by + b * np.sin(p3)
-    p4 = np.arctan2(cy, cx - d)
-    s3, c3, s4, c4 = np.sin(p3), np.cos(p3), np.sin(p4), np.cos(p4)
-    # [-b s3, c s4; b c3, -c c4] [x3; x4] = [r1; r2]
-    det = b * c * (s3 * c4 - c3 * s4)
-
-    def cramer(r1, r2):
-        return (r1 * (-c * c4) - c * s4 * r2) / det, (-b * s3 * r2 - b * c3 * r1) / det
-
-    w3, w4 = cramer(a * w * st, -a * w * ct)
-    r1 = a * al * st + a * w * w * ct + b * w3 * w3 * c3 - c * w4 * w4 * c4
-    r2 = -a * al * ct + a * w * w * st + b * w3 * w3 * s3 - c * w4 * w4 * s4
-    a3, a4 = cramer(r1, r2)
     bxd, byd = -a * st * w, a * ct * w
     bxdd, bydd = -a * ct * w * w - a * st * al, -a * st * w * w + a * ct * al
     z = 0 * t

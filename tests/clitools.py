@@ -1,10 +1,14 @@
-"""Running the installed console script (falling back to `python -m planarkin`)."""
+"""Running `planarkin`: in this process through click's CliRunner (run_cli: quick, and a bug
+surfaces as its own traceback), or as the installed console script (run_process, start_held:
+where the process itself, its exit status, its signals or its children are the subject)."""
 
+import contextlib
 import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -14,7 +18,33 @@ def command() -> list[str]:
     return [exe] if exe else [sys.executable, "-m", "planarkin"]
 
 
-def run_cli(*args, cwd=ROOT, timeout=120):
+@contextlib.contextmanager
+def chdir(path):
+    """contextlib.chdir (Python 3.11) for 3.10."""
+    old = os.getcwd()
+    os.chdir(path)
+    try:
+        yield
+    finally:
+        os.chdir(old)
+
+
+def run_cli(*args, cwd=ROOT):
+    """`planarkin ARGS` in this process (from cwd): returncode, stdout and stderr as a process
+    would give them. An exception the command lets through (a traceback for the user) is raised
+    here, so a test that expects a clean message fails on it."""
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    with chdir(cwd):
+        r = CliRunner(env={"MPLBACKEND": "Agg"}).invoke(main, [str(a) for a in args])
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        raise r.exception
+    return SimpleNamespace(returncode=r.exit_code, stdout=r.stdout, stderr=r.stderr)
+
+
+def run_process(*args, cwd=ROOT, timeout=120):
+    """`planarkin ARGS` as the installed console script, in a new process."""
     env = dict(os.environ)
     env.setdefault("MPLBACKEND", "Agg")
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
@@ -44,3 +74,27 @@ points:
   B: {body: rod, s: [b, 0]}
 analysis: {start: 0, end: 1, steps: 360}
 """
+
+
+HOLD = Path(__file__).resolve().parent / "hold"
+
+
+def start_held(args, moment: str, ready: Path, cwd=ROOT, count=1, timeout=120, **popen):
+    """Start `planarkin ARGS` held at `moment` (tests/hold/sitecustomize.py) and return the
+    process once `count` of its processes wait there for a signal: what an interruption test
+    interrupts is then always what it says. ready: an empty directory for the hook's files."""
+    import time
+    ready.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ)
+    env.setdefault("MPLBACKEND", "Agg")
+    env["PYTHONPATH"] = os.pathsep.join([str(HOLD), str(ROOT), env.get("PYTHONPATH", "")])
+    env["PLANARKIN_HOLD"], env["PLANARKIN_HOLD_READY"] = moment, str(ready)
+    p = subprocess.Popen(command() + [str(a) for a in args], cwd=cwd, env=env, text=True,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
+    deadline = time.time() + timeout
+    while len(list(ready.iterdir())) < count and p.poll() is None and time.time() < deadline:
+        time.sleep(0.005)
+    if len(list(ready.iterdir())) < count:
+        p.kill()
+        raise AssertionError(f"planarkin never reached {moment}: {p.communicate()}")
+    return p

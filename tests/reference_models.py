@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from closedforms import four_bar, slider_crank
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -66,7 +68,7 @@ def to_degrees(cf: dict) -> dict:
     return cf
 
 
-def uniform(w, phase=0.0):
+def uniform(w=TWO_PI, phase=0.0):
     """theta = phase + w t: (theta, theta', theta'') as functions of t."""
     return lambda t: (phase + w * t, w + 0.0 * t, 0.0 * t)
 
@@ -115,38 +117,24 @@ def slider_crank_yaml(f="2*pi*t"):
     return SLIDER_CRANK_YAML.replace("@F@", f)
 
 
-def slider_crank_closed_form(t, theta_fn=uniform(TWO_PI)):
-    """Loop closure O->A->B with B = (xB, e), crank angle th, rod angle be:
-        a sin th + b sin be = e          =>  be = asin((e - a sin th)/b)   (cos be > 0: B right of A)
-        xB = a cos th + b cos be
-    Differentiating the y equation once and twice:
-        a cos th th' + b cos be be' = 0
-          => be'  = -a cos th th' / (b cos be)
-        -a sin th th'^2 + a cos th th'' - b sin be be'^2 + b cos be be'' = 0
-          => be'' = (a sin th th'^2 - a cos th th'' + b sin be be'^2) / (b cos be)
-    and the x equation:
-        xB'  = -a sin th th' - b sin be be'
-        xB'' = -a cos th th'^2 - a sin th th'' - b cos be be'^2 - b sin be be''
-    The rod frame is at A = a e(th): A' = a th' e_perp(th), A'' = a th'' e_perp(th) - a th'^2 e(th).
-    """
-    a, b, e = SLIDER_CRANK["a"], SLIDER_CRANK["b"], SLIDER_CRANK["e"]
-    th, thd, thdd = theta_fn(t)
-    ct, st = np.cos(th), np.sin(th)
-    be = np.arcsin((e - a * st) / b)
-    cb, sb = np.cos(be), np.sin(be)
-    bed = -a * ct * thd / (b * cb)
-    bedd = (a * st * thd ** 2 - a * ct * thdd + b * sb * bed ** 2) / (b * cb)
-    xB = a * ct + b * cb
-    xBd = -a * st * thd - b * sb * bed
-    xBdd = -a * ct * thd ** 2 - a * st * thdd - b * cb * bed ** 2 - b * sb * bedd
+def slider_crank_bodies(th, thd, thdd, a, b, e=0.0) -> dict:
+    """Crank (frame at O), rod (frame at the crank pin A = a e(th)) and slider (at B = (xB, e))
+    of a slider-crank driven by th, th', th'' (closedforms.slider_crank, B right of A), before
+    `broadcast`. A' = a th' e_perp(th), A'' = a th'' e_perp(th) - a th'^2 e(th)."""
+    be, bed, bedd, xB, xBd, xBdd = slider_crank(th, thd, thdd, a, b, e)
     crank = fixed_pivot_body(0.0, 0.0, th, thd, thdd)
-    rod = body(a * ct, a * st, be,
-               -a * st * thd, a * ct * thd, bed,
-               -a * ct * thd ** 2 - a * st * thdd, -a * st * thd ** 2 + a * ct * thdd, bedd)
+    A = rigid_point(crank, (a, 0.0))
+    rod = body(A["x"], A["y"], be, A["vx"], A["vy"], bed, A["ax"], A["ay"], bedd)
     slider = body(xB, e, 0.0, xBd, 0.0, 0.0, xBdd, 0.0, 0.0)
-    cf = {"bodies": {"crank": crank, "rod": rod, "slider": slider},
-          "points": {"P": rigid_point(rod, SLIDER_CRANK["P"])}}
-    return broadcast(cf, t)
+    return {"crank": crank, "rod": rod, "slider": slider}
+
+
+def slider_crank_closed_form(t, theta_fn=uniform(TWO_PI)):
+    """Bodies and rod point P of SLIDER_CRANK_YAML."""
+    a, b, e = SLIDER_CRANK["a"], SLIDER_CRANK["b"], SLIDER_CRANK["e"]
+    bodies = slider_crank_bodies(*theta_fn(t), a, b, e)
+    return broadcast({"bodies": bodies, "points": {"P": rigid_point(bodies["rod"],
+                                                                    SLIDER_CRANK["P"])}}, t)
 
 
 # == 2. / 6. Four-bar crank-rocker =================================================================
@@ -184,55 +172,23 @@ analysis: {start: 0, end: 1, steps: 360}
 """
 
 
-def fourbar_angles(th, thd, thdd, a, b, c, d):
-    """Loop closure of the four-bar O2-A-B-O4 (radians), open branch.
-
-    Position: A = a e(th); B is where the circles |B - A| = b and |B - O4| = c meet. With
-    D = O4 - A, delta = |D|, psi = atan2(D) and the law of cosines in triangle A-B-O4,
-        cos gam = (b^2 + delta^2 - c^2) / (2 b delta),   th3 = psi + gam   (B on the left of A->O4:
-        the open configuration), B = A + b e(th3),   th4 = atan2(B - O4).
-    Velocity: d/dt of a e(th) + b e(th3) = [d, 0] + c e(th4):
-        a th' e_p(th) + b th3' e_p(th3) = c th4' e_p(th4)            (e_p = e_perp)
-    dotted with e(th4) and e(th3), using e_p(u) . e(v) = sin(v - u):
-        th3' = -a th' sin(th4 - th) / (b sin(th4 - th3))
-        th4' =  a th' sin(th3 - th) / (c sin(th3 - th4))
-    Acceleration: a th'' e_p(th) - a th'^2 e(th) + b th3'' e_p(th3) - b th3'^2 e(th3)
-                  = c th4'' e_p(th4) - c th4'^2 e(th4), dotted with e(th4) and e(th3)
-    (e(u) . e(v) = cos(u - v)):
-        th3'' = (-c th4'^2 - a th'' sin(th4 - th) + a th'^2 cos(th - th4)
-                 + b th3'^2 cos(th3 - th4)) / (b sin(th4 - th3))
-        th4'' = (a th'' sin(th3 - th) - a th'^2 cos(th - th3) - b th3'^2
-                 + c th4'^2 cos(th4 - th3)) / (c sin(th3 - th4))
-    Angles are unwrapped in time (continuous, as the solver keeps them).
-    """
-    Ax, Ay = a * np.cos(th), a * np.sin(th)
-    Dx, Dy = d - Ax, -Ay
-    delta = np.hypot(Dx, Dy)
-    psi = np.arctan2(Dy, Dx)
-    gam = np.arccos((b * b + delta * delta - c * c) / (2.0 * b * delta))
-    th3 = np.unwrap(np.atleast_1d(psi + gam))
-    Bx, By = Ax + b * np.cos(th3), Ay + b * np.sin(th3)
-    th4 = np.unwrap(np.atleast_1d(np.arctan2(By, Bx - d)))
-    w3 = -a * thd * np.sin(th4 - th) / (b * np.sin(th4 - th3))
-    w4 = a * thd * np.sin(th3 - th) / (c * np.sin(th3 - th4))
-    al3 = (-c * w4 ** 2 - a * thdd * np.sin(th4 - th) + a * thd ** 2 * np.cos(th - th4)
-           + b * w3 ** 2 * np.cos(th3 - th4)) / (b * np.sin(th4 - th3))
-    al4 = (a * thdd * np.sin(th3 - th) - a * thd ** 2 * np.cos(th - th3) - b * w3 ** 2
-           + c * w4 ** 2 * np.cos(th4 - th3)) / (c * np.sin(th3 - th4))
-    return th3, w3, al3, th4, w4, al4
+def fourbar_bodies(th, thd, thdd, a, b, c, d, sigma=1) -> dict:
+    """Crank (frame at O2), coupler (frame at A along A->B) and rocker (frame at O4 along
+    O4->B) of a four-bar driven by th, th', th'' (closedforms.four_bar, branch sigma), before
+    `broadcast`."""
+    th3, w3, al3, th4, w4, al4 = four_bar(th, thd, thdd, a, b, c, d, sigma)
+    crank = fixed_pivot_body(0.0, 0.0, th, thd, thdd)
+    A = rigid_point(crank, (a, 0.0))
+    coupler = body(A["x"], A["y"], th3, A["vx"], A["vy"], w3, A["ax"], A["ay"], al3)
+    return {"crank": crank, "coupler": coupler, "rocker": fixed_pivot_body(d, 0.0, th4, w4, al4)}
 
 
 def fourbar_closed_form(t, theta_fn=uniform(TWO_PI), frames="pins", degrees=False):
     """Bodies and coupler point P of the crank-rocker. frames='pins': frames as in
     FOURBAR_DEG_YAML; frames='mid': every frame at its link's midpoint (fourbar_at_yaml)."""
     a, b, c, d = (FOURBAR[k] for k in "abcd")
-    th, thd, thdd = theta_fn(t)
-    th3, w3, al3, th4, w4, al4 = fourbar_angles(th, thd, thdd, a, b, c, d)
-    crank = fixed_pivot_body(0.0, 0.0, th, thd, thdd)
-    rocker = fixed_pivot_body(d, 0.0, th4, w4, al4)
-    pin_A = rigid_point(crank, (a, 0.0))
-    coupler = body(pin_A["x"], pin_A["y"], th3, pin_A["vx"], pin_A["vy"], w3,
-                   pin_A["ax"], pin_A["ay"], al3)
+    bd = fourbar_bodies(*theta_fn(t), a, b, c, d)
+    crank, coupler, rocker = bd["crank"], bd["coupler"], bd["rocker"]
     sP = FOURBAR["P"]
     if frames == "mid":
         # the frame of a link at its midpoint is the body-fixed point (length/2, 0) of the

@@ -23,12 +23,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import linkages as L  # noqa: E402
 import planarkin  # noqa: E402
 from clitools import run_cli  # noqa: E402
 
-# Jansen's "holy numbers" (Theo Jansen, The Great Pretender; Wikipedia "Jansen's linkage")
-JANSEN = dict(a=38.0, b=41.5, c=39.3, d=40.1, e=55.8, f=39.4, g=36.7, h=65.7, i=49.0, j=50.0,
-              k=61.9, l=7.8, m=15.0)
+JANSEN = L.JANSEN          # Jansen's "holy numbers" (tests/linkages.py)
 
 
 def num(x: float) -> str:
@@ -41,15 +40,8 @@ def cross(u, v) -> float:
 
 def circles(P1, r1, P2, r2, side):
     """The intersection X of the circles (P1, r1) and (P2, r2) with sign(cross(P2 - P1, X - P1))
-    = side."""
-    P1, P2 = np.asarray(P1, float), np.asarray(P2, float)
-    dv = P2 - P1
-    dd = math.hypot(*dv)
-    x = (r1 * r1 - r2 * r2 + dd * dd) / (2 * dd)
-    y = math.sqrt(r1 * r1 - x * x)
-    ex = dv / dd
-    ey = np.array([-ex[1], ex[0]])
-    return P1 + x * ex + side * y * ey
+    = side (linkages.circles, as an array)."""
+    return np.array(L.circles(P1, r1, P2, r2, side))
 
 
 def local(frame, ang, P):
@@ -66,18 +58,12 @@ def angle(P, Q):
 # == the Jansen leg ==============================================================================
 
 def jansen_points(th):
-    """Joint positions of the usual (walking) assembly at crank angle th: crank axle O, crank
-    pin A, ground pivot B, upper knee C, lower knee D, E on the triangle BCE, F on DFG, foot G."""
-    J = JANSEN
-    O = np.zeros(2)
-    B = np.array([-J["a"], -J["l"]])
-    A = J["m"] * np.array([math.cos(th), math.sin(th)])
-    C = circles(A, J["j"], B, J["b"], -1)       # above the line A -> B (which points left)
-    D = circles(A, J["k"], B, J["c"], +1)       # below it
-    E = circles(B, J["d"], C, J["e"], +1)       # the triangle's outer corner, |BE| = d
-    F = circles(E, J["f"], D, J["g"], -1)
-    G = circles(D, J["i"], F, J["h"], +1)       # the foot, below
-    return dict(O=O, A=A, B=B, C=C, D=D, E=E, F=F, G=G)
+    """Joint positions of the usual (walking) assembly at crank angle th (linkages.jansen): crank
+    axle O, crank pin A, ground pivot B, upper knee C, lower knee D, E on the triangle BCE, F on
+    DFG, foot G."""
+    P = L.jansen(th)
+    names = dict(O="O", A="A", B="B", C="X", D="F", E="E", F="G", G="H")
+    return {k: np.array(P[v], float) for k, v in names.items()}
 
 
 def jansen_yaml(closure: str, hints: dict | None = None, th=0.4, jitter=0.02) -> str:
@@ -390,16 +376,23 @@ def test_check_says_what_each_sign_means(tmp_path, closure):
 
 
 @pytest.mark.slow
-def test_branch_hint_in_a_large_model():
-    """Models past the dense limit (n > 3000) are assembled block by block; a hint is applied
-    there too (it was ignored). The IFToMM A02 chain of N = 500 parallelograms (n = 3003),
-    the middle loop asked for its other sign: its knee (the pin of k250 on c251) is on the
-    other side of the line from c500's tip to c501's pivot, checked by a cross product; every
-    loop after it is re-assembled (the residual of every equation stays at rounding)."""
+def test_branch_hint_in_a_large_model(monkeypatch):
+    """Models past the dense limit (n > DENSE_LIMIT, 3000) are assembled block by block; a hint
+    is applied there too (it was ignored). Here the limit is lowered to 300 so that the IFToMM
+    A02 chain of N = 60 parallelograms (n = 363) takes that path (N = 500, n = 3003, took 7 s
+    more for the same assertion): the middle loop asked for its other sign, its knee (the pin
+    of k30 on c31) is on the other side of the line from c30's tip to c31's pivot, checked by
+    a cross product; every loop after it is re-assembled (the residual of every equation
+    stays at rounding)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
     import models
+    from planarkin import assembly
     from planarkin.assembly import assemble
-    N = 500
+    N = 60
+    monkeypatch.setattr(assembly, "DENSE_LIMIT", 300)
+    large = []
+    monkeypatch.setattr(assembly, "_assemble_large",
+                        lambda *a, _f=assembly._assemble_large: large.append(1) or _f(*a))
     plain = planarkin.load("chain.yaml", text=models.chain_yaml(N))
     A0 = assemble(plain)
     key = f"k{N // 2}"
@@ -420,6 +413,7 @@ def test_branch_hint_in_a_large_model():
         knee = o + np.array([math.cos(th_k), math.sin(th_k)])
         return np.sign(cross(o - a, knee - a))
     assert side(A.q) == -side(A0.q) != 0
+    assert large == [1, 1]                      # both assembled block by block
 
 
 def test_two_bodies_of_one_loop_asking_different_signs_refused():

@@ -4,12 +4,7 @@ The solver is tested against the interface of planarkin.expr.TimeFunction (break
 end) and derivatives(t, side)) through `Piecewise`, a small driver function written here: a
 polynomial per piece with exact derivatives, so these tests do not depend on the expression
 parser's piecewise support. The mechanism is an in-line slider-crank (crank r, rod l) whose crank
-angle is the driver f(t); its closed form, derived here:
-
-    x(th) = r cos th + w,  w = sqrt(l^2 - r^2 sin^2 th)
-    x'(th) = -r sin th - r^2 sin th cos th / w
-    x''(th) = -r cos th - r^2 cos 2th / w - r^4 sin^2 th cos^2 th / w^3
-    vx = x'(th) f',  ax = x''(th) f'^2 + x'(th) f''
+angle is the driver f(t); its closed form: tests/closedforms.py (slider_crank).
 
 Checked: velocities and accelerations on both sides of each kink equal the closed form with the
 one-sided f', f'' (the two nodes at the breakpoint; grid rows there take the right-hand limit,
@@ -32,6 +27,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import planarkin  # noqa: E402
+from closedforms import slider_crank  # noqa: E402
 from planarkin.assembly import assemble  # noqa: E402
 from planarkin.expr import Breakpoint  # noqa: E402
 from planarkin.solver import Analysis, Options  # noqa: E402
@@ -110,13 +106,8 @@ def model_with(f, **kw):
 
 
 def closed_form(th, d1, d2):
-    """Slider x, vx, ax for crank angle th and the driver's f', f''."""
-    s, c = np.sin(th), np.cos(th)
-    w = np.sqrt(L * L - R * R * s * s)
-    x = R * c + w
-    x1 = -R * s - R * R * s * c / w
-    x2 = -R * c - R * R * np.cos(2 * th) / w - R ** 4 * s * s * c * c / w ** 3
-    return x, x1 * d1, x2 * d1 * d1 + x1 * d2
+    """Slider x, vx, ax for crank angle th and the driver's f', f'' (closedforms.slider_crank)."""
+    return slider_crank(th, d1, d2, R, L)[3:]
 
 
 # f = pi + 2 pi |t - 1/2|: the crank turns back, then forward (velocity jump 4 pi, accel 0 -> 0)

@@ -7,6 +7,7 @@ import pytest
 import planarkin
 
 import reference_models as R
+from closedforms import four_bar, slider_crank
 
 TOL = 1e-12
 
@@ -42,7 +43,7 @@ def test_fourbar_centres_kennedy(fourbar):
     res, C = fourbar
     a, b, c, d = (R.FOURBAR[k] for k in "abcd")
     th, thd, thdd = R.wobbly(res.t)
-    th3, w3, al3, th4, w4, al4 = R.fourbar_angles(th, thd, thdd, a, b, c, d)
+    th3, w3, al3, th4, w4, al4 = four_bar(th, thd, thdd, a, b, c, d)
     N = len(res.t)
     O2 = np.zeros((N, 2))
     O4 = np.tile([d, 0.0], (N, 1))
@@ -85,7 +86,7 @@ def test_slider_crank_centres_kennedy():
     C = res.table("centres.csv")
     a, b, e = (R.SLIDER_CRANK[k] for k in "abe")
     th, thd, thdd = R.wobbly(res.t)
-    be = np.arcsin((e - a * np.sin(th)) / b)
+    be = slider_crank(th, thd, thdd, a, b, e)[0]
     N = len(res.t)
     O = np.zeros((N, 2))
     A = np.stack([a * np.cos(th), a * np.sin(th)], axis=1)

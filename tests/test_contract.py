@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from clitools import PLAIN_SLIDER_CRANK, ROOT, command, run_cli
+from clitools import PLAIN_SLIDER_CRANK, ROOT, command, run_cli, start_held
 
 from planarkin.output.directory import ResultDirectory, out_dirs, safe_name
 
@@ -172,13 +172,13 @@ def test_a_directory_that_is_not_ours_is_left_alone(tmp_path):
 def test_unwritable_out_is_a_usage_error(tmp_path):
     f = tmp_path / "file"
     f.write_text("")
-    r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots", timeout=60)
+    r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "Invalid value for '--out'" in r.stderr and "cannot write into" in r.stderr
     if os.geteuid() != 0:          # root writes anywhere; a read-only directory needs a user
         ro = tmp_path / "ro"
         ro.mkdir(mode=0o500)
-        r = run_cli("run", SLIDER, "--out", ro, "--no-plots", timeout=60)
+        r = run_cli("run", SLIDER, "--out", ro, "--no-plots")
         assert r.returncode == 2
 
 
@@ -202,34 +202,26 @@ def test_full_disk_leaves_the_previous_results(tmp_path):
 
 ENTRY = command()                               # the `planarkin` command itself
 
-# moments spread over a run of ~2 s (imports, assembly, path, grid pass, writing, the end),
-# counted from when the program has started (its SIGTERM handler is installed: before that the
-# Python interpreter itself is starting), fixed so that the test asks the same thing every time
-MOMENTS = [(0.0, signal.SIGINT), (0.25, signal.SIGTERM), (0.5, signal.SIGINT),
-           (0.8, signal.SIGTERM), (1.2, signal.SIGINT), (1.8, signal.SIGTERM)]
+# moments of a run, each held (tests/hold/sitecustomize.py) until the signal arrives: starting
+# (modules loading), preparing (no new directory yet), the first block of rows solved but not
+# written, that block in the tables, every row in them before they close
+STEPS = 20000                                   # more rows than one block (8,192)
+MOMENTS = [("starting", signal.SIGINT), ("prepare:*", signal.SIGTERM),
+           ("opened:*", signal.SIGINT), ("rows:*", signal.SIGTERM), ("rows:*", signal.SIGINT),
+           ("finish:*", signal.SIGTERM)]
 
 
-def _started(pid: int) -> bool:
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("SigCgt:"):
-                return bool(int(line.split()[1], 16) & (1 << (signal.SIGTERM - 1)))
-    except OSError:
-        pass
-    return False
-
-
-@pytest.mark.parametrize("delay, sig", MOMENTS, ids=[f"{d}s-{s.name}" for d, s in MOMENTS])
-def test_interruption_keeps_a_consistent_directory(tmp_path, delay, sig):
+@pytest.mark.parametrize("moment, sig", MOMENTS, ids=[f"{m.split(':')[0]}-{s.name}"
+                                                      for m, s in MOMENTS])
+def test_interruption_keeps_a_consistent_directory(tmp_path, moment, sig):
+    """A run interrupted at every moment: exit 130/143 and no traceback; before the new
+    directory the earlier results stay byte for byte, after it the directory says interrupted
+    and holds the complete rows (none, a block, or all of them)."""
     out = tmp_path / "out"
     assert run_cli("run", SLIDER, "--out", out, "--no-plots", "--steps", "10").returncode == 0
-    p = subprocess.Popen(ENTRY + ["run", str(SLIDER), "--out", str(out), "--no-plots",
-                                      "--steps", "400000"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
-    deadline = time.time() + 30
-    while not _started(p.pid) and p.poll() is None and time.time() < deadline:
-        time.sleep(0.005)
-    time.sleep(delay)
+    before = {f.name: f.read_bytes() for f in (out / "slider-crank").iterdir()}
+    p = start_held(["run", SLIDER, "--out", out, "--no-plots", "--steps", STEPS], moment,
+                   tmp_path / "ready")
     p.send_signal(sig)
     try:
         stdout, stderr = p.communicate(timeout=60)
@@ -238,16 +230,31 @@ def test_interruption_keeps_a_consistent_directory(tmp_path, delay, sig):
         pytest.fail("planarkin hung after the signal")
     assert "Traceback" not in stderr, stderr
     code = {signal.SIGINT: 130, signal.SIGTERM: 143}[sig]
-    s = assert_contract(out / "slider-crank", ("ok", "interrupted"))
-    if p.returncode == 0:                # the run was over before the signal
-        assert s["status"] == "ok"
+    assert p.returncode == code, (p.returncode, stdout, stderr)
+    assert "interrupted" in stdout, stdout
+    if moment in ("starting", "prepare:*"):
+        assert {f.name: f.read_bytes() for f in (out / "slider-crank").iterdir()} == before
+        assert_contract(out / "slider-crank")
     else:
-        assert p.returncode == code, (p.returncode, stdout, stderr)
-        assert "interrupted" in stdout
-        if s["status"] == "interrupted":
-            assert s["exit_code"] == code
-        else:                            # interrupted before the new directory existed
-            assert s["time"]["rows_written"] == 11
+        s = assert_contract(out / "slider-crank", ("interrupted",))
+        assert s["exit_code"] == code
+        rows = s["time"]["rows_written"]
+        assert rows == {"opened:*": 0, "rows:*": 8192, "finish:*": STEPS + 1}[moment], rows
+    no_leftovers(out)
+
+
+@pytest.mark.xfail(strict=True, reason="planarkin/run.py: run_model makes its DirectoryWriter "
+                   "before the try that abandons it on an interruption")
+def test_a_signal_as_the_new_directory_is_staged_leaves_nothing_behind(tmp_path):
+    """A signal between the writer's staging of the new directory and the run's first row: the
+    staged directory and its lock used to be left behind (the window is a few bytecodes; the
+    hook holds the run in it)."""
+    out = tmp_path / "out"
+    p = start_held(["run", SLIDER, "--out", out, "--no-plots", "--steps", "100"], "staged:*",
+                   tmp_path / "ready")
+    p.send_signal(signal.SIGTERM)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 143 and "Traceback" not in stderr, (p.returncode, stdout, stderr)
     no_leftovers(out)
 
 
@@ -269,58 +276,53 @@ def test_batch_of_rejected_models_releases_everything(tmp_path):
 
 
 def test_two_real_runs_into_one_directory(tmp_path):
-    """Started together: one writes, the other is refused (or, if they do not overlap, both
-    succeed); never an interleaved table."""
-    args = ENTRY + ["run", str(SLIDER), "--out", str(tmp_path), "--no-plots", "--steps", "200000"]
-    ps = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           env=_env()) for _ in range(2)]
-    outs = [p.communicate(timeout=120) for p in ps]
-    codes = sorted(p.returncode for p in ps)
-    assert codes in ([0, 0], [0, 2]), (codes, outs)
-    if codes == [0, 2]:
-        assert any("is being written by another planarkin run" in e for _, e in outs)
-    s = assert_contract(tmp_path / "slider-crank")
-    assert s["time"]["rows_written"] == 200001
-    no_leftovers(tmp_path)
+    """A second run into the directory a first one is writing (held after its first rows) is
+    refused; the first then ends as if alone: never an interleaved table."""
+    args = ["run", SLIDER, "--out", tmp_path / "out", "--no-plots", "--steps", STEPS]
+    first = start_held(args, "rows:*", tmp_path / "ready")
+    second = subprocess.run(ENTRY + [str(a) for a in args], capture_output=True, text=True,
+                            env=_env(), timeout=120)
+    assert second.returncode == 2, (second.stdout, second.stderr)
+    assert "is being written by another planarkin run" in second.stderr, second.stderr
+    for f in (tmp_path / "ready").iterdir():
+        f.unlink()                                      # the first run goes on
+    stdout, stderr = first.communicate(timeout=120)
+    assert first.returncode == 0, (stdout, stderr)
+    s = assert_contract(tmp_path / "out" / "slider-crank")
+    assert s["time"]["rows_written"] == STEPS + 1
+    no_leftovers(tmp_path / "out")
 
 
 def test_killed_run_leaves_no_writer_behind(tmp_path):
-    p = subprocess.Popen(ENTRY + ["run", str(SLIDER), "--out", str(tmp_path), "--no-plots",
-                                  "--steps", "400000"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
-    deadline = time.time() + 60
-    while not list(tmp_path.glob(".slider-crank.tmp-*/bodies.csv")) and time.time() < deadline:
-        time.sleep(0.01)
+    p = start_held(["run", SLIDER, "--out", tmp_path / "out", "--no-plots", "--steps", STEPS],
+                   "rows:*", tmp_path / "ready")
     p.send_signal(signal.SIGKILL)
     try:
         p.communicate(timeout=20)
     except subprocess.TimeoutExpired:
         pytest.fail("the writers of a killed run kept its stdout open")
-    assert run_cli("run", SLIDER, "--out", tmp_path, "--no-plots", "--steps", "5").returncode == 0
-    no_leftovers(tmp_path)
+    assert p.returncode == -signal.SIGKILL
+    assert list((tmp_path / "out").glob(".slider-crank.tmp-*/bodies.csv"))    # killed writing
+    r = run_cli("run", SLIDER, "--out", tmp_path / "out", "--no-plots", "--steps", "5")
+    assert r.returncode == 0, r.stderr
+    no_leftovers(tmp_path / "out")
 
 
 @pytest.mark.parametrize("sig, group", [(signal.SIGINT, True), (signal.SIGTERM, False)],
                          ids=["SIGINT-to-the-group", "SIGTERM-to-the-parent"])
 def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group):
     """`run --jobs 2` stopped by a Ctrl-C (every process of the group gets it) or by a signal
-    to the parent alone (a CI runner's SIGTERM): the workers stop in order, the models not
-    started are not started, every model's line is printed and counted, and each directory on
-    disk is complete or says it was interrupted."""
+    to the parent alone (a CI runner's SIGTERM) while both workers write a model's rows: the
+    workers stop in order, the models not started are not started, every model's line is
+    printed and counted, and each directory on disk says it was interrupted."""
     models = []
     for k in range(6):
         m = tmp_path / f"m{k}.yaml"
         m.write_text(SLIDER.read_text())
         models.append(str(m))
     out = tmp_path / "out"
-    p = subprocess.Popen(ENTRY + ["run", *models, "--jobs", "2", "--out", str(out), "--no-plots",
-                                  "--steps", "400000"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
-                         start_new_session=True)
-    deadline = time.time() + 60
-    while not list(out.glob(".m*.tmp-*/bodies.csv")) and time.time() < deadline:
-        time.sleep(0.01)
-    time.sleep(0.3)
+    p = start_held(["run", *models, "--jobs", "2", "--out", out, "--no-plots", "--steps",
+                    STEPS], "rows:*", tmp_path / "ready", count=2, start_new_session=True)
     if group:
         os.killpg(p.pid, sig)
     else:
@@ -332,16 +334,14 @@ def test_interrupted_parallel_batch_reports_what_is_on_disk(tmp_path, sig, group
         pytest.fail("planarkin run --jobs hung after the signal")
     assert "Traceback" not in stderr, stderr
     assert p.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], (stdout, stderr)
-    done = [d for d in out.iterdir() if d.is_dir() and not d.name.startswith(".")]
-    assert done, stdout
-    statuses = [assert_contract(d, ("ok", "interrupted"))["status"] for d in done]
-    assert "interrupted" in statuses
-    assert len(done) < 6                                   # the later models never started
+    done = sorted(d.name for d in out.iterdir() if d.is_dir() and not d.name.startswith("."))
+    assert done == ["m0", "m1"], (done, stdout)             # the later models never started
+    for d in done:
+        s = assert_contract(out / d, ("interrupted",))
+        assert s["time"]["rows_written"] == 8192
+        assert f"{d}.yaml" in stdout, (d, stdout)           # every model on disk has its line
     last = stdout.strip().splitlines()[-1]
-    n_ok = statuses.count("ok")
-    assert f"{n_ok} ok" in last and f"interrupted by {sig.name}" in last, stdout
-    for d in done:                                         # every model on disk has its line
-        assert f"m{d.name[1:]}.yaml" in stdout, (d, stdout)
+    assert "0 ok" in last and f"interrupted by {sig.name}" in last, stdout
     no_leftovers(out)
 
 
@@ -453,11 +453,8 @@ def test_sigterm_to_the_process_group_of_a_plotting_run(tmp_path):
     Exit 143, no traceback (the plot server used to print one), a consistent directory that
     says it was interrupted."""
     out = tmp_path / "out"
-    p = subprocess.Popen(ENTRY + ["run", str(ROOT / "mechanisms" / "four-bar.yaml"), "--out",
-                                  str(out)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
-                         start_new_session=True)
-    _wait_for(out, ".four-bar.tmp-*/bodies.png", p)
+    p = start_held(["run", ROOT / "mechanisms" / "four-bar.yaml", "--out", out],
+                   "figure:four-bar:bodies.png", tmp_path / "ready", start_new_session=True)
     os.killpg(p.pid, signal.SIGTERM)
     try:
         stdout, stderr = p.communicate(timeout=60)
@@ -467,7 +464,7 @@ def test_sigterm_to_the_process_group_of_a_plotting_run(tmp_path):
     assert "Traceback" not in stderr and "Error" not in stderr, stderr
     assert p.returncode == 143, (p.returncode, stdout, stderr)
     s = assert_contract(out / "four-bar", ("interrupted",))
-    assert s["exit_code"] == 143 and s["time"]["rows_written"] == 361
+    assert s["exit_code"] == 143 and s["time"]["rows_written"] == 361 and s["plots"] == []
     no_leftovers(out)
 
 
@@ -477,17 +474,16 @@ SWEEP = ["sweep", str(ROOT / "mechanisms" / "four-bar.yaml"), "--vary", "a=0.03:
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 def test_an_interrupted_sweep_leaves_no_staged_tables(tmp_path, sig):
-    """Interrupted while its files are staged (sweep.csv written, the plot being drawn): exit
-    130/143, one line, and neither a temporary nor a lock file is left (they used to pile up
-    in the result directory); the earlier sweep's files are as they were."""
+    """Interrupted while its files are staged (sweep.csv written, the plot about to be drawn):
+    exit 130/143, one line, and neither a temporary nor a lock file is left (they used to pile
+    up in the result directory); the earlier sweep's files are as they were."""
     out = tmp_path / "out"
     assert run_cli(*SWEEP, "--out", out).returncode == 0
     d = out / "four-bar"
     before = {f.name: f.read_bytes() for f in d.iterdir()}
-    p = subprocess.Popen(ENTRY + SWEEP[:3] + ["a=0.03:0.05:5"] + SWEEP[4:] + ["--out", str(out)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
-                         cwd=ROOT)
-    _wait_for(d, ".tmp-*-sweep.csv", p)
+    p = start_held(SWEEP[:3] + ["a=0.03:0.05:5"] + SWEEP[4:] + ["--out", out], "sweep-plot",
+                   tmp_path / "ready")
+    assert list(d.glob(".tmp-*-sweep.csv"))                 # staged when the signal comes
     p.send_signal(sig)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 128 + sig, (p.returncode, stdout, stderr)

@@ -310,10 +310,7 @@ def test_exact_curve_jerk_against_a_third_difference_in_time():
         qd, qdd, qddd = (ext(rng.normal(size=(1, 3 * NB))) for _ in range(3))
         phi = q[:, 2::3]
         F = Frame(q, np.cos(phi), np.sin(phi), qd, qdd)
-        try:
-            jerk = G.kind.jerk(G, F)
-        except (NotImplementedError, AttributeError):
-            pytest.skip("curve-slot has no jerk in this branch yet")
+        jerk = G.kind.jerk(G, F)
         path = lambda s: q + s * qd + s * s / 2 * qdd + s**3 / 6 * qddd   # noqa: E731
         g = lambda s: G.g(make_frame(path(s)))                           # noqa: E731
         h = 2e-3

@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import planarkin  # noqa: E402
 import reference_models as R  # noqa: E402
+from closedforms import four_bar_pose  # noqa: E402
 from clitools import run_cli  # noqa: E402
 
 TWO_PI = 2.0 * math.pi
@@ -84,24 +85,11 @@ analysis: {{start: 0, end: 1, steps: 100}}
 """
 
 
-def fourbar_pose(th, a, b, c, d, sigma):
-    """Coupler and rocker angles of the four-bar O2-A-B-O4 at crank angle th (radians, not
-    unwrapped); sigma = +1 open (B left of A->O4), -1 crossed."""
-    Ax, Ay = a * np.cos(th), a * np.sin(th)
-    Dx, Dy = d - Ax, -Ay
-    delta = np.hypot(Dx, Dy)
-    psi = np.arctan2(Dy, Dx)
-    gam = np.arccos(np.clip((b * b + delta * delta - c * c) / (2.0 * b * delta), -1.0, 1.0))
-    th3 = psi + sigma * gam
-    Bx, By = Ax + b * np.cos(th3), Ay + b * np.sin(th3)
-    return th3, np.arctan2(By, Bx - d)
-
-
 def fourbar_yaml(a, b, c, d, sigma=1, th0=0.0, driver=None, scale=1.0, branch_hint=None,
                  perturb=0.05):
     """Four-bar: crank O2-A (O2 = origin), coupler A-B, rocker O4-B (O4 = (d, 0)); frames at O2,
     A and O4 along their links. Rough estimates near the exact pose of branch sigma at th0."""
-    th3, th4 = (float(v) for v in fourbar_pose(th0, a, b, c, d, sigma))
+    th3, th4 = (float(v) for v in four_bar_pose(th0, a, b, c, d, sigma))
     a, b, c, d = (v * scale for v in (a, b, c, d))
     p = perturb
     driver = driver or f'{{type: angle, body: crank, f: "{num(th0)} + 2*pi*t"}}'
@@ -182,42 +170,13 @@ analysis: {{start: 0, end: 3, steps: 30}}
 
 # == closed forms =================================================================================
 
-def uniform(w=TWO_PI, phase=0.0):
-    return lambda t: (phase + w * t, w + 0.0 * t, 0.0 * t)
+uniform = R.uniform
 
 
 def slider_crank_cf(t, r, l, e=0.0, theta=uniform(), scale=1.0):
-    """Slider-crank, branch cos(be) > 0 (slider right of the crank pin). Loop O -> A -> B:
-        r sin th + l sin be = e,   xB = r cos th + l cos be
-    cos be = sqrt((l - e + r sin th)(l + e - r sin th)) / l, in product form (and for e = 0 with
-    l -+ r sin th = (l - r) + 2 r sin^2(pi/4 -+ th/2)) so that it stays accurate near the toggle
-    cos be -> 0. Derivatives of the y equation:
-        be'  = -r cos th th' / (l cos be)
-        be'' = (r sin th th'^2 - r cos th th'' + l sin be be'^2) / (l cos be)
-    and of the x equation:
-        xB'  = -r sin th th' - l sin be be'
-        xB'' = -r cos th th'^2 - r sin th th'' - l cos be be'^2 - l sin be be''."""
-    th, thd, thdd = theta(t)
-    st, ct = np.sin(th), np.cos(th)
-    if e == 0.0:
-        lo = (l - r) + 2.0 * r * np.sin(math.pi / 4 - th / 2) ** 2     # l - r sin th
-        hi = (l - r) + 2.0 * r * np.sin(math.pi / 4 + th / 2) ** 2     # l + r sin th
-    else:
-        lo, hi = l - e + r * st, l + e - r * st
-    cb = np.sqrt(np.maximum(lo * hi, 0.0)) / l
-    sb = (e - r * st) / l
-    be = np.arctan2(sb, cb)
-    bed = -r * ct * thd / (l * cb)
-    bedd = (r * st * thd ** 2 - r * ct * thdd + l * sb * bed ** 2) / (l * cb)
-    xB = r * ct + l * cb
-    xBd = -r * st * thd - l * sb * bed
-    xBdd = -r * ct * thd ** 2 - r * st * thdd - l * cb * bed ** 2 - l * sb * bedd
-    crank = R.fixed_pivot_body(0.0, 0.0, th, thd, thdd)
-    rod = R.body(r * ct, r * st, be, -r * st * thd, r * ct * thd, bed,
-                 -r * ct * thd ** 2 - r * st * thdd, -r * st * thd ** 2 + r * ct * thdd, bedd)
-    slider = R.body(xB, e, 0.0, xBd, 0.0, 0.0, xBdd, 0.0, 0.0)
-    return _scaled(R.broadcast({"bodies": {"crank": crank, "rod": rod, "slider": slider}}, t),
-                   scale)
+    """Slider-crank of slider_crank_yaml, branch cos(be) > 0 (slider right of the crank pin),
+    from closedforms.slider_crank (in product form: accurate near the toggle)."""
+    return _scaled(R.broadcast({"bodies": R.slider_crank_bodies(*theta(t), r, l, e)}, t), scale)
 
 
 def rod_equals_crank_smooth_cf(t, r):
@@ -256,25 +215,10 @@ def slider_driven_theta(x_fn, r, l):
 
 
 def fourbar_cf(t, a, b, c, d, sigma=1, theta=uniform(), scale=1.0):
-    """Four-bar of fourbar_yaml on branch sigma. Positions from fourbar_pose (unwrapped in
-    time: call on a fine grid, see `on_grid`); velocities and accelerations from the loop
-    a e(th) + b e(th3) = (d, 0) + c e(th4) differentiated once and twice, dotted with e(th4) and
-    e(th3) (derivation in reference_models.fourbar_angles, valid on either branch)."""
-    th, thd, thdd = theta(t)
-    th3, th4 = fourbar_pose(th, a, b, c, d, sigma)
-    th3, th4 = np.unwrap(np.atleast_1d(th3)), np.unwrap(np.atleast_1d(th4))
-    w3 = -a * thd * np.sin(th4 - th) / (b * np.sin(th4 - th3))
-    w4 = a * thd * np.sin(th3 - th) / (c * np.sin(th3 - th4))
-    al3 = (-c * w4 ** 2 - a * thdd * np.sin(th4 - th) + a * thd ** 2 * np.cos(th - th4)
-           + b * w3 ** 2 * np.cos(th3 - th4)) / (b * np.sin(th4 - th3))
-    al4 = (a * thdd * np.sin(th3 - th) - a * thd ** 2 * np.cos(th - th3) - b * w3 ** 2
-           + c * w4 ** 2 * np.cos(th4 - th3)) / (c * np.sin(th3 - th4))
-    crank = R.fixed_pivot_body(0.0, 0.0, th, thd, thdd)
-    rocker = R.fixed_pivot_body(d, 0.0, th4, w4, al4)
-    A = R.rigid_point(crank, (a, 0.0))
-    coupler = R.body(A["x"], A["y"], th3, A["vx"], A["vy"], w3, A["ax"], A["ay"], al3)
-    return _scaled(R.broadcast({"bodies": {"crank": crank, "coupler": coupler,
-                                           "rocker": rocker}}, t), scale)
+    """Four-bar of fourbar_yaml on branch sigma (closedforms.four_bar: angles unwrapped in
+    time, so call on a fine grid, see `on_grid`)."""
+    return _scaled(R.broadcast({"bodies": R.fourbar_bodies(*theta(t), a, b, c, d, sigma)}, t),
+                   scale)
 
 
 def _scaled(cf, s):

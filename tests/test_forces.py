@@ -2,8 +2,8 @@
 statics.
 
 The references here do not use the solver's Jacobians or multipliers: the slider-crank and the
-four-bar are solved in closed form (positions by trigonometry, velocities and accelerations by
-differentiating the loop equations by hand) and their forces by free-body Newton-Euler equations
+four-bar are solved in closed form (tests/closedforms.py: positions by trigonometry, velocities
+and accelerations by differentiating the loop equations by hand) and their forces by free-body Newton-Euler equations
 written out link by link; the power balance uses only the result's exact q, q', q''. Errors are
 relative to the largest magnitude of the compared column over the run, at every grid point.
 """
@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import planarkin
+import closedforms as CF
 from planarkin.elements import JOINT_KINDS
 from planarkin.forces.solve import JOINT_OUTPUT, Kinetostatics
 
@@ -78,15 +79,9 @@ def slider_crank_reference(t, a, b, c1, m1, J1, c2, m2, J2, m3, P):
     a1 = thdd * np.array([-p1[1], p1[0]]) - thd ** 2 * p1
     rA = a * np.array([np.cos(th), np.sin(th)])
     aA = thdd * np.array([-rA[1], rA[0]]) - thd ** 2 * rA
-    psi = np.arcsin(-a * np.sin(th) / b)
-    psd = -a * np.cos(th) * thd / (b * np.cos(psi))
-    psdd = (-a * (np.cos(th) * thdd - np.sin(th) * thd ** 2) + b * np.sin(psi) * psd ** 2) / (
-        b * np.cos(psi))
+    psi, psd, psdd, xB, _, xBdd = CF.slider_crank(th, thd, thdd, a, b)
     e = np.array([np.cos(psi), np.sin(psi)])
     a2 = aA + c2 * (psdd * np.array([-e[1], e[0]]) - psd ** 2 * e)
-    xB = a * np.cos(th) + b * np.cos(psi)
-    xBdd = -a * (np.cos(th) * thd ** 2 + np.sin(th) * thdd) - b * (np.cos(psi) * psd ** 2
-                                                                   + np.sin(psi) * psdd)
     # slider: F23 from the rod, N from the guide, the press load P and gravity
     Fx = m3 * xBdd - Pt
     q2 = m2 * (a2 - g[:, None])
@@ -156,23 +151,9 @@ def four_bar_reference(t, a, b, c, d, c2, m2, J2, u3, m3, J3, c4, m4, J4, pl):
     e2 = np.array([np.cos(th), np.sin(th)])
     rA = a * e2
     O4 = np.array([d, 0.0])[:, None]
-    D = O4 - rA
-    dl = np.hypot(D[0], D[1])
-    u = D / dl
-    along = (b * b - c * c + dl * dl) / (2 * dl)
-    h = np.sqrt(b * b - along ** 2)
-    B = rA + along * u + h * R(u)                       # the open branch: B left of A -> O4
-    e3 = (B - rA) / b
-    e4 = (B - O4) / c
-    th3 = np.arctan2(e3[1], e3[0])
-    th4 = np.arctan2(e4[1], e4[0])
-    # loop rA + b e3 = O4 + c e4, differentiated by hand: 2 x 2 systems by Cramer's rule
-    M11, M21 = b * R(e3)
-    M12, M22 = -c * R(e4)
-    det = M11 * M22 - M12 * M21
-    solve = lambda r: ((r[0] * M22 - M12 * r[1]) / det, (M11 * r[1] - r[0] * M21) / det)
-    w3, w4 = solve(-a * thd * R(e2))
-    al3, al4 = solve(-a * thdd * R(e2) + a * thd ** 2 * e2 + b * w3 ** 2 * e3 - c * w4 ** 2 * e4)
+    th3, w3, al3, th4, w4, al4 = CF.four_bar(th, thd, thdd, a, b, c, d)    # open branch
+    e3 = np.array([np.cos(th3), np.sin(th3)])
+    B = rA + b * e3
     aA = a * thdd * R(e2) - a * thd ** 2 * e2
     s2 = np.array(rot(th, c2))
     a2c = thdd * R(s2) - thd ** 2 * s2

@@ -870,11 +870,13 @@ def extreme_cases() -> list[Case]:
 # -- the case lists ---------------------------------------------------------------------------
 
 INPROC = structured_cases() + raw_cases()
-# every 12th in-process case also through `planarkin run`, every 25th also as a real subprocess
+# every 20th in-process case also through `planarkin run`, every 120th also as a real process
+# (its exit status through the console script: the same path for every invalid input, and a
+# second of start-up each; the heavy cases all run as processes)
 RUN_SAMPLE = [Case(c.id + "-run", c.content, c.kind, "inproc", "run", c.valid, c.others)
               for c in INPROC[::20]]
 SUBPROC_SAMPLE = [Case(c.id + "-subproc", c.content, c.kind, "subproc", c.cmd, c.valid, c.others)
-                  for c in INPROC[5::40]]
+                  for c in INPROC[5::120]]
 HEAVY = heavy_cases()
 VALID = valid_cases()
 EXTREME_CASES = extreme_cases()

@@ -8,7 +8,7 @@ import time
 import pytest
 
 import planarkin
-from clitools import run_cli
+from clitools import run_process
 from planarkin.diagnostics import InputError
 
 MODEL = """\
@@ -39,7 +39,7 @@ def test_a_fifo_is_refused_at_once_not_read_for_ever(tmp_path):
     os.mkfifo(tmp_path / "pipe.csv")
     p = model(tmp_path, "pipe.csv")
     t0 = time.monotonic()
-    r = run_cli("check", p, timeout=10)       # the old code waited for a writer for ever
+    r = run_process("check", p, timeout=10)   # the old code waited for a writer for ever
     assert time.monotonic() - t0 < 10
     assert r.returncode == 2
     assert f"{p}:6: error: driver 1 (angle ground-a): table: {tmp_path}/pipe.csv: the table is " \

@@ -11,6 +11,7 @@ import planarkin
 from planarkin.diagnostics import InputError
 
 import reference_models as R
+from closedforms import four_bar, slider_crank
 
 WOBBLY_DEG = "360*t + 0.3*180/pi*sin(2*pi*t)"
 TOL = 1e-12
@@ -62,7 +63,7 @@ def fourbar():
 def _fourbar_cf(t):
     a, b, c, d = (R.FOURBAR[k] for k in "abcd")
     th, thd, thdd = R.wobbly(t)
-    th3, w3, al3, th4, w4, al4 = R.fourbar_angles(th, thd, thdd, a, b, c, d)
+    th3, w3, al3, th4, w4, al4 = four_bar(th, thd, thdd, a, b, c, d)
     return a, b, c, d, th, thd, thdd, th3, w3, al3, th4, w4, al4
 
 
@@ -174,15 +175,7 @@ def slider():
 def _slider_cf(t):
     a, b, e = (R.SLIDER_CRANK[k] for k in "abe")
     th, thd, thdd = R.wobbly(t)
-    be = np.arcsin((e - a * np.sin(th)) / b)
-    bed = -a * np.cos(th) * thd / (b * np.cos(be))
-    bedd = (a * np.sin(th) * thd ** 2 - a * np.cos(th) * thdd + b * np.sin(be) * bed ** 2) / \
-        (b * np.cos(be))
-    xB = a * np.cos(th) + b * np.cos(be)
-    xBd = -a * np.sin(th) * thd - b * np.sin(be) * bed
-    xBdd = -a * np.cos(th) * thd ** 2 - a * np.sin(th) * thdd - b * np.cos(be) * bed ** 2 \
-        - b * np.sin(be) * bedd
-    return a, b, e, th, thd, thdd, be, bed, bedd, xB, xBd, xBdd
+    return (a, b, e, th, thd, thdd) + slider_crank(th, thd, thdd, a, b, e)
 
 
 def test_slider_displacement_and_distance(slider):

@@ -8,6 +8,7 @@ import pytest
 
 import planarkin
 from clitools import run_cli
+from closedforms import slider_crank
 
 SC = "mechanisms/slider-crank.yaml"
 FB = "mechanisms/four-bar.yaml"
@@ -15,7 +16,7 @@ FB = "mechanisms/four-bar.yaml"
 
 def _slider_x(a, b, phi):
     """Closed form: slider position of a centred slider-crank, crank a, rod b."""
-    return a * np.cos(phi) + np.sqrt(b * b - (a * np.sin(phi)) ** 2)
+    return slider_crank(phi, 0.0, 0.0, a, b)[3]
 
 
 def test_override_re_evaluates_every_dependent_parameter_and_number():

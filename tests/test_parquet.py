@@ -5,12 +5,11 @@ the extra when pyarrow is missing."""
 import json
 import signal
 import subprocess
-import time
 
 import numpy as np
 import pytest
 
-from clitools import PLAIN_SLIDER_CRANK, ROOT, command, run_cli
+from clitools import PLAIN_SLIDER_CRANK, command, run_cli
 
 import planarkin
 from planarkin import InputError
@@ -166,22 +165,15 @@ def test_missing_pyarrow_is_an_error_naming_the_extra(tmp_path, monkeypatch):
 
 
 def test_interruption_leaves_complete_row_groups(tmp_path):
-    """SIGTERM in the middle of a long run: every table holds the same complete rows, in
-    complete row groups, and summary.json says how many."""
-    from test_contract import _env, no_leftovers
+    """SIGTERM in the middle of a long run (held after three blocks of rows): every table holds
+    the same complete rows, in complete row groups, and summary.json says how many."""
+    from clitools import start_held
+    from test_contract import no_leftovers
     model = tmp_path / "sc.yaml"
     model.write_text(PLAIN_SLIDER_CRANK)
     out = tmp_path / "out"
-    p = subprocess.Popen(command() + ["run", str(model), "--out", str(out), "--no-plots",
-                                      "--steps", "400000", "--table-format", "parquet"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
-                         cwd=ROOT)
-    def written() -> int:        # bytes of row groups in the table being written
-        return sum(f.stat().st_size for f in out.glob(".sc.tmp-*/bodies.parquet"))
-    # the moment: in the grid pass, once a few row groups are on disk (whatever the load)
-    deadline = time.time() + 60
-    while written() < 2 << 20 and p.poll() is None and time.time() < deadline:
-        time.sleep(0.01)
+    p = start_held(["run", model, "--out", out, "--no-plots", "--steps", "40000",
+                    "--table-format", "parquet"], "rows:sc:3", tmp_path / "ready")
     p.send_signal(signal.SIGTERM)
     try:
         stdout, stderr = p.communicate(timeout=60)
@@ -194,7 +186,7 @@ def test_interruption_leaves_complete_row_groups(tmp_path):
     assert {q.name for q in d.iterdir()} == set(s["files"]) | {"summary.json"}
     rows = s["time"]["rows_written"]
     assert p.returncode == 143 and s["status"] == "interrupted", (p.returncode, stderr)
-    assert 0 < rows < 400001
+    assert rows == 3 * 8192
     assert pq.ParquetFile(d / "bodies.parquet").metadata.num_row_groups > 1
     for name, info in s["files"].items():
         f = pq.ParquetFile(d / name)         # a readable footer: the file was closed in order

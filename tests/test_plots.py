@@ -2,7 +2,6 @@
 geometry of the mechanism drawing."""
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -493,26 +492,18 @@ def test_tick_labels_are_drawn_where_matplotlib_draws_them(ydata):
         assert abs(x - x2) <= 1.0 and abs(y - y2) <= 1.0, (s, x, y, x2, y2)
 
 
-def test_a_drawing_failure_is_reported_and_the_tables_kept(tmp_path):
+def test_a_drawing_failure_is_reported_and_the_tables_kept(tmp_path, monkeypatch):
     """A figure that cannot be drawn (a bug, a matplotlib that behaves otherwise) does not cost
     the tables: the model is ok, the failure is a warning on the terminal and in summary.json,
     not a silently missing figure."""
     import json
-    import subprocess
-    import sys
-    code = ("import sys\n"
-            "from planarkin.output import plots\n"
-            "def boom(*a, **k):\n"
-            "    raise IndexError('list index out of range')\n"
-            "plots.write_plots = boom\n"
-            "from planarkin.__main__ import entry\n"
-            f"sys.argv = ['planarkin', 'run', {str(ROOT / 'mechanisms' / 'four-bar.yaml')!r}, "
-            f"'--out', {str(tmp_path)!r}]\n"
-            "entry()\n")
-    env = dict(os.environ, MPLBACKEND="Agg",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                       timeout=120)
+
+    from clitools import run_cli
+
+    def boom(*a, **k):
+        raise IndexError("list index out of range")
+    monkeypatch.setattr(plots, "write_plots", boom)
+    r = run_cli("run", ROOT / "mechanisms" / "four-bar.yaml", "--out", tmp_path)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
     assert "warning: drawing the plots failed: IndexError: list index out of range" in r.stderr

@@ -4,11 +4,8 @@ process group of a plotting run (a CI timeout, systemd, docker stop), leaves eve
 consistent, quietly."""
 
 import json
-import os
 import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -18,12 +15,6 @@ from planarkin.output import plots
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = [ROOT / "mechanisms" / f"{n}.yaml" for n in ("slider-crank", "four-bar", "boom")]
-
-
-def _env():
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
 
 
 def test_run_draws_the_same_files_as_the_plots_module(tmp_path):
@@ -65,18 +56,21 @@ def test_a_batch_prints_its_lines_in_order_and_every_directory_has_its_plots(tmp
             set(s["files"]) | set(s["plots"]) | {"summary.json"}
 
 
-# moments of a batch, as what is on disk then: the first model's first figure drawn (its other
-# figures being drawn), the second model solving, the third one's figures being drawn
-MOMENTS = [(".m0.tmp-*/bodies.png", signal.SIGINT), (".m1.tmp-*/bodies.csv", signal.SIGTERM),
-           (".m2.tmp-*/mechanism.png", signal.SIGINT)]
+# moments of a batch, each held (tests/hold/sitecustomize.py) until the signal arrives: the first
+# model's first figure drawn (its other figures not yet), the second model's first rows in its
+# tables, the third one's mechanism figure drawn; the models before it are complete
+MOMENTS = [("figure:m0:bodies.png", signal.SIGINT), ("rows:m1", signal.SIGTERM),
+           ("figure:m2:mechanism.png", signal.SIGINT)]
 
 
-@pytest.mark.parametrize("when, sig", MOMENTS, ids=[f"{w.split('.')[1]}-{s.name}"
-                                                   for w, s in MOMENTS])
-def test_interrupted_batch_with_plots_leaves_every_directory_consistent(tmp_path, when, sig):
-    """A batch with plots, stopped by a signal while models solve and are drawn: the run ends
-    with the signal's status, every directory on disk holds exactly what its summary lists
-    (whole PNG files), the later models are not started, and no temporary is left."""
+@pytest.mark.parametrize("moment, sig", MOMENTS, ids=[f"{m.split(':')[1]}-{s.name}"
+                                                      for m, s in MOMENTS])
+def test_interrupted_batch_with_plots_leaves_every_directory_consistent(tmp_path, moment, sig):
+    """A batch with plots, stopped by a signal while a model is solved or drawn: the run ends
+    with the signal's status, the models before it are complete (whole PNG files), the model
+    says it was interrupted (its plots left out), the later models are not started, and no
+    temporary is left."""
+    from clitools import start_held
     from test_contract import assert_contract, no_leftovers
     models = []
     for k in range(9):
@@ -84,13 +78,8 @@ def test_interrupted_batch_with_plots_leaves_every_directory_consistent(tmp_path
         m.write_text(EXAMPLES[k % 3].read_text())
         models.append(str(m))
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "planarkin", "run", *models, "--out", str(out),
-                          "--steps", "200", "--animate"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, env=_env(), cwd=ROOT)
-    deadline = time.time() + 120
-    while not list(out.glob(when)) and p.poll() is None and time.time() < deadline:
-        time.sleep(0.005)
-    assert p.poll() is None, "the batch ended before the moment"
+    p = start_held(["run", *models, "--out", out, "--steps", "200", "--animate"], moment,
+                   tmp_path / "ready")
     p.send_signal(sig)
     try:
         stdout, stderr = p.communicate(timeout=120)
@@ -99,18 +88,21 @@ def test_interrupted_batch_with_plots_leaves_every_directory_consistent(tmp_path
         pytest.fail("planarkin hung after the signal")
     assert "Traceback" not in stderr, stderr
     assert p.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], (stdout, stderr)
-    done = [d for d in out.iterdir() if d.is_dir() and not d.name.startswith(".")]
-    statuses = []
-    for d in done:
-        s = assert_contract(d, ("ok", "interrupted"))
-        statuses.append(s["status"])
-        for name in s["plots"]:
-            data = (d / name).read_bytes()
-            assert data[:6] in (b"\x89PNG\r\n", b"GIF89a"), (d, name)
-            assert data.endswith(b"IEND\xaeB`\x82") or data.endswith(b";"), (d, name)
-        assert f"{d.name}.yaml" in stdout, (d, stdout)
-    assert "interrupted" in statuses and len(done) < 9
-    assert f"{statuses.count('ok')} ok" in stdout.strip().splitlines()[-1], stdout
+    stopped = int(moment.split(":")[1][1:])              # the model held: m0, m1 or m2
+    done = sorted(d.name for d in out.iterdir() if d.is_dir() and not d.name.startswith("."))
+    assert done == [f"m{k}" for k in range(stopped + 1)], (done, stdout)
+    for name in done:
+        d = out / name
+        s = assert_contract(d, ("interrupted",) if name == f"m{stopped}" else ("ok",))
+        assert s["time"]["rows_written"] == 201
+        if name == f"m{stopped}":
+            assert s["plots"] == [] and s["exit_code"] == 128 + sig
+        else:
+            assert "mechanism.png" in s["plots"] and "animation.gif" in s["plots"]
+        for f in s["plots"]:
+            data = (d / f).read_bytes()
+            assert data[:6] in (b"\x89PNG\r\n", b"GIF89a"), (d, f)
+            assert data.endswith(b"IEND\xaeB`\x82") or data.endswith(b";"), (d, f)
+        assert f"{name}.yaml" in stdout, (name, stdout)
+    assert f"{stopped} ok" in stdout.strip().splitlines()[-1], stdout
     no_leftovers(out)
-
-

@@ -15,6 +15,7 @@ import planarkin
 from planarkin.diagnostics import InputError
 
 import linkages as L
+from closedforms import slider_crank
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -186,7 +187,7 @@ analysis: {steps: 36}
 """
     r = planarkin.solve(_load(text))
     th = 2 * np.pi * r.t
-    x = 0.1 * np.cos(th) + np.sqrt(0.09 - (0.1 * np.sin(th)) ** 2)
+    x = slider_crank(th, 0.0, 0.0, 0.1, 0.3)[3]
     assert np.max(np.abs(r.point("B")["x"] - x)) < 1e-14
     assert np.max(np.abs(r.point("B")["y"])) < 1e-14
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import planarkin
+from closedforms import four_bar_pose
 from planarkin.assembly import assemble
 from planarkin.diagnostics import InputError
 
@@ -90,12 +91,9 @@ def test_every_moved_pin_is_named_with_how_far_it_moved():
     # the crank is driven to 20 deg: B = 0.04 (cos 20, sin 20); C from the exact four-bar there
     th = math.radians(20)
     bx, by = 0.04 * math.cos(th), 0.04 * math.sin(th)
-    # C: on |C - D| = 0.1 and |C - B| = 0.12, the upper intersection
-    dxb, dyb = 0.1 - bx, -by
-    d = math.hypot(dxb, dyb)
-    a_ = (0.12 ** 2 - 0.1 ** 2 + d * d) / (2 * d)
-    h = math.sqrt(0.12 ** 2 - a_ * a_)
-    cx, cy = bx + a_ * dxb / d - h * dyb / d, by + a_ * dyb / d + h * dxb / d
+    # C: on |C - D| = 0.1 and |C - B| = 0.12, the open (upper) branch
+    th4 = float(four_bar_pose(th, 0.04, 0.12, 0.1, 0.1)[1])
+    cx, cy = 0.1 + 0.1 * math.cos(th4), 0.1 * math.sin(th4)
     sb = (0.04 * (1 + dx[0]), 0.04 * dx[0])
     sc = (CX * (1 - dx[1]), CY * (1 + dx[1]))
     assert w == [

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from clitools import run_cli
+from closedforms import four_bar_pose
 from planarkin.studies.sweep import Range, factorial, latin_hypercube, parse_range, run_sweep
 from planarkin.studies.variants import Study
 
@@ -15,21 +16,14 @@ FB = "mechanisms/four-bar.yaml"
 
 
 def four_bar_closed_form(a, b, c, d, theta2):
-    """Rocker angle and coupler point P of the four-bar of mechanisms/four-bar.yaml (A at the
-    origin, D = (d, 0), P at (0.06, 0.045) in the coupler frame at B along B->C), on the branch
-    with C to the left of B->D, from the intersection of the circles |C - B| = b, |C - D| = c."""
+    """Rocker angle (deg) and coupler point P of the four-bar of mechanisms/four-bar.yaml (A at
+    the origin, D = (d, 0), P at (0.06, 0.045) in the coupler frame at B along B->C), on the
+    branch with C to the left of B->D (closedforms.four_bar_pose)."""
+    t3, t4 = four_bar_pose(theta2, a, b, c, d)
     Bx, By = a * np.cos(theta2), a * np.sin(theta2)
-    ex, ey = d - Bx, -By
-    e = np.hypot(ex, ey)
-    along = (b * b - c * c + e * e) / (2 * e)
-    h = np.sqrt(b * b - along * along)
-    Cx = Bx + (along * ex - h * ey) / e
-    Cy = By + (along * ey + h * ex) / e
-    rocker = np.degrees(np.arctan2(Cy, Cx - d))
-    t3 = np.arctan2(Cy - By, Cx - Bx)
     Px = Bx + 0.06 * np.cos(t3) - 0.045 * np.sin(t3)
     Py = By + 0.06 * np.sin(t3) + 0.045 * np.cos(t3)
-    return rocker, Px, Py
+    return np.degrees(t4), Px, Py
 
 
 def test_four_bar_sweep_metrics_match_the_closed_form(tmp_path):
