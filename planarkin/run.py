@@ -92,7 +92,7 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
     from .diagnostics import Diagnostic, InputError
     from .model.spec import x_axis_problem
     from .options import resolve
-    from .output.directory import OutputError
+    from .output.directory import OutputError, critical
     from .output.writer import DirectoryWriter
     from .results import prepare, stream
     t0 = time.perf_counter()
@@ -111,12 +111,18 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
         report.failed(path, f"internal error during the analysis: {type(e).__name__}: {e} "
                             f"(please report)")
         return
+    writer = None
     try:
-        writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate, x=x_axis,
-                                 table_format=table_format, stop=stop)
+        with critical():    # a signal waits until the writer exists, so that it can abandon it
+            writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate, x=x_axis,
+                                     table_format=table_format, stop=stop)
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return
+    except KeyboardInterrupt:
+        if writer is not None:  # staged, nothing written: the earlier results stay as they were
+            writer.abort()
+        raise
     # the assembly's warnings before the grid pass (a lock-up ahead: planarkin.measures.grashof)
     report.diagnostics(an.A.warnings)
     progress = Progress(opts.steps + 1, Path(path).name)

@@ -243,8 +243,6 @@ def test_interruption_keeps_a_consistent_directory(tmp_path, moment, sig):
     no_leftovers(out)
 
 
-@pytest.mark.xfail(strict=True, reason="planarkin/run.py: run_model makes its DirectoryWriter "
-                   "before the try that abandons it on an interruption")
 def test_a_signal_as_the_new_directory_is_staged_leaves_nothing_behind(tmp_path):
     """A signal between the writer's staging of the new directory and the run's first row: the
     staged directory and its lock used to be left behind (the window is a few bytecodes; the

@@ -19,7 +19,8 @@ PLANARKIN_HOLD, the moment (NAMES: result directory names, comma-separated, or *
   figure:NAMES:F  the model's figure F (bodies.png ...) is drawn, the others not yet
   sweep-plot      a sweep's tables are staged, its plot not drawn
 PLANARKIN_HOLD_READY: a directory; the held process writes a file there (NAME-PID) as it
-starts to wait, and goes on when the test deletes it. It waits in the interruptible way the run
+starts to wait, and goes on when the test deletes it (or when the signal came where planarkin
+defers it, in a critical block: the block raises it as it ends). It waits in the interruptible way the run
 itself does (a sleep, and the checkpoint between blocks of rows that a `--jobs` worker is
 stopped by), at most 120 s, then exits 97 (a test that waits for nothing fails rather than
 hangs).
@@ -52,8 +53,11 @@ def hold(name: str, stop=None) -> None:
     if name == "starting":              # planarkin's start-up handler exits in the sleep
         def checkpoint(stop):
             pass
+
+        def stop_requested():
+            return None
     else:
-        from planarkin.output.directory import checkpoint
+        from planarkin.output.directory import checkpoint, stop_requested
     marker = os.path.join(READY or ".", f"{name}-{os.getpid()}")
     with open(marker, "w") as f:
         f.write(SPEC)
@@ -61,7 +65,8 @@ def hold(name: str, stop=None) -> None:
     while time.time() < deadline:
         time.sleep(0.005)
         checkpoint(stop)
-        if not os.path.exists(marker):      # released: the run goes on
+        # released, or the signal came inside a critical block (which raises it as it ends)
+        if not os.path.exists(marker) or stop_requested() is not None:
             return
     os._exit(97)
 
