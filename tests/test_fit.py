@@ -87,7 +87,7 @@ def test_cli_fit_writes_estimates(tmp_path, track):
     r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--out", str(tmp_path),
                                   "--free", "a", "--free", "c", "--set", "a=0.041"])
     assert r.exit_code == 0, r.output
-    out = tmp_path / "four-bar"
+    out = tmp_path / "four-bar.fit"
     s = json.loads((out / "summary.json").read_text())
     assert abs(s["parameters"]["a"]["estimate"] - 0.04) < 1e-9
     assert s["jacobians"] > 0

@@ -40,10 +40,39 @@ def _check(syn, x, tol=1e-6):
 
 def test_jacobian_revolute_path_free_timing():
     """Four revolutes, the ground pivots and the ground angle free (they reach si of ground
-    joints and the driver's f), six free crank times (dP/dt = the point's velocity)."""
+    joints and the driver's f); the six crank times projected (the nearest points of the
+    path, in order): the residuals are the signed normal distances and n . dP/dp their exact
+    gradient, which central differences of the re-projected distances confirm."""
     syn = Synthesis(LINE)
     syn.wrap = True
-    _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20, 0.05, 0.2, 0.35, 0.5, 0.7, 0.9])
+    assert syn.nt == 0 and syn.projected == [0]
+    r, _, d = syn.evaluate(np.array([0, 0, 0.3, 10, 40, 30, 40, 20, 20.0]))
+    # the projection: (P - T) normal to the path, its length the residual
+    st, T = d.state, np.array(syn.design.targets[0].values)
+    j = syn.points.index("P")
+    V = st.pd[:, j]
+    assert np.abs(((st.p[:, j] - T) * V).sum(axis=1)).max() <= 1e-9 * np.abs(V).max()
+    assert np.allclose(np.abs(r[:6]), np.hypot(*(st.p[:, j] - T).T), rtol=1e-12)
+    assert d.cost == pytest.approx(float(r[:6] @ r[:6]), rel=1e-12)
+    _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20])
+
+
+def test_turns_barrier_row_and_its_gradient():
+    """Near a change point (crank 10, coupler 50, rocker 40.6, ground 20: margin
+    50 + 40.6 + 20 - 2 * 50 - 10 = 0.6 mm, below 1 % of the length sum) the barrier row
+    (m0 - m)^2 / m is on, and its exact gradient (through the lengths' expressions) matches
+    central differences with the rest of the Jacobian."""
+    syn = Synthesis(LINE)
+    syn.wrap = True
+    x = [0, 0, 0.3, 10, 50, 40.6, 20, 20, 20]
+    r, _, d = syn.evaluate(np.array(x, dtype=float))
+    assert d.margins["turns"]["value"] == pytest.approx(0.6, abs=1e-9)
+    m0 = 0.01 * (10 + 50 + 40.6 + 20)
+    assert r[-1] == pytest.approx((m0 - 0.6) ** 2 / 0.6, rel=1e-9)
+    _check(syn, x)
+    # above the band the row is zero, its gradient too
+    r, J, d = syn.evaluate(np.array([0, 0, 0.3, 10, 40, 30, 40, 20, 20.0]))
+    assert r[-1] == 0 and not J[-1].any()
 
 
 def _variant(tmp_path, src, old, new, name="m.yaml"):
@@ -113,7 +142,7 @@ def test_cli_synth_writes_ready_to_run_designs(tmp_path):
     r = runner.invoke(main, ["synth", str(EX / "four-bar-function.yaml"), "--out",
                              str(tmp_path), "--starts", "6", "--local", "1"])
     assert r.exit_code == 0, r.output
-    out = tmp_path / "four-bar-function"
+    out = tmp_path / "four-bar-function.synth"
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "ok" and s["designs"][0]["cost"] < 1e-12
     assert s["evaluations"] > 0 and s["jacobians"] > 0
@@ -186,3 +215,38 @@ def test_jacobian_six_bar_function_generation():
     """Stephenson III six-bar: the output link's angle through the dyad's lengths."""
     syn = Synthesis(EX / "six-bar-output.yaml")
     _check(syn, [0.155, 0.105])
+
+
+def test_synth_and_run_in_the_same_out_keep_each_others_files(tmp_path):
+    """run writes DIR/<name>/, synth DIR/<name>.synth/ (run's name, output.directory.out_dirs):
+    a synth after a run, and a run after a synth, leave the other's files as they were; a
+    second synth replaces its own directory whole (the output contract of run)."""
+    runner = CliRunner()
+    model = EX / "four-bar-function.yaml"
+    r = runner.invoke(main, ["run", str(model), "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    run_dir = tmp_path / "four-bar-function"
+    before = {p.name: p.read_bytes() for p in run_dir.iterdir()}
+    args = ["synth", str(model), "--out", str(tmp_path), "--starts", "6", "--local", "1",
+            "--no-plots"]
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert {p.name: p.read_bytes() for p in run_dir.iterdir()} == before
+    syn_dir = tmp_path / "four-bar-function.synth"
+    assert json.loads((syn_dir / "summary.json").read_text())["command"] == "synth"
+    (syn_dir / "design-9.yaml").write_text("stale")        # not a file of the next synth
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert not (syn_dir / "design-9.yaml").exists()
+    synth_files = {p.name: p.read_bytes() for p in syn_dir.iterdir()}
+    r = runner.invoke(main, ["run", str(model), "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    assert {p.name: p.read_bytes() for p in syn_dir.iterdir()} == synth_files
+    assert json.loads((run_dir / "summary.json").read_text()).get("command") != "synth"
+    # a directory of someone else's at that name is left alone: exit 2, nothing replaced
+    other = tmp_path / "x"
+    (other / "four-bar-function.synth").mkdir(parents=True)
+    (other / "four-bar-function.synth" / "notes.txt").write_text("mine")
+    r = runner.invoke(main, args[:3] + [str(other)] + args[4:])
+    assert r.exit_code == 2 and "is not a planarkin result directory" in r.output, r.output
+    assert (other / "four-bar-function.synth" / "notes.txt").read_text() == "mine"
