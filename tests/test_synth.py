@@ -250,3 +250,73 @@ def test_synth_and_run_in_the_same_out_keep_each_others_files(tmp_path):
     r = runner.invoke(main, args[:3] + [str(other)] + args[4:])
     assert r.exit_code == 2 and "is not a planarkin result directory" in r.output, r.output
     assert (other / "four-bar-function.synth" / "notes.txt").read_text() == "mine"
+
+
+MORE_BAD = [
+    ("design:\n  free: {b: [0.10, 0.14]", "design: [1, 2]\nxdesign:\n  free: {b: [0.10, 0.14]",
+     "design must be a mapping"),
+    ("b: [0.10, 0.14]", "b: [0.10]", "design: free: b must be a list of 2 numbers"),
+    ("b: [0.10, 0.14]", "b: [0.10, oops]", "design: free: b: unknown name 'oops'"),
+    ("search: {starts: 16", "search: {starts: 0", "design: search: starts must be a whole "
+                                                  "number from 1 to 100000, not 0"),
+    ("search: {starts: 16", "search: {starts: 2.5", "design: search: starts must be a whole "
+                                                    "number"),
+    ("goal: 1e-12", "goal: 1e-12, start: 5", "design: search: unknown key 'start'"),
+    ("function: rocker.phi", "function: rocker.phi\n      weight: 0", "weight must be > 0"),
+    ("function: rocker.phi", "function: rocker.speed", "must be BODY.x, BODY.y or BODY.phi"),
+    ("    - function: rocker.phi\n      inputs: [0, 60, 120, 180, 240, 300]\n",
+     "    - path: Q\n      inputs: [0, 60, 120, 180, 240, 300]\n",
+     "design: target 1: path: 'Q' is not a point of the model"),
+    ("targets:", "targets: 3\n  old_targets:", "design: targets must be a list"),
+]
+
+
+@pytest.mark.parametrize("old,new,message", MORE_BAD)
+def test_more_bad_designs_are_file_line_errors(tmp_path, old, new, message):
+    test_bad_design_is_a_file_line_error(tmp_path, old, new, message)
+
+
+def test_no_targets_is_refused_for_synth(tmp_path):
+    p = tmp_path / "m.yaml"
+    text = (EX / "four-bar-function.yaml").read_text()
+    p.write_text(text[:text.index("  targets:")] + "  search: {starts: 4}\n")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:" in r.output and "design: no targets" in r.output
+
+
+def test_inputs_out_of_the_drivers_range_are_a_clear_refusal(tmp_path):
+    """Targets out of reach: inputs the driver never takes (the crank turns 0..360 deg) make
+    every start a rejected candidate, counted with its reason; exit 1, no traceback."""
+    p = _variant(tmp_path, EX / "four-bar-function.yaml",
+                 "inputs: [0, 60, 120, 180, 240, 300]", "inputs: [0, 60, 120, 180, 240, 900]")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
+                                  "--local", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "no acceptable design: 4 the input value 900 is not reached" in r.output, r.output
+
+
+def test_points_out_of_reach_end_with_the_best_design_and_exit_1(tmp_path):
+    """Path points a kilometre away: the search ends, the best design is written with its
+    residuals and the summary says the goal was not reached."""
+    p = _variant(tmp_path, EX / "four-bar-path.yaml", "[[0.035916759466, 0.074888765157]",
+                 "[[1000.035916759466, 0.074888765157]")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
+                                  "--local", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "no design reaches the goal 1e-20" in r.output
+    s = json.loads((tmp_path / "m.synth" / "summary.json").read_text())
+    assert s["status"] == "failed" and s["designs"][0]["cost"] > 1e5
+
+
+@pytest.mark.parametrize("options,message", [
+    ({"starts": 0}, "synthesize: starts must be a whole number from 1 to 100000, not 0"),
+    ({"local": 2.5}, "synthesize: local must be a whole number"),
+    ({"goal": float("nan")}, "synthesize: goal must be a number"),
+    ({"start": 3}, "synthesize: unknown option 'start'; did you mean 'starts'?"),
+])
+def test_api_options_are_checked(options, message):
+    import planarkin
+    with pytest.raises(planarkin.InputError) as e:
+        planarkin.synthesize(EX / "four-bar-function.yaml", **options)
+    assert message in str(e.value)

@@ -415,7 +415,7 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     from scipy.optimize import least_squares
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
-    cfg = {**syn.design.search, **{k: v for k, v in search.items() if v is not None}}
+    cfg = {**syn.design.search, **_search_options(path, search)}
     first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
     if not isinstance(first, Rejected):
         syn.wrap = syn.model.periodic(first[2])
@@ -486,6 +486,31 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                        evaluations=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
                        starts=[s for s, _ in good])
+
+
+def _search_options(path, search: dict) -> dict:
+    """The search settings given by the caller (None: the design block's), checked as the
+    design block's are (spec.SEARCH); InputError naming the option otherwise."""
+    from ..diagnostics import Diagnostic, InputError, did_you_mean
+    from .spec import SEARCH
+    out, errs = {}, []
+    for key, val in search.items():
+        if val is None:
+            continue
+        if key not in SEARCH:
+            errs.append(f"synthesize: unknown option '{key}'"
+                        f"{did_you_mean(key, SEARCH) or ' (valid: ' + ', '.join(SEARCH) + ')'}")
+            continue
+        typ, lo, hi, _ = SEARCH[key]
+        ok = isinstance(val, (int, float)) and not isinstance(val, bool) and math.isfinite(val)
+        if not ok or (typ is int and val != int(val)) or not lo <= val <= hi:
+            what = "a whole number" if typ is int else "a number"
+            errs.append(f"synthesize: {key} must be {what} from {lo:g} to {hi:g}, not {val!r}")
+            continue
+        out[key] = typ(val)
+    if errs:
+        raise InputError([Diagnostic(str(path), None, e) for e in errs])
+    return out
 
 
 def _kind(reason: str) -> str:
