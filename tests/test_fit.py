@@ -101,3 +101,54 @@ def test_unknown_free_parameter(tmp_path, track):
     r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "aa",
                                   "--out", str(tmp_path)])
     assert r.exit_code == 2 and "--free aa: not a parameter of the model" in r.output
+
+
+MORE_BAD = [
+    ("", 1, "the data file is empty"),
+    ("t [s],P.x [mm],P.x [mm]\n0,1,1\n0.1,1,1\n", 1, "a point coordinate is given in two "
+                                                    "columns"),
+    ("t [s]\n0\n0.1\n", 1, "no point columns"),
+    ("t [s],P.x [mm]\n0,1\n", 1, "the data needs at least two rows"),
+    ("t [s],P.x [mm],P.y [mm]\n0,1,2\n0.1,inf,2\n", 3, "a value is NaN or infinite"),
+    ("t [s],P.x [mm],P.y [mm]\n0,1,2\n0,1,2\n", 3, "the times must increase"),
+]
+
+
+@pytest.mark.parametrize("text,line,message", MORE_BAD)
+def test_more_bad_data(tmp_path, text, line, message):
+    test_bad_data_is_a_file_line_error(tmp_path, text, line, message)
+
+
+def test_missing_data_file_and_data_before_the_start(tmp_path, track):
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(tmp_path / "none.csv"),
+                                  "--free", "a", "--out", str(tmp_path)])
+    assert r.exit_code == 2 and "cannot read the data file" in r.output, r.output
+    t, x, y = track
+    p = _write(tmp_path / "d.csv", t - 0.5, x, y)
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "a",
+                                  "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert "the data starts at t = -0.5 s, before the model's analysis start 0 s" in r.output
+
+
+def test_no_free_parameters_is_refused(tmp_path, track):
+    """Without --free the design block's free parameters are fitted; a model without one is
+    refused (FILE:LINE, exit 2)."""
+    p = _write(tmp_path / "d.csv", *track)
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{FOUR}:1: error: the model has no design: block" in r.output
+
+
+def test_a_parameter_the_data_do_not_see_is_not_identifiable(tmp_path, track):
+    """A free parameter that nothing in the model uses leaves the data unchanged: its column
+    of J is zero, J^T J singular: exit 1 with the reason, the estimates still written."""
+    t, x, y = track
+    m = tmp_path / "m.yaml"
+    m.write_text(FOUR.read_text().replace("parameters:\n", "parameters:\n  unused: 1\n", 1))
+    p = _write(tmp_path / "d.csv", t, x, y)
+    r = CliRunner().invoke(main, ["fit", str(m), "--data", str(p), "--free", "a", "--free",
+                                  "unused", "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "not identifiable" in r.output
+    assert (tmp_path / "m.fit" / "estimates.csv").exists()
