@@ -18,8 +18,9 @@ and differential evolution as the search. pylinkage's own differential_evolution
 is a thin wrapper of scipy.optimize.differential_evolution over the linkage's constraint vector
 (crank radius and dyad distances), which leaves out the ground pivots and the ground angle, so
 the peer side calls scipy's differential_evolution directly on the same parameters and bounds,
-with as many function evaluations as planarkin used (popsize 15, polish off, maxiter cut to the
-budget). A design pylinkage cannot build over the cycle (UnbuildableError) scores 1e6. For the
+with as many function evaluations as planarkin used (population multiplier 15, pylinkage's
+default, or less so that the budget covers 5 generations; polish off; maxiter cut to the
+budget), and once more with 100 times that budget (DE's evaluations are much cheaper). A design pylinkage cannot build over the cycle (UnbuildableError) scores 1e6. For the
 straight line the pylinkage path is sampled at 360 crank positions and its best design is scored
 again by planarkin's exact projection (the error column), so both sides' errors are the same
 measure. planarkin runs first in each seed (its budget is the peer's); each side's wall time
@@ -90,8 +91,10 @@ def _peer(problem: str, budget: int, seed: int) -> dict:
 
     t0 = time.perf_counter()
     dim = len(lo)
-    pop = 15 * dim
-    sol = differential_evolution(score, list(zip(lo, hi)), popsize=15, seed=seed,
+    # pylinkage's default multiplier 15, smaller when the budget would not cover 5 generations
+    mult = max(1, min(15, budget // (5 * dim)))
+    pop = mult * dim
+    sol = differential_evolution(score, list(zip(lo, hi)), popsize=mult, seed=seed,
                                  maxiter=max(0, budget // pop - 1), polish=False, tol=0,
                                  init="latinhypercube")
     return {"cost": float(sol.fun), "x": [float(v) for v in sol.x], "nfev": nfev[0],
@@ -152,22 +155,32 @@ def main() -> None:
             p = subprocess.run([PEER, __file__, "--peer", problem, str(out["ours"]["budget"]),
                                 str(seed)], capture_output=True, text=True, check=True)
             out["peer"] = json.loads(p.stdout.strip().splitlines()[-1])
+            p = subprocess.run([PEER, __file__, "--peer", problem,
+                                str(100 * out["ours"]["budget"]), str(seed)],
+                               capture_output=True, text=True, check=True)
+            out["peer100"] = json.loads(p.stdout.strip().splitlines()[-1])
             if problem == "straight-line":
-                out["peer"]["exact"] = _rescore(problem, out["peer"]["x"])
-            o, p = out["ours"], out["peer"]
+                for k in ("peer", "peer100"):
+                    out[k]["exact"] = _rescore(problem, out[k]["x"])
+            o, p, q = out["ours"], out["peer"], out["peer100"]
             rows.append((o["cost"], o["budget"], o["seconds"], p.get("exact", p["cost"]),
-                         p["nfev"], p["seconds"]))
+                         p["nfev"], p["seconds"], q.get("exact", q["cost"]), q["nfev"],
+                         q["seconds"]))
             print(f"{problem} seed {seed}: planarkin SSE {o['cost']:.3e} ({o['budget']} "
                   f"evaluations + Jacobians, {o['seconds']:.1f} s); pylinkage + DE SSE "
                   f"{p.get('exact', p['cost']):.3e} ({p['nfev']} evaluations, "
-                  f"{p['seconds']:.2f} s)", flush=True)
+                  f"{p['seconds']:.2f} s); at 100 x: {q.get('exact', q['cost']):.3e} "
+                  f"({q['nfev']}, {q['seconds']:.2f} s)", flush=True)
         R = np.array(rows)
-        for label, c, s in (("planarkin", 0, 2), ("pylinkage + DE", 3, 5)):
+        for label, c, s in (("planarkin", 0, 2), ("pylinkage + DE", 3, 5),
+                            ("pylinkage + DE, 100 x the budget", 6, 8)):
             print(f"{problem}: {label}: SSE median {np.median(R[:, c]):.3e} (range "
                   f"{R[:, c].min():.3e} .. {R[:, c].max():.3e}); seconds median "
                   f"{np.median(R[:, s]):.2f} (range {R[:, s].min():.2f} .. {R[:, s].max():.2f})")
         wins = int((R[:, 0] < R[:, 3]).sum())
-        print(f"{problem}: planarkin's error lower in {wins} of {len(R)} seeds")
+        wins100 = int((R[:, 0] < R[:, 6]).sum())
+        print(f"{problem}: planarkin's error lower in {wins} of {len(R)} seeds at equal budgets, "
+              f"in {wins100} against 100 x the budget")
     print("load:", os.getloadavg())
 
 
