@@ -320,3 +320,10 @@ def test_api_options_are_checked(options, message):
     with pytest.raises(planarkin.InputError) as e:
         planarkin.synthesize(EX / "four-bar-function.yaml", **options)
     assert message in str(e.value)
+
+
+def test_jacobian_angle_joint_constant_and_relative_driver():
+    """The five-point problem: th0 reaches an angle joint's constant c (dPhi/dc = -1) and the
+    crank is driven relative to that frame; prescribed inputs, the barrier row off."""
+    syn = Synthesis(EX / "five-point-curve.yaml")
+    _check(syn, [0.5, -0.3, 0.4, 1.1, 4.2, 3.1, 3.9, 2.1, 1.8])
