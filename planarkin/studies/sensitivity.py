@@ -25,7 +25,7 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 from ..elements import KINDS
 from ..elements.base import make_frame
-from ..expr import parse
+from ..expr import ExprError, parse
 
 
 def _text(node):
@@ -134,7 +134,11 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
         grad = None
         for p in kind.params:
             pn = keys.get(p.name)
-            if pn is None or not D.depends(pn):
+            try:
+                if pn is None or not D.depends(pn):
+                    continue
+            except ExprError:       # a law of the kind's own variable (a cam's theta): refused
+                problems.append((el, p.name, f"its {p.name}"))      # below, by name
                 continue
             if p.unit == "point" and p.name in ("si", "sj"):
                 if grad is None:
