@@ -327,3 +327,19 @@ def test_jacobian_angle_joint_constant_and_relative_driver():
     crank is driven relative to that frame; prescribed inputs, the barrier row off."""
     syn = Synthesis(EX / "five-point-curve.yaml")
     _check(syn, [0.5, -0.3, 0.4, 1.1, 4.2, 3.1, 3.9, 2.1, 1.8])
+
+
+@pytest.mark.parametrize("name,truth", [
+    ("slider-crank-stroke.yaml", {"a": 0.1, "b": 0.3}),
+    ("six-bar-output.yaml", {"e5": 0.16, "e6": 0.10}),
+])
+def test_synth_finds_the_slider_crank_and_the_six_bar_again(name, truth):
+    """Function generation on the slider-crank (the slider's x) and the Stephenson six-bar
+    (the output link's angle): the targets are the example models' own values, so the search
+    returns their parameters (to the targets' rounding)."""
+    import planarkin
+    res = planarkin.synthesize(EX / name, starts=6, local=2)
+    assert res.status == 0, res.message
+    d = res.designs[0]
+    for k, v in truth.items():
+        assert abs(d.values[k] - v) < 1e-8, (k, d.values)
