@@ -1,19 +1,28 @@
 """Synthesis: the design that makes a model do what its `design:` block asks.
 
-The unknowns x are the free parameters (in their units) and, for every path or motion target
-without prescribed inputs, one time per target point (s): the input values are the driver's
-values at those times. Residuals are weighted differences in the model's units (point
-coordinates; angles wrapped to a half turn). The method:
+The unknowns x are the free parameters (in their units) and, for every motion target without
+prescribed inputs, one time per pose (s): the input values are the driver's values at those
+times. A path target without inputs has no time unknowns: its times are projected in every
+evaluation (`Synthesis.project`: the nearest points of the path, in order), its residuals are
+the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
+projected time is stationary (variable projection). Other residuals are weighted differences in
+the model's units (point coordinates; angles wrapped to a half turn). A `turns:` constraint on a
+four-bar loop adds one barrier row (planarkin.synthesis.margins), zero away from a change point.
+The method:
 
 1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds, each analysed
    over the whole range through the Study (validate with overrides, compile, solve); designs that
    cannot be assembled, lock up or violate a constraint are rejected with their reason; the free
    times of the others are chosen on their grid (the nearest points, in order along the path);
 2. from the best `local` of them, scipy.optimize.least_squares (trust region, jac= the exact
-   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design that is
-   rejected returns a residual larger than any acceptable one (a wall), so every accepted step
-   stays assemblable over the whole cycle, on its branch, within the constraints;
+   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design
+   that is rejected returns a residual larger than any acceptable one (a wall), so every
+   accepted step stays assemblable over the whole cycle, on its branch, within the constraints;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
+
+benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml): the projection
+and the barrier removed most walls (35 of 362 trial steps of a local run walled before, 0-5
+after on the same starts) but the local runs still stall short of 1e-12 on most seeds.
 """
 
 from __future__ import annotations
