@@ -172,3 +172,19 @@ def test_fit_the_slider_crank_and_the_six_bar(tmp_path, model, point, free, trut
     r = planarkin.fit(path, p, free, overrides=start)
     assert r.status == 0, r.message
     assert np.abs(r.estimate - np.array(truth)).max() < 1e-9
+
+
+def test_fit_and_run_in_the_same_out_keep_each_others_files(tmp_path, track):
+    """fit writes DIR/<name>.fit/ beside run's DIR/<name>/: neither replaces the other."""
+    p = _write(tmp_path / "d.csv", *track)
+    out = tmp_path / "out"
+    runner = CliRunner()
+    assert runner.invoke(main, ["run", str(FOUR), "--out", str(out), "--no-plots"]).exit_code == 0
+    before = {f.name: f.read_bytes() for f in (out / "four-bar").iterdir()}
+    r = runner.invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "a", "--out",
+                             str(out), "--set", "a=0.041", "--no-plots"])
+    assert r.exit_code == 0, r.output
+    assert {f.name: f.read_bytes() for f in (out / "four-bar").iterdir()} == before
+    fitted = {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()}
+    assert runner.invoke(main, ["run", str(FOUR), "--out", str(out), "--no-plots"]).exit_code == 0
+    assert {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()} == fitted
