@@ -343,3 +343,25 @@ def test_synth_finds_the_slider_crank_and_the_six_bar_again(name, truth):
     d = res.designs[0]
     for k, v in truth.items():
         assert abs(d.values[k] - v) < 1e-8, (k, d.values)
+
+
+def test_sketch_form_models_are_refused_with_the_line_of_links(tmp_path):
+    """The sketch form's points are global placements (at:), which the sensitivities do not
+    differentiate: synth and fit refuse it at the line of links: (it was an AttributeError)."""
+    text = (ROOT / "mechanisms" / "four-bar-sketch.yaml").read_text()
+    text = text.replace("points:\n  A:", "parameters:\n  dx: 0.1\npoints:\n  A:", 1)
+    text = text.replace("D: {at: [0.1, 0], ground: true}", "D: {at: [dx, 0], ground: true}")
+    text += ("design:\n  free: {dx: [0.09, 0.11]}\n  targets:\n    - function: rocker.phi\n"
+             "      inputs: [0, 60]\n      outputs: [86.2, 77.2]\n")
+    p = tmp_path / "sk.yaml"
+    p.write_text(text)
+    line = text.splitlines().index("links:") + 1
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:{line}: error: synth and fit need the body form" in r.output
+    d = tmp_path / "d.csv"
+    d.write_text("t [s],P.x [m],P.y [m]\n0,0.05,0.08\n0.1,0.04,0.09\n")
+    r = CliRunner().invoke(main, ["fit", str(p), "--data", str(d), "--free", "dx", "--out",
+                                  str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:{line}: error: synth and fit need the body form" in r.output

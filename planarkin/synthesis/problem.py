@@ -61,6 +61,14 @@ class Model:
     def __init__(self, path, free, overrides=None, analysis=None):
         from ..studies.variants import Study
         self.study = Study(path, overrides, analysis)
+        links = self.study.root.value.get("links")
+        if links is not None:
+            line = self.study.root.key_lines.get("links", links.line)
+            raise InputError([Diagnostic(str(path), line, (
+                "synth and fit need the body form (bodies:, joints:): in the sketch form "
+                "(links:) every point is a global placement at:, which the sensitivities do "
+                "not differentiate; write the model with bodies and joints (as "
+                "mechanisms/four-bar.yaml)"))])
         self.path = str(path)
         self.free = list(free)
         self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
@@ -134,7 +142,9 @@ class Model:
         J = S.jacobian(S.ext(Q))
         Qd = _solve(J, NU)
         Qdd = _solve(J, S.gamma(S.ext(Q), S.ext(Qd), t)) if accel else None
-        P, Pd, Pdd = point_kinematics(cm, Q, Qd, Qdd)
+        # the extended coordinates (ground last): points on the ground (a sketch's pivots) too
+        P, Pd, Pdd = point_kinematics(cm, S.ext(Q), S.ext(Qd),
+                                      S.ext(Qdd) if accel else None)
         q, qd = Q / to_int, Qd / to_int
         st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=res, cm=cm,
                    pdd=Pdd * L if accel else None)
