@@ -489,7 +489,8 @@ def _synthesis_errors(model_path, report, call):
 @main.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out",
-              show_default=True, help="Writes DIR/<file stem>/ (designs, residuals, plot).")
+              show_default=True, help="Writes DIR/<file stem>.synth/ (designs, residuals, "
+                                      "plot; beside run's DIR/<file stem>/, never in it).")
 @click.option("--starts", type=click.IntRange(1, 100_000),
               help="Latin-hypercube starts (default: design: search: starts).")
 @click.option("--local", type=click.IntRange(1, 10_000), help="Local least-squares runs.")
@@ -512,7 +513,7 @@ def synth(model_path, out, starts, local, keep, seed, goal, steps, no_plots, qui
         seed=seed, goal=goal))
     if res is None:
         sys.exit(report.exit_code)
-    outdir = Path(out) / Path(model_path).stem
+    outdir = _search_dir(model_path, out, "synth")
     if _synthesis_errors(model_path, report, lambda: write_synth(
             res, outdir, None if no_plots else "png")) is None:
         sys.exit(report.exit_code)
@@ -526,7 +527,8 @@ def synth(model_path, out, starts, local, keep, seed, goal, steps, no_plots, qui
 @click.option("--free", "free", multiple=True, metavar="NAME",
               help="A parameter to estimate (repeatable; default: design: free).")
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out",
-              show_default=True, help="Writes DIR/<file stem>/ (estimates, residuals, plot).")
+              show_default=True, help="Writes DIR/<file stem>.fit/ (estimates, residuals, "
+                                      "plot; beside run's DIR/<file stem>/, never in it).")
 @click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals.")
 @click.option("--no-plots", is_flag=True, help="Skip fit.png.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
@@ -542,7 +544,7 @@ def fit(model_path, data, free, out, steps, no_plots, quiet, overrides):
         model_path, data, list(free) or None, overrides, {"steps": steps}))
     if res is None:
         sys.exit(report.exit_code)
-    outdir = Path(out) / Path(model_path).stem
+    outdir = _search_dir(model_path, out, "fit")
     if _synthesis_errors(model_path, report, lambda: write_fit(
             res, outdir, None if no_plots else "png")) is None:
         sys.exit(report.exit_code)
@@ -550,6 +552,15 @@ def fit(model_path, data, free, out, steps, no_plots, quiet, overrides):
         for i, n in enumerate(res.names):
             click.echo(f"  {n} = {res.estimate[i]:.10g} +- {res.se[i]:.3g}")
     _conclude_search(model_path, report, res, outdir)
+
+
+def _search_dir(model_path, out, command: str) -> Path:
+    """synth's and fit's result directory: run's name for the model (output.directory.out_dirs)
+    with .synth or .fit after it, so that a run's directory in the same --out and theirs never
+    replace each other's files."""
+    from .output.directory import out_dirs
+    d = out_dirs([model_path], Path(out))[0]
+    return d.with_name(f"{d.name}.{command}")
 
 
 def _conclude_search(model_path, report: Report, res, outdir: Path):

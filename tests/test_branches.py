@@ -203,8 +203,8 @@ def _check_every_combination(make, loops, lengths, ground=None, feasible=None):
         for k in loops:
             assert _loop_sign(res, k) == hints[k]
         want = {(a, b): c for a, b, c in lengths}
-        for (u, v), L in _lengths(res, lengths, ground).items():
-            assert abs(L - want[(u, v)]) <= 1e-9 * want[(u, v)], (hints, u, v, L)
+        for (u, v), length in _lengths(res, lengths, ground).items():
+            assert abs(length - want[(u, v)]) <= 1e-9 * want[(u, v)], (hints, u, v, length)
         seen.add(tuple(side[k] for k in loops))
     assert len(seen) + refused == 2 ** len(loops)
     return refused

@@ -87,7 +87,7 @@ def test_cli_fit_writes_estimates(tmp_path, track):
     r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--out", str(tmp_path),
                                   "--free", "a", "--free", "c", "--set", "a=0.041"])
     assert r.exit_code == 0, r.output
-    out = tmp_path / "four-bar"
+    out = tmp_path / "four-bar.fit"
     s = json.loads((out / "summary.json").read_text())
     assert abs(s["parameters"]["a"]["estimate"] - 0.04) < 1e-9
     assert s["jacobians"] > 0
@@ -101,3 +101,90 @@ def test_unknown_free_parameter(tmp_path, track):
     r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "aa",
                                   "--out", str(tmp_path)])
     assert r.exit_code == 2 and "--free aa: not a parameter of the model" in r.output
+
+
+MORE_BAD = [
+    ("", 1, "the data file is empty"),
+    ("t [s],P.x [mm],P.x [mm]\n0,1,1\n0.1,1,1\n", 1, "a point coordinate is given in two "
+                                                    "columns"),
+    ("t [s]\n0\n0.1\n", 1, "no point columns"),
+    ("t [s],P.x [mm]\n0,1\n", 1, "the data needs at least two rows"),
+    ("t [s],P.x [mm],P.y [mm]\n0,1,2\n0.1,inf,2\n", 3, "a value is NaN or infinite"),
+    ("t [s],P.x [mm],P.y [mm]\n0,1,2\n0,1,2\n", 3, "the times must increase"),
+]
+
+
+@pytest.mark.parametrize("text,line,message", MORE_BAD)
+def test_more_bad_data(tmp_path, text, line, message):
+    test_bad_data_is_a_file_line_error(tmp_path, text, line, message)
+
+
+def test_missing_data_file_and_data_before_the_start(tmp_path, track):
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(tmp_path / "none.csv"),
+                                  "--free", "a", "--out", str(tmp_path)])
+    assert r.exit_code == 2 and "cannot read the data file" in r.output, r.output
+    t, x, y = track
+    p = _write(tmp_path / "d.csv", t - 0.5, x, y)
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "a",
+                                  "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert "the data starts at t = -0.5 s, before the model's analysis start 0 s" in r.output
+
+
+def test_no_free_parameters_is_refused(tmp_path, track):
+    """Without --free the design block's free parameters are fitted; a model without one is
+    refused (FILE:LINE, exit 2)."""
+    p = _write(tmp_path / "d.csv", *track)
+    r = CliRunner().invoke(main, ["fit", str(FOUR), "--data", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{FOUR}:1: error: the model has no design: block" in r.output
+
+
+def test_a_parameter_the_data_do_not_see_is_not_identifiable(tmp_path, track):
+    """A free parameter that nothing in the model uses leaves the data unchanged: its column
+    of J is zero, J^T J singular: exit 1 with the reason, the estimates still written."""
+    t, x, y = track
+    m = tmp_path / "m.yaml"
+    m.write_text(FOUR.read_text().replace("parameters:\n", "parameters:\n  unused: 1\n", 1))
+    p = _write(tmp_path / "d.csv", t, x, y)
+    r = CliRunner().invoke(main, ["fit", str(m), "--data", str(p), "--free", "a", "--free",
+                                  "unused", "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "not identifiable" in r.output
+    assert (tmp_path / "m.fit" / "estimates.csv").exists()
+
+
+@pytest.mark.parametrize("model,point,free,truth,start", [
+    ("slider-crank.yaml", "B", ["a"], [0.1], {"a": 0.104}),
+    ("six-bar.yaml", "F", ["e5", "e6"], [0.16, 0.10], {"e5": 0.155, "e6": 0.103}),
+])
+def test_fit_the_slider_crank_and_the_six_bar(tmp_path, model, point, free, truth, start):
+    """Exact data of the example models' own points (the slider-crank's B moves with a and
+    b = 3a; the six-bar's F on its output link): the fit from a few % off returns the
+    parameters to 1e-9."""
+    path = ROOT / "mechanisms" / model
+    res = planarkin.solve(planarkin.load(path), steps=36)
+    P = res.point(point)
+    rows = [f"t [s],{point}.x [m],{point}.y [m]"] + [
+        f"{float(t)!r},{float(x)!r},{float(y)!r}" for t, x, y in zip(res.t, P["x"], P["y"])]
+    p = tmp_path / "d.csv"
+    p.write_text("\n".join(rows) + "\n")
+    r = planarkin.fit(path, p, free, overrides=start)
+    assert r.status == 0, r.message
+    assert np.abs(r.estimate - np.array(truth)).max() < 1e-9
+
+
+def test_fit_and_run_in_the_same_out_keep_each_others_files(tmp_path, track):
+    """fit writes DIR/<name>.fit/ beside run's DIR/<name>/: neither replaces the other."""
+    p = _write(tmp_path / "d.csv", *track)
+    out = tmp_path / "out"
+    runner = CliRunner()
+    assert runner.invoke(main, ["run", str(FOUR), "--out", str(out), "--no-plots"]).exit_code == 0
+    before = {f.name: f.read_bytes() for f in (out / "four-bar").iterdir()}
+    r = runner.invoke(main, ["fit", str(FOUR), "--data", str(p), "--free", "a", "--out",
+                             str(out), "--set", "a=0.041", "--no-plots"])
+    assert r.exit_code == 0, r.output
+    assert {f.name: f.read_bytes() for f in (out / "four-bar").iterdir()} == before
+    fitted = {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()}
+    assert runner.invoke(main, ["run", str(FOUR), "--out", str(out), "--no-plots"]).exit_code == 0
+    assert {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()} == fitted

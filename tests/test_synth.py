@@ -40,10 +40,39 @@ def _check(syn, x, tol=1e-6):
 
 def test_jacobian_revolute_path_free_timing():
     """Four revolutes, the ground pivots and the ground angle free (they reach si of ground
-    joints and the driver's f), six free crank times (dP/dt = the point's velocity)."""
+    joints and the driver's f); the six crank times projected (the nearest points of the
+    path, in order): the residuals are the signed normal distances and n . dP/dp their exact
+    gradient, which central differences of the re-projected distances confirm."""
     syn = Synthesis(LINE)
     syn.wrap = True
-    _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20, 0.05, 0.2, 0.35, 0.5, 0.7, 0.9])
+    assert syn.nt == 0 and syn.projected == [0]
+    r, _, d = syn.evaluate(np.array([0, 0, 0.3, 10, 40, 30, 40, 20, 20.0]))
+    # the projection: (P - T) normal to the path, its length the residual
+    st, T = d.state, np.array(syn.design.targets[0].values)
+    j = syn.points.index("P")
+    V = st.pd[:, j]
+    assert np.abs(((st.p[:, j] - T) * V).sum(axis=1)).max() <= 1e-9 * np.abs(V).max()
+    assert np.allclose(np.abs(r[:6]), np.hypot(*(st.p[:, j] - T).T), rtol=1e-12)
+    assert d.cost == pytest.approx(float(r[:6] @ r[:6]), rel=1e-12)
+    _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20])
+
+
+def test_turns_barrier_row_and_its_gradient():
+    """Near a change point (crank 10, coupler 50, rocker 40.6, ground 20: margin
+    50 + 40.6 + 20 - 2 * 50 - 10 = 0.6 mm, below 1 % of the length sum) the barrier row
+    (m0 - m)^2 / m is on, and its exact gradient (through the lengths' expressions) matches
+    central differences with the rest of the Jacobian."""
+    syn = Synthesis(LINE)
+    syn.wrap = True
+    x = [0, 0, 0.3, 10, 50, 40.6, 20, 20, 20]
+    r, _, d = syn.evaluate(np.array(x, dtype=float))
+    assert d.margins["turns"]["value"] == pytest.approx(0.6, abs=1e-9)
+    m0 = 0.01 * (10 + 50 + 40.6 + 20)
+    assert r[-1] == pytest.approx((m0 - 0.6) ** 2 / 0.6, rel=1e-9)
+    _check(syn, x)
+    # above the band the row is zero, its gradient too
+    r, J, d = syn.evaluate(np.array([0, 0, 0.3, 10, 40, 30, 40, 20, 20.0]))
+    assert r[-1] == 0 and not J[-1].any()
 
 
 def _variant(tmp_path, src, old, new, name="m.yaml"):
@@ -113,7 +142,7 @@ def test_cli_synth_writes_ready_to_run_designs(tmp_path):
     r = runner.invoke(main, ["synth", str(EX / "four-bar-function.yaml"), "--out",
                              str(tmp_path), "--starts", "6", "--local", "1"])
     assert r.exit_code == 0, r.output
-    out = tmp_path / "four-bar-function"
+    out = tmp_path / "four-bar-function.synth"
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "ok" and s["designs"][0]["cost"] < 1e-12
     assert s["evaluations"] > 0 and s["jacobians"] > 0
@@ -186,3 +215,153 @@ def test_jacobian_six_bar_function_generation():
     """Stephenson III six-bar: the output link's angle through the dyad's lengths."""
     syn = Synthesis(EX / "six-bar-output.yaml")
     _check(syn, [0.155, 0.105])
+
+
+def test_synth_and_run_in_the_same_out_keep_each_others_files(tmp_path):
+    """run writes DIR/<name>/, synth DIR/<name>.synth/ (run's name, output.directory.out_dirs):
+    a synth after a run, and a run after a synth, leave the other's files as they were; a
+    second synth replaces its own directory whole (the output contract of run)."""
+    runner = CliRunner()
+    model = EX / "four-bar-function.yaml"
+    r = runner.invoke(main, ["run", str(model), "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    run_dir = tmp_path / "four-bar-function"
+    before = {p.name: p.read_bytes() for p in run_dir.iterdir()}
+    args = ["synth", str(model), "--out", str(tmp_path), "--starts", "6", "--local", "1",
+            "--no-plots"]
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert {p.name: p.read_bytes() for p in run_dir.iterdir()} == before
+    syn_dir = tmp_path / "four-bar-function.synth"
+    assert json.loads((syn_dir / "summary.json").read_text())["command"] == "synth"
+    (syn_dir / "design-9.yaml").write_text("stale")        # not a file of the next synth
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert not (syn_dir / "design-9.yaml").exists()
+    synth_files = {p.name: p.read_bytes() for p in syn_dir.iterdir()}
+    r = runner.invoke(main, ["run", str(model), "--out", str(tmp_path), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    assert {p.name: p.read_bytes() for p in syn_dir.iterdir()} == synth_files
+    assert json.loads((run_dir / "summary.json").read_text()).get("command") != "synth"
+    # a directory of someone else's at that name is left alone: exit 2, nothing replaced
+    other = tmp_path / "x"
+    (other / "four-bar-function.synth").mkdir(parents=True)
+    (other / "four-bar-function.synth" / "notes.txt").write_text("mine")
+    r = runner.invoke(main, args[:3] + [str(other)] + args[4:])
+    assert r.exit_code == 2 and "is not a planarkin result directory" in r.output, r.output
+    assert (other / "four-bar-function.synth" / "notes.txt").read_text() == "mine"
+
+
+MORE_BAD = [
+    ("design:\n  free: {b: [0.10, 0.14]", "design: [1, 2]\nxdesign:\n  free: {b: [0.10, 0.14]",
+     "design must be a mapping"),
+    ("b: [0.10, 0.14]", "b: [0.10]", "design: free: b must be a list of 2 numbers"),
+    ("b: [0.10, 0.14]", "b: [0.10, oops]", "design: free: b: unknown name 'oops'"),
+    ("search: {starts: 16", "search: {starts: 0", "design: search: starts must be a whole "
+                                                  "number from 1 to 100000, not 0"),
+    ("search: {starts: 16", "search: {starts: 2.5", "design: search: starts must be a whole "
+                                                    "number"),
+    ("goal: 1e-12", "goal: 1e-12, start: 5", "design: search: unknown key 'start'"),
+    ("function: rocker.phi", "function: rocker.phi\n      weight: 0", "weight must be > 0"),
+    ("function: rocker.phi", "function: rocker.speed", "must be BODY.x, BODY.y or BODY.phi"),
+    ("    - function: rocker.phi\n      inputs: [0, 60, 120, 180, 240, 300]\n",
+     "    - path: Q\n      inputs: [0, 60, 120, 180, 240, 300]\n",
+     "design: target 1: path: 'Q' is not a point of the model"),
+    ("targets:", "targets: 3\n  old_targets:", "design: targets must be a list"),
+]
+
+
+@pytest.mark.parametrize("old,new,message", MORE_BAD)
+def test_more_bad_designs_are_file_line_errors(tmp_path, old, new, message):
+    test_bad_design_is_a_file_line_error(tmp_path, old, new, message)
+
+
+def test_no_targets_is_refused_for_synth(tmp_path):
+    p = tmp_path / "m.yaml"
+    text = (EX / "four-bar-function.yaml").read_text()
+    p.write_text(text[:text.index("  targets:")] + "  search: {starts: 4}\n")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:" in r.output and "design: no targets" in r.output
+
+
+def test_inputs_out_of_the_drivers_range_are_a_clear_refusal(tmp_path):
+    """Targets out of reach: inputs the driver never takes (the crank turns 0..360 deg) make
+    every start a rejected candidate, counted with its reason; exit 1, no traceback."""
+    p = _variant(tmp_path, EX / "four-bar-function.yaml",
+                 "inputs: [0, 60, 120, 180, 240, 300]", "inputs: [0, 60, 120, 180, 240, 900]")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
+                                  "--local", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "no acceptable design: 4 the input value 900 is not reached" in r.output, r.output
+
+
+def test_points_out_of_reach_end_with_the_best_design_and_exit_1(tmp_path):
+    """Path points a kilometre away: the search ends, the best design is written with its
+    residuals and the summary says the goal was not reached."""
+    p = _variant(tmp_path, EX / "four-bar-path.yaml", "[[0.035916759466, 0.074888765157]",
+                 "[[1000.035916759466, 0.074888765157]")
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
+                                  "--local", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert "no design reaches the goal 1e-20" in r.output
+    s = json.loads((tmp_path / "m.synth" / "summary.json").read_text())
+    assert s["status"] == "failed" and s["designs"][0]["cost"] > 1e5
+
+
+@pytest.mark.parametrize("options,message", [
+    ({"starts": 0}, "synthesize: starts must be a whole number from 1 to 100000, not 0"),
+    ({"local": 2.5}, "synthesize: local must be a whole number"),
+    ({"goal": float("nan")}, "synthesize: goal must be a number"),
+    ({"start": 3}, "synthesize: unknown option 'start'; did you mean 'starts'?"),
+])
+def test_api_options_are_checked(options, message):
+    import planarkin
+    with pytest.raises(planarkin.InputError) as e:
+        planarkin.synthesize(EX / "four-bar-function.yaml", **options)
+    assert message in str(e.value)
+
+
+def test_jacobian_angle_joint_constant_and_relative_driver():
+    """The five-point problem: th0 reaches an angle joint's constant c (dPhi/dc = -1) and the
+    crank is driven relative to that frame; prescribed inputs, the barrier row off."""
+    syn = Synthesis(EX / "five-point-curve.yaml")
+    _check(syn, [0.5, -0.3, 0.4, 1.1, 4.2, 3.1, 3.9, 2.1, 1.8])
+
+
+@pytest.mark.parametrize("name,truth", [
+    ("slider-crank-stroke.yaml", {"a": 0.1, "b": 0.3}),
+    ("six-bar-output.yaml", {"e5": 0.16, "e6": 0.10}),
+])
+def test_synth_finds_the_slider_crank_and_the_six_bar_again(name, truth):
+    """Function generation on the slider-crank (the slider's x) and the Stephenson six-bar
+    (the output link's angle): the targets are the example models' own values, so the search
+    returns their parameters (to the targets' rounding)."""
+    import planarkin
+    res = planarkin.synthesize(EX / name, starts=6, local=2)
+    assert res.status == 0, res.message
+    d = res.designs[0]
+    for k, v in truth.items():
+        assert abs(d.values[k] - v) < 1e-8, (k, d.values)
+
+
+def test_sketch_form_models_are_refused_with_the_line_of_links(tmp_path):
+    """The sketch form's points are global placements (at:), which the sensitivities do not
+    differentiate: synth and fit refuse it at the line of links: (it was an AttributeError)."""
+    text = (ROOT / "mechanisms" / "four-bar-sketch.yaml").read_text()
+    text = text.replace("points:\n  A:", "parameters:\n  dx: 0.1\npoints:\n  A:", 1)
+    text = text.replace("D: {at: [0.1, 0], ground: true}", "D: {at: [dx, 0], ground: true}")
+    text += ("design:\n  free: {dx: [0.09, 0.11]}\n  targets:\n    - function: rocker.phi\n"
+             "      inputs: [0, 60]\n      outputs: [86.2, 77.2]\n")
+    p = tmp_path / "sk.yaml"
+    p.write_text(text)
+    line = text.splitlines().index("links:") + 1
+    r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:{line}: error: synth and fit need the body form" in r.output
+    d = tmp_path / "d.csv"
+    d.write_text("t [s],P.x [m],P.y [m]\n0,0.05,0.08\n0.1,0.04,0.09\n")
+    r = CliRunner().invoke(main, ["fit", str(p), "--data", str(d), "--free", "dx", "--out",
+                                  str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert f"{p}:{line}: error: synth and fit need the body form" in r.output

@@ -25,7 +25,7 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 from ..elements import KINDS
 from ..elements.base import make_frame
-from ..expr import parse
+from ..expr import ExprError, parse
 
 
 def _text(node):
@@ -134,7 +134,11 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
         grad = None
         for p in kind.params:
             pn = keys.get(p.name)
-            if pn is None or not D.depends(pn):
+            try:
+                if pn is None or not D.depends(pn):
+                    continue
+            except ExprError:       # a law of the kind's own variable (a cam's theta): refused
+                problems.append((el, p.name, f"its {p.name}"))      # below, by name
                 continue
             if p.unit == "point" and p.name in ("si", "sj"):
                 if grad is None:
@@ -147,11 +151,14 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
                                 s[:, None] * ds[0] + c[:, None] * ds[1]], axis=1)  # (N, 2, k)
                 Phi_p[:, rows, :] += np.einsum("nex,nxk->nek", grad[:, :, 3 * side:3 * side + 2],
                                                Ads)
-            elif el.role == "joint" and p.name == kind.target:
-                scale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
-                Phi_p[:, rows[0], :] -= scale * D.number(pn)
             else:
                 problems.append((el, p.name, f"its {p.name}"))
+        # a joint's constant (c of angle, distance, x, y, pin-slot, slide) is the kind's target,
+        # not one of its params: its equation's first row is g - c
+        cn = keys.get(kind.target) if kind.target else None
+        if el.role == "joint" and cn is not None and D.depends(cn):
+            scale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
+            Phi_p[:, rows[0], :] -= scale * D.number(cn)
         if el.role == "driver" and "f" in keys:
             scale = {"length": 1.0 / L, "angle": af, None: 1.0}[kind.target_unit]
             Phi_p[:, rows[0], :] -= scale * D.function(keys["f"], t)

@@ -68,10 +68,15 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
     rd = ResultDirectory(Path(outdir))
     try:
         names = list(syn.design.free)
+        # the free times: of every target without inputs (unknowns or projected)
+        free = [i for i, tg in enumerate(syn.design.targets) if tg.inputs is None
+                and tg.kind != "function"]
+        nfree = sum(len(syn.design.targets[i]) for i in free)
         _write_csv(rd.path("designs.csv"),
-                   ["design", "cost"] + names + [f"t{j + 1} [s]" for j in range(syn.nt)]
+                   ["design", "cost"] + names + [f"t{j + 1} [s]" for j in range(nfree)]
                    + ["evaluations", "jacobians"],
-                   [[k + 1, d.cost] + [d.values[n] for n in names] + list(d.x[syn.k:])
+                   [[k + 1, d.cost] + [d.values[n] for n in names]
+                    + [t for i in free for t in d.times[i]]
                     + [d.nfev, d.njev] for k, d in enumerate(res.designs)])
         rows = []
         for k, d in enumerate(res.designs):

@@ -49,6 +49,7 @@ class State:
     dp: np.ndarray
     result: object
     cm: object
+    pdd: np.ndarray | None = None      # (N, P, 2) point accelerations (solve_at(accel=True))
 
 
 class Model:
@@ -60,6 +61,14 @@ class Model:
     def __init__(self, path, free, overrides=None, analysis=None):
         from ..studies.variants import Study
         self.study = Study(path, overrides, analysis)
+        links = self.study.root.value.get("links")
+        if links is not None:
+            line = self.study.root.key_lines.get("links", links.line)
+            raise InputError([Diagnostic(str(path), line, (
+                "synth and fit need the body form (bodies:, joints:): in the sketch form "
+                "(links:) every point is a global placement at:, which the sensitivities do "
+                "not differentiate; write the model with bodies and joints (as "
+                "mechanisms/four-bar.yaml)"))])
         self.path = str(path)
         self.free = list(free)
         self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
@@ -98,8 +107,9 @@ class Model:
             return bool(np.abs(res.p[-1] - res.p[0]).max() <= 1e-7 * scale)
         return False
 
-    def solve_at(self, cm, res, t, sens: bool = True):
-        """State at times t (N,) from the analysed grid result, or Rejected."""
+    def solve_at(self, cm, res, t, sens: bool = True, accel: bool = False):
+        """State at times t (N,) from the analysed grid result, or Rejected; accel: with the
+        points' accelerations (Phi_q qdd = gamma)."""
         from ..kinematics import point_kinematics
         from ..system import System
         t = np.asarray(t, dtype=float)
@@ -129,10 +139,15 @@ class Model:
         if np.abs(Q - Q0).max() > BRANCH_JUMP or not np.isfinite(Q).all():
             return Rejected("a target pose is off the tracked branch (raise analysis: steps)")
         _, NU, _ = S.driver_values(t)
-        Qd = _solve(S.jacobian(S.ext(Q)), NU)
-        P, Pd, _ = point_kinematics(cm, Q, Qd)
+        J = S.jacobian(S.ext(Q))
+        Qd = _solve(J, NU)
+        Qdd = _solve(J, S.gamma(S.ext(Q), S.ext(Qd), t)) if accel else None
+        # the extended coordinates (ground last): points on the ground (a sketch's pivots) too
+        P, Pd, Pdd = point_kinematics(cm, S.ext(Q), S.ext(Qd),
+                                      S.ext(Qdd) if accel else None)
         q, qd = Q / to_int, Qd / to_int
-        st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=res, cm=cm)
+        st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=res, cm=cm,
+                   pdd=Pdd * L if accel else None)
         if sens:
             self.add_sensitivities(st)
         return st

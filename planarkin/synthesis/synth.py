@@ -1,19 +1,29 @@
 """Synthesis: the design that makes a model do what its `design:` block asks.
 
-The unknowns x are the free parameters (in their units) and, for every path or motion target
-without prescribed inputs, one time per target point (s): the input values are the driver's
-values at those times. Residuals are weighted differences in the model's units (point
-coordinates; angles wrapped to a half turn). The method:
+The unknowns x are the free parameters (in their units) and, for every motion target without
+prescribed inputs, one time per pose (s): the input values are the driver's values at those
+times. A path target without inputs has no time unknowns: its times are projected in every
+evaluation (`Synthesis.project`: the nearest points of the path, in order), its residuals are
+the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
+projected time is stationary (variable projection). Other residuals are weighted differences in
+the model's units (point coordinates; angles wrapped to a half turn). A `turns:` constraint on a
+four-bar loop adds one barrier row (planarkin.synthesis.margins), zero away from a change point.
+The method:
 
 1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds, each analysed
    over the whole range through the Study (validate with overrides, compile, solve); designs that
    cannot be assembled, lock up or violate a constraint are rejected with their reason; the free
    times of the others are chosen on their grid (the nearest points, in order along the path);
 2. from the best `local` of them, scipy.optimize.least_squares (trust region, jac= the exact
-   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design that is
-   rejected returns a residual larger than any acceptable one (a wall), so every accepted step
-   stays assemblable over the whole cycle, on its branch, within the constraints;
+   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design
+   that is rejected returns a residual larger than any acceptable one (a wall), so every
+   accepted step stays assemblable over the whole cycle, on its branch, within the constraints;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
+
+benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml). From the first
+six starts of seed 0, 31-52 trial steps per local run hit the wall without the barrier, 0-5 with
+it (the walls were change points, s + l -> p + q); the local runs still stall short of 1e-12 on
+most seeds (they end at bounds or crawl in a narrow valley).
 """
 
 from __future__ import annotations
@@ -24,11 +34,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .margins import barrier, length_gradients, turning_loop
 from .problem import Model, Rejected, State, wrap
 from .spec import design_of
 
 WALL = 1e6            # residual entries of a rejected design, times the start's residual norm
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
+PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
+PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 
 
 @dataclass
@@ -84,13 +97,19 @@ class Synthesis:
         self.lunit = cm.spec.length_unit
         a = self.model.study.opts
         self.start, self.end = a.start, a.end
-        # free times: one per target point of a path / motion target without inputs
+        # free times of a motion target without inputs: unknowns, one per pose; those of a path
+        # target without inputs are projected (solved in evaluate: the nearest points in order)
         self.free_t = []                      # (target index, entry index)
+        self.projected = []                   # target indices
         for i, tg in enumerate(self.design.targets):
-            if tg.kind != "function" and tg.inputs is None:
+            if tg.kind == "motion" and tg.inputs is None:
                 self.free_t += [(i, j) for j in range(len(tg))]
+            elif tg.kind == "path" and tg.inputs is None:
+                self.projected.append(i)
         self.nt = len(self.free_t)
+        self.project_solves = 0               # solves at target times of the projections
         self.wrap = False
+        self.use_barrier = True
         self._cache = None
         self.wall = None
 
@@ -117,6 +136,7 @@ class Synthesis:
             return None, None, out
         cm, opts, res = out
         tfree = self.wrapped(x[self.k:])
+        grid = self._grid_times(res) if self.projected else {}
         times, where, inputs = [], [], []
         for i, tg in enumerate(self.design.targets):
             if tg.inputs is not None:
@@ -124,6 +144,10 @@ class Synthesis:
                 if isinstance(tt, Rejected):
                     return None, None, tt
                 inputs.append(i)
+            elif i in grid:
+                tt = self.project(cm, res, tg, grid[i])
+                if isinstance(tt, Rejected):
+                    return None, None, tt
             else:
                 tt = np.array([tfree[self.free_t.index((i, j))] for j in range(len(tg))])
             where.append(slice(len(times), len(times) + len(tt)))
@@ -131,24 +155,65 @@ class Synthesis:
         st = self.model.solve_at(cm, res, np.array(times), sens=False)
         if isinstance(st, Rejected):
             return None, None, st
-        margins = self.margins(cm, res, tfree)
+        margins = self.margins(cm, res, tfree, st.t, where)
         # order is checked on the result only (final): a wall there would stop the steps of
         # two free times that pass each other on the way to their targets
         bad = [f"{k}: {m['value']:.6g} (needs {m['needs']})" for k, m in margins.items()
                if not m["ok"] and (final or k != "order")]
         if bad:
             return None, None, Rejected("constraint " + "; ".join(bad))
-        per, r = [], []
+        per, r, cost = [], [], 0.0
         for i, tg in enumerate(self.design.targets):
             rr, _ = self._target(tg, i, st, where[i], None, False)
             per.append(rr)
-            r.append(rr.ravel() * tg.weight)
-        r = np.concatenate(r)
+            cost += float((rr * tg.weight).ravel() @ (rr * tg.weight).ravel())
+            r.append((self._normal(st, tg, where[i], rr) if i in self.projected else rr.ravel())
+                     * tg.weight)
+        barrier = self.barrier(cm)
+        r = np.concatenate(r + [[barrier[0]]] if barrier else r)
         d = Design(x=np.array(x, dtype=float), values=values,
-                   times=[st.t[sl].tolist() for sl in where], cost=float(r @ r),
+                   times=[st.t[sl].tolist() for sl in where], cost=cost,
                    residuals=per, margins=margins, state=st)
         d.where = where
+        d.barrier = barrier
         return r, (self.jacobian(d) if jac else None), d
+
+    # -- projected free times ----------------------------------------------------------------
+    def project(self, cm, res, tg, t0):
+        """The times of a path target's points without inputs: from the grid's nearest points
+        in order (t0), the nearest points of the path, h(t) = pd . (P - T) = 0, by Newton with
+        h' = |pd|^2 + pdd . (P - T) on the exact position, velocity and acceleration (Gauss-
+        Newton, h' = |pd|^2, where h' <= 0), each step at most two grid steps; done when the
+        point's tangential offset is below PROJECT_TOL of the targets' size. Rejected when a
+        solve fails or it does not converge in PROJECT_STEPS."""
+        j = self.points.index(tg.name)
+        T = np.array(tg.values)
+        tol = PROJECT_TOL * max(1.0, float(np.abs(T).max()))
+        t = np.array(t0, dtype=float)
+        most = 2 * float(np.diff(res.t).max())
+        for _ in range(PROJECT_STEPS):
+            st = self.model.solve_at(cm, res, self.wrapped(t), sens=False, accel=True)
+            self.project_solves += 1
+            if isinstance(st, Rejected):
+                return st
+            P, V, A = st.p[:, j], st.pd[:, j], st.pdd[:, j]
+            vv = (V * V).sum(axis=1)
+            if not (vv > 0).all():
+                return Rejected("the path point stands still at a target time")
+            h = ((P - T) * V).sum(axis=1)
+            if np.all(np.abs(h) <= tol * np.sqrt(vv)):
+                return t
+            hd = vv + ((P - T) * A).sum(axis=1)
+            t = t - np.clip(h / np.where(hd > 0, hd, vv), -most, most)
+        return Rejected("the nearest points of the path did not converge")
+
+    def _normal(self, st, tg, sl, rr):
+        """(N,) signed distances along the path's normal at projected times: at the nearest
+        point (P - T) is normal to the path, so |distance| = |P - T| and, the time being
+        stationary, d(distance)/dp = n . dP/dp exactly (the tangential part drops out)."""
+        V = st.pd[sl, self.points.index(tg.name)]
+        n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
+        return (rr * n).sum(axis=1)
 
     def jacobian(self, d: Design) -> np.ndarray:
         """The exact Jacobian of an evaluated design's residuals (len(r), k + nt)."""
@@ -158,8 +223,40 @@ class Synthesis:
         for i, tg in enumerate(self.design.targets):
             sl = d.where[i]
             dtdp = self.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
-            J.append(self._target(tg, i, st, sl, dtdp, True)[1] * tg.weight)
+            Jt = self._target(tg, i, st, sl, dtdp, True)[1]
+            if i in self.projected:          # n . dP/dp (see _normal)
+                V = st.pd[sl, self.points.index(tg.name)]
+                n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
+                Jt = np.einsum("ec,eck->ek", n, Jt.reshape(len(n), 2, -1))
+            J.append(Jt * tg.weight)
+        if d.barrier:
+            J.append(np.concatenate([self.barrier_gradient(st.cm, d.barrier),
+                                     np.zeros(self.nt)])[None, :])
         return np.concatenate(J)
+
+    # -- the turns constraint's barrier row (planarkin.synthesis.margins) --------------------
+    def barrier(self, cm):
+        """(residual, loop) of the turns constraint's barrier row, or None (no four-bar loop
+        named by turns:, or no barrier wanted)."""
+        if self.design.turns is None or not self.use_barrier:
+            return None
+        loop = turning_loop(cm, self.design.turns)
+        if loop is None:
+            return None
+        m = loop.margin()
+        return (barrier(m, np.zeros(0), sum(loop.lengths), np.zeros(0))[0] if m > 0
+                else 0.0), loop
+
+    def barrier_gradient(self, cm, bar) -> np.ndarray:
+        from ..studies.sensitivity import ParameterDerivatives
+        loop = bar[1]
+        texts = self.model.study.texts()
+        texts.update({k: float(v) for k, v in cm.spec.parameters.items() if k in self.model.free})
+        D = ParameterDerivatives(self.model.study.root, cm.spec.parameters, texts,
+                                 self.model.free)
+        dl = length_gradients(loop, cm, self.model.study.root, D)
+        m = loop.margin()
+        return barrier(m, loop.gradient(dl), sum(loop.lengths), dl.sum(axis=0))[1]
 
     def _target(self, tg, i, st, sl, dtdp, jac):
         """Residuals (N, c) of one target and their Jacobian rows (N c, k + nt)."""
@@ -192,25 +289,23 @@ class Synthesis:
             J[:, c, :self.k] = dp
             if dtdp is not None:              # prescribed inputs: the time moves with p
                 J[:, c, :self.k] += dt[:, None] * dtdp
-            elif tg.kind != "function":
+            elif tg.kind == "motion":           # free times: their own unknowns
                 for e in range(n):
                     J[e, c, self.k + self.free_t.index((i, e))] = dt[e]
         return R, J.reshape(n * len(cols), -1)
 
-    def margins(self, cm, res, tfree) -> dict:
-        """Every constraint's margin: value, what it needs, ok."""
+    def margins(self, cm, res, tfree, t=None, where=None) -> dict:
+        """Every constraint's margin: value, what it needs, ok. t, where: the solved target
+        times and each target's slice of them (for the order of projected times)."""
         out = {}
         d = self.design
         if d.turns is not None:
-            from ..measures.grashof import four_bar_loops
-            loop = next((lp for lp in four_bar_loops(cm) if d.turns in lp.links[1:]), None)
+            loop = turning_loop(cm, d.turns)
             if loop is not None:
-                s, lg = min(loop.lengths), max(loop.lengths)
-                pq = sum(loop.lengths) - s - lg
-                crank = loop.crank == d.turns or loop.kind == "double-crank"
-                out["turns"] = {"value": pq - s - lg if crank else -abs(pq - s - lg),
-                                "needs": f"> 0 (Grashof, {d.turns} a crank)",
-                                "unit": self.lunit, "ok": crank and pq - s - lg > 0}
+                m = loop.margin()
+                out["turns"] = {"value": m, "needs": f"> 0 (Grashof, {d.turns} or the ground "
+                                                     f"the shortest link)",
+                                "unit": self.lunit, "ok": m > 0}
             else:
                 phi = res.q[:, 3 * self.bodies.index(d.turns) + 2]
                 turn = 360.0 if self.unit == "deg" else 2 * math.pi
@@ -229,15 +324,19 @@ class Synthesis:
             worst = float(np.minimum(mu, half - mu).min())
             out["transmission"] = {"value": worst - mn, "needs": f">= 0 (min {mn:g})",
                                    "unit": self.unit, "ok": worst >= mn}
-        if d.order and self.nt:
+        if d.order and (self.nt or self.projected):
             # in order along the path, in either direction (the same linkage with its input
             # driven the other way): the smaller margin of the two directions' best
             worst = math.inf
             for i, tg in enumerate(d.targets):
-                idx = [self.free_t.index((i, j)) for j in range(len(tg)) if (i, j) in self.free_t]
-                if len(idx) >= 2:
-                    t = tfree[idx]
-                    worst = min(worst, max(self._in_order(t), self._in_order(t[::-1])))
+                if i in self.projected and t is not None:
+                    tt = self.wrapped(t[where[i]])
+                else:
+                    idx = [self.free_t.index((i, j)) for j in range(len(tg))
+                           if (i, j) in self.free_t]
+                    tt = tfree[idx]
+                if len(tt) >= 2:
+                    worst = min(worst, max(self._in_order(tt), self._in_order(tt[::-1])))
             if worst < math.inf:
                 out["order"] = {"value": worst, "needs": ">= 0 (targets in order)",
                                 "unit": "s", "ok": worst >= 0}
@@ -266,8 +365,7 @@ class Synthesis:
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
             cm, _, res = out
-            t = self._grid_times(res)
-            x = np.concatenate([xp, t])
+            x = np.concatenate([xp, self.free_times(res)])
             r, _, d = self.evaluate(x, jac=False, final=True)
             self.model.evaluations -= 1        # evaluate analysed the design again
             if r is None:
@@ -278,10 +376,11 @@ class Synthesis:
         good.sort(key=lambda g: g[0])
         return good, reasons
 
-    def _grid_times(self, res) -> np.ndarray:
-        """Free times on the grid: per target, the grid points nearest its points, in order
-        along the path from the point nearest the first (dynamic programming)."""
-        out = np.zeros(self.nt)
+    def _grid_times(self, res) -> dict:
+        """Free times on the grid: per target without inputs (index -> (N,) s), the grid
+        points nearest its points, in order along the path from the point nearest the first
+        (dynamic programming)."""
+        out = {}
         tg_grid = res.t[:-1] if self.wrap else res.t
         for i, tg in enumerate(self.design.targets):
             if tg.kind == "function" or tg.inputs is not None:
@@ -309,10 +408,14 @@ class Synthesis:
                 g = int(back[e][g])
                 idx.append(g)
             idx = idx[::-1]
-            for e, gi in enumerate(idx):
-                out[self.free_t.index((i, e))] = tg_grid[order[gi]] + \
-                    (self.end - self.start if self.wrap and order[gi] < off else 0.0)
+            out[i] = np.array([tg_grid[order[gi]] + (self.end - self.start if self.wrap and
+                                                     order[gi] < off else 0.0) for gi in idx])
         return out
+
+    def free_times(self, res) -> np.ndarray:
+        """(nt,) the free-time unknowns' start on the grid (see _grid_times)."""
+        grid = self._grid_times(res)
+        return np.array([grid[i][e] for i, e in self.free_t])
 
 
 def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
@@ -322,7 +425,7 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     from scipy.optimize import least_squares
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
-    cfg = {**syn.design.search, **{k: v for k, v in search.items() if v is not None}}
+    cfg = {**syn.design.search, **_search_options(path, search)}
     first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
     if not isinstance(first, Rejected):
         syn.wrap = syn.model.periodic(first[2])
@@ -393,6 +496,31 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                        evaluations=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
                        starts=[s for s, _ in good])
+
+
+def _search_options(path, search: dict) -> dict:
+    """The search settings given by the caller (None: the design block's), checked as the
+    design block's are (spec.SEARCH); InputError naming the option otherwise."""
+    from ..diagnostics import Diagnostic, InputError, did_you_mean
+    from .spec import SEARCH
+    out, errs = {}, []
+    for key, val in search.items():
+        if val is None:
+            continue
+        if key not in SEARCH:
+            errs.append(f"synthesize: unknown option '{key}'"
+                        f"{did_you_mean(key, SEARCH) or ' (valid: ' + ', '.join(SEARCH) + ')'}")
+            continue
+        typ, lo, hi, _ = SEARCH[key]
+        ok = isinstance(val, (int, float)) and not isinstance(val, bool) and math.isfinite(val)
+        if not ok or (typ is int and val != int(val)) or not lo <= val <= hi:
+            what = "a whole number" if typ is int else "a number"
+            errs.append(f"synthesize: {key} must be {what} from {lo:g} to {hi:g}, not {val!r}")
+            continue
+        out[key] = typ(val)
+    if errs:
+        raise InputError([Diagnostic(str(path), None, e) for e in errs])
+    return out
 
 
 def _kind(reason: str) -> str:

@@ -1,0 +1,122 @@
+"""The `turns` constraint of a four-bar loop as a smooth margin with its exact gradient.
+
+A driven link of a four-bar loop (ground, p, c, r: planarkin.measures.grashof) turns fully when
+the loop is Grashof with it or the ground the shortest link. With x that link and the other
+three y, the margin
+
+    m_x = sum(y) - 2 max(y) - x        (= p + q - s - l when x is the shortest s)
+
+is positive exactly then: x + max(y) < sum(y) - max(y) forces x below every y (a y below x
+would give x + max(y) > y + max(y) >= the two others). The constraint's margin is
+max(m_crank, m_ground), in the model's length unit. The lengths are distances between the
+joints' body-frame points si, sj, so their gradients are exact by the chain rule through the
+file's expressions (studies.sensitivity.ParameterDerivatives).
+
+Search near a margin of zero (a change point: the loop folds flat, the analysis stops at a
+bifurcation) is steered off it by one residual row, zero above BAND of the loop's length sum
+and rising as (m0 - m)^2 / m below it (C1 at m0; infinite at m = 0), so that a local solve
+slides along the wall instead of stepping into it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+BAND = 0.01        # the barrier acts below this fraction of the loop's length sum
+
+
+@dataclass
+class TurnLoop:
+    links: tuple        # (ground, p, c, r) body names
+    lengths: tuple      # user length unit
+    pins: tuple         # per length: ((body, element, 'si'|'sj'), (body, element, key))
+    driven: int         # index of the driven link in links (1 or 3)
+
+    def margin(self) -> float:
+        return max(self._margin(self.driven)[0], self._margin(0)[0])
+
+    def _margin(self, x):
+        y = [i for i in range(4) if i != x]
+        big = max(y, key=lambda i: self.lengths[i])
+        m = sum(self.lengths[i] for i in y) - 2 * self.lengths[big] - self.lengths[x]
+        coef = np.zeros(4)
+        coef[y] = 1.0
+        coef[big] -= 2.0
+        coef[x] -= 1.0
+        return m, coef
+
+    def gradient(self, dlengths: np.ndarray) -> np.ndarray:
+        """d(margin)/dp from dlengths (4, k): the active branch's linear combination."""
+        a, b = self._margin(self.driven), self._margin(0)
+        return (a if a[0] >= b[0] else b)[1] @ dlengths
+
+
+def turning_loop(cm, body: str):
+    """The four-bar loop in which `body` is a link pinned to ground, or None."""
+    pins = {}
+    for g in cm.groups:
+        if g.kind.name != "revolute":
+            continue
+        for k in range(len(g)):
+            a, b = int(g.bodies[k, 0]), int(g.bodies[k, 1])
+            el = cm.element_of_row(int(g.rows[k][0]))
+            sa, sb = tuple(g.params["si"][k]), tuple(g.params["sj"][k])
+            pins.setdefault((a, b), (sa, sb, (el, "si"), (el, "sj")))
+            pins.setdefault((b, a), (sb, sa, (el, "sj"), (el, "si")))
+    G = cm.nb
+    if body not in cm.body_names:
+        return None
+    p = cm.body_names.index(body)
+    if (G, p) not in pins:
+        return None
+    for c in {b for (a, b) in pins if a == p and b not in (G, p)}:
+        for r in {b for (a, b) in pins if a == c and b not in (G, p, c)}:
+            if (G, r) not in pins:
+                continue
+            gp, pg, ngp, npg = pins[(G, p)]
+            gr, rg, ngr, nrg = pins[(G, r)]
+            pc, cp, npc, ncp = pins[(p, c)]
+            cr, rc, ncr, nrc = pins[(c, r)]
+            L = cm.L
+            lengths = (math.dist(gp, gr) * L, math.dist(pg, pc) * L, math.dist(cp, cr) * L,
+                       math.dist(rc, rg) * L)
+            return TurnLoop(links=("ground", body, cm.body_names[c], cm.body_names[r]),
+                            lengths=lengths, driven=1,
+                            pins=((ngp, ngr), (npg, npc), (ncp, ncr), (nrc, nrg)))
+    return None
+
+
+def length_gradients(loop: TurnLoop, cm, root, D) -> np.ndarray:
+    """(4, k) exact d(length)/dp of the loop's links. root: the file's node tree; D: a
+    studies.sensitivity.ParameterDerivatives for the free parameters."""
+    joints = root.value["joints"].value
+    out = np.zeros((4, len(D.wrt)))
+    for i, ((e1, k1), (e2, k2)) in enumerate(loop.pins):
+        v1, v2 = np.array(e1.params[k1], dtype=float), np.array(e2.params[k2], dtype=float)
+        g1 = _point_gradient(D, joints[e1.index - 1].value.get(k1))
+        g2 = _point_gradient(D, joints[e2.index - 1].value.get(k2))
+        d = v1 - v2
+        norm = float(np.hypot(*d))
+        if norm > 0:
+            out[i] = (d / norm) @ (g1 - g2)
+    return out
+
+
+def _point_gradient(D, node) -> np.ndarray:
+    """(2, k) derivative of a point [x, y] of the file (zero when absent: the origin)."""
+    if node is None or node.kind != "seq":
+        return np.zeros((2, len(D.wrt)))
+    return np.stack([D.number(n) for n in node.value])
+
+
+def barrier(m: float, dm: np.ndarray, total: float, dtotal: np.ndarray):
+    """(residual, (k,) gradient) of the margin's barrier row: (m0 - m)^2 / m below
+    m0 = BAND total (total: the loop's length sum), zero above."""
+    m0, dm0 = BAND * total, BAND * dtotal
+    if m >= m0:
+        return 0.0, np.zeros_like(dm)
+    r = (m0 - m) ** 2 / m
+    return r, (2 * (m0 - m) * (dm0 - dm) * m - (m0 - m) ** 2 * dm) / m ** 2
