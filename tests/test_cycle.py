@@ -214,3 +214,17 @@ def test_cycle_figures_carry_the_cam_contact_minimum(tmp_path):
     assert abs(rec["min"] - low) < 1e-9 * 200 and abs(rec["t"] - 0.5) < 1e-12
     assert not rec["lift_off"]
     assert f"valve: min contact force {low:.6g} N at t = 0.5 s" in r.output
+
+
+def test_a_coordinate_that_does_not_move_has_no_turning_points(tmp_path):
+    """The example slider-crank's slider pin B stays on y = 0 to rounding (|y| ~ 1e-17): its
+    noise turned at thousands of rows, and each turn was listed as an extremum (a 15 MB
+    summary.json at 200,000 steps). A coordinate within 1e-9 of the table's size does not
+    move: no extremes, no note; a column with more turning points lists the first ones only."""
+    from planarkin.measures.cycle import MAX_EXTREMES
+    res = planarkin.solve(planarkin.load("mechanisms/slider-crank.yaml"), steps=20000)
+    summary = res.write(tmp_path / "out", plots=None)
+    y = summary["cycle"]["coordinates"]["points"]["B"]["y"]
+    assert not y["moves"] and "extremes" not in y and "note" not in y
+    assert (tmp_path / "out" / "summary.json").stat().st_size < 100_000
+    assert MAX_EXTREMES >= 16

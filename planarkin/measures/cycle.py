@@ -20,6 +20,8 @@ import math
 import numpy as np
 
 
+MAX_EXTREMES = 64      # turning points listed per column (a vibrating column has more)
+
 class CycleFigures:
     """Accumulator of one table (rows of t and value columns, each value column optionally
     followed elsewhere in the row by its exact rate and acceleration).
@@ -174,9 +176,11 @@ class CycleFigures:
                 out["refined"]["driver"] = float(self.driver(ts))
         return out
 
-    def figure(self, c: int, kind: str | None = None) -> dict | None:
+    def figure(self, c: int, kind: str | None = None, scale: float = 0.0) -> dict | None:
         """The figures of value column number c (of the triplets): unit, min, max, stroke and,
-        for a periodic driver, advance, return and time ratio; None without a finite value."""
+        for a periodic driver, advance, return and time ratio; None without a finite value.
+        scale: the table's size in the column's unit (a coordinate whose stroke is within 1e-9
+        of it does not move: its rounding noise has no turning points)."""
         k = self.value_cols[c]
         if np.isnan(self.lo[c, 1]):
             return None
@@ -187,16 +191,18 @@ class CycleFigures:
         if kind in ("ratio", "advantage"):
             rec["note"] = "grid extremes only; a ratio is infinite at a dead point"
             T = None
-        turns = [] if T is None else self._extremes(
-            c, rec["stroke"], max(abs(lo["value"]), abs(hi["value"])))
+        size = max(abs(lo["value"]), abs(hi["value"]), scale)
+        turns = [] if T is None or not rec["stroke"] > 1e-9 * size else self._extremes(
+            c, rec["stroke"], size)
         nmax = sum(1 for p in turns if p[4] > 0)
         if T is not None and nmax > 1:
             # a toggle: the column peaks more than once per period; advance and return (and
             # their ratio) are not defined
             rec["extremes"] = [dict(self._limit(p[:4]), kind="max" if p[4] > 0 else "min")
-                               for p in turns]
+                               for p in turns[:MAX_EXTREMES]]
             rec["note"] = (f"{nmax} maxima and {len(turns) - nmax} minima per period: no "
-                           f"single time ratio")
+                           f"single time ratio" + (f" (the first {MAX_EXTREMES} listed)"
+                                                   if len(turns) > MAX_EXTREMES else ""))
         elif T is not None and self.span[1] - self.span[0] >= T * (1 - 1e-12):
             t_lo = lo.get("refined", lo)["t"]
             t_hi = hi.get("refined", hi)["t"]
@@ -258,13 +264,16 @@ class CoordinateFigures(CycleFigures):
         if self.error is not None:
             return {"driver": self.driver_label, "period": self.period, "coordinates": {},
                     "error": f"cycle figures not computed: {self.error} (please report)"}
+        # the length scale: the largest coordinate magnitude of the table
+        quantity = [self.names[k].rpartition(".")[2] for k in self.value_cols]
+        with np.errstate(invalid="ignore"):
+            ends = np.abs(np.concatenate([self.lo[:, 1], self.hi[:, 1]]))
+        length = np.tile(np.array([q != "phi" for q in quantity]), 2)
+        size = float(np.nanmax(np.append(ends[length], 1e-300)))
         recs = []
         for c, k in enumerate(self.value_cols):
             owner, _, q = self.names[k].rpartition(".")
-            recs.append((owner, q, self.figure(c)))
-        # the length scale: the largest coordinate magnitude or stroke of the table
-        size = max([abs(r[m]["value"]) for _, q, r in recs if r and q != "phi"
-                    for m in ("min", "max")] + [1e-300])
+            recs.append((owner, q, self.figure(c, scale=self.full_turn if q == "phi" else size)))
         out: dict = {}
         for owner, q, r in recs:
             if r is not None:
