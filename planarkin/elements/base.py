@@ -131,8 +131,9 @@ class Kind:
        ``reaction`` (the physical force where -g_q^T lambda is not), ``reaction_point`` (where
        the moment is taken) and ``contact_force`` (contacts that only press); see the notes at
        `reaction_sign` below.
-    6. Drawing: ``draw`` (the kind's part of the mechanism figure). Pending: the figures are
-       drawn by planarkin.output.plots until the kinds' draw hooks land.
+    6. Drawing: ``draw(G, k, parts)`` (the kind's part of the mechanism figure: body-frame
+       geometry into a `planarkin.elements.drawing.Parts`, no matplotlib; the figures,
+       planarkin.output.plots.scene, turn the parts into artists).
 
     A method left as here means "nothing to add" (parts 3-5: no checks, no estimates, the
     constraint force is the physical one); parts 1, 2 and, for joints, 5's reaction_columns and
