@@ -2,7 +2,8 @@
 module-level ones:
 
 1. no import cycles between modules of the package;
-2. no private name (``_x``) of one module imported or used by another module.
+2. no private name (``_x``) of one module imported or used by another module;
+3. no module over 800 lines (a longer one holds more than one idea: split it).
 
 Imports under ``if TYPE_CHECKING:`` (annotations only) never run and are left out. The layers
 (model, elements, system, solver, results, output, cli) are import-linter's contract in
@@ -168,6 +169,15 @@ def test_no_import_cycles():
     found = cycles(graph(modules()))
     assert not found, "import cycles (function-level imports count):\n" + "\n".join(
         " <-> ".join(c) for c in found)
+
+
+MAX_LINES = 800
+
+
+def test_no_module_is_over_800_lines():
+    long = {module_name(p): n for p in sorted(PACKAGE.rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert long == {}, f"modules over {MAX_LINES} lines: {long}"
 
 
 def test_no_private_names_across_modules():
