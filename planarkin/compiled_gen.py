@@ -27,6 +27,7 @@ so every model of one structure shares one compiled function (and one cache entr
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 
 import numpy as np
@@ -93,20 +94,20 @@ class _Writer:
 
     # -- names: coordinates q<c>, rates v<c>, a<c>; a moving body's cos, sin c<b>, s<b> ---------
     def coord(self, b, k, pre="q"):
-        return "0.0" if b == self.nb else f"{pre}{3 * b + k}"
+        return "ZERO" if b == self.nb else f"{pre}{3 * b + k}"
 
     def call(self, row, want, upto=-1):
         """The kind function's call for a row; with upto >= 0 the rates of the columns that
         blocks up to upto solve (the others are zero at that time, as in the reference)."""
         e = int(self.rowel[row])
-        args = [str(int(self.roweq[row])), str(want)]
+        args = [f"EQ{int(self.roweq[row])}", f"W{want}"]
         for b in (int(self.bi[e]), int(self.bj[e])):
-            cs = ("1.0", "0.0") if b == self.nb else (f"c{b}", f"s{b}")
+            cs = ("ONE", "ZERO") if b == self.nb else (f"c{b}", f"s{b}")
             args += [self.coord(b, 0), self.coord(b, 1), self.coord(b, 2), *cs]
         args += [f"p{e}_{k}" for k in range(_SLOTS)]
         for b in (int(self.bi[e]), int(self.bj[e])):
             args += [self.coord(b, k, "v") if self.colblock.get(3 * b + k, upto + 1) <= upto
-                     else "0.0" for k in range(3)]
+                     else "ZERO" for k in range(3)]
         return f"k_{KINDS[int(self.kind[e])]}({', '.join(args)})"
 
     def reads(self, bs):
@@ -156,102 +157,110 @@ class _Writer:
             for c in cols:
                 self.out(d + 1, f"Qdd[i, {c}] = a{c}")
 
-    # -- one block --------------------------------------------------------------------------
-    def evaluate(self, d, b, want):
-        """Block b's rows: g<rp>, and with want & 2 the gradients d<rp>_<k> and the block
-        matrix J<k> (of a repeated position the last entry, as System.block_matrix)."""
+    # -- one block: every temporary named by its block (x), so that each is assigned once and
+    # numba's SSA reconstruction, the slowest part of its first compile, has little to do ----
+    def evaluate(self, d, b, want, x):
+        """Block b's rows: g<x>_<rp>, with want & 2 the gradients d<x>_<rp>_<k> and the block
+        matrix J<x>_<k> (of a repeated position the last entry, as System.block_matrix)."""
         kb, cols, rows, _ = self.blocks[b]
         src = {}
         for rp, row in enumerate(rows):
-            dn = [f"d{rp}_{k}" for k in range(6)] if want & 2 else ["_"] * 6
-            self.out(d, f"g{rp}, {', '.join(dn)}, _ = {self.call(row, want)}")
+            dn = [f"d{x}_{rp}_{k}" for k in range(6)] if want & 2 else ["_"] * 6
+            self.out(d, f"g{x}_{rp}, {', '.join(dn)}, _ = {self.call(row, want)}")
             for k in range(6):
                 pos = int(self.rpos[row, k])
                 if pos >= 0:
-                    src[rp * kb + pos] = f"d{rp}_{k}"
+                    src[rp * kb + pos] = f"d{x}_{rp}_{k}"
         if want & 2:
             for k in range(kb * kb):
-                self.out(d, f"J{k} = {src.get(k, '0.0')}")
+                self.out(d, f"J{x}_{k} = {src.get(k, '0.0')}")
 
-    def invert(self, d, kb):
-        """M<k> the inverse of J, sm its sigma_min bound, sg the determinant's sign (as
-        compiled.factor: closed forms)."""
+    def invert(self, d, kb, x):
+        """M<x>_<k> the inverse of J<x>, sm<x> its sigma_min bound, sg<x> the determinant's
+        sign (as compiled.factor: closed forms)."""
         o = self.out
+        J = [f"J{x}_{k}" for k in range(kb * kb)]
         if kb == 1:
-            o(d, "M0 = 1.0 / J0")
-            o(d, "sm = abs(J0)")
-            o(d, "sg = sign_of(J0)")
+            o(d, f"M{x}_0 = 1.0 / {J[0]}")
+            o(d, f"sm{x} = abs({J[0]})")
+            o(d, f"sg{x} = sign_of({J[0]})")
             return
-        o(d, "det = J0 * J3 - J1 * J2")
-        o(d, "ok2 = math.isfinite(det) and det != 0")
-        o(d, "inv = 1.0 / (det if ok2 else np.nan)")
-        o(d, "M0 = J3 * inv")
-        o(d, "M1 = -J1 * inv")
-        o(d, "M2 = -J2 * inv")
-        o(d, "M3 = J0 * inv")
-        o(d, "sm = abs(det) / np.sqrt(J0 * J0 + J1 * J1 + J2 * J2 + J3 * J3) if ok2 else 0.0")
-        o(d, "sg = sign_of(det) if ok2 else 0.0")
+        o(d, f"det{x} = {J[0]} * {J[3]} - {J[1]} * {J[2]}")
+        o(d, f"ok{x} = math.isfinite(det{x}) and det{x} != 0")
+        o(d, f"inv{x} = 1.0 / (det{x} if ok{x} else np.nan)")
+        for k, e in enumerate((J[3], "-" + J[1], "-" + J[2], J[0])):
+            o(d, f"M{x}_{k} = {e} * inv{x}")
+        o(d, f"sm{x} = abs(det{x}) / np.sqrt({J[0]} * {J[0]} + {J[1]} * {J[1]} + {J[2]} * "
+             f"{J[2]} + {J[3]} * {J[3]}) if ok{x} else 0.0")
+        o(d, f"sg{x} = sign_of(det{x}) if ok{x} else 0.0")
 
-    def step(self, d, b):
+    def step(self, d, b, x):
         """dx = M r applied: the columns moved, the cosines and sines of the angles among them
-        (as the reference, at every step), sz the largest |dx| (not finite: inf)."""
+        (as the reference, at every step), sz<x> the largest |dx| (not finite: inf)."""
         kb, cols, rows, _ = self.blocks[b]
         o = self.out
         for rp, row in enumerate(rows):
-            o(d, f"r{rp} = g{rp} - T[i, {row}]")
+            o(d, f"r{x}_{rp} = g{x}_{rp} - T[i, {row}]")
         for a, c in enumerate(cols):
-            o(d, f"dx{a} = {' + '.join(f'M{a * kb + k} * r{k}' for k in range(kb))}")
-            o(d, f"q{c} -= dx{a}")
+            terms = " + ".join(f"M{x}_{a * kb + k} * r{x}_{k}" for k in range(kb))
+            o(d, f"dx{x}_{a} = {terms}")
+            o(d, f"q{c} -= dx{x}_{a}")
             if c % 3 == 2:
                 o(d, f"c{c // 3} = np.cos(q{c})")
                 o(d, f"s{c // 3} = np.sin(q{c})")
-        o(d, "sz = abs(dx0)" if kb == 1 else "sz = nanmax(abs(dx0), abs(dx1))")
-        o(d, "if not math.isfinite(sz):")
-        o(d + 1, "sz = np.inf")
+        size = f"abs(dx{x}_0)" if kb == 1 else f"nanmax(abs(dx{x}_0), abs(dx{x}_1))"
+        o(d, f"sz{x} = inf_unless_finite({size})")
 
-    def rates(self, d, b, have):
-        """Block b at the converged positions: its rows' residuals into R, then (order >= 1)
-        the velocities and (order >= 2) the accelerations, by substitution. have: the
-        gradients and J of the Newton step serve (a fixed gradient), else evaluated here."""
+    def rates(self, d, b, have, x):
+        """Block b at the converged positions: its rows' residuals into R, the velocities and
+        the accelerations by substitution (computed whatever the order, stored up to it).
+        have: the gradients and J of the Newton step serve (a fixed gradient: the residual and
+        gamma then come from one call, after the velocities), else evaluated here (y)."""
         kb, cols, rows, _ = self.blocks[b]
         o = self.out
-        self.evaluate(d, b, 1 if have else 3)
+        y = x if have else x + "c"
+        if not have:
+            self.evaluate(d, b, 3, y)
+            for rp, row in enumerate(rows):
+                o(d, f"R[i, {row}] = abs(g{y}_{rp} - T[i, {row}])")
+        self.substitute(d, b, "v", "NU[i, {row}]", y)
         for rp, row in enumerate(rows):
-            o(d, f"R[i, {row}] = abs(g{rp} - T[i, {row}])")
-        o(d, "if order >= 1:")
-        self.substitute(d + 1, b, "v", "NU[i, {row}]")
-        o(d + 1, "if order >= 2:")
-        for rp, row in enumerate(rows):
-            o(d + 2, f"_, _, _, _, _, _, _, gm{rp} = {self.call(row, 4, upto=b)}")
-        self.substitute(d + 2, b, "a", "(gm{rp} + FDD[i, {row}])")
+            if have:
+                o(d, f"h{x}_{rp}, _, _, _, _, _, _, gm{x}_{rp} = {self.call(row, 5, upto=b)}")
+                o(d, f"R[i, {row}] = abs(h{x}_{rp} - T[i, {row}])")
+            else:
+                o(d, f"_, _, _, _, _, _, _, gm{x}_{rp} = {self.call(row, 4, upto=b)}")
+        self.substitute(d, b, "a", "(gm{x}_{rp} + FDD[i, {row}])", y, x)
 
-    def substitute(self, d, b, X, rhs):
+    def substitute(self, d, b, X, rhs, y, x=None):
         """Block b's rows of Phi_q x = rhs solved for its columns (X: 'v' the velocities, 'a'
-        the accelerations): r = rhs - gradient . x summed in pairs as compiled.dot6 (the
-        columns of this block, of later blocks and of the ground are zero at this time: their
-        terms, exact zeros, are left out), then 1 x 1: r times the inverse, 2 x 2: Cramer's rule
-        (compiled.solve2)."""
+        the accelerations; y: the names of the gradients and J): r = rhs - gradient . x summed
+        in pairs as compiled.dot6 (the columns of this block, of later blocks and of the
+        ground are zero at this time: their terms, exact zeros, are left out), then 1 x 1: r
+        times the inverse, 2 x 2: Cramer's rule (compiled.solve2)."""
         kb, cols, rows, _ = self.blocks[b]
         for rp, row in enumerate(rows):
             terms = []
             for k in range(6):
                 c = int(self.rcol[row, k])
                 known = c < self.n and self.colblock.get(c, b) < b
-                terms.append(f"d{rp}_{k} * {X}{c}" if known else None)
+                terms.append(f"d{y}_{rp}_{k} * {X}{c}" if known else None)
             expr = _pairs(terms)
-            r = rhs.format(rp=rp, row=row)
-            self.out(d, f"r{rp} = {r} - {expr}" if expr else f"r{rp} = {r}")
+            r = rhs.format(rp=rp, row=row, x=x)
+            self.out(d, f"{X}r{y}_{rp} = {r} - {expr}" if expr else f"{X}r{y}_{rp} = {r}")
+        J = [f"J{y}_{k}" for k in range(kb * kb)]
+        r = [f"{X}r{y}_{k}" for k in range(kb)]
         if kb == 1:
-            self.out(d, f"{X}{cols[0]} = r0 * (1.0 / J0)")
+            self.out(d, f"{X}{cols[0]} = {r[0]} * (1.0 / {J[0]})")
         else:
-            self.out(d, "det = J0 * J3 - J1 * J2")
-            self.out(d, f"{X}{cols[0]} = (J3 * r0 - J1 * r1) / det")
-            self.out(d, f"{X}{cols[1]} = (J0 * r1 - J2 * r0) / det")
+            self.out(d, f"{X}det{y} = {J[0]} * {J[3]} - {J[1]} * {J[2]}")
+            self.out(d, f"{X}{cols[0]} = ({J[3]} * {r[0]} - {J[1]} * {r[1]}) / {X}det{y}")
+            self.out(d, f"{X}{cols[1]} = ({J[0]} * {r[1]} - {J[2]} * {r[0]}) / {X}det{y}")
 
-    def first(self, d, b):
+    def first(self, d, b, x):
         o = self.out
-        o(d, f"smin[i, {b}] = sm")
-        o(d, f"sign[i, {int(self.bfirst[b])}] = sg")
+        o(d, f"smin[i, {b}] = sm{x}")
+        o(d, f"sign[i, {int(self.bfirst[b])}] = sg{x}")
 
     # -- the passes over points -------------------------------------------------------------
     def affine(self, seg):
@@ -264,21 +273,19 @@ class _Writer:
         o(2, "ok = conv[i] != 0")
         for b in seg:
             kb, cols, rows, _ = self.blocks[b]
+            x = str(b)
             o(2, f"# block {b}: columns {cols}, rows {rows} (affine: one step)")
-            self.evaluate(2, b, 3)
-            self.invert(2, kb)
-            self.step(2, b)
-            self.first(2, b)
-            o(2, "v = sz / sm if sm > 0 else np.inf")
-            o(2, "if v > rat or v != v:")
-            o(3, "rat = v")
-            o(2, "ok = ok and math.isfinite(sz)")
-            self.rates(2, b, bool(self.fixed[b]))
+            self.evaluate(2, b, 3, x)
+            self.invert(2, kb, x)
+            self.step(2, b, x)
+            self.first(2, b, x)
+            o(2, f"rat = nanmax(rat, ratio_of(sz{x}, sm{x}))")
+            o(2, f"ok = ok & math.isfinite(sz{x})")
+            self.rates(2, b, bool(self.fixed[b]), x)
         self.store(2, seg)
         o(2, "ratio[i] = rat")
         o(2, "conv[i] = 1 if ok else 0")
-        o(2, "if iters[i] < 1:")
-        o(3, "iters[i] = 1")
+        o(2, "iters[i] = max(iters[i], 1)")
 
     def newton(self, b):
         """A block that is not affine: Newton for all points together until every point's
@@ -286,6 +293,7 @@ class _Writer:
         convergence, residuals and rates."""
         kb, cols, rows, _ = self.blocks[b]
         o = self.out
+        x = str(b)
         o(1, f"# block {b}: columns {cols}, rows {rows} (Newton, all points together)")
         o(1, f"MI = np.empty((N, {kb * kb}))")
         o(1, "for it in range(maxit):")
@@ -293,34 +301,29 @@ class _Writer:
         o(2, "for i in range(N):")
         self.load(3, [b], rates=False)
         o(3, "if it == 0 or full != 0:")
-        self.evaluate(4, b, 3)
-        self.invert(4, kb)
+        self.evaluate(4, b, 3, x)
+        self.invert(4, kb, x)
         for k in range(kb * kb):
-            o(4, f"MI[i, {k}] = M{k}")
+            o(4, f"MI[i, {k}] = M{x}_{k}")
         o(4, "if it == 0:")
-        self.first(5, b)
+        self.first(5, b, x)
         o(3, "else:")
-        self.evaluate(4, b, 1)
+        self.evaluate(4, b, 1, x)
         for k in range(kb * kb):
-            o(4, f"M{k} = MI[i, {k}]")
-        self.step(3, b)
+            o(4, f"M{x}_{k} = MI[i, {k}]")
+        self.step(3, b, x)
         self.store(3, [b], rates=False)
         o(3, "if it == 0:")
-        o(4, f"sm = smin[i, {b}]")
-        o(4, "v = sz / sm if sm > 0 else np.inf")
-        o(4, "if v > ratio[i] or v != v:")
-        o(5, "ratio[i] = v")
-        o(3, "if iters[i] < it + 1:")
-        o(4, "iters[i] = it + 1")
-        o(3, "SZ[i] = sz")
-        o(3, "if not (sz <= tol):")
-        o(4, "small = False")
+        o(4, f"ratio[i] = nanmax(ratio[i], ratio_of(sz{x}, smin[i, {b}]))")
+        o(3, "iters[i] = max(iters[i], it + 1)")
+        o(3, f"SZ[i] = sz{x}")
+        o(3, f"small = small & (sz{x} <= tol)")
         o(2, "if small:")
         o(3, "break")
         o(1, "for i in range(N):")
         o(2, "conv[i] = 1 if (conv[i] != 0 and SZ[i] <= tol) else 0")
         self.load(2, [b])
-        self.rates(2, b, False)
+        self.rates(2, b, False, x)
         self.store(2, [b])
 
     def source(self) -> str:
@@ -337,14 +340,19 @@ class _Writer:
         for kd in sorted({KINDS[int(k)] for k in self.kind}):
             o(0, f"k_{kd} = numba.njit([ROW], error_model='numpy', _nrt=False)"
                  f"(getattr(K.{kd}, 'py_func', K.{kd}))")
-        o(0, "sign_of = K.sign_of")
-        o(0, "nanmax = K.nanmax")
+        for helper in ("sign_of", "nanmax", "ratio_of", "inf_unless_finite"):
+            o(0, f"{helper} = K.{helper}")
         o(0, "")
         o(0, "")
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.compiled_grid")
         o(0, "@numba.njit(cache=CACHE, error_model='numpy', nogil=True)")
         o(0, "def grid(N, Q, Qd, Qdd, T, NU, FDD, prm, maxit, tol, full, order, iters, conv, "
              "ratio, sign, smin, R, rmax, cond):")
+        # the calls' constant arguments as variables (a literal is a statement of numba's IR
+        # at every use: the first compile's time is that of the IR's statements)
+        o(1, "ZERO = 0.0")
+        o(1, "ONE = 1.0")
+        o(1, "EQ0, EQ1, W1, W2, W3, W4, W5 = 0, 1, 1, 2, 3, 4, 5")
         for e in range(len(self.kind)):
             for k in range(_SLOTS):
                 o(1, f"p{e}_{k} = prm[{e}, {k}]")
@@ -394,7 +402,7 @@ class _Writer:
         o(2, f"for a in range({n}):")
         o(3, "if not math.isfinite(Q[i, a]):")
         o(4, "conv[i] = 0")
-        return "\n".join(o.lines) + "\n"
+        return "\n".join(_discards(_row_views(o.lines))) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
@@ -411,3 +419,48 @@ def _pairs(terms):
             return a
         return f"({a} + {b})"
     return add(add(add(terms[0], terms[1]), add(terms[2], terms[3])), add(terms[4], terms[5]))
+
+
+_ROWS = re.compile(r"\b(Q|Qd|Qdd|T|NU|FDD|R|C|S|MI|smin|sign)\[i, ")
+
+
+def _row_views(lines):
+    """X[i, k] -> Xi[k] inside each loop over points, with Xi = X[i] at the loop's top (one
+    statement of numba's IR fewer per access)."""
+    out = []
+    k = 0
+    while k < len(lines):
+        line = lines[k]
+        out.append(line)
+        k += 1
+        if line.strip() != "for i in range(N):":
+            continue
+        depth = len(line) - len(line.lstrip())
+        body = []
+        while k < len(lines) and (not lines[k].strip()
+                                  or len(lines[k]) - len(lines[k].lstrip()) > depth):
+            body.append(lines[k])
+            k += 1
+        names = sorted({m.group(1) for b in body for m in _ROWS.finditer(b)})
+        pad = " " * (depth + 4)
+        out += [f"{pad}{x}i = {x}[i]" for x in names]
+        out += [_ROWS.sub(lambda m: f"{m.group(1)}i[", b) for b in body]
+    return out
+
+
+def _discards(lines):
+    """Each discarded value (the `_` of an unpacking) a name of its own: a name assigned many
+    times costs numba's SSA reconstruction time in proportion to its assignments."""
+    count = [0]
+
+    def name(_):
+        count[0] += 1
+        return f"_u{count[0]}"
+
+    out = []
+    for line in lines:
+        head, sep, tail = line.partition(" = ")
+        if sep and "," in head:
+            head = re.sub(r"(?<![\w])_(?![\w])", name, head)
+        out.append(head + sep + tail)
+    return out

@@ -22,6 +22,8 @@ KINDS maps the kind codes of planarkin.kernel.pack to the functions' names.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -281,3 +283,15 @@ def sign_of(x):
 def nanmax(a, v):
     """NaN-propagating maximum, as numpy's max."""
     return v if (v > a or v != v) else a
+
+
+@inline
+def ratio_of(size, smin):
+    """A first Newton step's size over sigma_min (inf where sigma_min is not positive)."""
+    return size / smin if smin > 0 else np.inf
+
+
+@inline
+def inf_unless_finite(x):
+    """x, or inf where it is not finite (nan too): a step's size."""
+    return x if math.isfinite(x) else np.inf

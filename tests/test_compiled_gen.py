@@ -128,7 +128,8 @@ def test_generated_route_meets_the_closed_forms(which, monkeypatch):
 
 
 # a batch by the generated kernel, printed as json: the largest difference to the reference
-# pass relative to each column's largest value, whether it ran compiled, the compile time
+# pass relative to each column's largest value, whether it ran compiled, the CPU time of its
+# compile or load (CPU, not wall: the tests share two cores with other work)
 BATCH = """
 import json, sys, time, numpy as np
 sys.path.insert(0, "tests")
@@ -136,9 +137,9 @@ from test_compiled_gen import _batch, _rel
 from planarkin import compiled_grid, kernel
 S, t, Q0 = _batch("mechanisms/four-bar.yaml", 50)
 P = kernel.pack(S)
-t0 = time.perf_counter()
+t0 = time.process_time()
 fn = compiled_grid.function(P, S.n + 3, S.cm.m, S.nb)
-took = time.perf_counter() - t0
+took = time.process_time() - t0
 ref = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
 S.solve_batch(t, *ref, tol=1e-12, maxit=8, fused=False)
 got = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
@@ -162,13 +163,13 @@ def test_the_generated_source_runs_interpreted(tmp_path):
 
 
 def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
-    """An empty cache: the four-bar's kernel compiles in a few seconds (the generic kernel:
-    about 30 s on the same machine) and lands, with its source, in the checked private cache;
-    a second process loads it instead of compiling."""
+    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 4 s here;
+    the generic kernel takes about 30 s) and lands, with its source, in the checked private
+    cache; a second process loads it instead of compiling."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
     cold = _run_batch(env)
     assert cold["rel"] <= 1e-15 and cold["jitted"] and not cold["loaded"]
-    assert cold["took"] <= 20.0, cold        # (generous: 2 shared cores under load)
+    assert cold["took"] <= 10.0, cold
     src = Path(cold["file"])
     assert src.parent.parent == tmp_path / "c" / jitcache.tag() and src.suffix == ".py"
     assert src.parent.stat().st_mode & 0o777 == 0o700
@@ -209,7 +210,8 @@ def test_a_doctored_cached_kernel_is_rebuilt_with_the_same_results(tmp_path):
     first = _run_batch(env)
     src = Path(first["file"])
     text = src.read_text()
-    src.write_text(text.replace("q0 -= dx0", "q0 -= dx0 - 0.001", 1))
+    assert "q0 -= dx0_0" in text
+    src.write_text(text.replace("q0 -= dx0_0", "q0 -= dx0_0 - 0.001", 1))
     again = _run_batch(env)
     assert again["rel"] <= 1e-15 and not again["loaded"]
     assert src.read_text() == text
