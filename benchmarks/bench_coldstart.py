@@ -11,7 +11,8 @@ compiled route's threshold lowered to 0 so that the route is taken at any size):
 * numpy: PLANARKIN_KERNEL=0 (no numba at all).
 
 Sides alternate within a round; printed are the medians with the spread (min-max) of the
-rounds, the cold - warm difference (the target: at most 1.5 s) and the load average.
+rounds, wall and CPU time of each process (the CPU time is what a busy machine inflates
+least), the cold - warm difference (the target: at most 1.5 s) and the load average.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from planarkin import kernel
 kernel.COMPILED_FROM_POINTS = 0
 r = planarkin.solve(planarkin.load(sys.argv[1]), steps=int(sys.argv[2]))
 assert r.status == 0, r.message
-print(time.perf_counter() - t0)
+print(time.perf_counter() - t0, time.process_time())
 """
 
 
@@ -41,7 +42,8 @@ def one(model, steps, env):
     e = dict(os.environ, PYTHONPATH=str(ROOT), **env)
     out = subprocess.run([sys.executable, "-c", RUN, str(model), str(steps)],
                          capture_output=True, text=True, env=e, cwd=str(ROOT), check=True)
-    return float(out.stdout.split()[-1])
+    wall, cpu = out.stdout.split()[-2:]
+    return float(wall), float(cpu)
 
 
 def median(xs):
@@ -59,6 +61,7 @@ def main(argv=None):
     model = ROOT / "mechanisms" / f"{a.model}.yaml"
     print("load avg at start", " ".join(f"{x:.2f}" for x in os.getloadavg()))
     got = {"cold": [], "warm": [], "numpy": []}
+    cpu = {"cold": [], "warm": [], "numpy": []}
     for r in range(a.rounds):
         with tempfile.TemporaryDirectory() as d:
             env = {"PLANARKIN_CACHE": str(Path(d) / "cache")}
@@ -66,14 +69,19 @@ def main(argv=None):
             if r % 2:                      # alternate the numpy side with the compiled pair
                 sides = sides[2:] + sides[:2]
             for name, e in sides:
-                got[name].append(one(model, a.steps, e))
-        print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.2f} s" for k, v in got.items()),
-              flush=True)
+                w, c = one(model, a.steps, e)
+                got[name].append(w)
+                cpu[name].append(c)
+        print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.2f} s (CPU {cpu[k][-1]:.2f})"
+                                            for k, v in got.items()), flush=True)
     print(f"== {a.model}, {a.steps} steps, planarkin.solve in a fresh process ==")
     for k, v in got.items():
-        print(f"  {k:6s} {median(v):6.2f} s ({min(v):.2f}-{max(v):.2f})")
-    diff = [c - w for c, w in zip(got["cold"], got["warm"])]
-    print(f"  cold - warm {median(diff):6.2f} s ({min(diff):.2f}-{max(diff):.2f})   target <= 1.5")
+        print(f"  {k:6s} wall {median(v):6.2f} s ({min(v):.2f}-{max(v):.2f})   CPU "
+              f"{median(cpu[k]):6.2f} s ({min(cpu[k]):.2f}-{max(cpu[k]):.2f})")
+    for what, d in (("wall", got), ("CPU", cpu)):
+        diff = [c - w for c, w in zip(d["cold"], d["warm"])]
+        print(f"  cold - warm, {what:4s} {median(diff):6.2f} s ({min(diff):.2f}-{max(diff):.2f})"
+              f"   target <= 1.5")
     print("load avg at end", " ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 

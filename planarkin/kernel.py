@@ -56,12 +56,12 @@ _state: dict = {}        # "lib": the loaded Library, or None: numba could not b
 class Library:
     """The compiled entry points, each compiled for its one signature (or loaded from numba's
     cache) when a job first needs it (need): planarkin.compiled_points' hermite and layout
-    ('points', every job on the route), the generic solve_points of planarkin.compiled
+    ('points', every job on the route), the generic solve_points of planarkin.compiled with them
     ('grid': only for a system no generated kernel covers, see solve), compiled_each's
     solve_each and the cubic ('study')."""
 
     PARTS = {"points": ("compiled_points", ("hermite", "layout")),
-             "grid": ("compiled", ("solve_points",)),
+             "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
              "study": ("compiled_each", ("solve_each",), "compiled_points", ("cubic",))}
 
     def __init__(self):
