@@ -231,3 +231,14 @@ def test_a_doctored_cached_kernel_is_rebuilt_with_the_same_results(tmp_path):
     assert f"gen/{src.name}" in manifest
     assert all(hashlib.sha256((entry / f).read_bytes()).hexdigest() == d
                for f, d in manifest.items())
+
+
+def test_without_a_private_cache_the_kernel_compiles_in_memory(tmp_path):
+    """A cache directory others can write: nothing is written there, the generated source is
+    compiled in memory (numba's disk cache off), with the same results."""
+    bad = tmp_path / "shared"
+    bad.mkdir()
+    bad.chmod(0o777)
+    got = _run_batch({"PLANARKIN_CACHE": str(bad)})
+    assert got["rel"] <= 1e-15 and got["jitted"] and not got["loaded"]
+    assert got["file"].startswith("<planarkin pk_grid_") and not any(bad.iterdir())
