@@ -45,7 +45,7 @@ def _build(name: str, text: str):
     import numba
     entry = jitcache.prepare()
     try:
-        path = None if entry is None else _written(entry, name, text)
+        path = None if entry is None else written(entry, name, text)
         if entry is not None and path is None:
             entry = None
         if entry is not None:           # numba imported before: its configuration read then
@@ -65,7 +65,7 @@ def _build(name: str, text: str):
     return fn
 
 
-def _written(entry, name: str, text: str):
+def written(entry, name: str, text: str):
     """entry/gen/<name>.py holding exactly text (written atomically where it does not), or None
     when it cannot be written."""
     data = text.encode()

@@ -181,12 +181,12 @@ def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
 
 @pytest.mark.parametrize("damage", ["truncated", "doctored", "foreign", "a link"])
 def test_a_source_file_that_is_not_the_generated_text_is_replaced(tmp_path, damage):
-    """compiled_grid._written: the file on disk is used only when its bytes are exactly the text
+    """compiled_grid.written: the file on disk is used only when its bytes are exactly the text
     generated now; otherwise it is replaced atomically (never run)."""
     entry = tmp_path / "entry"
     entry.mkdir(mode=0o700)
     text = "x = 1\n"
-    path = compiled_grid._written(entry, "pk_grid_test", text)
+    path = compiled_grid.written(entry, "pk_grid_test", text)
     assert path.read_text() == text
     if damage == "truncated":
         path.write_text(text[:3])
@@ -199,7 +199,7 @@ def test_a_source_file_that_is_not_the_generated_text_is_replaced(tmp_path, dama
         other.write_text(text)
         path.unlink()
         path.symlink_to(other)
-    again = compiled_grid._written(entry, "pk_grid_test", text)
+    again = compiled_grid.written(entry, "pk_grid_test", text)
     assert again == path and not path.is_symlink() and path.read_text() == text
     assert [p.name for p in path.parent.iterdir()] == [path.name]
 
