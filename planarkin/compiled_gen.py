@@ -334,12 +334,13 @@ class _Writer:
                      "from planarkin import compiled_kinds as K", ""):
             o(0, line)
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.compiled_grid")
-        o(0, "# the kinds' equations (planarkin.compiled_kinds), each a function of its own:")
-        o(0, "# inlined in numba's IR they made the first compile ten times longer. numba")
-        o(0, "# compiles one per literal (equation, want), which keeps only that row's terms")
-        o(0, "# (one signature for all: 0.6 instead of 0.4 us a point); cached, as grid is")
+        o(0, "# the kinds' equations (planarkin.compiled_kinds), each compiled once, for one")
+        o(0, "# signature, as a function of its own: inlined in numba's IR they made the first")
+        o(0, "# compile ten times longer, and literal arguments would compile one per value;")
+        o(0, "# cached (a later process loads them, as it loads grid)")
+        o(0, "ROW = (numba.int64, numba.int64) + (numba.float64,) * 22")
         for kd in sorted({KINDS[int(k)] for k in self.kind}):
-            o(0, f"k_{kd} = numba.njit(error_model='numpy', _nrt=False, cache=CACHE)"
+            o(0, f"k_{kd} = numba.njit([ROW], error_model='numpy', _nrt=False, cache=CACHE)"
                  f"(getattr(K.{kd}, 'py_func', K.{kd}))")
         for helper in ("sign_of", "nanmax", "ratio_of", "inf_unless_finite"):
             o(0, f"{helper} = K.{helper}")
