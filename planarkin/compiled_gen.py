@@ -403,7 +403,7 @@ class _Writer:
         o(2, f"for a in range({n}):")
         o(3, "if not math.isfinite(Q[i, a]):")
         o(4, "conv[i] = 0")
-        return "\n".join(_discards(_row_views(o.lines))) + "\n"
+        return "\n".join(_discards(o.lines)) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
@@ -420,33 +420,6 @@ def _pairs(terms):
             return a
         return f"({a} + {b})"
     return add(add(add(terms[0], terms[1]), add(terms[2], terms[3])), add(terms[4], terms[5]))
-
-
-_ROWS = re.compile(r"\b(Q|Qd|Qdd|T|NU|FDD|R|C|S|MI|smin|sign)\[i, ")
-
-
-def _row_views(lines):
-    """X[i, k] -> Xi[k] inside each loop over points, with Xi = X[i] at the loop's top (one
-    statement of numba's IR fewer per access)."""
-    out = []
-    k = 0
-    while k < len(lines):
-        line = lines[k]
-        out.append(line)
-        k += 1
-        if line.strip() != "for i in range(N):":
-            continue
-        depth = len(line) - len(line.lstrip())
-        body = []
-        while k < len(lines) and (not lines[k].strip()
-                                  or len(lines[k]) - len(lines[k].lstrip()) > depth):
-            body.append(lines[k])
-            k += 1
-        names = sorted({m.group(1) for b in body for m in _ROWS.finditer(b)})
-        pad = " " * (depth + 4)
-        out += [f"{pad}{x}i = {x}[i]" for x in names]
-        out += [_ROWS.sub(lambda m: f"{m.group(1)}i[", b) for b in body]
-    return out
 
 
 def _discards(lines):
