@@ -41,10 +41,10 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # numba's import and cache load included, 2 Dec 2026, 2 shared cores, load 1-2.4, medians of 5):
 # numpy 0.38 / 0.79 / 0.91 / 1.86 s, compiled 0.73 / 1.18 / 1.03 / 1.70 s at 50,000 /
 # 100,000 / 200,000 / 400,000 steps: about 0.6 s of start-up, repaid at about 1.8 us a step.
-# With the generated kernels (benchmarks/bench_coldstart.py, 2 Dec 2026 15:00, load 1.1-1.5, a
-# fresh process, warm cache, medians of 5): four-bar, 200,000 steps, compiled 0.96 s against
-# numpy 0.74 s: the start-up (numba's import and the cache loads, about 0.5 s) is still repaid
-# from about 300,000 points, so the threshold stays.
+# With the generated kernels (benchmarks/bench_coldstart.py, 2 Dec 2026 15:12, load 1.1, a
+# fresh process, warm cache, medians of 5): four-bar, 200,000 steps, compiled 0.82 s against
+# numpy 0.74 s: the start-up (numba's import and the cache loads, about 0.4 s) is repaid from
+# about 250,000 points; the threshold stays.
 COMPILED_FROM_POINTS = 300_000
 
 # kind codes of planarkin.compiled.row_eval; the kinds are matched by class, not by name
