@@ -165,7 +165,7 @@ def test_the_generated_source_runs_interpreted(tmp_path):
 
 
 def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
-    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 4 s here;
+    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 3 s here;
     the generic kernel takes about 30 s) and lands, with its source, in the checked private
     cache; a second process loads it instead of compiling."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
