@@ -9,8 +9,9 @@ bounds (1 / ||J^-1||_F; Gauss-Jordan with partial pivoting, 1x1 and 2x2 blocks i
 the reference, system.Small2), and after each block, per point, its rows of the velocity and
 acceleration systems with the gradients and gamma at the converged positions. solve_each
 solves point by point, each to its own convergence, with per-point element parameters and the
-design studies' acceptance tests (studies.batch); hermite, cubic and layout are the grid pass's
-predictions, the studies' cubic prediction and a chunk's user-unit arrays.
+design studies' acceptance tests (studies.batch). The element equations are
+planarkin.compiled_kinds' (one function per kind, shared with the generated kernels of
+planarkin.compiled_gen); the predictions and the layout are in planarkin.compiled_points.
 
 Every function is one Python text: compiled by numba (no fastmath: the operations are rounded
 as written, in the order written, with no contraction into fused multiply-adds, as the numpy
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import math
 
+from . import compiled_kinds as kinds
 from . import jitcache
 
 CACHE = jitcache.prepare()       # the checked cache directory, or None: no disk cache
@@ -65,147 +67,36 @@ I64x2 = numba.int64[:, ::1]
 # -- the elements' equations ---------------------------------------------------------------------
 @inline
 def row_eval(kind, bi, bj, p, po, eq, q, qo, c, s, co, qd, want, gr, go):
-    """One equation row of an element: returns (g, gamma_g); with want & 2 its gradient over
-    (x_i, y_i, phi_i, x_j, y_j, phi_j) into gr[go:go + 6]. want: 1 g, 2 gradient, 4 gamma
-    (needs qd, read at the offset qo as q). p[po:po + 8]: si, sj, vi (reference sections 1, 2,
-    5); q[qo:], qd[qo:] the point's coordinates, c[co:], s[co:] its bodies' cos and sin."""
-    ci = c[co + bi]
-    si_ = s[co + bi]
-    cj = c[co + bj]
-    sj_ = s[co + bj]
-    six = ci * p[po] - si_ * p[po + 1]
-    siy = si_ * p[po] + ci * p[po + 1]
-    sjx = cj * p[po + 2] - sj_ * p[po + 3]
-    sjy = sj_ * p[po + 2] + cj * p[po + 3]
-    xi = q[qo + 3 * bi]
-    yi = q[qo + 3 * bi + 1]
-    xj = q[qo + 3 * bj]
-    yj = q[qo + 3 * bj + 1]
-    hx = xj + sjx - xi - six
-    hy = yj + sjy - yi - siy
-    wi = wj = hdx = hdy = kx = ky = 0.0
+    """One equation row of an element (compiled_kinds.row): returns (g, gamma_g); with want & 2
+    its gradient over (x_i, y_i, phi_i, x_j, y_j, phi_j) into gr[go:go + 6]. want: 1 g, 2
+    gradient, 4 gamma (needs qd, read at the offset qo as q). p[po:po + 8]: si, sj, vi
+    (reference sections 1, 2, 5); q[qo:], qd[qo:] the point's coordinates, c[co:], s[co:] its
+    bodies' cos and sin."""
+    wi = vxi = vyi = wj = vxj = vyj = 0.0
     if want & 4:
+        vxi = qd[qo + 3 * bi]
+        vyi = qd[qo + 3 * bi + 1]
         wi = qd[qo + 3 * bi + 2]
+        vxj = qd[qo + 3 * bj]
+        vyj = qd[qo + 3 * bj + 1]
         wj = qd[qo + 3 * bj + 2]
-        hdx = qd[qo + 3 * bj] - wj * sjy - qd[qo + 3 * bi] + wi * siy
-        hdy = qd[qo + 3 * bj + 1] + wj * sjx - qd[qo + 3 * bi + 1] - wi * six
-        kx = wj * wj * sjx - wi * wi * six
-        ky = wj * wj * sjy - wi * wi * siy
+    g, d0, d1, d2, d3, d4, d5, gam = kinds.row(
+        kind, eq, want, q[qo + 3 * bi], q[qo + 3 * bi + 1], q[qo + 3 * bi + 2], c[co + bi],
+        s[co + bi], q[qo + 3 * bj], q[qo + 3 * bj + 1], q[qo + 3 * bj + 2], c[co + bj],
+        s[co + bj], p[po], p[po + 1], p[po + 2], p[po + 3], p[po + 4], p[po + 5], vxi, vyi, wi,
+        vxj, vyj, wj)
     if want & 2:
-        for k in range(6):
-            gr[go + k] = 0.0
-    g = 0.0
-    gam = 0.0
-    if kind == 1:                       # revolute: r_i + s_i - r_j - s_j
-        if eq == 0:
-            if want & 1:
-                g = xi + six - xj - sjx
-            if want & 2:
-                gr[go] = 1.0
-                gr[go + 2] = -siy
-                gr[go + 3] = -1.0
-                gr[go + 5] = sjy
-            if want & 4:
-                gam = wi * wi * six - wj * wj * sjx
-        else:
-            if want & 1:
-                g = yi + siy - yj - sjy
-            if want & 2:
-                gr[go + 1] = 1.0
-                gr[go + 2] = six
-                gr[go + 4] = -1.0
-                gr[go + 5] = -sjx
-            if want & 4:
-                gam = wi * wi * siy - wj * wj * sjy
-    elif kind == 3 or (kind == 2 and eq == 0):     # angle (the translational's first row)
-        if want & 1:
-            g = q[qo + 3 * bj + 2] - q[qo + 3 * bi + 2]
-        if want & 2:
-            gr[go + 2] = -1.0
-            gr[go + 5] = 1.0
-    elif kind == 4:                     # x of h
-        if want & 1:
-            g = hx
-        if want & 2:
-            gr[go] = -1.0
-            gr[go + 2] = siy
-            gr[go + 3] = 1.0
-            gr[go + 5] = -sjy
-        if want & 4:
-            gam = wj * wj * sjx - wi * wi * six
-    elif kind == 5:                     # y of h
-        if want & 1:
-            g = hy
-        if want & 2:
-            gr[go + 1] = -1.0
-            gr[go + 2] = -six
-            gr[go + 4] = 1.0
-            gr[go + 5] = sjx
-        if want & 4:
-            gam = wj * wj * sjy - wi * wi * siy
-    elif kind == 6:                     # distance |h|
-        d = np.hypot(hx, hy)
-        ex = hx / d
-        ey = hy / d
-        if want & 1:
-            g = d
-        if want & 2:
-            gr[go] = -ex
-            gr[go + 1] = -ey
-            gr[go + 2] = ex * siy - ey * six
-            gr[go + 3] = ex
-            gr[go + 4] = ey
-            gr[go + 5] = ey * sjx - ex * sjy
-        if want & 4:
-            ehd = ex * hdx + ey * hdy
-            gam = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
-    elif kind == 2 or kind == 7 or kind == 8:
-        # line of body i through s_i along u_i = A_i v_i, normal n_i = R u_i
-        ux = ci * p[po + 4] - si_ * p[po + 5]
-        uy = si_ * p[po + 4] + ci * p[po + 5]
-        nx = -uy
-        ny = ux
-        if kind == 8:                   # slide: u^T h
-            if want & 1:
-                g = ux * hx + uy * hy
-            if want & 2:
-                gr[go] = -ux
-                gr[go + 1] = -uy
-                gr[go + 2] = nx * (hx + six) + ny * (hy + siy)
-                gr[go + 3] = ux
-                gr[go + 4] = uy
-                gr[go + 5] = -(nx * sjx + ny * sjy)
-            if want & 4:
-                gam = (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
-                       + ux * kx + uy * ky)
-        else:                           # n^T h
-            if want & 1:
-                g = nx * hx + ny * hy
-            if want & 2:
-                gr[go] = -nx
-                gr[go + 1] = -ny
-                gr[go + 2] = -(ux * (hx + six) + uy * (hy + siy))
-                gr[go + 3] = nx
-                gr[go + 4] = ny
-                gr[go + 5] = ux * sjx + uy * sjy
-            if want & 4:
-                gam = (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
-                       + nx * kx + ny * ky)
-    else:                               # (kernel.pack admits no other kind)
-        g = np.nan
-        gam = np.nan
+        gr[go] = d0
+        gr[go + 1] = d1
+        gr[go + 2] = d2
+        gr[go + 3] = d3
+        gr[go + 4] = d4
+        gr[go + 5] = d5
     return g, gam
 
 
 # -- small dense linear algebra ------------------------------------------------------------------
-@inline
-def sign_of(x):
-    """The sign of x as a float: 1, -1, 0, nan for nan."""
-    if x > 0:
-        return 1.0
-    if x < 0:
-        return -1.0
-    return np.nan if x != x else 0.0
+sign_of = kinds.sign_of
 
 
 @numba.njit([(INT, F64, INT, F64, INT, F64)], **HELPER)
@@ -580,96 +471,10 @@ def solve_points(N, W, m, nb, nblk, ekind, ebi, ebj, eprm, rowel, roweq, bk, bof
                 break
 
 
-# -- the grid pass's predictions and layout; the studies' cubic ----------------------------------
-@jit
-def cubic(q0, q1, q2, q3, out):
-    """A design study's prediction along a repeated parameter step (studies.batch): the cubic
-    q0 + 3 (q0 - q1) - 3 (q1 - q2) + (q2 - q3) through the last four solutions, element by
-    element in the order of the numpy lines it replaces (the same bits)."""
-    for k in range(len(out)):
-        r = (q0[k] - q1[k]) * 3.0
-        r += q0[k]
-        r -= (q1[k] - q2[k]) * 3.0
-        r += q2[k] - q3[k]
-        out[k] = r
-
-
-@jit
-def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
-    """The grid pass's predictions: quintic Hermite interpolation (planarkin.path.hermite5,
-    the same operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of
-    W numbers."""
-    for i in range(N):
-        k = idx[i]
-        h = Tn[k + 1] - Tn[k]
-        s = (t[i] - Tn[k]) / h
-        s2 = s * s
-        s3 = s2 * s
-        s4 = s3 * s
-        s5 = s3 * s2
-        H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
-        H1 = s - 6 * s3 + 8 * s4 - 3 * s5
-        H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
-        H3 = 10 * s3 - 15 * s4 + 6 * s5
-        H4 = -4 * s3 + 7 * s4 - 3 * s5
-        H5 = 0.5 * s3 - s4 + 0.5 * s5
-        h1 = H1 * h
-        h2 = H2 * h * h
-        h4 = H4 * h
-        h5 = H5 * h * h
-        o0 = k * W
-        o1 = o0 + W
-        for c in range(W):
-            Q[i * W + c] = (H0 * Qn[o0 + c] + h1 * Qdn[o0 + c] + h2 * Qddn[o0 + c]
-                            + H3 * Qn[o1 + c] + h4 * Qdn[o1 + c] + h5 * Qddn[o1 + c])
-
-
-@jit
-def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd, pdd):
-    """A chunk's rows in user units, written once: q, qd, qdd (N, n) = the first n numbers of
-    each row of Q, Qd, Qdd times unit (n); the points' positions, velocities and accelerations
-    (N, P, 2), point k on body pbody[k] at ps[2 k], ps[2 k + 1], times L: the operations of
-    planarkin.kinematics.point_kinematics in its order (then times L). order 0: positions only,
-    1: with velocities, 2: with accelerations (qd, pd, qdd, pdd unused above the order)."""
-    for i in range(N):
-        o = i * W
-        for a in range(n):
-            q[i * n + a] = Q[o + a] * unit[a]
-        if order >= 1:
-            for a in range(n):
-                qd[i * n + a] = Qd[o + a] * unit[a]
-        if order >= 2:
-            for a in range(n):
-                qdd[i * n + a] = Qdd[o + a] * unit[a]
-        for k in range(P):
-            b = pbody[k]
-            x = (i * P + k) * 2
-            c = np.cos(Q[o + 3 * b + 2])
-            s = np.sin(Q[o + 3 * b + 2])
-            sx = c * ps[2 * k] - s * ps[2 * k + 1]
-            sy = s * ps[2 * k] + c * ps[2 * k + 1]
-            p[x] = (Q[o + 3 * b] + sx) * L
-            p[x + 1] = (Q[o + 3 * b + 1] + sy) * L
-            if order < 1:
-                continue
-            w = Qd[o + 3 * b + 2]
-            pd[x] = (Qd[o + 3 * b] - w * sy) * L
-            pd[x + 1] = (Qd[o + 3 * b + 1] + w * sx) * L
-            if order < 2:
-                continue
-            al = Qdd[o + 3 * b + 2]
-            pdd[x] = (Qdd[o + 3 * b] - al * sy - w * w * sx) * L
-            pdd[x + 1] = (Qdd[o + 3 * b + 1] + al * sx - w * w * sy) * L
-
-
 # the entry points' one signature each, compiled (or loaded from the cache) when a job takes
 # the route: kernel.Library.need
 SIGNATURES = {
     "solve_points": (INT, INT, INT, INT, INT, I64, I64, I64, F64, I64, I64, I64, I64, I64, I64,
                      I64, F64, F64, F64, F64, F64, F64, INT, DBL, INT, INT, I64, U8, F64, F64,
                      F64, U8, F64, I64, I64, INT, I64, I64, I64, I64, I64, F64, F64),
-    "cubic": (F64, F64, F64, F64, F64),
-    "hermite": (INT, INT, F64, I64, F64, F64, F64, F64, F64),
-    "layout": (INT, INT, INT, INT, INT, F64, DBL, I64, F64, F64, F64, F64, F64, F64, F64, F64, F64,
-               F64),
 }

@@ -8,8 +8,12 @@ user can write and vouches for every file in it:
   links) owned by the current user and not writable by group or others, else the route
   compiles in memory only (no disk cache: slower to start, the same results);
 - an entry per source version: a subdirectory named by the hash of the compiled route's
-  sources and the Python version (numba keys its files on each file's own time stamp only,
-  and a change in one module would leave the functions of another inlined stale);
+  sources and the Python version (numba
+  keys its files on each file's own time stamp only, and a change in one module would leave
+  the functions of another inlined stale);
+- in it, gen/: the kernels generated per mechanism structure (planarkin.compiled_gen), Python
+  sources that planarkin.compiled_grid runs only while their bytes are the text it generates
+  (otherwise it writes them again, atomically), numba's files for them beside the others;
 - a manifest (manifest.json: file -> sha256) written, atomically, after every load or
   compile; before numba is imported, every file in the entry that the manifest does not name
   with its exact hash (truncated, garbled, foreign, or left by a process that died) is
@@ -28,7 +32,8 @@ import stat
 import sys
 from pathlib import Path
 
-SOURCES = ("compiled.py", "compiled_each.py")     # the modules numba compiles and caches
+# the modules numba compiles and caches (the generated kernels' names hash their generator)
+SOURCES = ("compiled.py", "compiled_each.py", "compiled_points.py", "compiled_kinds.py")
 MANIFEST = "manifest.json"
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
 

@@ -16,6 +16,10 @@ Never what earlier runs left on disk: the cache (planarkin.jitcache) only saves 
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
 
+A system's solve is the kernel generated for its structure where compiled_gen covers it
+(planarkin.compiled_grid: straight-line Python for numba, compiled in seconds and kept in the
+cache), else the generic solve_points (compiled once per machine, in tens of seconds).
+
 It covers the kinds whose equations are the point-and-line formulas of reference sections 1-2
 (revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE
 unknowns and solve blocks (the path follower's merged ones) of up to KMAX; any other kind or a
@@ -37,6 +41,10 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # numba's import and cache load included, 2 Dec 2026, 2 shared cores, load 1-2.4, medians of 5):
 # numpy 0.38 / 0.79 / 0.91 / 1.86 s, compiled 0.73 / 1.18 / 1.03 / 1.70 s at 50,000 /
 # 100,000 / 200,000 / 400,000 steps: about 0.6 s of start-up, repaid at about 1.8 us a step.
+# With the generated kernels (benchmarks/bench_coldstart.py, 2 Dec 2026 15:12, load 1.1, a
+# fresh process, warm cache, medians of 5): four-bar, 200,000 steps, compiled 0.82 s against
+# numpy 0.74 s: the start-up (numba's import and the cache loads, about 0.4 s) is repaid from
+# about 250,000 points; the threshold stays.
 COMPILED_FROM_POINTS = 300_000
 
 # kind codes of planarkin.compiled.row_eval; the kinds are matched by class, not by name
@@ -50,33 +58,38 @@ _state: dict = {}        # "lib": the loaded Library, or None: numba could not b
 
 
 class Library:
-    """The compiled entry points (planarkin.compiled, planarkin.compiled_each): solve_points,
-    solve_each, cubic, hermite, layout; each compiled for its one signature (or loaded from
-    numba's cache) when a job first needs it (need)."""
+    """The compiled entry points, each compiled for its one signature (or loaded from numba's
+    cache) when a job first needs it (need): planarkin.compiled_points' hermite and layout
+    ('points', every job on the route), the generic solve_points of planarkin.compiled with them
+    ('grid': only for a system no generated kernel covers, see solve), compiled_each's
+    solve_each and the cubic ('study')."""
 
-    PARTS = {"grid": ("solve_points", "hermite", "layout"), "study": ("solve_each", "cubic")}
+    PARTS = {"points": ("compiled_points", ("hermite", "layout")),
+             "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
+             "study": ("compiled_each", ("solve_each",), "compiled_points", ("cubic",))}
 
-    def __init__(self, compiled, each):
-        self._mods = (compiled, each)
-        for mod in self._mods:
-            for name in mod.SIGNATURES:
-                setattr(self, name, getattr(mod, name))
-        self.cache = compiled.CACHE      # numba's disk cache directory, or None
+    def __init__(self):
+        self.cache = None          # numba's disk cache directory once prepared, or None
         self._ready: set = set()
 
     def need(self, part: str) -> "Library":
-        """The entry points of part ('grid': a run's grid pass, 'study': the batched studies)
-        compiled or loaded, under the cache's lock (planarkin.jitcache), before anything is
-        solved (and before a study forks its workers)."""
+        """The entry points of part ('points', 'grid', 'study') compiled or loaded, under the
+        cache's lock (planarkin.jitcache), before anything is solved (and before a study forks
+        its workers)."""
         if part not in self._ready:
+            import importlib
+
             from . import jitcache
-            jitcache.prepare()
+            spec = self.PARTS[part]
+            self.cache = jitcache.prepare()
             try:
-                for name in self.PARTS[part]:
-                    fn = getattr(self, name)
-                    sig = next(m.SIGNATURES[name] for m in self._mods if name in m.SIGNATURES)
-                    if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
-                        fn.compile(sig)
+                for k in range(0, len(spec), 2):
+                    mod = importlib.import_module(f"{__package__}.{spec[k]}")
+                    for name in spec[k + 1]:
+                        fn = getattr(mod, name)
+                        if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
+                            fn.compile(mod.SIGNATURES[name])
+                        setattr(self, name, fn)
             finally:
                 jitcache.record()
             self._ready.add(part)
@@ -90,12 +103,13 @@ def disabled() -> bool:
 
 def route(points: int, part: str = "grid"):
     """The compiled Library for a job of `points` points, its entry points for part ready
-    (Library.need), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
+    (Library.need; a grid job: the predictions and layout, its solves compiled per system when
+    first solved, see solve), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
     PLANARKIN_KERNEL=0, or numba not importable)."""
     if disabled() or points < COMPILED_FROM_POINTS:
         return None
     lib = library()
-    return None if lib is None else lib.need(part)
+    return None if lib is None else lib.need("points" if part == "grid" else part)
 
 
 def library():
@@ -107,18 +121,13 @@ def library():
 
 
 def _load():
-    from . import jitcache
     try:
         import numba  # noqa: F401
     except Exception as e:          # (any failure of the import: not installed, broken)
         print(f"planarkin: numba cannot be imported ({type(e).__name__}: {e}); the numpy "
               f"route runs (slower for large jobs)", file=sys.stderr)
         return None
-    try:
-        from . import compiled, compiled_each
-    finally:
-        jitcache.record()
-    return Library(compiled, compiled_each)
+    return Library()
 
 
 class Packed:
@@ -212,8 +221,13 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     Returns (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False
     where a coordinate is not finite), the residual |Phi| (N, m) of every equation at the
     results (redundant ones included), its largest value per point (N,) and the condition
-    estimate (N,) of solver.cond_of."""
+    estimate (N,) of acceptance.condition."""
+    from . import compiled_grid
     N, W = Q.shape
+    fn = compiled_grid.function(P, W, S.cm.m, S.nb)
+    if fn is not None:              # a kernel written out for this structure
+        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
+    lib.need("grid")
     nblk = P.nblk
     iters = np.empty(N, dtype=np.int64)
     conv = np.empty(N, dtype=np.uint8)
@@ -364,7 +378,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
-    """solver.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)."""
+    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)."""
     t = _flat(t)
     idx = _flat(idx, np.int64)
     nodes = [_flat(a) for a in (Tn, Qn, Qdn, Qddn)]

@@ -1,0 +1,122 @@
+"""The generated grid kernels (planarkin.compiled_gen): written, checked, loaded and called.
+
+A structure's source goes into the checked cache entry of planarkin.jitcache (a directory only
+the user can write), as gen/<name>.py, its name the hash of the structure
+(compiled_gen.name_of). Before it is run, the file's bytes are compared with the source
+generated now: a file that differs (truncated, doctored, foreign) is replaced, atomically,
+never executed. numba caches the compiled function beside it (cache=True: its index and data
+files, which jitcache's manifest vouches for), so that a second run loads instead of compiling.
+Where there is no usable cache directory the source is compiled in memory.
+
+PLANARKIN_KERNEL=generic: the generic kernel only (for comparisons).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import types
+
+import numpy as np
+
+from . import compiled_gen, jitcache
+
+_fns: dict = {}           # module name -> the compiled grid function
+
+
+def generic_only() -> bool:
+    return os.environ.get("PLANARKIN_KERNEL", "1") == "generic"
+
+
+def function(P, W: int, m: int, nb: int):
+    """The grid function generated for packed system P's structure, compiled (or loaded from
+    numba's cache), or None: not covered (compiled_gen.covers) or PLANARKIN_KERNEL=generic."""
+    if generic_only() or not compiled_gen.covers(P):
+        return None
+    key = getattr(P, "gen_name", None)
+    if key is None:
+        key = P.gen_name = compiled_gen.name_of(compiled_gen.structure(P, W, m, nb))
+    if key not in _fns:
+        _fns[key] = _build(key, compiled_gen.source(P, W, m, nb))
+    return _fns[key]
+
+
+def _build(name: str, text: str):
+    import numba
+    entry = jitcache.prepare()
+    try:
+        path = None if entry is None else written(entry, name, text)
+        if entry is not None and path is None:
+            entry = None
+        if entry is not None:           # numba imported before: its configuration read then
+            numba.config.CACHE_DIR = str(entry)
+        # a module of its own in sys.modules: numba's cache finds the function's globals
+        # there when it loads it in a later process
+        mod = types.ModuleType(name)
+        mod.__file__ = str(path) if path else f"<planarkin {name}>"
+        mod.CACHE = path is not None
+        sys.modules[name] = mod
+        exec(compile(text, mod.__file__, "exec"), mod.__dict__)
+        fn = mod.grid
+        if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
+            fn.compile(signature())
+    finally:
+        jitcache.record()
+    return fn
+
+
+def written(entry, name: str, text: str):
+    """entry/gen/<name>.py holding exactly text (written atomically where it does not), or None
+    when it cannot be written."""
+    data = text.encode()
+    d = entry / "gen"
+    path = d / f"{name}.py"
+    try:
+        d.mkdir(mode=0o700, exist_ok=True)
+        if not jitcache.private(d):
+            return None
+        if path.is_file() and not path.is_symlink() and path.read_bytes() == data:
+            return path
+        tmp = d / f".{name}.{os.getpid()}.tmp"
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    except OSError:
+        return None
+    return path
+
+
+def signature():
+    import numba
+    INT, DBL = numba.int64, numba.float64
+    F1, F2 = numba.float64[::1], numba.float64[:, ::1]
+    return (INT, F2, F2, F2, F2, F2, F2, F2, INT, DBL, INT, INT, numba.int64[::1],
+            numba.uint8[::1], F1, F2, F2, F2, F1, F1)
+
+
+def _c(a):
+    """a as a C-contiguous, writable float64 array (a view where it already is one)."""
+    a = np.ascontiguousarray(a, dtype=float)
+    return a if a.flags.writeable else a.copy()
+
+
+def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
+    """kernel.solve by the generated kernel fn: the same arguments and results."""
+    N, W = Q.shape
+    m = S.cm.m
+    iters = np.empty(N, dtype=np.int64)
+    conv = np.empty(N, dtype=np.uint8)
+    ratio = np.empty(N)
+    sign = np.zeros((N, P.nfine))
+    smin = np.empty((N, P.nblk))
+    R = np.empty((N, m))
+    rmax = np.empty(N)
+    cond = np.empty(N)
+    work = [_c(X) for X in (Q, Qd, Qdd)]
+    drv = [_c(np.broadcast_to(X, (N, m))) for X in (T, NU, FDD)]
+    prm = np.ascontiguousarray(P.arrays[3], dtype=float)
+    fn(N, *work, *drv, prm, int(maxit), float(tol), int(policy == "full"), int(order), iters,
+       conv, ratio, sign, smin, R, rmax, cond)
+    for X, Wk in zip((Q, Qd, Qdd), work):
+        if Wk is not X:
+            X[...] = Wk
+    return iters, conv.view(bool), ratio, sign, smin, R, rmax, cond

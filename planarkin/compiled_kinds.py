@@ -1,0 +1,297 @@
+"""The element equations of the compiled route, one function per kind (issue 17 item 2).
+
+Each kind function gives one equation row of one element from scalars: the coordinates,
+cosines and sines of the element's two bodies, its parameters, and (for gamma) their rates;
+it returns (g, the gradient over x_i, y_i, phi_i, x_j, y_j, phi_j, gamma_g). want says what is
+needed: 1 g, 2 the gradient, 4 gamma (the others are returned as 0). The formulas are those of
+reference sections 1, 2 and 5, in the operations and order of the numpy elements
+(planarkin/elements), so that both routes round alike.
+
+Both compiled routes take their equations from here and nowhere else: the generic kernel
+(planarkin.compiled.row_eval, which reads the kind from its arrays and calls `row`) and the
+kernels generated per mechanism structure (planarkin.compiled_gen, which names the kind's
+function with its equation and `want` as constants, so that numba keeps only that row's
+terms). Every function is inlined into its caller by numba (inline="always"); with
+NUMBA_DISABLE_JIT=1 they run as Python.
+
+The numpy elements (planarkin/elements/*.py) are still a second text of these formulas (issue
+17 item 2 asks for one); the route-equality tests hold the two to 1e-15.
+
+KINDS maps the kind codes of planarkin.kernel.pack to the functions' names.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+inline = numba.njit(inline="always", error_model="numpy", _nrt=False)
+
+# kind code (planarkin.kernel._CODES) -> the name of its function here
+KINDS = {1: "revolute", 2: "translational", 3: "angle", 4: "xdistance", 5: "ydistance",
+         6: "distance", 7: "pinslot", 8: "slide"}
+
+
+@inline
+def relative(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj):
+    """s_i = A_i s'_i, s_j = A_j s'_j (p0, p1: s'_i; p2, p3: s'_j), h = r_j + s_j - r_i - s_i,
+    and with want & 4 its rate hd and kx, ky = w_j^2 s_j - w_i^2 s_i."""
+    six = ci * p0 - si * p1
+    siy = si * p0 + ci * p1
+    sjx = cj * p2 - sj * p3
+    sjy = sj * p2 + cj * p3
+    hx = xj + sjx - xi - six
+    hy = yj + sjy - yi - siy
+    hdx = hdy = kx = ky = 0.0
+    if want & 4:
+        hdx = vxj - wj * sjy - vxi + wi * siy
+        hdy = vyj + wj * sjx - vyi - wi * six
+        kx = wj * wj * sjx - wi * wi * six
+        ky = wj * wj * sjy - wi * wi * siy
+    return six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky
+
+
+@inline
+def revolute(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+             vyi, wi, vxj, vyj, wj):
+    """Revolute: r_i + s_i - r_j - s_j, row eq (0: x, 1: y)."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    g = d0 = d1 = d2 = d3 = d4 = d5 = gam = 0.0
+    if eq == 0:
+        if want & 1:
+            g = xi + six - xj - sjx
+        if want & 2:
+            d0 = 1.0
+            d2 = -siy
+            d3 = -1.0
+            d5 = sjy
+        if want & 4:
+            gam = wi * wi * six - wj * wj * sjx
+    else:
+        if want & 1:
+            g = yi + siy - yj - sjy
+        if want & 2:
+            d1 = 1.0
+            d2 = six
+            d4 = -1.0
+            d5 = -sjx
+        if want & 4:
+            gam = wi * wi * siy - wj * wj * sjy
+    return g, d0, d1, d2, d3, d4, d5, gam
+
+
+@inline
+def angle(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi,
+          wi, vxj, vyj, wj):
+    """Angle: phi_j - phi_i (also the translational joint's first row)."""
+    g = d2 = d5 = 0.0
+    if want & 1:
+        g = pj - pi
+    if want & 2:
+        d2 = -1.0
+        d5 = 1.0
+    return g, 0.0, 0.0, d2, 0.0, 0.0, d5, 0.0
+
+
+@inline
+def xdistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+              vyi, wi, vxj, vyj, wj):
+    """x of h."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    g = d0 = d2 = d3 = d5 = gam = 0.0
+    if want & 1:
+        g = hx
+    if want & 2:
+        d0 = -1.0
+        d2 = siy
+        d3 = 1.0
+        d5 = -sjy
+    if want & 4:
+        gam = wj * wj * sjx - wi * wi * six
+    return g, d0, 0.0, d2, d3, 0.0, d5, gam
+
+
+@inline
+def ydistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+              vyi, wi, vxj, vyj, wj):
+    """y of h."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    g = d1 = d2 = d4 = d5 = gam = 0.0
+    if want & 1:
+        g = hy
+    if want & 2:
+        d1 = -1.0
+        d2 = -six
+        d4 = 1.0
+        d5 = sjx
+    if want & 4:
+        gam = wj * wj * sjy - wi * wi * siy
+    return g, 0.0, d1, d2, 0.0, d4, d5, gam
+
+
+@inline
+def distance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+             vyi, wi, vxj, vyj, wj):
+    """Distance |h|."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    d = np.hypot(hx, hy)
+    ex = hx / d
+    ey = hy / d
+    g = d0 = d1 = d2 = d3 = d4 = d5 = gam = 0.0
+    if want & 1:
+        g = d
+    if want & 2:
+        d0 = -ex
+        d1 = -ey
+        d2 = ex * siy - ey * six
+        d3 = ex
+        d4 = ey
+        d5 = ey * sjx - ex * sjy
+    if want & 4:
+        ehd = ex * hdx + ey * hdy
+        gam = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
+    return g, d0, d1, d2, d3, d4, d5, gam
+
+
+@inline
+def along(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi, vxj,
+          vyj, wj):
+    """Slide: u_i^T h, u_i = A_i v_i (p4, p5: v'_i) along the line of body i through s_i."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    ux = ci * p4 - si * p5
+    uy = si * p4 + ci * p5
+    nx = -uy
+    ny = ux
+    g = d0 = d1 = d2 = d3 = d4 = d5 = gam = 0.0
+    if want & 1:
+        g = ux * hx + uy * hy
+    if want & 2:
+        d0 = -ux
+        d1 = -uy
+        d2 = nx * (hx + six) + ny * (hy + siy)
+        d3 = ux
+        d4 = uy
+        d5 = -(nx * sjx + ny * sjy)
+    if want & 4:
+        gam = (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
+               + ux * kx + uy * ky)
+    return g, d0, d1, d2, d3, d4, d5, gam
+
+
+@inline
+def normal(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi, vxj,
+           vyj, wj):
+    """n_i^T h, n_i = R u_i: the line of body i through s_i along u_i = A_i v_i."""
+    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
+        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    ux = ci * p4 - si * p5
+    uy = si * p4 + ci * p5
+    nx = -uy
+    ny = ux
+    g = d0 = d1 = d2 = d3 = d4 = d5 = gam = 0.0
+    if want & 1:
+        g = nx * hx + ny * hy
+    if want & 2:
+        d0 = -nx
+        d1 = -ny
+        d2 = -(ux * (hx + six) + uy * (hy + siy))
+        d3 = nx
+        d4 = ny
+        d5 = ux * sjx + uy * sjy
+    if want & 4:
+        gam = (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
+               + nx * kx + ny * ky)
+    return g, d0, d1, d2, d3, d4, d5, gam
+
+
+@inline
+def translational(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+                  vyi, wi, vxj, vyj, wj):
+    """Translational: phi_j - phi_i (row 0), n_i^T h (row 1)."""
+    if eq == 0:
+        return angle(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5,
+                     vxi, vyi, wi, vxj, vyj, wj)
+    return normal(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi,
+                  vxj, vyj, wj)
+
+
+@inline
+def pinslot(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi,
+            wi, vxj, vyj, wj):
+    """Pin-slot: n_i^T h."""
+    return normal(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi,
+                  vxj, vyj, wj)
+
+
+@inline
+def slide(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi,
+          wi, vxj, vyj, wj):
+    """Slide: u_i^T h."""
+    return along(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi,
+                 vxj, vyj, wj)
+
+
+@inline
+def row(kind, eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
+        vyi, wi, vxj, vyj, wj):
+    """The row of the element of kind code `kind` (KINDS): the generic kernel's dispatch."""
+    if kind == 1:
+        return revolute(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                        p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 2:
+        return translational(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                             p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 3:
+        return angle(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                     p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 4:
+        return xdistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                         p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 5:
+        return ydistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                         p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 6:
+        return distance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                        p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 7:
+        return pinslot(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                       p5, vxi, vyi, wi, vxj, vyj, wj)
+    if kind == 8:
+        return slide(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
+                     p5, vxi, vyi, wi, vxj, vyj, wj)
+    return np.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan     # (kernel.pack admits no other)
+
+
+@inline
+def sign_of(x):
+    """The sign of x as a float: 1, -1, 0, nan for nan (a block's determinant)."""
+    if x > 0:
+        return 1.0
+    if x < 0:
+        return -1.0
+    return np.nan if x != x else 0.0
+
+
+@inline
+def nanmax(a, v):
+    """NaN-propagating maximum, as numpy's max."""
+    return v if (v > a or v != v) else a
+
+
+@inline
+def ratio_of(size, smin):
+    """A first Newton step's size over sigma_min (inf where sigma_min is not positive)."""
+    return size / smin if smin > 0 else np.inf
+
+
+@inline
+def inf_unless_finite(x):
+    """x, or inf where it is not finite (nan too): a step's size."""
+    return x if math.isfinite(x) else np.inf
