@@ -95,7 +95,10 @@ def test_quick_start_has_the_two_commands():
     block = text.split("## Quick start", 1)[1].split("```sh", 1)[1].split("```", 1)[0]
     lines = [line for line in block.strip().splitlines() if line.strip()]
     assert lines == ["python -m pip install -e . && planarkin run mechanisms/slider-crank.yaml",
-                     "python -m pip install -e '.[test]' && python -m pytest -q"]
+                     "python -m pip install -e '.[test]' && python -m pytest -q -n auto"]
+    # CI runs the README's test command (pytest-xdist's workers: one per core)
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert lines[1].split(" && ")[1] in ci
 
 
 def test_readme_mentions_existing_examples():
