@@ -9,8 +9,8 @@ user can write and vouches for every file in it:
   compiles in memory only (no disk cache: slower to start, the same results);
 - an entry per source version: a subdirectory named by the hash of the compiled route's
   sources and the Python version (numba
-  keys its files on each file's own time stamp only, and a change in one module would leave
-  the functions of another inlined stale);
+  keys its files on each source file's own contents only, a hash of that one file, and a change
+  in one module would leave the functions of another inlined stale);
 - in it, gen/: the kernels generated per mechanism structure (planarkin.compiled_gen), Python
   sources that planarkin.compiled_grid runs only while their bytes are the text it generates
   (otherwise it writes them again, atomically), numba's files for them beside the others;
