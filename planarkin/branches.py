@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,8 +16,6 @@ from .model.compile import CompiledModel
 from .system import System
 from .tolerances import ASSEMBLED
 
-if TYPE_CHECKING:
-    from .assembly import Assembly
 
 
 @dataclass
@@ -121,7 +118,7 @@ def _search_block(S: System, B, Q: np.ndarray, T: np.ndarray, want: int, rng,
     return None
 
 
-def apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
+def apply_branch_hints(cm: CompiledModel, A) -> None:
     """Re-assemble to the loops' signs asked by `assembly: branch:` or raise InputError.
 
     Each hint names a body; its loop is the first non-affine diagonal block holding one of the
@@ -225,7 +222,7 @@ def apply_branch_hints(cm: CompiledModel, A: Assembly) -> None:
 DESCRIBED_MODES = 12     # `check` puts words to the first loops only (each costs a search)
 
 
-def describe_modes(cm: CompiledModel, A: Assembly, limit: int = DESCRIBED_MODES) -> list[str]:
+def describe_modes(cm: CompiledModel, A, limit: int = DESCRIBED_MODES) -> list[str]:
     """For each of A.modes, what its sign means geometrically at t = start, in words: the side
     of the loop's knee (a pin or distance end that moves to its mirror image on the other branch)
     relative to the line through two points the loop hangs from (points that stay put). Found by

@@ -9,7 +9,6 @@ consume the same `Analysis.chunks()`; nothing here writes a file.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -18,30 +17,8 @@ from .chunks import take
 from .derived import derived_tables
 from .model.compile import CompiledModel
 from .layout import Layout
+from .runinfo import RunInfo
 from .solver import Analysis, Chunk, Event, Options
-
-@dataclass
-class RunInfo:
-    """Everything about a run except the arrays: status, events, counters, timings."""
-
-    status: int                      # 0 ok, 1 analysis failure
-    message: str
-    options: Options
-    event: Event | None
-    warnings: list
-    assembly: dict
-    internal_steps: int
-    rejected_steps: int
-    fallbacks: int
-    timings: dict = field(default_factory=dict)
-    diagnostics: list = field(default_factory=list)   # assembly warnings (FILE:LINE: warning)
-    breakpoints: dict = field(default_factory=dict)   # drivers' breakpoints (Analysis.breakpoint_info)
-    interrupted: str | None = None   # 'SIGINT' / 'SIGTERM': the rows up to then are complete
-
-    @property
-    def success(self) -> bool:
-        return self.status == 0
-
 
 def run_info(an: Analysis) -> RunInfo:
     f = an.follower

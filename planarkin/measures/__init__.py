@@ -28,26 +28,13 @@ measures.png, and summarised (limit positions, stroke, time ratio) in summary.js
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..derived import DerivedTable
-from .units import columns
+from .units import MeasureSpec, columns
 
 KINDS = ("distance", "angle", "between", "joint", "transmission", "ratio", "advantage")
-
-
-@dataclass(frozen=True)
-class MeasureSpec:
-    """One validated measure: kind (one of KINDS), refs (names it refers to), guide (a
-    translational joint's name, for the rod-guide angle), line in the file."""
-
-    name: str
-    kind: str
-    refs: tuple
-    line: int
-    guide: str | None = None
 
 
 # -- validation (called by planarkin.model.validate with its readers) ----------------------------

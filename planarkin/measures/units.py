@@ -1,12 +1,22 @@
-"""The columns of measures.csv and their units: what the table and its plot share (the plot
-module reads them here, so that it does not import the package that imports it)."""
+"""The measures' spec and the columns of measures.csv with their units: what the table and its
+plot share (the plot module reads them here, so that it does not import the package that
+imports it)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
-if TYPE_CHECKING:
-    from . import MeasureSpec
+
+@dataclass(frozen=True)
+class MeasureSpec:
+    """One validated measure: kind (one of KINDS), refs (names it refers to), guide (a
+    translational joint's name, for the rod-guide angle), line in the file."""
+
+    name: str
+    kind: str
+    refs: tuple
+    line: int
+    guide: str | None = None
 
 
 def unit_of(cm, m: MeasureSpec, units: dict) -> str:

@@ -22,10 +22,10 @@ from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpo
                         signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
 from ..layout import Layout
+from ..runinfo import RunInfo
 
-if TYPE_CHECKING:                     # annotations only: results imports this module
+if TYPE_CHECKING:                     # annotations only
     from ..model.compile import CompiledModel
-    from ..results import RunInfo
 
 PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
 
