@@ -121,12 +121,11 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
 
 
 def _plot_synth(res, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure     # not pyplot: an API caller's backend stays its own
     syn = res.model
     tgs = syn.design.targets
-    fig, axes = plt.subplots(1, len(tgs), figsize=(5.5 * len(tgs), 5), squeeze=False)
+    fig = Figure(figsize=(5.5 * len(tgs), 5))
+    axes = fig.subplots(1, len(tgs), squeeze=False)
     for ax, (i, tg) in zip(axes[0], enumerate(tgs)):
         for k, d in enumerate(res.designs):
             st = d.state
@@ -161,7 +160,6 @@ def _plot_synth(res, path):
                  f"{res.designs[0].cost:.3g}")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def write_fit(res, outdir: Path, plots: str | None = "png") -> Path:
@@ -202,12 +200,11 @@ def write_fit(res, outdir: Path, plots: str | None = "png") -> Path:
 
 
 def _plot_fit(res, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
     D, st = res.data, res.state
     pts = sorted({c[0] for c in D.columns})
-    fig, ax = plt.subplots(figsize=(6, 5))
+    fig = Figure(figsize=(6, 5))
+    ax = fig.subplots()
     cm = st.cm
     for p in pts:
         cx = [k for k, c in enumerate(D.columns) if c[0] == p and c[1] == 0]
@@ -224,4 +221,3 @@ def _plot_fit(res, path):
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
