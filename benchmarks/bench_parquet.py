@@ -36,7 +36,7 @@ import planarkin  # noqa: E402
 from planarkin.options import resolve  # noqa: E402
 from planarkin.output.directory import ParquetSink, TableSink  # noqa: E402
 from planarkin.layout import Layout  # noqa: E402
-from planarkin.results import prepare, stream  # noqa: E402
+from planarkin.analysis import prepare, stream  # noqa: E402
 
 
 class BothSinks:

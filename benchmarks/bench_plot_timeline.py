@@ -98,7 +98,7 @@ def instrument() -> None:
         mark("cli imported (click, numpy ...)")
 
     _LATER.update({"planarkin.output.plots": plots, "planarkin.output.directory": directory,
-                   "planarkin.output.writer": writer, "planarkin.results": results,
+                   "planarkin.output.writer": writer, "planarkin.analysis": results,
                    "planarkin.cli": cli})
     sys.meta_path.insert(0, _AfterImport())
     _os_exit = os._exit

@@ -56,7 +56,7 @@ PHASES = (  # (module, attribute, phase): the functions timed, CPU time
     ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
     ("planarkin.kernel", "solve", "P+V+A solve, compiled route"),
     ("planarkin.solver.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
-    ("planarkin.results", "refuse", "refusal checks"),
+    ("planarkin.analysis", "refuse", "refusal checks"),
     ("planarkin.solver.Analysis", "_dense", "grid pass in all (the rows above but path)"),
 )
 

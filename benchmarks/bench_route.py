@@ -61,7 +61,7 @@ def micro():
     import planarkin
     from planarkin import kernel
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     lib = kernel.library().need("grid")
     for name in ("four-bar", "slider-crank"):
         m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")

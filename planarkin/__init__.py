@@ -45,7 +45,7 @@ def solve(model, **options):
     up_to ('position'|'velocity'|'acceleration'|'jerk'), max_rows, max_nodes. Returns a planarkin.results.Result (status 0 ok, 1 analysis failure);
     invalid models and invalid or unknown options raise InputError."""
     from .options import resolve
-    from .results import analyse
+    from .analysis import analyse
     if not hasattr(model, "spec"):
         model = load(model)
     opts = resolve(model, options, source="api")

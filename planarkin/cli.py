@@ -150,10 +150,8 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
 def check(models, quiet, derived, overrides):
     """Validate MODELS, assemble them and report degrees of freedom, redundancy and assembly
     modes, without running the analysis."""
-    from .assembly import assemble
-    from .budget import check_preflight
+    from .analysis import assemble_checked
     from .diagnostics import InputError
-    from .measures.grashof import lock_ups
     from .options import resolve
     report = Report(quiet)
     for path in models:
@@ -162,9 +160,7 @@ def check(models, quiet, derived, overrides):
             continue
         try:
             opts = resolve(model)
-            check_preflight(model, opts)              # what `run` would refuse before assembly
-            A = assemble(model)
-            A.warnings += lock_ups(model, A.q, opts.start, opts.end, opts.steps)
+            A = assemble_checked(model, opts)         # what `run` would refuse, as `run` does
         except InputError as e:
             report.invalid(path, e.diagnostics)
             continue

@@ -46,7 +46,7 @@ def row_checks(cm, opts) -> list:
     """The rooms' checks of every chunk before it is written (a room's optional
     ``row_checks(cm, opts)``): callables check(analysis, chunk) -> (row index, message[, event
     kind]) of the first row the room refuses (a non-finite force: 'non-finite', the default; a
-    cam past its law's range: 'range'), or None; results.refuse stops the run there as at a
+    cam past its law's range: 'range'), or None; analysis.refuse stops the run there as at a
     non-finite coordinate."""
     out: list = []
     for name in ROOMS:

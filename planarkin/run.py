@@ -94,7 +94,7 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
     from .options import resolve
     from .output.directory import OutputError, critical
     from .output.writer import DirectoryWriter
-    from .results import prepare, stream
+    from .analysis import prepare, stream
     t0 = time.perf_counter()
     try:
         opts = resolve(model, analysis, source="cli")
@@ -146,7 +146,7 @@ def _end_failed(e, path, outdir, writer, report, an, t0):
     """After an exception in a model's run: its directory left as it was (a write error, a
     bug) or in place with the complete rows (an interruption: raised again)."""
     from .output.directory import WriteError, signame
-    from .results import run_info
+    from .analysis import run_info
     if isinstance(e, WriteError):
         report.failed(path, f"{e}; {outdir}/ is left as it was")
         return

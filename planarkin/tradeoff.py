@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .model.compile import CompiledModel
-from .results import analyse
+from .analysis import analyse
 from .options import Options
 
 REFERENCE = dict(newton="full", tol=1e-14, path_tol=1e-7, iterations=20)

@@ -39,7 +39,7 @@ TINY = """
 import json, numpy as np, planarkin
 from planarkin import kernel
 from planarkin.options import resolve
-from planarkin.results import prepare
+from planarkin.analysis import prepare
 m = planarkin.load("mechanisms/four-bar.yaml")
 an = prepare(m, resolve(m, {"steps": 20}, source="api"))
 an.follow()
@@ -116,7 +116,7 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
 
 def test_the_route_is_chosen_by_the_jobs_size(monkeypatch):
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     m = planarkin.load(FOUR_BAR)
     n = kernel.COMPILED_FROM_POINTS
     small = prepare(m, resolve(m, {"steps": n - 2}, source="api"))

@@ -42,7 +42,7 @@ def _python(code, env=None, timeout=600):
 def _batch(path, N=300):
     """The grid System of a model and predictions 1e-4 off its solution at N times."""
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     m = planarkin.load(path)
     an = prepare(m, resolve(m, {"steps": 100}, source="api"))
     an.follow()

@@ -282,7 +282,7 @@ def test_jerk_of_a_row_solved_by_path_following():
     """A grid row that falls back to path following gets its jerk from the same exact solve
     (Analysis._jerk_at), here at internal path nodes of the slider-crank, against x'''."""
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     cm = planarkin.load(ROOT / "mechanisms" / "slider-crank.yaml")
     an = prepare(cm, resolve(cm, {"up_to": "jerk"}))
     slider = list(cm.body_names).index("slider")
@@ -299,7 +299,7 @@ def test_block_solve_satisfies_the_whole_jerk_system():
     """The block-by-block jerks satisfy the dense system Phi_q q''' = jerk_g + f''' of every
     row (System.jacobian, System.jerk), here on the six-bar (two loops, several blocks)."""
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     from planarkin.system import System
     cm = planarkin.load(ROOT / "mechanisms" / "six-bar.yaml")
     an = prepare(cm, resolve(cm, {"up_to": "jerk", "steps": 40}))

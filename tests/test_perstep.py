@@ -98,7 +98,7 @@ def _batch(name, merged=False, N=300):
     at N times."""
     m = planarkin.load(ROOT / "mechanisms" / name)
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     an = prepare(m, resolve(m, {"steps": 100}, source="api"))
     an.follow()
     S = an.follower.systems[0][1 if merged else 0]
@@ -169,7 +169,7 @@ def test_kernel_on_the_paths_merged_blocks(name, N, monkeypatch, compiled):
 def test_kernel_declines_other_kinds():
     """A cam (a motion law) and gear meshes keep the numpy passes."""
     from planarkin.options import resolve
-    from planarkin.results import prepare
+    from planarkin.analysis import prepare
     for name in ("cam-roller.yaml", "planetary.yaml"):
         m = planarkin.load(ROOT / "mechanisms" / name)
         S = prepare(m, resolve(m, {"steps": 10}, source="api")).follower.systems[0][0]
@@ -220,7 +220,7 @@ def test_refuse_keeps_finite_rows_whose_sum_overflows(monkeypatch):
     finite values) must fall through to the row-by-row checks and keep the rows, and a
     residual above the limit is still refused at its row."""
     from planarkin.options import resolve
-    from planarkin.results import prepare, refuse, residual_limit
+    from planarkin.analysis import prepare, refuse, residual_limit
     m = planarkin.load(ROOT / "mechanisms" / "four-bar.yaml")
     an = prepare(m, resolve(m, {"steps": 100}, source="api"))
     ch = next(an.chunks())

@@ -42,9 +42,9 @@ def test_a_start_that_would_change_the_result_falls_back_to_the_follower():
 
 
 def test_the_warm_start_is_an_option_of_the_analysis():
-    # planarkin.results.analyse(..., warm=Start): the analysis itself takes the neighbour's
+    # planarkin.analysis.analyse(..., warm=Start): the analysis itself takes the neighbour's
     # path (nothing written into it from outside), and gives the cold run's results
-    from planarkin.results import analyse, prepare
+    from planarkin.analysis import analyse, prepare
     from planarkin.warmstart import Start
     study = Study(FB, analysis={"steps": 90})
     near = study.model({"a": 0.0405, "b": 0.121})
@@ -96,10 +96,10 @@ def test_a_variant_over_the_budget_is_refused_as_run_refuses_it(tmp_path):
 
 def test_a_variant_with_a_non_finite_row_is_refused_as_run_refuses_it(monkeypatch):
     # a non-finite acceleration at the grid row t = 0.5 (as an overflow would give): `run`
-    # refuses that row and the rows after (results.refuse: status 1, 'non-finite'); so does
+    # refuses that row and the rows after (analysis.refuse: status 1, 'non-finite'); so does
     # the study's variant, cold or warm started
     from planarkin import system
-    from planarkin.results import analyse
+    from planarkin.analysis import analyse
     real = system.System.solve_batch
 
     def poisoned(self, t, Q, Qd, Qdd, **kw):

@@ -1,4 +1,4 @@
-"""The forces room's check of every chunk before it is written (results.refuse calls it).
+"""The forces room's check of every chunk before it is written (analysis.refuse calls it).
 
 A non-finite force (a load sqrt(t - 0.5) before 0.5 s, a pole, a spring of zero length) stops
 the run at its row: the rows before it are written, the run fails with the time and the

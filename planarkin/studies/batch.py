@@ -33,7 +33,7 @@ Applies when the varied parameters reach only body-frame points (si, sj), joint 
 scalar keys of the kinds except gear radii, driver functions and the points' s; not through
 directions, gear radii or global placements (at); not with redundant constraints, derived
 tables among the metrics, or rows a room checks (forces, a cam's range: those variants take
-`run`'s refusal of rows, results.refuse, one by one). Variants follow the nominal's assembly
+`run`'s refusal of rows, analysis.refuse, one by one). Variants follow the nominal's assembly
 branch. Every variant's drivers pass `run`'s check before a run (budget.preflight) or the
 variant is solved by the per-variant path, which refuses it as `run` does.
 """
@@ -103,7 +103,7 @@ class Batch:
         from ..derived import row_checks
         if row_checks(cm, study.opts):
             # a room refuses rows by the variant's own model (a non-finite force, a cam past
-            # its law): each variant takes `run`'s refusal of rows (results.refuse)
+            # its law): each variant takes `run`'s refusal of rows (analysis.refuse)
             raise Unsupported("a room checks the rows (forces, a cam's range)")
         texts = study.texts()
         self.order = list(spec.parameters)

@@ -180,7 +180,7 @@ class Study:
 
     def nominal_run(self):
         """The nominal model's Result (run's analysis); InputError when it fails."""
-        from ..results import analyse
+        from ..analysis import analyse
         info, res = analyse(self.nominal, self.opts)
         if info.status != 0:
             raise InputError([Diagnostic(self.path, None, f"the nominal model fails: "
@@ -205,7 +205,7 @@ class Study:
     def solve(self, values: dict, start=None, warm: bool = False):
         """(Outcome, Result or None) of one variant; with warm, (Outcome, Result, Start for the
         next variant) started from a neighbour's Start when one is given (studies.warm)."""
-        from ..results import analyse
+        from ..analysis import analyse
         from ..solver import Options
         from .warm import analyse as warm_analyse
         nan = float("nan")

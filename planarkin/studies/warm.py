@@ -16,11 +16,11 @@ CHAIN = 32      # variants per chain: the first starts cold, each next from its 
 
 
 def analyse(cm, opts, start: Start | None = None):
-    """planarkin.results' analysis (in memory), started from a neighbour when one is given:
+    """planarkin.analysis's pipeline (in memory), started from a neighbour when one is given:
     the preflight and budgets, the grid pass and the refusal of rows of `planarkin run`.
     Returns (info, result, Start for the next variant or None, warm: whether it was used);
     raises InputError where `run` refuses the model before it starts."""
-    from ..results import prepare, stream
+    from ..analysis import prepare, stream
     an = prepare(cm, opts, warm=start)
     info, res = stream(an)
     return info, res, Start.of(an), an.warmed

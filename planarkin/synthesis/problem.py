@@ -84,7 +84,7 @@ class Model:
     def analyse(self, values: dict):
         """(cm, opts, result) of the design over its whole range, or Rejected."""
         from ..options import Options
-        from ..results import analyse
+        from ..analysis import analyse
         self.evaluations += 1
         try:
             cm = self.study.model(values)

@@ -146,7 +146,7 @@ PATCHES = {"starting": ("planarkin.cli", _starting),
            "opened": ("planarkin.output.writer", _patch_writer),
            "rows": ("planarkin.output.writer", _patch_writer),
            "finish": ("planarkin.output.writer", _patch_writer),
-           "prepare": ("planarkin.results", _patch_results),
+           "prepare": ("planarkin.analysis", _patch_results),
            "figure": ("planarkin.output.plots.render", _patch_plots),
            "sweep-plot": ("planarkin.studies.plots", _patch_study_plots)}
 
