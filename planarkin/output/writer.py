@@ -21,7 +21,6 @@ from ..solver import Chunk, Options
 from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpoint, critical,
                         signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
-from .tablethread import TableThread
 from ..layout import Layout
 from ..runinfo import RunInfo
 
@@ -60,9 +59,8 @@ class PlotBuffer:
 class DirectoryWriter:
     """Streams chunks into the tables of one result directory (bodies.csv, points.csv and the
     derived tables), then writes summary.json and the plots and puts the directory in place
-    (the output contract: planarkin.output.directory). Everything runs in this process: each
-    chunk's tables are computed as it arrives and formatted in the tables' thread while the
-    next chunk solves (planarkin.output.tablethread), the plots are drawn after the tables are
+    (the output contract: planarkin.output.directory). Everything runs in this process: the
+    tables are formatted as each chunk arrives, the plots are drawn after the tables are
     closed. Every table gets the same blocks (a critical block each), so the tables stop at the
     same row whenever the run stops. Raises OutputError (busy, not ours, not writable); add()
     and finish() raise WriteError (disk full ...) after abandoning the new directory.
@@ -79,7 +77,6 @@ class DirectoryWriter:
         self.dir = ResultDirectory(self.final)
         self.out = self.dir.tmp            # files are written here until commit()
         self.sinks: dict = {}
-        self.tables: TableThread | None = None
         self.rows = 0
         self.committed = False             # the directory is in place
         # called with the summary as the directory is put in place, in the same critical block
@@ -117,7 +114,6 @@ class DirectoryWriter:
             self.derived = [dataclasses.replace(d, filename=sink(d.filename, d.header,
                                                                  d.accumulator))
                             for d in derived_tables(cm, opts)]
-            self.tables = TableThread(list(self.sinks.values()))
         except WriteError as e:
             self.abort()
             raise OutputError(str(e)) from None
@@ -140,7 +136,8 @@ class DirectoryWriter:
         tables = self._tables(ch)          # all computed before any is written: equal rows
         with critical():                   # an interruption waits until every table has them
             try:
-                self.tables.put(tables)    # written in order; an interruption writes them all
+                for s, X in zip(self.sinks.values(), tables):
+                    s.add(X)
             except BaseException:
                 self.abort()
                 raise
@@ -151,7 +148,6 @@ class DirectoryWriter:
         self.t_write += time.perf_counter() - t0
 
     def _close_tables(self):
-        self.tables.join()             # every block put is written (raises a WriteError)
         closed, busy = {}, 0.0
         for name, s in self.sinks.items():
             stats, extra, b = s.close()
@@ -263,12 +259,9 @@ class DirectoryWriter:
 
     def abort(self) -> None:
         """Close every table and remove the new files; the previous directory stays."""
-        with critical():                   # a signal meanwhile: raised once they are removed
-            if self.tables is not None:
-                self.tables.stop()         # before the files close under it
-            for s in self.sinks.values():
-                s.kill()
-            self.dir.abandon()
+        for s in self.sinks.values():
+            s.kill()
+        self.dir.abandon()
 
 
 def _interrupted_status(info: RunInfo, how: str) -> dict:
