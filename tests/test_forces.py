@@ -742,3 +742,35 @@ def test_units_follow_the_length_unit():
     assert d.header[1] == "cylinder.force [kg*mm/s^2]"
     assert d.header[-1] == "shaking.torque [kg*mm^2/s^2]"
     assert "cylinder.power [kg*mm^2/s^3]" in d.header
+
+
+def test_the_runs_forces_table_reuses_the_checks_applied_forces_exactly(tmp_path):
+    # `run` hands the refusal check's Q^A, Q^in to the forces table (forces.output.APPLIED_MEMO)
+    # and each reaction is computed once for its fx, fy, torque columns: the bytes of forces.csv
+    # are those of the table computed afresh from the same rows
+    from click.testing import CliRunner
+
+    from planarkin.cli import main
+    from planarkin.derived import derived_tables
+    from planarkin.forces import output as fo
+    from planarkin.output.fastcsv import format_table
+    r = CliRunner().invoke(main, ["run", "mechanisms/slider-crank.yaml", "--no-plots", "--steps",
+                                  "20000", "-q", "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    res = planarkin.solve("mechanisms/slider-crank.yaml", steps=20000)
+    fo.APPLIED_MEMO.clear()
+    calls = []
+    gf = Kinetostatics.generalised_forces
+
+    def counted(self, *a):
+        calls.append(1)
+        return gf(self, *a)
+    Kinetostatics.generalised_forces = counted
+    try:
+        d = [d for d in derived_tables(res.model, res.info.options) if d.filename == "forces.csv"]
+        X = d[0].compute(res._chunk) + 0.0
+    finally:
+        Kinetostatics.generalised_forces = gf
+    assert calls                                    # computed afresh here
+    want = (",".join(d[0].header) + "\n").encode() + format_table(X)
+    assert (tmp_path / "slider-crank" / "forces.csv").read_bytes() == want

@@ -14,7 +14,7 @@ import numpy as np
 from ..elements import KINDS
 from ..solver import Event
 from .layout import CONTACT_KINDS
-from .output import ROWS_MEMO, forces_table
+from .output import APPLIED_MEMO, ROWS_MEMO, forces_table
 from .solve import Kinetostatics
 
 
@@ -79,6 +79,8 @@ class RowCheck:
                                            ch.qdd * unit)
             bad = ~(np.isfinite(QA).all(axis=1) & np.isfinite(Qin).all(axis=1))
         if not bad.any():
+            APPLIED_MEMO.clear()                      # the table takes them (output.compute)
+            APPLIED_MEMO[id(cm)] = (ch.t, QA, Qin)
             return None
         i = int(np.argmax(bad))
         t = float(ch.t[i])

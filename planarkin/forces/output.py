@@ -36,11 +36,15 @@ def forces_table(cm, opts) -> DerivedTable | None:
         if memo is not None and memo[0] is ch.t:
             return memo[1]
         N = len(ch.t)
+        applied = APPLIED_MEMO.pop(id(cm), None)    # its applied and inertia forces
+        if applied is not None and (applied[0] is not ch.t or N > per):
+            applied = None
         X = np.empty((N, len(header)))
         X[:, 0] = ch.t
         for a in range(0, N, per):
             sl = slice(a, a + per)
-            F = K.solve(ch.t[sl], ch.q[sl], ch.qd[sl], ch.qdd[sl])
+            F = K.solve(ch.t[sl], ch.q[sl], ch.qd[sl], ch.qdd[sl],
+                        applied=None if applied is None else applied[1:])
             ground = None
             for k, (_, get, role) in enumerate(cols, start=1):
                 if role == "shaking":
@@ -77,6 +81,10 @@ LIFT_OFF_NOTE = ("a cam joint is bilateral: it holds the follower on the cam as 
 # a non-finite value in a written row: the run stops there (planarkin.forces.check); a column's
 # peak and RMS then never hide it
 ROWS_MEMO: dict = {}
+# id(cm) -> (t, Q^A, Q^in) of the chunk the refusal check just passed: a model without cams has
+# only its applied and inertia forces computed there, the same arrays the table needs (one chunk
+# held at most; a chunk cut after the check has new arrays and is computed afresh)
+APPLIED_MEMO: dict = {}
 
 
 class Accumulator:

@@ -163,8 +163,9 @@ class Kinetostatics:
                 QA[:, col + 2] += sign * (sx[:, k] * Fy[:, k] - sy[:, k] * Fx[:, k])
 
     # -- the multipliers -------------------------------------------------------------------------
-    def solve(self, t, q, qd, qdd) -> "Forces":
-        """Forces at the states (user units: lengths, the model's angle unit)."""
+    def solve(self, t, q, qd, qdd, applied=None) -> "Forces":
+        """Forces at the states (user units: lengths, the model's angle unit). applied: their
+        (Q^A, Q^in) from generalised_forces when already computed (the refusal check's)."""
         cm = self.cm
         n = cm.n
         af = cm.angle_factor
@@ -172,7 +173,7 @@ class Kinetostatics:
         p, pd, pdd = q * unit, qd * unit, qdd * unit
         t = np.asarray(t, dtype=float)
         N = len(t)
-        QA, Qin = self.generalised_forces(t, p, pd, pdd)
+        QA, Qin = self.generalised_forces(t, p, pd, pdd) if applied is None else applied
         Qz = np.hstack([p / self.S[:n], np.zeros((N, 3))])
         F = self.system.frame(Qz)
         grads = [G.grad(F) for G in cm.groups]
@@ -353,6 +354,13 @@ class Forces:
         return None if P is None else (P[0][:, k], P[1][:, k])
 
     def reaction(self, e: int, slot: int = 1):
+        # forces.csv asks once per column (fx, fy, torque): the moment and the refusals once
+        key = ("reaction", e, slot)
+        if key not in self._cache:
+            self._cache[key] = self._reaction(e, slot)
+        return self._cache[key]
+
+    def _reaction(self, e: int, slot: int):
         gen, G, k = self._general(e)
         fx, fy, mo = gen[:, slot, 0], gen[:, slot, 1], gen[:, slot, 2]
         P = self.point(e)
