@@ -94,7 +94,8 @@ def main(argv=None):
         model.write_text(models.slider_crank_yaml())
         runs = [("planarkin --version", ["--version"], None)]
         runs += [(f"run --no-plots --steps {n}",
-                  ["run", str(model), "--no-plots", "--steps", str(n), "--out",
+                  ["run", str(model), "--no-plots", "--steps", str(n),
+                   "--max-rows", str(n + 1), "--out",
                    str(tmp / f"out{n}")], n) for n in [1] + steps]
         for N in a.chain:
             cm = tmp / f"chain-{N}.yaml"

@@ -69,7 +69,8 @@ def _tree_rss(pid: int) -> int:
 def memory(root: Path, steps: int, out: Path) -> dict:
     p = subprocess.Popen([sys.executable, "-m", "planarkin", "run",
                           str(root / "mechanisms" / "slider-crank.yaml"), "--no-plots",
-                          "--steps", str(steps), "-q", "--out", str(out)], env=_env(root),
+                          "--steps", str(steps), "--max-rows", str(steps + 1), "-q",
+                          "--out", str(out)], env=_env(root),
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     peak, t0 = 0, time.perf_counter()
     while p.poll() is None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import sys
 import time
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import click
@@ -256,6 +255,7 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
     fails its model (exit 1)."""
     import signal
     from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool   # here: 20 ms a plain run skips
 
     from .options import from_command_line
     from .output.directory import critical, signame
