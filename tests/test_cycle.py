@@ -228,3 +228,29 @@ def test_a_coordinate_that_does_not_move_has_no_turning_points(tmp_path):
     assert not y["moves"] and "extremes" not in y and "note" not in y
     assert (tmp_path / "out" / "summary.json").stat().st_size < 100_000
     assert MAX_EXTREMES >= 16
+
+
+def test_the_turning_points_kept_stay_bounded(monkeypatch):
+    """The noise of B.y turns at almost every row; kept, its turns grew with the run (1.1 GB of
+    heap at 10,000,000 steps). Past MAX_TURNS a column keeps none: B.y still does not move, the
+    moving B.x keeps its figures exactly."""
+    from planarkin.layout import Layout
+    from planarkin.measures import cycle
+    res = planarkin.solve(planarkin.load("mechanisms/slider-crank.yaml"), steps=20000)
+    L = Layout(res.model, res.info.options.order)
+    X = L.point_table(res._chunk)
+
+    def figures():
+        acc = cycle.CoordinateFigures(res.model, L.point_header, res.info.options)
+        for a in range(0, len(X), 3000):
+            acc.add(X[a:a + 3000])
+        return acc
+    monkeypatch.setattr(cycle, "MAX_TURNS", 10**9)
+    full = figures()
+    monkeypatch.setattr(cycle, "MAX_TURNS", 8)
+    capped = figures()
+    assert sum(len(c) for c, _ in full.turn_rows) > 1000           # the noise, uncapped
+    assert sum(len(c) for c, _ in capped.turn_rows) <= 8 * len(capped.value_cols)
+    got, want = capped.as_dict()["coordinates"]["B"], full.as_dict()["coordinates"]["B"]
+    assert not got["y"]["moves"] and "note" not in got["y"] and "extremes" not in got["y"]
+    assert got["x"] == want["x"]

@@ -21,6 +21,12 @@ import numpy as np
 
 
 MAX_EXTREMES = 64      # turning points listed per column (a vibrating column has more)
+# turning points kept per column over one period. Rounding noise on a coordinate that does not
+# move (|y| ~ 1e-17: the slider pin of the example) turns at almost every row; kept, its turns
+# grew with the run (~50 bytes a row: at 10,000,000 steps, with the heap they fragmented,
+# 1.1 GB). A column past this many is counted as such and drops what it kept: a coordinate that
+# does not move lists none anyway, a moving one says it turns more often than this
+MAX_TURNS = 1024
 
 class CycleFigures:
     """Accumulator of one table (rows of t and value columns, each value column optionally
@@ -66,6 +72,8 @@ class CycleFigures:
                                for col in zip(*[(r, a) for _, r, a in self.triplets])) \
             if self.triplets else ()
         self.turns: list[list] | None = None        # per column, built once from turn_rows
+        self.turn_count = np.zeros(n, dtype=np.int64)   # turning points kept per column
+        self.turn_over = np.zeros(n, dtype=bool)        # more than MAX_TURNS: none kept
         self.tail = None          # the last table row seen
         self.into = np.zeros(n)   # sign of the last non-zero change into that row
         self.out0 = None          # sign of the first non-zero change of the run (the wrap)
@@ -124,10 +132,18 @@ class CycleFigures:
                 nz = np.argmax(S[1:] != 0, axis=0)
                 self.out0[flat] = S[1:][nz, np.arange(S.shape[1])][flat]
         k, c = np.nonzero(S[:-1] * S[1:] < 0)
+        if len(k) and self.turn_over.any():
+            keep = ~self.turn_over[c]
+            k, c = k[keep], c[keep]
         if len(k):                  # kept as arrays: a wide table may turn 10^4 times a chunk
             r, a = (np.where(cols[c] >= 0, X[k, np.maximum(cols[c], 0)], np.nan)
                     for cols in self.rate_cols)
             self.turn_rows.append((c, np.column_stack([t[k], W[k, c], r, a, -S[k + 1, c]])))
+            self.turn_count += np.bincount(c, minlength=len(self.turn_count))
+            over = self.turn_count > MAX_TURNS
+            if (over & ~self.turn_over).any():
+                self.turn_over |= over
+                self.turn_rows = [(cc[~over[cc]], rr[~over[cc]]) for cc, rr in self.turn_rows]
         self.tail = X[-1].copy()
         self.into = S[-1].copy()
         self.t_last = float(t[-1])
@@ -141,7 +157,9 @@ class CycleFigures:
     def _extremes(self, c: int, stroke: float, size: float) -> list:
         """The turning points of column c over one period, smaller swings than 1e-6 of the
         stroke (rounding of a flat stretch) removed in pairs: [(t, value, rate, acc, +1 max /
-        -1 min)] in time order."""
+        -1 min)] in time order; None past MAX_TURNS."""
+        if self.turn_over[c]:
+            return None
         if self.turns is None:
             self.turns = [[] for _ in self.triplets]
             for cols, recs in self.turn_rows:
@@ -194,8 +212,11 @@ class CycleFigures:
         size = max(abs(lo["value"]), abs(hi["value"]), scale)
         turns = [] if T is None or not rec["stroke"] > 1e-9 * size else self._extremes(
             c, rec["stroke"], size)
-        nmax = sum(1 for p in turns if p[4] > 0)
-        if T is not None and nmax > 1:
+        nmax = sum(1 for p in turns if p[4] > 0) if turns is not None else 0
+        if turns is None:
+            rec["note"] = (f"more than {MAX_TURNS} turning points per period: none listed, no "
+                           f"single time ratio")
+        elif T is not None and nmax > 1:
             # a toggle: the column peaks more than once per period; advance and return (and
             # their ratio) are not defined
             rec["extremes"] = [dict(self._limit(p[:4]), kind="max" if p[4] > 0 else "min")
