@@ -32,15 +32,33 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ["four-bar", "slider-crank", "six-bar", "quick-return", "boom", "trammel"]
 
 
+# bytecode cached outside both checkouts (an installed planarkin has its .pyc files; a session
+# that sets PYTHONDONTWRITEBYTECODE would compile every module of every run: 0.14 s a run)
+PYCACHE = Path(tempfile.gettempdir()) / "planarkin-bench-pycache"
+
+
 def _env(root: Path) -> dict:
-    return dict(os.environ, PYTHONPATH=str(root), MPLBACKEND="Agg")
+    env = dict(os.environ, PYTHONPATH=str(root), MPLBACKEND="Agg",
+               PYTHONPYCACHEPREFIX=str(PYCACHE))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+CPU: list = []     # user + system CPU seconds of each timed() run, in order
 
 
 def timed(root: Path, args: list, cwd: Path) -> float:
+    """Wall seconds of one run (its CPU seconds appended to CPU: on a shared machine the CPU
+    time says what the wall time cannot, how much work the run did)."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "planarkin", "run", *args], cwd=cwd, env=_env(root),
                    check=True, capture_output=True)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    CPU.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return wall
 
 
 def _tree_rss(pid: int) -> int:
@@ -104,18 +122,27 @@ def main() -> None:
 
     def rounds(name, args_of, cwd_of=lambda root: root):
         got = {s: [] for s in sides}
+        cpu = {s: [] for s in sides}
         for _ in range(a.rounds):
             for s, root in sides.items():
                 got[s].append(timed(root, args_of(s, root), cwd_of(root)))
-        return {s: _stats(v) for s, v in got.items()}
+                cpu[s].append(CPU[-1])
+        out = {s: _stats(v) for s, v in got.items()}
+        for s in sides:
+            out[s]["cpu"] = _stats(cpu[s])
+        return out
 
     def show(title, r, scale=1.0, unit="s"):
         print(title)
         for s in sides:
             st = r[s]
+            c = st["cpu"]
             print(f"  {s:<9} median {st['median'] * scale:8.3f} {unit}   spread "
-                  f"{st['min'] * scale:.3f}-{st['max'] * scale:.3f}")
-        print(f"  ratio this/baseline {r['this']['median'] / r['baseline']['median']:.2f}")
+                  f"{st['min'] * scale:.3f}-{st['max'] * scale:.3f}   CPU median "
+                  f"{c['median'] * scale:.3f} {unit} ({c['min'] * scale:.3f}-"
+                  f"{c['max'] * scale:.3f})")
+        print(f"  ratio this/baseline {r['this']['median'] / r['baseline']['median']:.2f} (CPU "
+              f"{r['this']['cpu']['median'] / r['baseline']['cpu']['median']:.2f})")
 
     if "plots" not in a.skip:
         r = rounds("plots", lambda s, root: [str(root / "mechanisms" / "four-bar.yaml"), "-q",
