@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .local import Local
 from .margins import barrier, length_gradients, turning_loop
 from .problem import Model, Rejected, State, wrap
 from .spec import design_of
@@ -41,6 +42,7 @@ from .spec import design_of
 WALL = 1e6            # residual entries of a rejected design, times the start's residual norm
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
 PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
+STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
 PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 
 
@@ -74,6 +76,7 @@ class SynthResult:
     design: object = None
     model: object = None
     starts: list = field(default_factory=list)
+    analyses: int = 0           # of the evaluations, those analysing a design's whole cycle
 
 
 class Synthesis:
@@ -164,7 +167,7 @@ class Synthesis:
             return None, None, Rejected("constraint " + "; ".join(bad))
         per, r, cost = [], [], 0.0
         for i, tg in enumerate(self.design.targets):
-            rr, _ = self._target(tg, i, st, where[i], None, False)
+            rr, _ = self.target_residuals(tg, i, st, where[i], None, False)
             per.append(rr)
             cost += float((rr * tg.weight).ravel() @ (rr * tg.weight).ravel())
             r.append((self._normal(st, tg, where[i], rr) if i in self.projected else rr.ravel())
@@ -223,7 +226,7 @@ class Synthesis:
         for i, tg in enumerate(self.design.targets):
             sl = d.where[i]
             dtdp = self.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
-            Jt = self._target(tg, i, st, sl, dtdp, True)[1]
+            Jt = self.target_residuals(tg, i, st, sl, dtdp, True)[1]
             if i in self.projected:          # n . dP/dp (see _normal)
                 V = st.pd[sl, self.points.index(tg.name)]
                 n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
@@ -258,8 +261,11 @@ class Synthesis:
         m = loop.margin()
         return barrier(m, loop.gradient(dl), sum(loop.lengths), dl.sum(axis=0))[1]
 
-    def _target(self, tg, i, st, sl, dtdp, jac):
-        """Residuals (N, c) of one target and their Jacobian rows (N c, k + nt)."""
+    def target_residuals(self, tg, i, st, sl, dtdp, jac, free_t=None):
+        """Residuals (N, c) of one target and their Jacobian rows (N c, k + len(free_t)).
+        free_t: the (target, entry) pairs whose times are unknowns (default: self.free_t;
+        planarkin.synthesis.local makes a path target's times unknowns too)."""
+        free_t = self.free_t if free_t is None else free_t
         n = sl.stop - sl.start
         cols = []                  # per component: value (N,), d/dp (N, k), d/dt (N,)
         if tg.kind in ("path", "motion"):
@@ -284,14 +290,14 @@ class Synthesis:
         R = np.stack([c[0] for c in cols], axis=1)
         if not jac:
             return R, None
-        J = np.zeros((n, len(cols), self.k + self.nt))
+        J = np.zeros((n, len(cols), self.k + len(free_t)))
         for c, (_, dp, dt) in enumerate(cols):
             J[:, c, :self.k] = dp
             if dtdp is not None:              # prescribed inputs: the time moves with p
                 J[:, c, :self.k] += dt[:, None] * dtdp
-            elif tg.kind == "motion":           # free times: their own unknowns
+            elif (i, 0) in free_t:              # free times: their own unknowns
                 for e in range(n):
-                    J[e, c, self.k + self.free_t.index((i, e))] = dt[e]
+                    J[e, c, self.k + free_t.index((i, e))] = dt[e]
         return R, J.reshape(n * len(cols), -1)
 
     def margins(self, cm, res, tfree, t=None, where=None) -> dict:
@@ -422,7 +428,6 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     """Synthesis of a model's design block (see the module docstring). search: overrides of
     design: search: (starts, local, keep, seed, goal, evaluations). Raises InputError for
     invalid input; returns a SynthResult (status 0 with designs, 1 none acceptable)."""
-    from scipy.optimize import least_squares
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
     cfg = {**syn.design.search, **_search_options(path, search)}
@@ -433,46 +438,24 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     lo, hi = syn.bounds()
     designs, rejected_local = [], []
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
+    local = Local(syn)
+    stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
     for score, x0 in good[:cfg["local"]]:
-        if syn.model.evaluations >= cfg["evaluations"]:
+        if syn.model.evaluations + local.evaluations >= cfg["evaluations"]:
             break
-        x0 = np.clip(x0, lo, hi)
-        r0, _, _ = syn.evaluate(x0, jac=False)
-        wall = np.full(len(r0), WALL * (1.0 + float(np.linalg.norm(r0))))
-        cache = {}
-        # the bounds by a change of variables, x = mid + half sin z (exact chain rule): on the
-        # straight-line benchmark the local runs ended lower in fewer evaluations than with
-        # least_squares' own bounds (reflective steps crawl near an active bound)
-        mid, half = (lo + hi) / 2, (hi - lo) / 2
-        X = lambda z: mid + half * np.sin(z)          # noqa: E731
-
-        def fun(z):
-            key = z.tobytes()
-            if key not in cache:
-                cache.clear()
-                cache[key] = syn.evaluate(X(z), jac=False)
-            r = cache[key][0]
-            return wall if r is None else r
-
-        def jac(z):         # least_squares asks at the point it has just evaluated
-            fun(z)
-            r, _, d = cache[z.tobytes()]
-            if r is None:
-                return np.zeros((len(wall), len(z)))
-            return syn.jacobian(d) * (half * np.cos(z))
-
-        budget = max(1, cfg["evaluations"] - syn.model.evaluations)
-        e0, j0 = syn.model.evaluations, syn.model.jacobians
-        z0 = np.arcsin(np.clip((x0 - mid) / half, -1.0, 1.0))
-        sol = least_squares(fun, z0, jac=jac, method="trf", ftol=1e-15, xtol=1e-15,
-                            gtol=1e-15, max_nfev=min(budget, cfg["per_local"]))
-        sol.x = X(sol.x)
-        r, _, d = syn.evaluate(sol.x, final=True)
-        if r is None:
-            rejected_local.append(d.reason)
+        r0, _, d0 = syn.evaluate(np.clip(x0, lo, hi), jac=False, final=True)
+        if r0 is None:
+            rejected_local.append(d0.reason)
             continue
-        d.nfev, d.njev = syn.model.evaluations - e0, syn.model.jacobians - j0
-        d.message = sol.message
+        budget = max(1, cfg["evaluations"] - syn.model.evaluations - local.evaluations)
+        e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
+        xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop)
+        d = _verified(syn, local, xl, trail, lo, hi, rejected_local)
+        if d is None:
+            continue
+        d.nfev = syn.model.evaluations + local.evaluations - e0
+        d.njev = syn.model.jacobians - j0
+        d.message = d.message or message
         norm = (d.x - 0) / np.where(span > 0, span, 1.0)
         if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
                for o in designs):
@@ -493,9 +476,37 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                           sorted(reasons.items(), key=lambda kv: -kv[1])) + " among the "
                           f"{cfg['starts']} starts" if reasons else "the local searches failed"))
     return SynthResult(status=status, message=msg, designs=designs, rejected=reasons,
-                       evaluations=syn.model.evaluations, jacobians=syn.model.jacobians,
+                       evaluations=syn.model.evaluations + local.evaluations,
+                       analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
                        starts=[s for s, _ in good])
+
+
+def _verified(syn, local, x, trail, lo, hi, rejected):
+    """The fully evaluated design at the end x of a local run, or, when it fails the full
+    check (the whole cycle, on the branch, every constraint: the guarantee of a returned
+    design; a local trial checks only the target inputs), the last accepted iterate of the
+    run that passes it, found by bisection over the trail (its first entry passed). None when
+    none does (the reason appended to rejected)."""
+    r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
+    if r is not None:
+        return d
+    rejected.append(d.reason)
+    good, bad, best = 0, len(trail), None
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        r, _, dm = syn.evaluate(np.clip(local.full(trail[mid]), lo, hi), jac=False, final=True)
+        if r is None:
+            bad = mid
+        else:
+            good, best = mid, dm
+    if best is None:
+        r, _, best = syn.evaluate(np.clip(local.full(trail[0]), lo, hi), jac=False, final=True)
+        if r is None:
+            return None
+    best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
+                    f"accepted iterate that passes it")
+    return best
 
 
 def _search_options(path, search: dict) -> dict:
