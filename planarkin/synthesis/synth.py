@@ -130,11 +130,12 @@ class Synthesis:
         return self.start + np.mod(np.asarray(t, dtype=float) - self.start, T)
 
     # -- evaluation --------------------------------------------------------------------------
-    def evaluate(self, x, jac: bool = True, final: bool = False):
+    def evaluate(self, x, jac: bool = True, final: bool = False, analysed=None):
         """(residual vector, Jacobian or None, Design) or (None, None, Rejected). final: the
-        order of free times is a constraint too (see below)."""
+        order of free times is a constraint too (see below). analysed: the design's analysis
+        (Model.analyse) when the caller has it already."""
         values = self.model.values(x[:self.k])
-        out = self.model.analyse(values)
+        out = analysed if analysed is not None else self.model.analyse(values)
         if isinstance(out, Rejected):
             return None, None, out
         cm, opts, res = out
@@ -365,22 +366,41 @@ class Synthesis:
         X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
         good, reasons = [], {}
         for xp in X:
-            out = self.model.analyse(self.model.values(xp))
+            out = self.screen(self.model.values(xp))
+            if out is None:
+                out = self.model.analyse(self.model.values(xp))
             if isinstance(out, Rejected):
                 key = _kind(out.reason)
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
             cm, _, res = out
             x = np.concatenate([xp, self.free_times(res)])
-            r, _, d = self.evaluate(x, jac=False, final=True)
-            self.model.evaluations -= 1        # evaluate analysed the design again
+            r, _, d = self.evaluate(x, jac=False, final=True, analysed=out)
             if r is None:
                 key = _kind(d.reason)
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
-            good.append((float(r @ r), x))
+            good.append((float(r @ r), x, d))
         good.sort(key=lambda g: g[0])
         return good, reasons
+
+    def screen(self, values):
+        """Rejected when the design is invalid or its four-bar loop cannot turn (the turns
+        margin, from the compiled model alone), else None: an analysis over the cycle would
+        refuse such a design anyway (lock-up, or the turns constraint), at ~30 times the
+        cost. Not an evaluation."""
+        from ..diagnostics import InputError
+        if self.design.turns is None:
+            return None
+        try:
+            cm = self.model.study.model(values)
+        except InputError as e:
+            return Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
+                                                     if d.severity == "error"))
+        loop = turning_loop(cm, self.design.turns)
+        if loop is not None and not loop.margin() > 0:
+            return Rejected(f"constraint turns: {loop.margin():.6g} (needs > 0)")
+        return None
 
     def _grid_times(self, res) -> dict:
         """Free times on the grid: per target without inputs (index -> (N,) s), the grid
@@ -431,26 +451,23 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
     cfg = {**syn.design.search, **_search_options(path, search)}
-    first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
-    if not isinstance(first, Rejected):
-        syn.wrap = syn.model.periodic(first[2])
+    if syn.nt or syn.projected:     # free times may wrap around a full cycle
+        first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
+        if not isinstance(first, Rejected):
+            syn.wrap = syn.model.periodic(first[2])
     good, reasons = syn.candidates(cfg["starts"], cfg["seed"])
     lo, hi = syn.bounds()
     designs, rejected_local = [], []
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
     local = Local(syn)
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
-    for score, x0 in good[:cfg["local"]]:
+    for score, x0, d0 in good[:cfg["local"]]:
         if syn.model.evaluations + local.evaluations >= cfg["evaluations"]:
             break
-        r0, _, d0 = syn.evaluate(np.clip(x0, lo, hi), jac=False, final=True)
-        if r0 is None:
-            rejected_local.append(d0.reason)
-            continue
         budget = max(1, cfg["evaluations"] - syn.model.evaluations - local.evaluations)
         e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
         xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop)
-        d = _verified(syn, local, xl, trail, lo, hi, rejected_local)
+        d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
         if d is None:
             continue
         d.nfev = syn.model.evaluations + local.evaluations - e0
@@ -479,15 +496,15 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                        evaluations=syn.model.evaluations + local.evaluations,
                        analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
-                       starts=[s for s, _ in good])
+                       starts=[g[0] for g in good])
 
 
-def _verified(syn, local, x, trail, lo, hi, rejected):
+def _verified(syn, local, x, trail, lo, hi, rejected, first):
     """The fully evaluated design at the end x of a local run, or, when it fails the full
     check (the whole cycle, on the branch, every constraint: the guarantee of a returned
     design; a local trial checks only the target inputs), the last accepted iterate of the
-    run that passes it, found by bisection over the trail (its first entry passed). None when
-    none does (the reason appended to rejected)."""
+    run that passes it, found by bisection over the trail (its first entry is the run's start,
+    the fully evaluated design `first`); the reason of the failure appended to rejected."""
     r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
     if r is not None:
         return d
@@ -500,10 +517,7 @@ def _verified(syn, local, x, trail, lo, hi, rejected):
             bad = mid
         else:
             good, best = mid, dm
-    if best is None:
-        r, _, best = syn.evaluate(np.clip(local.full(trail[0]), lo, hi), jac=False, final=True)
-        if r is None:
-            return None
+    best = best or first
     best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
                     f"accepted iterate that passes it")
     return best
