@@ -26,7 +26,7 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 
 NEWTON_TOL = 1e-13     # internal units
-BRANCH_JUMP = 1e-3     # largest Newton correction from the interpolant (internal units)
+BRANCH_JUMP = 1e-3     # Newton correction from the interpolant always allowed (internal units)
 
 
 @dataclass
@@ -124,7 +124,10 @@ class Model:
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
         Q0 = h00 * Qg[k] + h10 * h * Qdg[k] + h01 * Qg[k + 1] + h11 * h * Qdg[k + 1]
-        st = self.solve_from(cm, t, Q0, BRANCH_JUMP, sens=sens, accel=accel)
+        # off the branch: a correction larger than the interpolant can be off by, at most
+        # half the grid step's own motion (another branch is a finite distance away)
+        jump = np.maximum(BRANCH_JUMP, 0.5 * np.abs(Qg[k + 1] - Qg[k]).max(axis=1))
+        st = self.solve_from(cm, t, Q0, jump, sens=sens, accel=accel)
         if not isinstance(st, Rejected):
             st.result = res
         elif st.reason.startswith("a target pose moved"):
@@ -134,7 +137,7 @@ class Model:
     def solve_from(self, cm, t, Q0, jump: float, sens: bool = True, accel: bool = False):
         """State at times t (N,) by Newton from the guess Q0 (N, n) in internal units (lengths
         over cm.L, angles in rad), or Rejected when Newton does not converge or moves a pose by
-        more than `jump` (internal units) from the guess: the guess is a pose on the branch
+        more than `jump` (internal units; a number or one per time) from the guess: the guess is a pose on the branch
         wanted (the grid's interpolant, or a first-order predictor from a nearby design), so a
         larger correction means another branch. The state's `Q` is the solution in internal
         units (the next guess of a continuation)."""
@@ -158,7 +161,7 @@ class Model:
             return Rejected("Newton did not converge at a target time")
         if not np.isfinite(Q).all():
             return Rejected("Newton did not converge at a target time")
-        if np.abs(Q - Q0).max() > jump:
+        if np.any(np.abs(Q - Q0).max(axis=1) > jump):
             return Rejected("a target pose moved off its branch")
         _, NU, _ = S.driver_values(t)
         J = S.jacobian(S.ext(Q))

@@ -156,7 +156,8 @@ class Synthesis:
                 tt = np.array([tfree[self.free_t.index((i, j))] for j in range(len(tg))])
             where.append(slice(len(times), len(times) + len(tt)))
             times += list(tt)
-        st = self.model.solve_at(cm, res, np.array(times), sens=False)
+        # projected times may have stepped past the end of a cycle: solved where they are
+        st = self.model.solve_at(cm, res, self.wrapped(np.array(times)), sens=False)
         if isinstance(st, Rejected):
             return None, None, st
         margins = self.margins(cm, res, tfree, st.t, where)
@@ -404,8 +405,9 @@ class Synthesis:
 
     def _grid_times(self, res) -> dict:
         """Free times on the grid: per target without inputs (index -> (N,) s), the grid
-        points nearest its points, in order along the path from the point nearest the first
-        (dynamic programming)."""
+        points nearest its points, in order along the path from the point nearest the first,
+        in either direction (the targets' order or its reverse, whichever is nearer; the order
+        constraint takes both) (dynamic programming)."""
         out = {}
         tg_grid = res.t[:-1] if self.wrap else res.t
         for i, tg in enumerate(self.design.targets):
@@ -415,28 +417,36 @@ class Synthesis:
             path = res.p[:len(tg_grid), j]
             goal = np.array(tg.values)[:, :2]
             D = ((path[None, :, :] - goal[:, None, :]) ** 2).sum(axis=2)     # (N, G)
-            G = len(tg_grid)
-            off = int(np.argmin(D[0])) if self.wrap else 0
-            order = (np.arange(G) + off) % G
-            Dr = D[:, order]
-            cost = Dr[0].copy()
-            back = np.zeros(D.shape, dtype=np.intp)
-            for e in range(1, len(goal)):         # strictly later along the path
-                best = np.minimum.accumulate(cost)
-                arg = np.zeros(G, dtype=np.intp)
-                for g in range(1, G):
-                    arg[g] = g if cost[g] <= best[g - 1] else arg[g - 1]
-                back[e, 1:] = arg[:-1]
-                cost = np.concatenate([[np.inf], best[:-1]]) + Dr[e]
-            g = int(np.argmin(cost))
-            idx = [g]
-            for e in range(len(goal) - 1, 0, -1):
-                g = int(back[e][g])
-                idx.append(g)
-            idx = idx[::-1]
-            out[i] = np.array([tg_grid[order[gi]] + (self.end - self.start if self.wrap and
-                                                     order[gi] < off else 0.0) for gi in idx])
+            fwd, rev = self._in_order_grid(D, tg_grid), self._in_order_grid(D[::-1], tg_grid)
+            out[i] = fwd[1] if fwd[0] <= rev[0] or not self.design.order else rev[1][::-1]
         return out
+
+    def _in_order_grid(self, D, tg_grid):
+        """(cost, (N,) times) of the grid points nearest the targets (rows of D) with times
+        strictly increasing along the path (around the cycle from the point nearest the first
+        target when it wraps)."""
+        G = len(tg_grid)
+        off = int(np.argmin(D[0])) if self.wrap else 0
+        order = (np.arange(G) + off) % G
+        Dr = D[:, order]
+        cost = Dr[0].copy()
+        back = np.zeros(D.shape, dtype=np.intp)
+        for e in range(1, len(D)):          # strictly later along the path
+            best = np.minimum.accumulate(cost)
+            arg = np.zeros(G, dtype=np.intp)
+            for g in range(1, G):
+                arg[g] = g if cost[g] <= best[g - 1] else arg[g - 1]
+            back[e, 1:] = arg[:-1]
+            cost = np.concatenate([[np.inf], best[:-1]]) + Dr[e]
+        g = int(np.argmin(cost))
+        total = float(cost[g])
+        idx = [g]
+        for e in range(len(D) - 1, 0, -1):
+            g = int(back[e][g])
+            idx.append(g)
+        idx = idx[::-1]
+        return total, np.array([tg_grid[order[gi]] + (self.end - self.start if self.wrap and
+                                                      order[gi] < off else 0.0) for gi in idx])
 
     def free_times(self, res) -> np.ndarray:
         """(nt,) the free-time unknowns' start on the grid (see _grid_times)."""
