@@ -360,11 +360,17 @@ class Synthesis:
         return T - float(steps.sum()) if steps.sum() > T * (1 + 1e-9) else float(steps.min())
 
     # -- global start ------------------------------------------------------------------------
-    def candidates(self, n: int, seed: int):
-        """A seeded Latin hypercube of n designs, each analysed: (x, score) of the accepted in
-        order of score, and the rejection reasons counted."""
+    def candidates(self, n: int, seed: int, nominal: bool = False):
+        """A seeded Latin hypercube of n designs, each analysed: (score, x, Design) of the
+        accepted in order of score, and the rejection reasons counted. nominal: the file's own
+        values (with its --set overrides) are a start too, when inside the bounds (a known
+        design to refine)."""
         from scipy.stats import qmc
         X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
+        if nominal:
+            p = np.array([float(self.model.spec.parameters[k]) for k in self.model.free])
+            if np.all((self.lo <= p) & (p <= self.hi)):
+                X = np.concatenate([p[None, :], X])
         good, reasons = [], {}
         for xp in X:
             out = self.screen(self.model.values(xp))
@@ -465,7 +471,7 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
         if not isinstance(first, Rejected):
             syn.wrap = syn.model.periodic(first[2])
-    good, reasons = syn.candidates(cfg["starts"], cfg["seed"])
+    good, reasons = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]))
     lo, hi = syn.bounds()
     designs, rejected_local = [], []
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
