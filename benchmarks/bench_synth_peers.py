@@ -20,7 +20,7 @@ thin wrapper of scipy.optimize.differential_evolution over the linkage's constra
 the peer side calls scipy's differential_evolution directly on the same parameters and bounds,
 with as many function evaluations as planarkin used (population multiplier 15, pylinkage's
 default, or less so that the budget covers 5 generations; polish off; maxiter cut to the
-budget), and once more with 100 times that budget (DE's evaluations are much cheaper). A design
+budget), and once more with 100 (--big) times that budget (DE's evaluations are much cheaper). A design
 pylinkage cannot build over the cycle (UnbuildableError) scores 1e6. For the straight line the
 pylinkage path is sampled at 360 crank positions and its best design is scored again by
 planarkin's exact projection (the error column), so both sides' errors are the same measure.
@@ -32,6 +32,7 @@ first (even seeds planarkin first). Each side's wall time is its own search's, i
 excluded; medians and ranges over the seeds, and the median of the per-round ratios.
 
     /tmp/venv/bin/python benchmarks/bench_synth_peers.py [--seeds 5] [--problem four-bar-path]
+        [--big 100]
 """
 
 from __future__ import annotations
@@ -176,6 +177,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--problem", choices=PROBLEMS, action="append")
     ap.add_argument("--serve", action="store_true")
+    ap.add_argument("--big", type=int, default=100,
+                    help="the peer's second run gets this many times the budget")
     a = ap.parse_args()
     if a.serve:
         _serve()
@@ -196,7 +199,7 @@ def main() -> None:
                     assert out["ours"]["budget"] == budget[seed]
                 else:
                     out["peer"] = peer(problem, budget[seed], seed)
-            out["peer100"] = peer(problem, 100 * budget[seed], seed)
+            out["peer100"] = peer(problem, a.big * budget[seed], seed)
             if problem == "straight-line":
                 for k in ("peer", "peer100"):
                     out[k]["exact"] = _rescore(problem, out[k]["x"])
@@ -207,11 +210,11 @@ def main() -> None:
             print(f"{problem} seed {seed}: planarkin SSE {o['cost']:.3e} ({o['budget']} "
                   f"evaluations + Jacobians, {o['seconds']:.3f} s); pylinkage + DE SSE "
                   f"{p.get('exact', p['cost']):.3e} ({p['nfev']} evaluations, "
-                  f"{p['seconds']:.3f} s); at 100 x: {q.get('exact', q['cost']):.3e} "
+                  f"{p['seconds']:.3f} s); at {a.big} x: {q.get('exact', q['cost']):.3e} "
                   f"({q['nfev']}, {q['seconds']:.3f} s)", flush=True)
         R = np.array(rows)
         for label, c, s in (("planarkin", 0, 2), ("pylinkage + DE", 3, 5),
-                            ("pylinkage + DE, 100 x the budget", 6, 8)):
+                            (f"pylinkage + DE, {a.big} x the budget", 6, 8)):
             print(f"{problem}: {label}: SSE median {np.median(R[:, c]):.3e} (range "
                   f"{R[:, c].min():.3e} .. {R[:, c].max():.3e}); seconds median "
                   f"{np.median(R[:, s]):.3f} (range {R[:, s].min():.3f} .. {R[:, s].max():.3f})")
@@ -222,7 +225,7 @@ def main() -> None:
         wins = int((R[:, 0] < R[:, 3]).sum())
         wins100 = int((R[:, 0] < R[:, 6]).sum())
         print(f"{problem}: planarkin's error lower in {wins} of {len(R)} seeds at equal budgets, "
-              f"in {wins100} against 100 x the budget")
+              f"in {wins100} against {a.big} x the budget")
     peer.close()
     print("load after:", os.getloadavg())
 

@@ -1,29 +1,38 @@
 """Synthesis: the design that makes a model do what its `design:` block asks.
 
-The unknowns x are the free parameters (in their units) and, for every motion target without
+In a full evaluation (`Synthesis.evaluate`: the design analysed over its whole cycle) the
+unknowns x are the free parameters (in their units) and, for every motion target without
 prescribed inputs, one time per pose (s): the input values are the driver's values at those
-times. A path target without inputs has no time unknowns: its times are projected in every
-evaluation (`Synthesis.project`: the nearest points of the path, in order), its residuals are
+times. A path target without inputs has no time unknowns there: its times are projected
+(`Synthesis.project`: the nearest points of the path, in order), its residuals are
 the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
 projected time is stationary (variable projection). Other residuals are weighted differences in
 the model's units (point coordinates; angles wrapped to a half turn). A `turns:` constraint on a
 four-bar loop adds one barrier row (planarkin.synthesis.margins), zero away from a change point.
 The method:
 
-1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds, each analysed
-   over the whole range through the Study (validate with overrides, compile, solve); designs that
-   cannot be assembled, lock up or violate a constraint are rejected with their reason; the free
-   times of the others are chosen on their grid (the nearest points, in order along the path);
-2. from the best `local` of them, scipy.optimize.least_squares (trust region, jac= the exact
-   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design
-   that is rejected returns a residual larger than any acceptable one (a wall), so every
-   accepted step stays assemblable over the whole cycle, on its branch, within the constraints;
+1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds (and the
+   file's own values with search nominal: 1); a design whose four-bar loop cannot turn is
+   refused from its compiled model alone (`screen`), the others are analysed over the whole
+   range through the Study (validate with overrides, compile, solve); designs that cannot be
+   assembled, lock up or violate a constraint are rejected with their reason; the free times
+   of the others are chosen on their grid (the nearest points, in order along the path, in
+   either direction);
+2. from the best `local` of them, a local run (planarkin.synthesis.local): scipy's
+   least_squares (trust region, the exact Jacobian, the bounds by a change of variables) on
+   trials solved at the target inputs only, every free time an unknown, the branch kept by
+   continuation from the last accepted iterate; the run's result is then checked over its
+   whole cycle (`evaluate(final=True)`: assembles everywhere, on its branch, every
+   constraint), and if it fails, the last accepted iterate that passes (bisection over the
+   run's trail), so every returned design is verified over its whole cycle;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
 
-benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml). From the first
-six starts of seed 0, 31-52 trial steps per local run hit the wall without the barrier, 0-5 with
-it (the walls were change points, s + l -> p + q); the local runs still stall short of 1e-12 on
-most seeds (they end at bounds or crawl in a narrow valley).
+benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml): a seed's
+local runs cost ~5 ms a trial against ~65 ms for an analysis over the cycle (load 0.2), 20-30 s
+a seed instead of 12 min; they still end in one valley (the linkage growing to the bounds, SSE
+1e-6 .. 1e-4 mm^2) from the Latin-hypercube starts, while from Hoeken's straight-line linkage
+one local run reaches 1e-20 in ~50 trials (tests/test_synth_local.py): the starts, not the
+local method, are what the target lacks.
 """
 
 from __future__ import annotations
@@ -39,7 +48,6 @@ from .margins import barrier, length_gradients, turning_loop
 from .problem import Model, Rejected, State, wrap
 from .spec import design_of
 
-WALL = 1e6            # residual entries of a rejected design, times the start's residual norm
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
 PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
 STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
