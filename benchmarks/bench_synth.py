@@ -5,8 +5,9 @@
    9 parameters + 6 crank times = 15 unknowns of the classic statement, the times projected
    here (9 unknowns of the search); constraints: the crank turns fully (Grashof, crank or
    ground shortest), targets in order along the path; error: sum of squared distances, mm^2).
-   An evaluation is one analysis of a design over its whole cycle; a projection one batched
-   solve at the six target times (a few Newton steps each).
+   An evaluation is either an analysis of a design over its whole cycle (the starts, and the
+   check of every local run's result) or a local trial at the six target inputs only
+   (planarkin.synthesis.local); a projection one batched solve at the six target times.
    Target: SSE < 1e-12 in >= 95 % of 20 seeds. Reports per seed the best SSE, the function
    and Jacobian evaluations and the time.
 2. fit: mechanisms/four-bar.yaml's coupler point P at 49 times (one cycle), 0.1 mm Gaussian
@@ -34,19 +35,25 @@ def straight_line(seeds: int, first: int = 0) -> None:
     from planarkin.synthesis.synth import synthesize
     model = ROOT / "mechanisms" / "synthesis" / "straight-line.yaml"
     ok = 0
-    print("seed  best SSE [mm^2]  evaluations  jacobians  projections  seconds")
-    ev, sec = [], []
+    print("seed  best SSE [mm^2]  evaluations  analyses  jacobians  projections  seconds")
+    ev, an, jac, sec, best_all = [], [], [], [], []
     for seed in range(first, first + seeds):
         r = synthesize(model, seed=seed)
         best = r.designs[0].cost if r.designs else float("nan")
         ok += best < 1e-12
         ev.append(r.evaluations)
+        an.append(r.analyses)
+        jac.append(r.jacobians)
         sec.append(r.seconds)
-        print(f"{seed:4d}  {best:15.3e}  {r.evaluations:11d}  {r.jacobians:9d}  "
+        best_all.append(best)
+        print(f"{seed:4d}  {best:15.3e}  {r.evaluations:11d}  {r.analyses:8d}  {r.jacobians:9d}  "
               f"{r.model.project_solves:11d}  {r.seconds:7.1f}", flush=True)
-    print(f"straight line: SSE < 1e-12 in {ok} of {seeds} seeds (target >= 95 %); "
-          f"evaluations median {np.median(ev):.0f} (range {min(ev)}-{max(ev)}), seconds median "
-          f"{np.median(sec):.0f} (range {min(sec):.0f}-{max(sec):.0f})")
+    print(f"straight line: SSE < 1e-12 in {ok} of {seeds} seeds (target >= 95 %); best SSE "
+          f"median {np.nanmedian(best_all):.2e} (range {np.nanmin(best_all):.2e} .. "
+          f"{np.nanmax(best_all):.2e}); evaluations median {np.median(ev):.0f} (range "
+          f"{min(ev)}-{max(ev)}), of them analyses over the cycle {np.median(an):.0f} "
+          f"({min(an)}-{max(an)}); Jacobians {np.median(jac):.0f} ({min(jac)}-{max(jac)}); "
+          f"seconds median {np.median(sec):.1f} (range {min(sec):.1f}-{max(sec):.1f})")
 
 
 def fitting(trials: int) -> None:

@@ -17,7 +17,8 @@ five-point-curve (mechanisms/synthesis/five-point-curve.yaml)
              hand), and the published bounds may differ from this file's: no published figure
              is quoted or compared here.
 
-Reports per seed the best SSE, evaluations (analyses over the whole cycle), Jacobians, seconds;
+Reports per seed the best SSE, evaluations (analyses over the whole cycle and local trials at
+the target inputs), Jacobians, seconds;
 then the fraction of seeds below 1e-12 and medians with ranges.
 
     /tmp/venv/bin/python benchmarks/bench_synth_literature.py [--seeds 10]
@@ -47,15 +48,16 @@ def main() -> None:
             r = synthesize(ROOT / "mechanisms" / "synthesis" / f"{name}.yaml", seed=seed)
             best = r.designs[0].cost if r.designs else float("nan")
             rows.append((best, r.evaluations, r.jacobians, r.seconds))
-            print(f"{name} seed {seed}: SSE {best:.3e}, {r.evaluations} evaluations, "
-                  f"{r.jacobians} Jacobians, {r.seconds:.1f} s", flush=True)
+            print(f"{name} seed {seed}: SSE {best:.3e}, {r.evaluations} evaluations ("
+                  f"{r.analyses} over the whole cycle), {r.jacobians} Jacobians, "
+                  f"{r.seconds:.1f} s", flush=True)
         R = np.array(rows)
         ok = int((R[:, 0] < 1e-12).sum())
         print(f"{name}: SSE < 1e-12 in {ok} of {len(R)} seeds; SSE median {np.median(R[:, 0]):.3e}"
               f" (range {R[:, 0].min():.3e} .. {R[:, 0].max():.3e}); evaluations median "
               f"{np.median(R[:, 1]):.0f} (range {R[:, 1].min():.0f} .. {R[:, 1].max():.0f}); "
-              f"seconds median {np.median(R[:, 3]):.0f} (range {R[:, 3].min():.0f} .. "
-              f"{R[:, 3].max():.0f})")
+              f"seconds median {np.median(R[:, 3]):.1f} (range {R[:, 3].min():.1f} .. "
+              f"{R[:, 3].max():.1f})")
     print("load:", os.getloadavg())
 
 

@@ -11,22 +11,28 @@ Problems (mechanisms/synthesis/):
                   targets in order along it (mm^2).
 
 planarkin: `synthesize` with the file's search settings and a seed; its budget is what it used,
-evaluations (analyses over the whole cycle) plus Jacobians. pylinkage (1.3, in its own virtual
-environment: python3 -m venv /tmp/benchvenv-synth && /tmp/benchvenv-synth/bin/pip install
-pylinkage numba pyyaml): its kinematics (Ground, Crank, RRRDyad, FixedDyad) as the evaluation
-and differential evolution as the search. pylinkage's own differential_evolution_optimization
-is a thin wrapper of scipy.optimize.differential_evolution over the linkage's constraint vector
+evaluations (analyses over the whole cycle and local trials at the target inputs only) plus
+Jacobians. pylinkage (1.3 with numba, in its own virtual environment, /tmp/benchvenv or
+PEER_PYTHON): its kinematics (Ground, Crank, RRRDyad, FixedDyad) as the evaluation and
+differential evolution as the search. pylinkage's own differential_evolution_optimization is a
+thin wrapper of scipy.optimize.differential_evolution over the linkage's constraint vector
 (crank radius and dyad distances), which leaves out the ground pivots and the ground angle, so
 the peer side calls scipy's differential_evolution directly on the same parameters and bounds,
 with as many function evaluations as planarkin used (population multiplier 15, pylinkage's
 default, or less so that the budget covers 5 generations; polish off; maxiter cut to the
-budget), and once more with 100 times that budget (DE's evaluations are much cheaper). A design pylinkage cannot build over the cycle (UnbuildableError) scores 1e6. For the
-straight line the pylinkage path is sampled at 360 crank positions and its best design is scored
-again by planarkin's exact projection (the error column), so both sides' errors are the same
-measure. planarkin runs first in each seed (its budget is the peer's); each side's wall time
-is its own search's, imports excluded; medians and ranges over the seeds.
+budget), and once more with 100 (--big) times that budget (DE's evaluations are much cheaper). A design
+pylinkage cannot build over the cycle (UnbuildableError) scores 1e6. For the straight line the
+pylinkage path is sampled at 360 crank positions and its best design is scored again by
+planarkin's exact projection (the error column), so both sides' errors are the same measure.
+
+Timing: the peer runs in one server process, warmed up (imports and numba compiles) before the
+rounds; planarkin is warmed up by an untimed pass over the seeds, which also gives each seed's
+budget (planarkin is deterministic per seed), so the timed rounds alternate which side runs
+first (even seeds planarkin first). Each side's wall time is its own search's, imports
+excluded; medians and ranges over the seeds, and the median of the per-round ratios.
 
     /tmp/venv/bin/python benchmarks/bench_synth_peers.py [--seeds 5] [--problem four-bar-path]
+        [--big 100]
 """
 
 from __future__ import annotations
@@ -44,7 +50,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-PEER = "/tmp/benchvenv-synth/bin/python"
+# pylinkage 1.3 + numba in their own virtual environment (PEER_PYTHON overrides)
+PEER = os.environ.get("PEER_PYTHON", "/tmp/benchvenv/bin/python")
 PROBLEMS = ("four-bar-path", "straight-line")
 
 
@@ -137,28 +144,62 @@ def _rescore(problem: str, x) -> float:
     return d.cost if r is not None else math.nan
 
 
+def _serve() -> None:
+    """The peer side as a server: one line 'PROBLEM BUDGET SEED' in, one JSON line out, so
+    pylinkage and numba are imported and compiled once, before the timed rounds."""
+    _peer("four-bar-path", 40, 0)               # warm-up (numba compiles; not reported)
+    _peer("straight-line", 40, 0)
+    print("ready", flush=True)
+    for line in sys.stdin:
+        problem, budget, seed = line.split()
+        print(json.dumps(_peer(problem, int(budget), int(seed))), flush=True)
+
+
+class _Peer:
+    def __init__(self):
+        self.p = subprocess.Popen([PEER, __file__, "--serve"], stdin=subprocess.PIPE,
+                                  stdout=subprocess.PIPE, text=True)
+        while self.p.stdout.readline().strip() != "ready":
+            pass
+
+    def __call__(self, problem, budget, seed) -> dict:
+        self.p.stdin.write(f"{problem} {budget} {seed}\n")
+        self.p.stdin.flush()
+        return json.loads(self.p.stdout.readline())
+
+    def close(self):
+        self.p.stdin.close()
+        self.p.wait()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--problem", choices=PROBLEMS, action="append")
-    ap.add_argument("--peer", nargs=3, metavar=("PROBLEM", "BUDGET", "SEED"))
+    ap.add_argument("--serve", action="store_true")
+    ap.add_argument("--big", type=int, default=100,
+                    help="the peer's second run gets this many times the budget")
     a = ap.parse_args()
-    if a.peer:
-        print(json.dumps(_peer(a.peer[0], int(a.peer[1]), int(a.peer[2]))))
+    if a.serve:
+        _serve()
         return
     sys.path.insert(0, str(ROOT))
-    print("load:", os.getloadavg())
+    peer = _Peer()
+    print("load before:", os.getloadavg(), flush=True)
     for problem in a.problem or PROBLEMS:
+        # the budgets first (planarkin is deterministic per seed; this pass also warms it up),
+        # so that the timed rounds can alternate which side runs first
+        budget = {seed: _ours(problem, seed)["budget"] for seed in range(a.seeds)}
         rows = []
         for seed in range(a.seeds):
-            out = {"ours": _ours(problem, seed)}      # first: its budget is the peer's
-            p = subprocess.run([PEER, __file__, "--peer", problem, str(out["ours"]["budget"]),
-                                str(seed)], capture_output=True, text=True, check=True)
-            out["peer"] = json.loads(p.stdout.strip().splitlines()[-1])
-            p = subprocess.run([PEER, __file__, "--peer", problem,
-                                str(100 * out["ours"]["budget"]), str(seed)],
-                               capture_output=True, text=True, check=True)
-            out["peer100"] = json.loads(p.stdout.strip().splitlines()[-1])
+            out = {}
+            for side in (("ours", "peer") if seed % 2 == 0 else ("peer", "ours")):
+                if side == "ours":
+                    out["ours"] = _ours(problem, seed)
+                    assert out["ours"]["budget"] == budget[seed]
+                else:
+                    out["peer"] = peer(problem, budget[seed], seed)
+            out["peer100"] = peer(problem, a.big * budget[seed], seed)
             if problem == "straight-line":
                 for k in ("peer", "peer100"):
                     out[k]["exact"] = _rescore(problem, out[k]["x"])
@@ -167,21 +208,26 @@ def main() -> None:
                          p["nfev"], p["seconds"], q.get("exact", q["cost"]), q["nfev"],
                          q["seconds"]))
             print(f"{problem} seed {seed}: planarkin SSE {o['cost']:.3e} ({o['budget']} "
-                  f"evaluations + Jacobians, {o['seconds']:.1f} s); pylinkage + DE SSE "
+                  f"evaluations + Jacobians, {o['seconds']:.3f} s); pylinkage + DE SSE "
                   f"{p.get('exact', p['cost']):.3e} ({p['nfev']} evaluations, "
-                  f"{p['seconds']:.2f} s); at 100 x: {q.get('exact', q['cost']):.3e} "
-                  f"({q['nfev']}, {q['seconds']:.2f} s)", flush=True)
+                  f"{p['seconds']:.3f} s); at {a.big} x: {q.get('exact', q['cost']):.3e} "
+                  f"({q['nfev']}, {q['seconds']:.3f} s)", flush=True)
         R = np.array(rows)
         for label, c, s in (("planarkin", 0, 2), ("pylinkage + DE", 3, 5),
-                            ("pylinkage + DE, 100 x the budget", 6, 8)):
+                            (f"pylinkage + DE, {a.big} x the budget", 6, 8)):
             print(f"{problem}: {label}: SSE median {np.median(R[:, c]):.3e} (range "
                   f"{R[:, c].min():.3e} .. {R[:, c].max():.3e}); seconds median "
-                  f"{np.median(R[:, s]):.2f} (range {R[:, s].min():.2f} .. {R[:, s].max():.2f})")
+                  f"{np.median(R[:, s]):.3f} (range {R[:, s].min():.3f} .. {R[:, s].max():.3f})")
+        ratio = R[:, 2] / R[:, 5]
+        print(f"{problem}: wall time planarkin / pylinkage + DE at equal budgets: median "
+              f"{np.median(ratio):.2f} (range {ratio.min():.2f} .. {ratio.max():.2f}) over "
+              f"{len(R)} rounds")
         wins = int((R[:, 0] < R[:, 3]).sum())
         wins100 = int((R[:, 0] < R[:, 6]).sum())
         print(f"{problem}: planarkin's error lower in {wins} of {len(R)} seeds at equal budgets, "
-              f"in {wins100} against 100 x the budget")
-    print("load:", os.getloadavg())
+              f"in {wins100} against {a.big} x the budget")
+    peer.close()
+    print("load after:", os.getloadavg())
 
 
 if __name__ == "__main__":

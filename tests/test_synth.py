@@ -146,6 +146,7 @@ def test_cli_synth_writes_ready_to_run_designs(tmp_path):
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "ok" and s["designs"][0]["cost"] < 1e-12
     assert s["evaluations"] > 0 and s["jacobians"] > 0
+    assert 0 < s["analyses"] <= s["evaluations"]
     assert (out / "synth.png").exists() and (out / "residuals.csv").exists()
     r = runner.invoke(main, ["run", str(out / "design-1.yaml"), "--out", str(tmp_path / "run"),
                              "--no-plots"])

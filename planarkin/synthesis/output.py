@@ -105,7 +105,8 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
             _plot_synth(res, rd.path(f"synth.{plots}"))
         summary = {"planarkin": __version__, "command": "synth", "model": syn.model.path,
                    "status": "ok" if res.status == 0 else "failed", "message": res.message,
-                   "evaluations": res.evaluations, "jacobians": res.jacobians,
+                   "evaluations": res.evaluations, "analyses": res.analyses,
+                   "jacobians": res.jacobians,
                    "seconds": res.seconds, "rejected_starts": res.rejected,
                    "designs": [{"file": f, "cost": d.cost, "parameters": d.values,
                                 "times": d.times, "margins": d.margins,

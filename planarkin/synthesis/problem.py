@@ -26,7 +26,7 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 
 NEWTON_TOL = 1e-13     # internal units
-BRANCH_JUMP = 1e-3     # largest Newton correction from the interpolant (internal units)
+BRANCH_JUMP = 1e-3     # Newton correction from the interpolant always allowed (internal units)
 
 
 @dataclass
@@ -50,6 +50,7 @@ class State:
     result: object
     cm: object
     pdd: np.ndarray | None = None      # (N, P, 2) point accelerations (solve_at(accel=True))
+    Q: np.ndarray | None = None        # (N, n) q in internal units (Model.solve_from)
 
 
 class Model:
@@ -110,8 +111,6 @@ class Model:
     def solve_at(self, cm, res, t, sens: bool = True, accel: bool = False):
         """State at times t (N,) from the analysed grid result, or Rejected; accel: with the
         points' accelerations (Phi_q qdd = gamma)."""
-        from ..kinematics import point_kinematics
-        from ..system import System
         t = np.asarray(t, dtype=float)
         L, af = cm.L, cm.angle_factor
         to_int = np.tile([1 / L, 1 / L, af], cm.nb)
@@ -125,19 +124,45 @@ class Model:
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
         Q0 = h00 * Qg[k] + h10 * h * Qdg[k] + h01 * Qg[k + 1] + h11 * h * Qdg[k + 1]
+        # off the branch: a correction larger than the interpolant can be off by, at most
+        # half the grid step's own motion (another branch is a finite distance away)
+        jump = np.maximum(BRANCH_JUMP, 0.5 * np.abs(Qg[k + 1] - Qg[k]).max(axis=1))
+        st = self.solve_from(cm, t, Q0, jump, sens=sens, accel=accel)
+        if not isinstance(st, Rejected):
+            st.result = res
+        elif st.reason.startswith("a target pose moved"):
+            return Rejected("a target pose is off the tracked branch (raise analysis: steps)")
+        return st
+
+    def solve_from(self, cm, t, Q0, jump: float, sens: bool = True, accel: bool = False):
+        """State at times t (N,) by Newton from the guess Q0 (N, n) in internal units (lengths
+        over cm.L, angles in rad), or Rejected when Newton does not converge or moves a pose by
+        more than `jump` (internal units; a number or one per time) from the guess: the guess is a pose on the branch
+        wanted (the grid's interpolant, or a first-order predictor from a nearby design), so a
+        larger correction means another branch. The state's `Q` is the solution in internal
+        units (the next guess of a continuation)."""
+        from ..kinematics import point_kinematics
+        from ..system import System
+        t = np.asarray(t, dtype=float)
+        L, af = cm.L, cm.angle_factor
+        to_int = np.tile([1 / L, 1 / L, af], cm.nb)
         S = System(cm)
-        Q = Q0.copy()
+        Q = np.array(Q0, dtype=float)
         for _ in range(20):
             R = S.residual(S.ext(Q), t)
             J = S.jacobian(S.ext(Q))
             dQ = _solve(J, -R)
             Q += dQ
+            if not np.isfinite(Q).all():
+                break
             if np.abs(dQ).max() <= NEWTON_TOL:
                 break
         else:
             return Rejected("Newton did not converge at a target time")
-        if np.abs(Q - Q0).max() > BRANCH_JUMP or not np.isfinite(Q).all():
-            return Rejected("a target pose is off the tracked branch (raise analysis: steps)")
+        if not np.isfinite(Q).all():
+            return Rejected("Newton did not converge at a target time")
+        if np.any(np.abs(Q - Q0).max(axis=1) > jump):
+            return Rejected("a target pose moved off its branch")
         _, NU, _ = S.driver_values(t)
         J = S.jacobian(S.ext(Q))
         Qd = _solve(J, NU)
@@ -146,8 +171,9 @@ class Model:
         P, Pd, Pdd = point_kinematics(cm, S.ext(Q), S.ext(Qd),
                                       S.ext(Qdd) if accel else None)
         q, qd = Q / to_int, Qd / to_int
-        st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=res, cm=cm,
+        st = State(t=t, q=q, qd=qd, p=P * L, pd=Pd * L, dq=None, dp=None, result=None, cm=cm,
                    pdd=Pdd * L if accel else None)
+        st.Q = Q
         if sens:
             self.add_sensitivities(st)
         return st

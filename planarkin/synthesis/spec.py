@@ -37,7 +37,7 @@ CONSTRAINT_KEYS = ("turns", "transmission", "order")
 SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
           "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
           "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
-          "per_local": (int, 1, 10**6, 300)}
+          "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0)}
 QUANTITIES = ("x", "y", "phi")
 
 

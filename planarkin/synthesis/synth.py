@@ -1,29 +1,38 @@
 """Synthesis: the design that makes a model do what its `design:` block asks.
 
-The unknowns x are the free parameters (in their units) and, for every motion target without
+In a full evaluation (`Synthesis.evaluate`: the design analysed over its whole cycle) the
+unknowns x are the free parameters (in their units) and, for every motion target without
 prescribed inputs, one time per pose (s): the input values are the driver's values at those
-times. A path target without inputs has no time unknowns: its times are projected in every
-evaluation (`Synthesis.project`: the nearest points of the path, in order), its residuals are
+times. A path target without inputs has no time unknowns there: its times are projected
+(`Synthesis.project`: the nearest points of the path, in order), its residuals are
 the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
 projected time is stationary (variable projection). Other residuals are weighted differences in
 the model's units (point coordinates; angles wrapped to a half turn). A `turns:` constraint on a
 four-bar loop adds one barrier row (planarkin.synthesis.margins), zero away from a change point.
 The method:
 
-1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds, each analysed
-   over the whole range through the Study (validate with overrides, compile, solve); designs that
-   cannot be assembled, lock up or violate a constraint are rejected with their reason; the free
-   times of the others are chosen on their grid (the nearest points, in order along the path);
-2. from the best `local` of them, scipy.optimize.least_squares (trust region, jac= the exact
-   Jacobian of planarkin.synthesis.problem, the bounds by a change of variables); a trial design
-   that is rejected returns a residual larger than any acceptable one (a wall), so every
-   accepted step stays assemblable over the whole cycle, on its branch, within the constraints;
+1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds (and the
+   file's own values with search nominal: 1); a design whose four-bar loop cannot turn is
+   refused from its compiled model alone (`screen`), the others are analysed over the whole
+   range through the Study (validate with overrides, compile, solve); designs that cannot be
+   assembled, lock up or violate a constraint are rejected with their reason; the free times
+   of the others are chosen on their grid (the nearest points, in order along the path, in
+   either direction);
+2. from the best `local` of them, a local run (planarkin.synthesis.local): scipy's
+   least_squares (trust region, the exact Jacobian, the bounds by a change of variables) on
+   trials solved at the target inputs only, every free time an unknown, the branch kept by
+   continuation from the last accepted iterate; the run's result is then checked over its
+   whole cycle (`evaluate(final=True)`: assembles everywhere, on its branch, every
+   constraint), and if it fails, the last accepted iterate that passes (bisection over the
+   run's trail), so every returned design is verified over its whole cycle;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
 
-benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml). From the first
-six starts of seed 0, 31-52 trial steps per local run hit the wall without the barrier, 0-5 with
-it (the walls were change points, s + l -> p + q); the local runs still stall short of 1e-12 on
-most seeds (they end at bounds or crawl in a narrow valley).
+benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml): a seed's
+local runs cost ~5 ms a trial against ~65 ms for an analysis over the cycle (load 0.2), 20-30 s
+a seed instead of 12 min; they still end in one valley (the linkage growing to the bounds, SSE
+1e-6 .. 1e-4 mm^2) from the Latin-hypercube starts, while from Hoeken's straight-line linkage
+one local run reaches 1e-20 in ~50 trials (tests/test_synth_local.py): the starts, not the
+local method, are what the target lacks.
 """
 
 from __future__ import annotations
@@ -34,13 +43,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .local import Local
 from .margins import barrier, length_gradients, turning_loop
 from .problem import Model, Rejected, State, wrap
 from .spec import design_of
 
-WALL = 1e6            # residual entries of a rejected design, times the start's residual norm
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
 PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
+STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
 PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 
 
@@ -74,6 +84,7 @@ class SynthResult:
     design: object = None
     model: object = None
     starts: list = field(default_factory=list)
+    analyses: int = 0           # of the evaluations, those analysing a design's whole cycle
 
 
 class Synthesis:
@@ -127,11 +138,12 @@ class Synthesis:
         return self.start + np.mod(np.asarray(t, dtype=float) - self.start, T)
 
     # -- evaluation --------------------------------------------------------------------------
-    def evaluate(self, x, jac: bool = True, final: bool = False):
+    def evaluate(self, x, jac: bool = True, final: bool = False, analysed=None):
         """(residual vector, Jacobian or None, Design) or (None, None, Rejected). final: the
-        order of free times is a constraint too (see below)."""
+        order of free times is a constraint too (see below). analysed: the design's analysis
+        (Model.analyse) when the caller has it already."""
         values = self.model.values(x[:self.k])
-        out = self.model.analyse(values)
+        out = analysed if analysed is not None else self.model.analyse(values)
         if isinstance(out, Rejected):
             return None, None, out
         cm, opts, res = out
@@ -152,7 +164,8 @@ class Synthesis:
                 tt = np.array([tfree[self.free_t.index((i, j))] for j in range(len(tg))])
             where.append(slice(len(times), len(times) + len(tt)))
             times += list(tt)
-        st = self.model.solve_at(cm, res, np.array(times), sens=False)
+        # projected times may have stepped past the end of a cycle: solved where they are
+        st = self.model.solve_at(cm, res, self.wrapped(np.array(times)), sens=False)
         if isinstance(st, Rejected):
             return None, None, st
         margins = self.margins(cm, res, tfree, st.t, where)
@@ -164,7 +177,7 @@ class Synthesis:
             return None, None, Rejected("constraint " + "; ".join(bad))
         per, r, cost = [], [], 0.0
         for i, tg in enumerate(self.design.targets):
-            rr, _ = self._target(tg, i, st, where[i], None, False)
+            rr, _ = self.target_residuals(tg, i, st, where[i], None, False)
             per.append(rr)
             cost += float((rr * tg.weight).ravel() @ (rr * tg.weight).ravel())
             r.append((self._normal(st, tg, where[i], rr) if i in self.projected else rr.ravel())
@@ -223,7 +236,7 @@ class Synthesis:
         for i, tg in enumerate(self.design.targets):
             sl = d.where[i]
             dtdp = self.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
-            Jt = self._target(tg, i, st, sl, dtdp, True)[1]
+            Jt = self.target_residuals(tg, i, st, sl, dtdp, True)[1]
             if i in self.projected:          # n . dP/dp (see _normal)
                 V = st.pd[sl, self.points.index(tg.name)]
                 n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
@@ -258,8 +271,11 @@ class Synthesis:
         m = loop.margin()
         return barrier(m, loop.gradient(dl), sum(loop.lengths), dl.sum(axis=0))[1]
 
-    def _target(self, tg, i, st, sl, dtdp, jac):
-        """Residuals (N, c) of one target and their Jacobian rows (N c, k + nt)."""
+    def target_residuals(self, tg, i, st, sl, dtdp, jac, free_t=None):
+        """Residuals (N, c) of one target and their Jacobian rows (N c, k + len(free_t)).
+        free_t: the (target, entry) pairs whose times are unknowns (default: self.free_t;
+        planarkin.synthesis.local makes a path target's times unknowns too)."""
+        free_t = self.free_t if free_t is None else free_t
         n = sl.stop - sl.start
         cols = []                  # per component: value (N,), d/dp (N, k), d/dt (N,)
         if tg.kind in ("path", "motion"):
@@ -284,14 +300,14 @@ class Synthesis:
         R = np.stack([c[0] for c in cols], axis=1)
         if not jac:
             return R, None
-        J = np.zeros((n, len(cols), self.k + self.nt))
+        J = np.zeros((n, len(cols), self.k + len(free_t)))
         for c, (_, dp, dt) in enumerate(cols):
             J[:, c, :self.k] = dp
             if dtdp is not None:              # prescribed inputs: the time moves with p
                 J[:, c, :self.k] += dt[:, None] * dtdp
-            elif tg.kind == "motion":           # free times: their own unknowns
+            elif (i, 0) in free_t:              # free times: their own unknowns
                 for e in range(n):
-                    J[e, c, self.k + self.free_t.index((i, e))] = dt[e]
+                    J[e, c, self.k + free_t.index((i, e))] = dt[e]
         return R, J.reshape(n * len(cols), -1)
 
     def margins(self, cm, res, tfree, t=None, where=None) -> dict:
@@ -352,34 +368,60 @@ class Synthesis:
         return T - float(steps.sum()) if steps.sum() > T * (1 + 1e-9) else float(steps.min())
 
     # -- global start ------------------------------------------------------------------------
-    def candidates(self, n: int, seed: int):
-        """A seeded Latin hypercube of n designs, each analysed: (x, score) of the accepted in
-        order of score, and the rejection reasons counted."""
+    def candidates(self, n: int, seed: int, nominal: bool = False):
+        """A seeded Latin hypercube of n designs, each analysed: (score, x, Design) of the
+        accepted in order of score, and the rejection reasons counted. nominal: the file's own
+        values (with its --set overrides) are a start too, when inside the bounds (a known
+        design to refine)."""
         from scipy.stats import qmc
         X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
+        if nominal:
+            p = np.array([float(self.model.spec.parameters[k]) for k in self.model.free])
+            if np.all((self.lo <= p) & (p <= self.hi)):
+                X = np.concatenate([p[None, :], X])
         good, reasons = [], {}
         for xp in X:
-            out = self.model.analyse(self.model.values(xp))
+            out = self.screen(self.model.values(xp))
+            if out is None:
+                out = self.model.analyse(self.model.values(xp))
             if isinstance(out, Rejected):
                 key = _kind(out.reason)
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
             cm, _, res = out
             x = np.concatenate([xp, self.free_times(res)])
-            r, _, d = self.evaluate(x, jac=False, final=True)
-            self.model.evaluations -= 1        # evaluate analysed the design again
+            r, _, d = self.evaluate(x, jac=False, final=True, analysed=out)
             if r is None:
                 key = _kind(d.reason)
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
-            good.append((float(r @ r), x))
+            good.append((float(r @ r), x, d))
         good.sort(key=lambda g: g[0])
         return good, reasons
 
+    def screen(self, values):
+        """Rejected when the design is invalid or its four-bar loop cannot turn (the turns
+        margin, from the compiled model alone), else None: an analysis over the cycle would
+        refuse such a design anyway (lock-up, or the turns constraint), at ~30 times the
+        cost. Not an evaluation."""
+        from ..diagnostics import InputError
+        if self.design.turns is None:
+            return None
+        try:
+            cm = self.model.study.model(values)
+        except InputError as e:
+            return Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
+                                                     if d.severity == "error"))
+        loop = turning_loop(cm, self.design.turns)
+        if loop is not None and not loop.margin() > 0:
+            return Rejected(f"constraint turns: {loop.margin():.6g} (needs > 0)")
+        return None
+
     def _grid_times(self, res) -> dict:
         """Free times on the grid: per target without inputs (index -> (N,) s), the grid
-        points nearest its points, in order along the path from the point nearest the first
-        (dynamic programming)."""
+        points nearest its points, in order along the path from the point nearest the first,
+        in either direction (the targets' order or its reverse, whichever is nearer; the order
+        constraint takes both) (dynamic programming)."""
         out = {}
         tg_grid = res.t[:-1] if self.wrap else res.t
         for i, tg in enumerate(self.design.targets):
@@ -389,28 +431,36 @@ class Synthesis:
             path = res.p[:len(tg_grid), j]
             goal = np.array(tg.values)[:, :2]
             D = ((path[None, :, :] - goal[:, None, :]) ** 2).sum(axis=2)     # (N, G)
-            G = len(tg_grid)
-            off = int(np.argmin(D[0])) if self.wrap else 0
-            order = (np.arange(G) + off) % G
-            Dr = D[:, order]
-            cost = Dr[0].copy()
-            back = np.zeros(D.shape, dtype=np.intp)
-            for e in range(1, len(goal)):         # strictly later along the path
-                best = np.minimum.accumulate(cost)
-                arg = np.zeros(G, dtype=np.intp)
-                for g in range(1, G):
-                    arg[g] = g if cost[g] <= best[g - 1] else arg[g - 1]
-                back[e, 1:] = arg[:-1]
-                cost = np.concatenate([[np.inf], best[:-1]]) + Dr[e]
-            g = int(np.argmin(cost))
-            idx = [g]
-            for e in range(len(goal) - 1, 0, -1):
-                g = int(back[e][g])
-                idx.append(g)
-            idx = idx[::-1]
-            out[i] = np.array([tg_grid[order[gi]] + (self.end - self.start if self.wrap and
-                                                     order[gi] < off else 0.0) for gi in idx])
+            fwd, rev = self._in_order_grid(D, tg_grid), self._in_order_grid(D[::-1], tg_grid)
+            out[i] = fwd[1] if fwd[0] <= rev[0] or not self.design.order else rev[1][::-1]
         return out
+
+    def _in_order_grid(self, D, tg_grid):
+        """(cost, (N,) times) of the grid points nearest the targets (rows of D) with times
+        strictly increasing along the path (around the cycle from the point nearest the first
+        target when it wraps)."""
+        G = len(tg_grid)
+        off = int(np.argmin(D[0])) if self.wrap else 0
+        order = (np.arange(G) + off) % G
+        Dr = D[:, order]
+        cost = Dr[0].copy()
+        back = np.zeros(D.shape, dtype=np.intp)
+        for e in range(1, len(D)):          # strictly later along the path
+            best = np.minimum.accumulate(cost)
+            arg = np.zeros(G, dtype=np.intp)
+            for g in range(1, G):
+                arg[g] = g if cost[g] <= best[g - 1] else arg[g - 1]
+            back[e, 1:] = arg[:-1]
+            cost = np.concatenate([[np.inf], best[:-1]]) + Dr[e]
+        g = int(np.argmin(cost))
+        total = float(cost[g])
+        idx = [g]
+        for e in range(len(D) - 1, 0, -1):
+            g = int(back[e][g])
+            idx.append(g)
+        idx = idx[::-1]
+        return total, np.array([tg_grid[order[gi]] + (self.end - self.start if self.wrap and
+                                                      order[gi] < off else 0.0) for gi in idx])
 
     def free_times(self, res) -> np.ndarray:
         """(nt,) the free-time unknowns' start on the grid (see _grid_times)."""
@@ -422,57 +472,31 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
     """Synthesis of a model's design block (see the module docstring). search: overrides of
     design: search: (starts, local, keep, seed, goal, evaluations). Raises InputError for
     invalid input; returns a SynthResult (status 0 with designs, 1 none acceptable)."""
-    from scipy.optimize import least_squares
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
     cfg = {**syn.design.search, **_search_options(path, search)}
-    first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
-    if not isinstance(first, Rejected):
-        syn.wrap = syn.model.periodic(first[2])
-    good, reasons = syn.candidates(cfg["starts"], cfg["seed"])
+    if syn.nt or syn.projected:     # free times may wrap around a full cycle
+        first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
+        if not isinstance(first, Rejected):
+            syn.wrap = syn.model.periodic(first[2])
+    good, reasons = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]))
     lo, hi = syn.bounds()
     designs, rejected_local = [], []
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
-    for score, x0 in good[:cfg["local"]]:
-        if syn.model.evaluations >= cfg["evaluations"]:
+    local = Local(syn)
+    stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
+    for score, x0, d0 in good[:cfg["local"]]:
+        if syn.model.evaluations + local.evaluations >= cfg["evaluations"]:
             break
-        x0 = np.clip(x0, lo, hi)
-        r0, _, _ = syn.evaluate(x0, jac=False)
-        wall = np.full(len(r0), WALL * (1.0 + float(np.linalg.norm(r0))))
-        cache = {}
-        # the bounds by a change of variables, x = mid + half sin z (exact chain rule): on the
-        # straight-line benchmark the local runs ended lower in fewer evaluations than with
-        # least_squares' own bounds (reflective steps crawl near an active bound)
-        mid, half = (lo + hi) / 2, (hi - lo) / 2
-        X = lambda z: mid + half * np.sin(z)          # noqa: E731
-
-        def fun(z):
-            key = z.tobytes()
-            if key not in cache:
-                cache.clear()
-                cache[key] = syn.evaluate(X(z), jac=False)
-            r = cache[key][0]
-            return wall if r is None else r
-
-        def jac(z):         # least_squares asks at the point it has just evaluated
-            fun(z)
-            r, _, d = cache[z.tobytes()]
-            if r is None:
-                return np.zeros((len(wall), len(z)))
-            return syn.jacobian(d) * (half * np.cos(z))
-
-        budget = max(1, cfg["evaluations"] - syn.model.evaluations)
-        e0, j0 = syn.model.evaluations, syn.model.jacobians
-        z0 = np.arcsin(np.clip((x0 - mid) / half, -1.0, 1.0))
-        sol = least_squares(fun, z0, jac=jac, method="trf", ftol=1e-15, xtol=1e-15,
-                            gtol=1e-15, max_nfev=min(budget, cfg["per_local"]))
-        sol.x = X(sol.x)
-        r, _, d = syn.evaluate(sol.x, final=True)
-        if r is None:
-            rejected_local.append(d.reason)
+        budget = max(1, cfg["evaluations"] - syn.model.evaluations - local.evaluations)
+        e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
+        xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop)
+        d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
+        if d is None:
             continue
-        d.nfev, d.njev = syn.model.evaluations - e0, syn.model.jacobians - j0
-        d.message = sol.message
+        d.nfev = syn.model.evaluations + local.evaluations - e0
+        d.njev = syn.model.jacobians - j0
+        d.message = d.message or message
         norm = (d.x - 0) / np.where(span > 0, span, 1.0)
         if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
                for o in designs):
@@ -493,9 +517,34 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                           sorted(reasons.items(), key=lambda kv: -kv[1])) + " among the "
                           f"{cfg['starts']} starts" if reasons else "the local searches failed"))
     return SynthResult(status=status, message=msg, designs=designs, rejected=reasons,
-                       evaluations=syn.model.evaluations, jacobians=syn.model.jacobians,
+                       evaluations=syn.model.evaluations + local.evaluations,
+                       analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
-                       starts=[s for s, _ in good])
+                       starts=[g[0] for g in good])
+
+
+def _verified(syn, local, x, trail, lo, hi, rejected, first):
+    """The fully evaluated design at the end x of a local run, or, when it fails the full
+    check (the whole cycle, on the branch, every constraint: the guarantee of a returned
+    design; a local trial checks only the target inputs), the last accepted iterate of the
+    run that passes it, found by bisection over the trail (its first entry is the run's start,
+    the fully evaluated design `first`); the reason of the failure appended to rejected."""
+    r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
+    if r is not None:
+        return d
+    rejected.append(d.reason)
+    good, bad, best = 0, len(trail), None
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        r, _, dm = syn.evaluate(np.clip(local.full(trail[mid]), lo, hi), jac=False, final=True)
+        if r is None:
+            bad = mid
+        else:
+            good, best = mid, dm
+    best = best or first
+    best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
+                    f"accepted iterate that passes it")
+    return best
 
 
 def _search_options(path, search: dict) -> dict:
