@@ -241,3 +241,28 @@ def test_without_a_private_cache_the_kernel_compiles_in_memory(tmp_path):
     got = _run_batch({"PLANARKIN_CACHE": str(bad)})
     assert got["rel"] <= 1e-15 and got["jitted"] and not got["loaded"]
     assert got["file"].startswith("<planarkin pk_grid_") and not any(bad.iterdir())
+
+
+# The whole run on the compiled route (the threshold lowered: the path's candidates by the
+# kernel generated for the path system, its merged blocks by Gauss-Jordan) against the numpy
+# route (LAPACK's inverse of the path's few candidates, linalg.inv_batched): the path's nodes
+# differ by rounding (2e-15 on the four-bar), and so the grid rows by a few units in the last
+# place of each column's largest value (1.9e-15 measured on table-input); the iteration counts
+# are the same.
+@pytest.mark.parametrize("name", ["four-bar", "slider-crank", "klann-leg", "table-input"])
+def test_the_compiled_path_gives_the_numpy_routes_results(name, monkeypatch):
+    from test_perstep import close_columns
+    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    ref = planarkin.solve(m, steps=240)
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 0)
+    called = []
+    real = compiled_grid.solve
+    monkeypatch.setattr(compiled_grid, "solve", lambda *a: called.append(len(a[3])) or real(*a))
+    got = planarkin.solve(m, steps=240)
+    assert ref.status == got.status == 0 and len(ref.t) == len(got.t)
+    assert min(called) < 8 < max(called)       # the path's candidates and the grid's chunks
+    for what in ("q", "qd", "qdd", "p", "pd", "pdd"):
+        close_columns(getattr(ref, what), getattr(got, what), what, 2.5e-15)
+    assert np.array_equal(ref.iterations, got.iterations)
