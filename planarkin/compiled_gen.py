@@ -508,7 +508,7 @@ class _Writer:
         o(0, "")
         o(0, "@numba.njit(cache=CACHE, error_model='numpy', nogil=True)")
         o(0, "def grid(N, Q, Qd, Qdd, T, NU, FDD, prm, maxit, tol, full, order, iters, conv, "
-             "ratio, sign, smin, R, rmax, cond):")
+             "ratio, sign, smin, R, rmax, cond, pred, t, idx, Tn, Qn, Qdn, Qddn, Qf):")
         # the calls' constant arguments as variables (a literal is a statement of numba's IR
         # at every use: the first compile's time is that of the IR's statements)
         o(1, "ZERO = 0.0")
@@ -531,6 +531,10 @@ class _Writer:
             o(1, f"SB = np.empty({fmax * fmax})")
             o(1, f"SI = np.empty({fmax * fmax})")
         o(1, "for i in range(N):")
+        # pred: the predictions written here from the path's nodes (Qf: Q's flat view), in
+        # the pass that reads them first (compiled_points.hermite's formula)
+        o(2, "if pred != 0:")
+        o(3, f"K.hermite_row(t[i], idx[i], {n + 3}, Tn, Qn, Qdn, Qddn, Qf, i * {n + 3})")
         for b in range(nb):
             o(2, f"C[i, {b}] = np.cos(Q[i, {3 * b + 2}])")
             o(2, f"S[i, {b}] = np.sin(Q[i, {3 * b + 2}])")

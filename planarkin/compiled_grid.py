@@ -90,7 +90,8 @@ def signature():
     INT, DBL = numba.int64, numba.float64
     F1, F2 = numba.float64[::1], numba.float64[:, ::1]
     return (INT, F2, F2, F2, F2, F2, F2, F2, INT, DBL, INT, INT, numba.int64[::1],
-            numba.uint8[::1], F1, F2, F2, F2, F1, F1)
+            numba.uint8[::1], F1, F2, F2, F2, F1, F1, INT, F1, numba.int64[::1], F1, F1, F1, F1,
+            F1)
 
 
 def _c(a):
@@ -99,8 +100,16 @@ def _c(a):
     return a if a.flags.writeable else a.copy()
 
 
-def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
-    """kernel.solve by the generated kernel fn: the same arguments and results."""
+_NONE_F = np.zeros(0)
+_NONE_I = np.zeros(0, dtype=np.int64)
+
+
+def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None, R=None):
+    """kernel.solve by the generated kernel fn: the same arguments and results. predict:
+    (t, idx, Tn, Qn, Qdn, Qddn), Q's rows are then written by the kernel as the quintic
+    Hermite predictions at times t (N,) between path nodes idx (N,) and idx + 1 (Tn (K,), Qn,
+    Qdn, Qddn (K, W)) before they are solved (Q, C-contiguous float, need not hold anything);
+    R: an (N, m) array for the residuals (else a new one)."""
     N, W = Q.shape
     m = S.cm.m
     iters = np.empty(N, dtype=np.int64)
@@ -108,14 +117,26 @@ def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     ratio = np.empty(N)
     sign = np.zeros((N, P.nfine))
     smin = np.empty((N, P.nblk))
-    R = np.empty((N, m))
+    if R is None or R.shape != (N, m) or R.dtype != float or not R.flags.c_contiguous:
+        R = np.empty((N, m))
     rmax = np.empty(N)
     cond = np.empty(N)
     work = [_c(X) for X in (Q, Qd, Qdd)]
     drv = [_c(np.broadcast_to(X, (N, m))) for X in (T, NU, FDD)]
     prm = np.ascontiguousarray(P.arrays[3], dtype=float)
+    if predict is None:
+        pred = (0, _NONE_F, _NONE_I, _NONE_F, _NONE_F, _NONE_F, _NONE_F, _NONE_F)
+    else:
+        t, idx, Tn, Qn, Qdn, Qddn = predict
+        K = len(Tn)
+        idx = np.ascontiguousarray(idx, dtype=np.int64)
+        if len(t) != N or len(idx) != N or Qn.shape[1:] != (W,) or (
+                N and not 0 <= idx.min() <= idx.max() < K - 1):
+            raise ValueError("planarkin kernel: predictions between nodes that do not exist")
+        pred = (1, _c(t), idx, *(_c(X).reshape(-1) for X in (Tn, Qn, Qdn, Qddn)),
+                work[0].reshape(-1))
     fn(N, *work, *drv, prm, int(maxit), float(tol), int(policy == "full"), int(order), iters,
-       conv, ratio, sign, smin, R, rmax, cond)
+       conv, ratio, sign, smin, R, rmax, cond, *pred)
     for X, Wk in zip((Q, Qd, Qdd), work):
         if Wk is not X:
             X[...] = Wk

@@ -345,3 +345,32 @@ def gauss_jordan(k, J, jo, inv, io, A):
         for j in range(k):
             inv[io + i * k + j] = A[i * w + k + j] if ok else np.nan
     return ok, (sg if ok else 0.0)
+
+
+@inline
+def hermite_row(ti, k, W, Tn, Qn, Qdn, Qddn, Q, qo):
+    """One grid row's prediction into Q[qo:qo + W]: quintic Hermite interpolation at time ti
+    between path nodes k and k + 1 (rows of W numbers of the flat Qn, Qdn, Qddn), the
+    operations of planarkin.path.hermite5 in its order (the same bits). Called by
+    compiled_points.hermite and inside the generated grid kernels (compiled_gen)."""
+    h = Tn[k + 1] - Tn[k]
+    s = (ti - Tn[k]) / h
+    s2 = s * s
+    s3 = s2 * s
+    s4 = s3 * s
+    s5 = s3 * s2
+    H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+    H1 = s - 6 * s3 + 8 * s4 - 3 * s5
+    H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+    H3 = 10 * s3 - 15 * s4 + 6 * s5
+    H4 = -4 * s3 + 7 * s4 - 3 * s5
+    H5 = 0.5 * s3 - s4 + 0.5 * s5
+    h1 = H1 * h
+    h2 = H2 * h * h
+    h4 = H4 * h
+    h5 = H5 * h * h
+    o0 = k * W
+    o1 = o0 + W
+    for c in range(W):
+        Q[qo + c] = (H0 * Qn[o0 + c] + h1 * Qdn[o0 + c] + h2 * Qddn[o0 + c]
+                     + H3 * Qn[o1 + c] + h4 * Qdn[o1 + c] + h5 * Qddn[o1 + c])

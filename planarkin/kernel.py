@@ -228,17 +228,23 @@ def _flat(a, dtype=float):
     return a if a.flags.writeable else a.copy()
 
 
-def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
+def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None,
+          R=None):
     """System.solve_batch by the compiled route: Q, Qd, Qdd (N, n + 3) updated in place.
     Returns (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False
     where a coordinate is not finite), the residual |Phi| (N, m) of every equation at the
     results (redundant ones included), its largest value per point (N,) and the condition
-    estimate (N,) of acceptance.condition."""
+    estimate (N,) of acceptance.condition. predict: (t, idx, Tn, Qn, Qdn, Qddn), Q is then
+    first written with the Hermite predictions between the path's nodes (compiled_grid.solve;
+    by kernel.hermite before the generic kernel); R: an (N, m) array to hold the residuals."""
     from . import compiled_grid
     N, W = Q.shape
     fn = compiled_grid.function(P, W, S.cm.m, S.nb)
     if fn is not None:              # a kernel written out for this structure
-        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
+        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order,
+                                   predict, R)
+    if predict is not None:
+        Q[...] = hermite(lib, *predict)
     lib.need("grid")
     nblk = P.nblk
     iters = np.empty(N, dtype=np.int64)

@@ -580,10 +580,11 @@ class Analysis:
             Qdd = np.repeat(Qddn[:1], N, axis=0)
         elif (lib := self._chunk_kernel(idx := np.clip(
                 np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
-            # the compiled route solves this chunk: its predictions too (the same formula)
-            Q = kernel.hermite(lib, t, idx, Tn, Qn, Qdn, Qddn)
-            Qd = np.zeros_like(Q)
-            Qdd = np.zeros_like(Q)
+            # the compiled route solves this chunk, and writes its predictions (the same
+            # formula) in its first pass over the points (solve_batch's predict), into arrays
+            # kept from chunk to chunk (the kernel writes every entry: no fresh pages to fault
+            # in, no zeros to write)
+            Q, Qd, Qdd, Rbuf = self._buffers(N, Qn.shape[1])
         else:
             h = (Tn[idx + 1] - Tn[idx])[:, None]
             s = (t[:, None] - Tn[idx][:, None]) / h
@@ -645,7 +646,9 @@ class Analysis:
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
-                Qddd=Qddds, third=third, compiled=self.compiled)
+                Qddd=Qddds, third=third, compiled=self.compiled,
+                predict=None if lib is None else (tq, idx, Tn, Qn, Qdn, Qddn),
+                R=None if lib is None else Rbuf[:len(tq)])
             ok = self._accepted(info, Qs, u, idx, sel, whole)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
@@ -701,14 +704,27 @@ class Analysis:
 
     def _chunk_kernel(self, idx):
         """The compiled library when the chunk at node intervals idx is solved (not
-        interpolated), on one segment without a passed bifurcation, by a System that has the
-        kernel; else None."""
+        interpolated), whole (on one segment without a passed bifurcation), by the compiled
+        route (System.route_of); else None."""
         segs = self.seg[idx]
         u = int(segs[0])
         if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
             return None
-        k = self.follower.systems[u][0].kernel(self.compiled)
+        k = self.follower.systems[u][0].route_of(self.compiled, self.opts.newton,
+                                                 self.opts.order)
         return None if k is None else k[0]
+
+    def _buffers(self, N: int, W: int):
+        """Q, Qd, Qdd (N, W) and the residuals (N, m) of a chunk on the compiled route: views
+        of arrays kept by the analysis (from chunk to chunk nothing of them is kept: the
+        kernel lays the results out into new arrays, kernel.layout)."""
+        m = max(self.cm.m, 1)
+        got = self.__dict__.get("_bufs")
+        if got is None or got[0].shape[0] < N or got[0].shape[1] != W:
+            # (zeros: the ground's columns, which the kernel does not write)
+            got = self._bufs = (np.zeros((N, W)), np.zeros((N, W)), np.zeros((N, W)),
+                                np.empty((N, m)))
+        return tuple(a[:N] for a in got)
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
         """The jerk at a row solved by path following (a fallback): the jerk system of its
