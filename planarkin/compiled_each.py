@@ -118,7 +118,7 @@ def invert_small(kb, J, M, mo, WK):
 def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff, bcols, brows,
                Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, iters, conv, ratio, sign, smin, inblk,
                rcol, rpos, nfine, bfirst, bnf, bfo, bfs, has_v, vrow, prm, ne, has_t, trow, tg,
-               sign0, kappa, cond_max, test, good, perr):
+               sign0, test, good, perr):
     """solve_points' arguments and results, point by point (a design study, studies.batch):
     each point solves its blocks in order, each block by Newton until that point's own
     correction is at most tol (so a point's result does not depend on the other points of the
@@ -127,9 +127,8 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
     (E x 8) shared by all points, or with has_v the table prm (V x ne x 8) of parameter sets,
     row vrow[i] (a design study's variants). has_t: point i reads row trow[i] of T, NU and FDD
     (a study's grid times, the same for every variant), else row i. test: with the acceptance
-    tests of every point (accept_point) into good and perr; kappa and cond_max are not read
-    (accept_point's bounds are planarkin.acceptance's, compiled in: kernel.solve_rows passes
-    the same ones)."""
+    tests of every point (accept_point) into good and perr (accept_point's bounds are
+    planarkin.acceptance's KAPPA and COND_WARN, compiled in)."""
     nbb = nb + 1
     n = W - 3
     total = 0
@@ -297,6 +296,6 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
 SIGNATURES = {
     "solve_each": (INT, INT, INT, INT, INT, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64,
                    F64, F64, F64, F64, F64, F64, INT, DBL, INT, I64, U8, F64, F64, F64, U8, I64,
-                   I64, INT, I64, I64, I64, I64, INT, I64, F64, INT, INT, I64, F64, F64, DBL,
-                   DBL, INT, U8, F64),
+                   I64, INT, I64, I64, I64, I64, INT, I64, F64, INT, INT, I64, F64, F64, INT,
+                   U8, F64),
 }

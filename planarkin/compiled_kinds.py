@@ -29,7 +29,7 @@ import numpy as np
 
 inline = numba.njit(inline="always", error_model="numpy", _nrt=False)
 
-# kind code (planarkin.kernel._CODES) -> the name of its function here
+# kind code (a kind class's compiled_code, planarkin.elements.base.Kind) -> its function here
 KINDS = {1: "revolute", 2: "translational", 3: "angle", 4: "xdistance", 5: "ydistance",
          6: "distance", 7: "pinslot", 8: "slide"}
 

@@ -47,12 +47,18 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # about 250,000 points; the threshold stays.
 COMPILED_FROM_POINTS = 300_000
 
-# kind codes of planarkin.compiled.row_eval; the kinds are matched by class, not by name
-_CODES = {"Revolute": 1, "Translational": 2, "Angle": 3, "XDistance": 4, "YDistance": 5,
-          "Distance": 6, "PinSlot": 7, "Slide": 8}
-# parameter slots: p[0:2] si, p[2:4] sj, p[4:6] vi
-_PARAMS = {1: ("si", "sj"), 2: ("si", "sj", "vi", "vj"), 3: (), 4: ("si", "sj"),
-           5: ("si", "sj"), 6: ("si", "sj"), 7: ("si", "vi", "sj"), 8: ("si", "vi", "sj")}
+# where pack puts a kind's parameters (its compiled_params): p[0:2] si, p[2:4] sj, p[4:6] vi,
+# p[6:8] vj, whatever order the kind lists them in
+_SLOT = {"si": 0, "sj": 2, "vi": 4, "vj": 6}
+
+
+def compiled_kind(kind):
+    """(code, parameter names) of a kind the compiled route compiles (its class's own
+    compiled_code and compiled_params, planarkin.elements.base.Kind: a subclass that does not
+    state them is not compiled on its parent's word), or None."""
+    own = vars(type(kind))
+    code = own.get("compiled_code")
+    return None if code is None else (code, tuple(own.get("compiled_params", ())))
 
 _state: dict = {}        # "lib": the loaded Library, or None: numba could not be imported
 
@@ -168,18 +174,17 @@ def pack(S) -> Packed | None:
     rowel = np.full(cm.m, -1, dtype=np.int32)
     roweq = np.zeros(cm.m, dtype=np.int32)
     for G in cm.groups:
-        code = _CODES.get(type(G.kind).__name__)
-        if code is None or G.kind.nbody != 2 or set(G.params) - set(_PARAMS[code]):
+        ck = compiled_kind(G.kind)
+        if ck is None or G.kind.nbody != 2 or set(G.params) - set(ck[1]):
             return None
+        code, names = ck
         for k in range(len(G)):
             bi, bj = int(G.bodies[k, 0]), int(G.bodies[k, 1])
             if bi == bj:
                 return None
             p = np.zeros(8)
-            for slot, name in enumerate(_PARAMS[code]):
-                # slot order si, sj, vi(, vj) for the revolute-like kinds; pin-slot and slide
-                # list si, vi, sj: keep si in 0:2, sj in 2:4, vi in 4:6 for all
-                at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+            for name in names:
+                at = _SLOT[name]
                 p[at:at + 2] = G.params[name][k]
             e = len(ekind)
             ekind.append(code)
@@ -277,10 +282,9 @@ def table(cm, params) -> np.ndarray:
     V = next((a.shape[0] for p in params for a in p.values()), 1)
     parts = []
     for G, p in zip(cm.groups, params):
-        code = _CODES[type(G.kind).__name__]
         out = np.zeros((V, len(G), 8))
-        for name in _PARAMS[code]:
-            at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+        for name in compiled_kind(G.kind)[1]:
+            at = _SLOT[name]
             out[:, :, at:at + 2] = p.get(name, G.params[name])
         parts.append(out)
     return np.concatenate(parts, axis=1)
@@ -321,8 +325,8 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     int32 tables (K, m) of which point i reads row trow[i]; rows, table: per-point element
     parameters, an index per point into a (V, E, 8) table of parameter sets (see `table`).
     Returns (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array
-    given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0,
-    kappa, cond_max), the acceptance tests of studies.batch (see compiled_each.accept_point):
+    given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0),
+    the acceptance tests of studies.batch (compiled_each.accept_point, its bounds compiled in):
     good (N,) bool and perr (N,), the path error of the interval from the point before (grid
     times tg, indexed as T); None: not tested (good, perr None). hist: (H0, H1, H2, H3, cub),
     four arrays shaped as Q (the last four solutions, newest first) and cub (N,) bool: the
@@ -363,9 +367,9 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     sign = _buffer(work, "sign", (N, P.nfine))
     smin = _buffer(work, "smin", (N, P.nblk))
     good = perr = None
-    sign0, tg, kappa, cond_max = _NONE_F64, _NONE_F64, 0.0, 0.0
+    sign0, tg = _NONE_F64, _NONE_F64
     if accept is not None:
-        tg, sign0, kappa, cond_max = accept
+        tg, sign0 = accept
         tg = np.ascontiguousarray(tg, dtype=float)
         sign0 = np.ascontiguousarray(sign0, dtype=float)
         if sign0.shape != (N, P.nfine) or len(tg) != len(drv[0]):
@@ -388,7 +392,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
                    P.nfine, *P.fine, int(rows is not None),
                    _NONE_I64 if rows is None else rows, prm.reshape(-1), eprm.shape[0],
                    int(trow is not None), _NONE_I64 if trow is None else trow,
-                   tg.reshape(-1), sign0.reshape(-1), float(kappa), float(cond_max),
+                   tg.reshape(-1), sign0.reshape(-1),
                    int(accept is not None), _NONE_U8 if good is None else good,
                    _NONE_F64 if perr is None else perr)
     return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
