@@ -65,14 +65,14 @@ def structure(P, W: int, m: int, nb: int) -> tuple:
     return (W, m, nb, P.nfine) + tuple(tuple(int(x) for x in np.ravel(a)) for a in parts)
 
 
-def name_of(struct: tuple) -> str:
-    """The generated module's name: a hash of the structure and of the generator (this module's
-    source and the kind functions')."""
-    h = hashlib.sha256(repr((VERSION, struct)).encode())
+def name_of(struct: tuple, what: str = "grid") -> str:
+    """The generated module's name: what it holds ('grid', or 'each': compiled_gen_each), a
+    hash of the structure and of the generators (their sources and the kind functions')."""
+    h = hashlib.sha256(repr((VERSION, what, struct)).encode())
     here = Path(__file__).parent
-    for name in ("compiled_gen.py", "compiled_kinds.py"):
+    for name in ("compiled_gen.py", "compiled_gen_each.py", "compiled_kinds.py"):
         h.update((here / name).read_bytes())
-    return f"pk_grid_{h.hexdigest()[:20]}"
+    return f"pk_{what}_{h.hexdigest()[:20]}"
 
 
 class _Text:
@@ -83,7 +83,7 @@ class _Text:
         self.lines.append("    " * depth + line)
 
 
-class _Writer:
+class Writer:
     """The source of one structure, piece by piece (see source)."""
 
     def __init__(self, P, W, m, nb):
@@ -267,7 +267,7 @@ class _Writer:
             c = int(self.rcol[row, k])
             known = c < self.n and self.colblock.get(c, b) < b
             terms.append(f"d{y}_{rp}_{k} * {X}{c}" if known else None)
-        expr = _pairs(terms)
+        expr = pairs(terms)
         r = rhs.format(rp=rp, row=row, x=x)
         return f"{r} - {expr}" if expr else r
 
@@ -580,15 +580,15 @@ class _Writer:
         o(2, f"for a in range({n}):")
         o(3, "if not math.isfinite(Q[i, a]):")
         o(4, "conv[i] = 0")
-        return "\n".join(_discards(o.lines)) + "\n"
+        return "\n".join(discards(o.lines)) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
     """The module text of the grid pass for the structure of packed system P (covers(P))."""
-    return _Writer(P, W, m, nb).source()
+    return Writer(P, W, m, nb).source()
 
 
-def _pairs(terms):
+def pairs(terms):
     """((t0 + t1) + (t2 + t3)) + (t4 + t5), the missing terms (None) left out."""
     def add(a, b):
         if a is None:
@@ -599,7 +599,7 @@ def _pairs(terms):
     return add(add(add(terms[0], terms[1]), add(terms[2], terms[3])), add(terms[4], terms[5]))
 
 
-def _discards(lines):
+def discards(lines):
     """Each discarded value (the `_` of an unpacking) a name of its own: a name assigned many
     times costs numba's SSA reconstruction time in proportion to its assignments."""
     count = [0]

@@ -41,7 +41,22 @@ def function(P, W: int, m: int, nb: int):
     return _fns[key]
 
 
-def _build(name: str, text: str):
+def function_each(P, W: int, m: int, nb: int):
+    """The studies' point-by-point solve generated for packed system P's structure
+    (planarkin.compiled_gen_each), compiled or loaded, or None (as function)."""
+    if generic_only() or not compiled_gen.covers(P):
+        return None
+    key = getattr(P, "each_name", None)
+    if key is None:
+        key = P.each_name = compiled_gen.name_of(compiled_gen.structure(P, W, m, nb), "each")
+    if key not in _fns:
+        from . import compiled_gen_each
+        _fns[key] = _build(key, compiled_gen_each.source(P, W, m, nb), "each",
+                           signature_each())
+    return _fns[key]
+
+
+def _build(name: str, text: str, entry_point: str = "grid", sig=None):
     import numba
     entry = jitcache.prepare()
     try:
@@ -57,9 +72,9 @@ def _build(name: str, text: str):
         mod.CACHE = path is not None
         sys.modules[name] = mod
         exec(compile(text, mod.__file__, "exec"), mod.__dict__)
-        fn = mod.grid
+        fn = getattr(mod, entry_point)
         if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
-            fn.compile(signature())
+            fn.compile(signature() if sig is None else sig)
     finally:
         jitcache.record()
     return fn
@@ -92,6 +107,14 @@ def signature():
     return (INT, F2, F2, F2, F2, F2, F2, F2, INT, DBL, INT, INT, numba.int64[::1],
             numba.uint8[::1], F1, F2, F2, F2, F1, F1, INT, F1, numba.int64[::1], F1, F1, F1, F1,
             F1)
+
+
+def signature_each():
+    import numba
+    INT, DBL = numba.int64, numba.float64
+    F1, I1, U1 = numba.float64[::1], numba.int64[::1], numba.uint8[::1]
+    return (INT, F1, F1, F1, F1, F1, F1, INT, DBL, INT, I1, U1, F1, F1, F1, INT, I1, F1, INT,
+            INT, I1, F1, F1, INT, U1, F1)
 
 
 def _c(a):

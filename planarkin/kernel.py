@@ -385,6 +385,17 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows) = P.arrays
     inblk, rcol, rpos = P.tail
     prm = eprm if table is None else table
+    from . import compiled_grid
+    fn = compiled_grid.function_each(P, W, S.cm.m, S.nb)
+    if fn is not None:          # the point-by-point solve written out for this structure
+        fn(N, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1), *(X.reshape(-1) for X in drv),
+           int(maxit), float(tol), 1, iters, conv, ratio, sign.reshape(-1), smin.reshape(-1),
+           int(rows is not None), _NONE_I64 if rows is None else rows, prm.reshape(-1),
+           eprm.shape[0], int(trow is not None), _NONE_I64 if trow is None else trow,
+           tg.reshape(-1), sign0.reshape(-1), int(accept is not None),
+           _NONE_U8 if good is None else good, _NONE_F64 if perr is None else perr)
+        return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+                None if good is None else good.view(bool), perr)
     lib.solve_each(N, W, S.cm.m, S.nb, P.nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
                    bcols, brows, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1),
                    *(X.reshape(-1) for X in drv), int(maxit), float(tol), 1, iters, conv, ratio,

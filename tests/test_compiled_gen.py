@@ -266,3 +266,33 @@ def test_the_compiled_path_gives_the_numpy_routes_results(name, monkeypatch):
     for what in ("q", "qd", "qdd", "p", "pd", "pdd"):
         close_columns(getattr(ref, what), getattr(got, what), what, 2.5e-15)
     assert np.array_equal(ref.iterations, got.iterations)
+
+
+@pytest.mark.parametrize("name,merged", [("four-bar", False), ("klann-leg", False),
+                                         ("jansen-leg", False), ("four-bar", True)])
+def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
+    """The studies' point-by-point solve written out per structure (compiled_gen_each) against
+    compiled_each.solve_each, the arrays kernel.solve_rows returns bit for bit: two parameter
+    sets alternating point by point (a per-point table), the acceptance tests on; 2 x 2
+    blocks (the Jansen leg's chain), a 4 x 4 one (Klann) and the path's merged 9 x 9."""
+    import test_perstep
+    lib = kernel.library().need("study")
+    S, t, Q0 = test_perstep._batch(f"{name}.yaml", merged=merged, N=120)
+    P = kernel.pack(S)
+    T, NU, FDD = S.driver_values(t)
+    table = np.stack([P.arrays[3], P.arrays[3] * (1 + 1e-3)])
+    rows = (np.arange(len(t)) % 2).astype(np.int64)
+    sign0 = np.ones((len(t), P.nfine))
+    out, called = [], []
+    real = compiled_grid.function_each
+    monkeypatch.setattr(compiled_grid, "function_each",
+                        lambda *a: called.append(1) or real(*a))
+    for route in ("generic", "1"):
+        monkeypatch.setenv("PLANARKIN_KERNEL", route)
+        r = kernel.solve_rows(lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8, rows=rows,
+                              table=table, accept=(t, sign0))
+        out.append([np.array(x) for x in r])
+    assert called and compiled_gen.covers(P)
+    for a, b in zip(*out):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert out[1][4].any() and np.isfinite(out[1][9]).all()
