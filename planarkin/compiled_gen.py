@@ -299,18 +299,18 @@ class Writer:
         o(2, "for i in range(N):")
         self.load(3, [b], rates=False)
         o(3, f"mo = i * {kk}")
+        # the gradients at every iteration, used or not (g is the same bits either way): one
+        # call site a row, not two (the path's kernel, whose few points make its first
+        # compile, not its run, the cost)
+        self.evaluate(3, b, 2 | 1, x, matrix=False)
         d = 3
         if not aff:
             o(3, "if it == 0 or full != 0:")
             d = 4
-        self.evaluate(d, b, 2 | 1, x, matrix=False)
         self.factor(d, b, x, f"MI{x}", "mo")
         o(d, "if it == 0:")
         o(d + 1, f"smin[i, {b}] = sm{x}")
         self.fine_signs(d + 1, b)
-        if not aff:
-            o(3, "else:")
-            self.evaluate(4, b, 1, x, matrix=False)
         for rp, row in enumerate(rows):
             o(3, f"RV[{rp}] = g{x}_{rp} - T[i, {row}]")
         o(3, "sz = 0.0")

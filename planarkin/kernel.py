@@ -60,17 +60,20 @@ def compiled_kind(kind):
     code = own.get("compiled_code")
     return None if code is None else (code, tuple(own.get("compiled_params", ())))
 
+
 _state: dict = {}        # "lib": the loaded Library, or None: numba could not be imported
 
 
 class Library:
     """The compiled entry points, each compiled for its one signature (or loaded from numba's
-    cache) when a job first needs it (need): planarkin.compiled_points' hermite and layout
-    ('points', every job on the route), the generic solve_points of planarkin.compiled with them
-    ('grid': only for a system no generated kernel covers, see solve), compiled_each's
-    solve_each and the cubic ('study')."""
+    cache) when a job first needs it (need): planarkin.compiled_points' layout ('points', every
+    job on the route: the generated kernels write their own predictions), its hermite
+    ('hermite'), the generic solve_points of planarkin.compiled with both ('grid': only for a
+    system no generated kernel covers, see solve), compiled_each's solve_each and the cubic
+    ('study')."""
 
-    PARTS = {"points": ("compiled_points", ("hermite", "layout")),
+    PARTS = {"points": ("compiled_points", ("layout",)),
+             "hermite": ("compiled_points", ("hermite",)),
              "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
              "study": ("compiled_each", ("solve_each",), "compiled_points", ("cubic",))}
 
@@ -226,6 +229,18 @@ def pack(S) -> Packed | None:
 
 
 
+def chunk_buffers(keep: dict, N: int, W: int, m: int):
+    """Q, Qd, Qdd (N, W) and the residuals (N, m) of a grid chunk on the compiled route: views
+    of arrays kept in keep (the analysis's) from chunk to chunk, so that no fresh pages are
+    faulted in: nothing of them outlives a chunk (the kernel lays the results out into new
+    arrays, layout). Zeros at first: the ground's columns, which the kernel does not write."""
+    got = keep.get("_chunk_buffers")
+    if got is None or got[0].shape[0] < N or got[0].shape[1] != W or got[3].shape[1] != m:
+        got = keep["_chunk_buffers"] = (np.zeros((N, W)), np.zeros((N, W)), np.zeros((N, W)),
+                                        np.empty((N, m)))
+    return tuple(a[:N] for a in got)
+
+
 def _flat(a, dtype=float):
     """a as a flat, writable, C-contiguous array of dtype (a view where it already is one):
     numba types a read-only array apart, and would compile the entry point again for it."""
@@ -248,9 +263,9 @@ def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, 
     if fn is not None:              # a kernel written out for this structure
         return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order,
                                    predict, R)
+    lib.need("grid")
     if predict is not None:
         Q[...] = hermite(lib, *predict)
-    lib.need("grid")
     nblk = P.nblk
     iters = np.empty(N, dtype=np.int64)
     conv = np.empty(N, dtype=np.uint8)
@@ -411,7 +426,9 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
-    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)."""
+    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)
+    (the generic kernel's predictions: the generated ones write theirs, compiled_grid.solve)."""
+    lib.need("hermite")
     t = _flat(t)
     idx = _flat(idx, np.int64)
     nodes = [_flat(a) for a in (Tn, Qn, Qdn, Qddn)]

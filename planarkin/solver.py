@@ -72,9 +72,8 @@ class PathFollower:
     def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, systems=None, seg=0,
                  kinks=(), compiled=None):
         self.cm = cm
-        # the job's compiled route (kernel.route) or None: the path's candidates are then
-        # solved by the kernel generated for the path system's structure, where one covers it
-        # (never the generic kernel, whose first compile takes tens of seconds)
+        # the job's compiled route (kernel.route) or None: the path's candidates by the kernel
+        # generated for the path system, where one covers it (kernel.generated)
         self.compiled = compiled
         # drivers' breakpoints strictly inside the run: the path lands on each and restarts
         self.kinks = [k for k in kinks if opts.start < k.t < opts.end]
@@ -580,11 +579,9 @@ class Analysis:
             Qdd = np.repeat(Qddn[:1], N, axis=0)
         elif (lib := self._chunk_kernel(idx := np.clip(
                 np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
-            # the compiled route solves this chunk, and writes its predictions (the same
-            # formula) in its first pass over the points (solve_batch's predict), into arrays
-            # kept from chunk to chunk (the kernel writes every entry: no fresh pages to fault
-            # in, no zeros to write)
-            Q, Qd, Qdd, Rbuf = self._buffers(N, Qn.shape[1])
+            # the compiled route solves this chunk and writes its predictions (solve_batch's
+            # predict) into arrays kept from chunk to chunk (kernel.chunk_buffers)
+            Q, Qd, Qdd, Rbuf = kernel.chunk_buffers(self.__dict__, N, Qn.shape[1], self.cm.m)
         else:
             h = (Tn[idx + 1] - Tn[idx])[:, None]
             s = (t[:, None] - Tn[idx][:, None]) / h
@@ -714,17 +711,7 @@ class Analysis:
                                                  self.opts.order)
         return None if k is None else k[0]
 
-    def _buffers(self, N: int, W: int):
-        """Q, Qd, Qdd (N, W) and the residuals (N, m) of a chunk on the compiled route: views
-        of arrays kept by the analysis (from chunk to chunk nothing of them is kept: the
-        kernel lays the results out into new arrays, kernel.layout)."""
-        m = max(self.cm.m, 1)
-        got = self.__dict__.get("_bufs")
-        if got is None or got[0].shape[0] < N or got[0].shape[1] != W:
-            # (zeros: the ground's columns, which the kernel does not write)
-            got = self._bufs = (np.zeros((N, W)), np.zeros((N, W)), np.zeros((N, W)),
-                                np.empty((N, m)))
-        return tuple(a[:N] for a in got)
+
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
         """The jerk at a row solved by path following (a fallback): the jerk system of its
