@@ -121,18 +121,6 @@ def route(points: int, part: str = "grid"):
     return None if lib is None else lib.need("points" if part == "grid" else part)
 
 
-def generated(lib, S):
-    """lib when System S's solve is a kernel generated for its structure (compiled_gen.covers),
-    else None: the numpy pass (the path follower's candidates, which must not pay the generic
-    kernel's compile)."""
-    if lib is None:
-        return None
-    from . import compiled_gen, compiled_grid
-    k = S.kernel(lib)
-    return lib if k is not None and compiled_gen.covers(k[1]) and \
-        not compiled_grid.generic_only() else None
-
-
 def library():
     """The compiled Library (numba imported and the entry points compiled or loaded from the
     cache: once per process), or None where numba cannot be imported (said once on stderr)."""

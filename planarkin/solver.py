@@ -70,11 +70,8 @@ class PathFollower:
     """Adaptive continuation along the assembled branch; see the module docstring."""
 
     def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, systems=None, seg=0,
-                 kinks=(), compiled=None):
+                 kinks=()):
         self.cm = cm
-        # the job's compiled route (kernel.route) or None: the path's candidates by the kernel
-        # generated for the path system, where one covers it (kernel.generated)
-        self.compiled = compiled
         # drivers' breakpoints strictly inside the run: the path lands on each and restarts
         self.kinks = [k for k in kinks if opts.start < k.t < opts.end]
         self.A = A
@@ -125,8 +122,7 @@ class PathFollower:
         drivers = self.S.driver_values(t, side=-1)
         self._last_drivers = drivers
         info = self.S.solve_batch(t, Q, Qd, Qdd, policy=PATH_POLICY, tol=NODE_TOL, maxit=12,
-                                  order=2, drivers=drivers,
-                                  compiled=kernel.generated(self.compiled, self.S))
+                                  order=2, drivers=drivers)
         n = self.S.n
         err = taylor_error(h, q0[:n], qd0[:n], qdd0[:n], j3[:n], Q[:, :n], Qd[:, :n],
                            Qdd[:, :n], Qp[:, :n])
@@ -143,7 +139,7 @@ class PathFollower:
         Qdd = np.zeros_like(Q)
         drivers = S.driver_values(np.array([t0]), side=+1)
         info = S.solve_batch(np.array([t0]), Q, Qd, Qdd, policy="full", tol=NODE_TOL, maxit=12,
-                             drivers=drivers, compiled=kernel.generated(self.compiled, S))
+                             drivers=drivers)
         self.nodes.add(t0, Q[0], Qd[0], Qdd[0], info.sign[0], condition(info)[0], self.seg)
         self._keep_drv(drivers, 0)
         return bool(info.converged[0] and np.isfinite(Qdd).all())
@@ -428,10 +424,7 @@ class Analysis:
         self.S_all = System(cm)
         self.opts = opts
         self.kinks = driver_breakpoints(cm, opts.start, opts.end)
-        # the compiled route (planarkin.kernel.Library) when the grid is large enough to repay
-        # numba's start-up, else None: the numpy passes (the route depends on the job only)
-        self.compiled = kernel.route(opts.rows)
-        self.follower = PathFollower(cm, A, opts, kinks=self.kinks, compiled=self.compiled)
+        self.follower = PathFollower(cm, A, opts, kinks=self.kinks)
         self.event: Event | None = None
         self.t_stop = opts.end
         self.fallbacks = 0
@@ -439,6 +432,9 @@ class Analysis:
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
         self.out = None             # results.Collect: where the kernel lays chunks out (solve())
+        # the compiled route (planarkin.kernel.Library) when the grid is large enough to repay
+        # numba's start-up, else None: the numpy passes (the route depends on the job only)
+        self.compiled = kernel.route(opts.rows)
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()
@@ -727,8 +723,7 @@ class Analysis:
     def _follow_to(self, k: int, t_target: float):
         """Solve one grid point by path following from node k (a dense-pass fallback)."""
         src = self.follower.nodes
-        f = PathFollower(self.cm, self.A, self.opts, self.follower.systems, src.seg[k],
-                         compiled=self.compiled)
+        f = PathFollower(self.cm, self.A, self.opts, self.follower.systems, src.seg[k])
         if k > 0 and src.seg[k - 1] == src.seg[k]:
             f.nodes.copy_from(src, k - 1)          # for the third-derivative estimate
         f.nodes.copy_from(src, k)

@@ -243,31 +243,6 @@ def test_without_a_private_cache_the_kernel_compiles_in_memory(tmp_path):
     assert got["file"].startswith("<planarkin pk_grid_") and not any(bad.iterdir())
 
 
-# The whole run on the compiled route (the threshold lowered: the path's candidates by the
-# kernel generated for the path system, its merged blocks by Gauss-Jordan) against the numpy
-# route (LAPACK's inverse of the path's few candidates, linalg.inv_batched): the path's nodes
-# differ by rounding (2e-15 on the four-bar), and so the grid rows by a few units in the last
-# place of each column's largest value (1.9e-15 measured on table-input); the iteration counts
-# are the same.
-@pytest.mark.parametrize("name", ["four-bar", "slider-crank", "klann-leg", "table-input"])
-def test_the_compiled_path_gives_the_numpy_routes_results(name, monkeypatch):
-    from test_perstep import close_columns
-    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
-    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
-    ref = planarkin.solve(m, steps=240)
-    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
-    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 0)
-    called = []
-    real = compiled_grid.solve
-    monkeypatch.setattr(compiled_grid, "solve", lambda *a: called.append(len(a[3])) or real(*a))
-    got = planarkin.solve(m, steps=240)
-    assert ref.status == got.status == 0 and len(ref.t) == len(got.t)
-    assert min(called) < 8 < max(called)       # the path's candidates and the grid's chunks
-    for what in ("q", "qd", "qdd", "p", "pd", "pdd"):
-        close_columns(getattr(ref, what), getattr(got, what), what, 2.5e-15)
-    assert np.array_equal(ref.iterations, got.iterations)
-
-
 @pytest.mark.parametrize("name,merged", [("four-bar", False), ("klann-leg", False),
                                          ("jansen-leg", False), ("four-bar", True)])
 def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
@@ -296,3 +271,31 @@ def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
     for a, b in zip(*out):
         assert np.array_equal(a, b, equal_nan=True)
     assert out[1][4].any() and np.isfinite(out[1][9]).all()
+
+
+@pytest.mark.parametrize("name", ["four-bar", "slider-crank", "klann-leg", "jansen-leg",
+                                  "table-input", "six-bar"])
+def test_a_whole_run_on_the_compiled_route_is_the_numpy_routes(name, monkeypatch):
+    """planarkin.solve with the threshold lowered (the grid's chunks by the generated kernel,
+    their predictions written inside it from the path's nodes, into buffers kept from chunk to
+    chunk) against PLANARKIN_KERNEL=0: every column to 1e-15 of its largest value, the same
+    iteration counts."""
+    from test_perstep import close_columns
+
+    from planarkin import solver
+    monkeypatch.setattr(solver, "CHUNK_BYTES", 1)      # chunks of 16 points, the last of 1
+    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    ref = planarkin.solve(m, steps=240)
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 0)
+    called = []
+    real = compiled_grid.solve
+    monkeypatch.setattr(compiled_grid, "solve",
+                        lambda *a, **k: called.append(a[-2] is not None) or real(*a, **k))
+    got = planarkin.solve(m, steps=240)
+    assert ref.status == got.status == 0 and len(ref.t) == len(got.t) == 241
+    assert len(called) == 16 and all(called)      # every chunk predicted in the kernel
+    for what in ("q", "qd", "qdd", "p", "pd", "pdd"):
+        close_columns(getattr(ref, what), getattr(got, what), what)
+    assert np.array_equal(ref.iterations, got.iterations)

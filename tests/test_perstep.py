@@ -161,9 +161,8 @@ def test_kernel_on_the_paths_merged_blocks(name, N, monkeypatch, compiled):
     assert max(len(B.sizes) for B in S.blocks) > 1 and S.kernel(compiled) is not None
     for policy in ("reuse", "full"):
         # a 9 x 9 block: the kernel's Gauss-Jordan against LAPACK's LU (numpy's inverse of a
-        # few matrices), 2.0e-15 on the four-bar. A job on the compiled route solves the
-        # path's candidates by the generated kernel: its results differ by that rounding
-        # (tests/test_compiled_gen.py: test_the_compiled_path_gives_the_numpy_routes_results)
+        # few matrices), 2.0e-15 on the four-bar. The path's candidates are always solved by
+        # the reference (solver.PathFollower passes no compiled route), so no result differs
         _info_match(S, t, Q0, (False, None), policy, lib=compiled, rel=3e-15)
 
 
