@@ -99,52 +99,10 @@ def row_eval(kind, bi, bj, p, po, eq, q, qo, c, s, co, qd, want, gr, go):
 sign_of = kinds.sign_of
 
 
-@numba.njit([(INT, F64, INT, F64, INT, F64)], **HELPER)
-def gauss_jordan(k, J, jo, inv, io, A):
-    """Inverse of the k x k matrix J[jo:] (row-major) into inv[io:] by Gauss-Jordan with partial
-    pivoting, as planarkin.linalg._inv_gauss_jordan: returns (True, the determinant's sign), or
-    (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace."""
-    w = 2 * k
-    scale = 0.0
-    sg = 1.0
-    for i in range(k):
-        for j in range(k):
-            A[i * w + j] = J[jo + i * k + j]
-            A[i * w + k + j] = 1.0 if i == j else 0.0
-            a = abs(J[jo + i * k + j])
-            if a > scale or a != a:
-                scale = a
-    tiny = (scale if scale > 0 else 1.0) * 1e-300
-    ok = True
-    for col in range(k):
-        pr = col
-        for r in range(col + 1, k):
-            if abs(A[r * w + col]) > abs(A[pr * w + col]):
-                pr = r
-        if pr != col:
-            for j in range(w):
-                t = A[col * w + j]
-                A[col * w + j] = A[pr * w + j]
-                A[pr * w + j] = t
-            sg = -sg
-        piv = A[col * w + col]
-        if not (abs(piv) > tiny):
-            ok = False
-            piv = 1.0
-        sg *= (1.0 if piv > 0 else 0.0) - (1.0 if piv < 0 else 0.0)
-        for j in range(w):
-            A[col * w + j] /= piv
-        for r in range(k):
-            if r == col:
-                continue
-            f = A[r * w + col]
-            if f != 0.0:
-                for j in range(w):
-                    A[r * w + j] -= f * A[col * w + j]
-    for i in range(k):
-        for j in range(k):
-            inv[io + i * k + j] = A[i * w + k + j] if ok else np.nan
-    return ok, (sg if ok else 0.0)
+# (the one text of the small Gauss-Jordan, shared with the generated kernels: compiled here
+# for its one signature)
+gauss_jordan = numba.njit([(INT, F64, INT, F64, INT, F64)], **HELPER)(
+    getattr(kinds.gauss_jordan, "py_func", kinds.gauss_jordan))
 
 
 @helper

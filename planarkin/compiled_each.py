@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-from .acceptance import COND_WARN, KAPPA
+from . import compiled_kinds as K
 from .compiled import (BOOL, DBL, F64, HELPER, I64, INT, KFINE, KMAX, U8, dot6, fine_signs,
                        gauss_jordan, helper, jit, row_eval, sign_of)
 
@@ -31,64 +31,11 @@ def block_matrix(kb, brows, bo, rpos, gr, go, J):
                 J[rp * kb + rpos[po + k]] = gr[go + rp * 6 + k]
 
 
-@numba.njit([(INT, INT, INT, INT, INT, F64, F64, F64, F64, F64, numba.uint8, DBL, INT, I64, INT,
-              I64, F64, F64, F64, BOOL, U8, F64)], **HELPER)
-def accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv, ratio, has_t, trow,
-                 has_v, vrow, tg, sign0, jerk, jerk_ok, good, perr):
-    """studies.batch's acceptance tests of point i (Batch.accept is the numpy reference), while
-    its numbers are at hand: good[i] = converged, finite q, qd, qdd (W columns: the point's
-    rows of the results, the rows before them the point before's), first correction at most
-    KAPPA sigma_min, 1 / min(smin) at most COND_WARN (the bounds of planarkin.acceptance, the
-    studies' rule acceptance.accepted with cond_max=COND_WARN, compiled in) and every
-    fine-block sign equal to sign0's; perr[i] = the Taylor predictor error
-    (acceptance.taylor_error, forwards and backwards, first n columns) of the interval from
-    the point before when that is the same variant (vrow) at the grid time before (times tg,
-    indexed by trow), else 0. jerk: the last interval's change of acceleration, carried from
-    point to point, valid when jerk_ok.
-    Returns the new jerk_ok."""
-    o = i * W
-    g = conv != 0 and ratio <= KAPPA
-    c = 0
-    while c < W and g:
-        g = (math.isfinite(Q[o + c]) and math.isfinite(Qd[o + c])
-             and math.isfinite(Qdd[o + c]))
-        c += 1
-    lo = np.inf
-    for c in range(nblk):
-        v = smin[i * nblk + c]
-        if v < lo or v != v:
-            lo = v
-    if lo != lo:
-        g = False
-    elif g:
-        g = 1.0 / (lo if lo > 1e-300 else 1e-300) <= COND_WARN
-    c = 0
-    while c < nfine and g:
-        g = sign[i * nfine + c] == sign0[i * nfine + c]
-        c += 1
-    good[i] = 1 if g else 0
-    k1 = trow[i] if has_t else i
-    k0 = (trow[i - 1] if has_t else i - 1) if i > 0 else 0
-    if i > 0 and k1 == k0 + 1 and (not has_v or vrow[i] == vrow[i - 1]):
-        h = tg[k1] - tg[k0]
-        hh = 0.5 * h * h
-        h3 = h * h * h / 6.0
-        p = o - W
-        nan = False
-        e = 0.0
-        for c in range(n):
-            dA = (Qdd[o + c] - Qdd[p + c]) / h
-            j3 = jerk[c] if jerk_ok else 0.0
-            ef = abs(Q[o + c] - (Q[p + c] + h * Qd[p + c] + hh * Qdd[p + c] + h3 * j3))
-            eb = abs(Q[o + c] - h * Qd[o + c] + hh * Qdd[o + c] - h3 * dA - Q[p + c])
-            x = ef if ef > eb else eb
-            jerk[c] = dA
-            e = x if x > e else e
-            nan = nan or ef != ef or eb != eb
-        perr[i] = np.nan if nan else e
-        return True
-    perr[i] = 0.0
-    return False
+ACCEPT = (INT, INT, INT, INT, INT, F64, F64, F64, F64, F64, numba.uint8, DBL, INT, I64, INT, I64,
+          F64, F64, F64, BOOL, U8, F64)
+# (its one text is compiled_kinds', which the generated study kernels compile too)
+accept_point = numba.njit([ACCEPT], **HELPER)(getattr(K.accept_point, "py_func",
+                                                      K.accept_point))
 
 
 @helper
@@ -118,7 +65,7 @@ def invert_small(kb, J, M, mo, WK):
 def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff, bcols, brows,
                Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, iters, conv, ratio, sign, smin, inblk,
                rcol, rpos, nfine, bfirst, bnf, bfo, bfs, has_v, vrow, prm, ne, has_t, trow, tg,
-               sign0, kappa, cond_max, test, good, perr):
+               sign0, test, good, perr):
     """solve_points' arguments and results, point by point (a design study, studies.batch):
     each point solves its blocks in order, each block by Newton until that point's own
     correction is at most tol (so a point's result does not depend on the other points of the
@@ -127,9 +74,8 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
     (E x 8) shared by all points, or with has_v the table prm (V x ne x 8) of parameter sets,
     row vrow[i] (a design study's variants). has_t: point i reads row trow[i] of T, NU and FDD
     (a study's grid times, the same for every variant), else row i. test: with the acceptance
-    tests of every point (accept_point) into good and perr; kappa and cond_max are not read
-    (accept_point's bounds are planarkin.acceptance's, compiled in: kernel.solve_rows passes
-    the same ones)."""
+    tests of every point (accept_point) into good and perr (accept_point's bounds are
+    planarkin.acceptance's KAPPA and COND_WARN, compiled in)."""
     nbb = nb + 1
     n = W - 3
     total = 0
@@ -297,6 +243,6 @@ def solve_each(N, W, m, nb, nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
 SIGNATURES = {
     "solve_each": (INT, INT, INT, INT, INT, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64,
                    F64, F64, F64, F64, F64, F64, INT, DBL, INT, I64, U8, F64, F64, F64, U8, I64,
-                   I64, INT, I64, I64, I64, I64, INT, I64, F64, INT, INT, I64, F64, F64, DBL,
-                   DBL, INT, U8, F64),
+                   I64, INT, I64, I64, I64, I64, INT, I64, F64, INT, INT, I64, F64, F64, INT,
+                   U8, F64),
 }

@@ -36,19 +36,24 @@ import numpy as np
 
 from .compiled_kinds import KINDS
 
-KGEN = 2          # largest block written out (1 x 1 and 2 x 2 in closed form)
-VERSION = 1       # of the generated text's shape: part of its hash
+KGEN = 2          # largest block written out in closed form (1 x 1 and 2 x 2)
+# largest dense block (Gauss-Jordan by compiled_kinds.gauss_jordan, its rows written out): the
+# path follower's merged blocks (the whole system of the four-bar and the slider-crank, 9
+# unknowns) and the grid's fine blocks of 3 to 6 unknowns
+KDENSE = 16
+VERSION = 2       # of the generated text's shape: part of its hash
 
 _SLOTS = 6        # parameter slots the kind functions read (si, sj, vi: p[0:6] of pack's 8)
 
 
 def covers(P) -> bool:
-    """The structure can be written out: packed, every solve block of at most KGEN unknowns
-    and a single fine block."""
+    """The structure can be written out: packed, every solve block of at most KDENSE unknowns
+    (a block of 2, in closed form, holds one fine block or two of one unknown)."""
     if P is None:
         return False
-    bk = P.arrays[6]
-    return bool(len(bk)) and int(bk.max()) <= KGEN and bool((P.fine[1] == 1).all())
+    bk, bnf = P.arrays[6], P.fine[1]
+    return bool(len(bk)) and int(bk.max()) <= KDENSE and not bool(
+        ((bk == 2) & (bnf > 2)).any())
 
 
 def structure(P, W: int, m: int, nb: int) -> tuple:
@@ -56,18 +61,18 @@ def structure(P, W: int, m: int, nb: int) -> tuple:
     ekind, ebi, ebj, _, rowel, roweq, bk, boff, baff, bcols, brows = P.arrays
     inblk, _, rpos = P.tail
     parts = (ekind, ebi, ebj, rowel, roweq, bk, boff, baff, bcols, brows, inblk, rpos,
-             P.fine[0])
+             *P.fine, P.fixed)
     return (W, m, nb, P.nfine) + tuple(tuple(int(x) for x in np.ravel(a)) for a in parts)
 
 
-def name_of(struct: tuple) -> str:
-    """The generated module's name: a hash of the structure and of the generator (this module's
-    source and the kind functions')."""
-    h = hashlib.sha256(repr((VERSION, struct)).encode())
+def name_of(struct: tuple, what: str = "grid") -> str:
+    """The generated module's name: what it holds ('grid', or 'each': compiled_gen_each), a
+    hash of the structure and of the generators (their sources and the kind functions')."""
+    h = hashlib.sha256(repr((VERSION, what, struct)).encode())
     here = Path(__file__).parent
-    for name in ("compiled_gen.py", "compiled_kinds.py"):
+    for name in ("compiled_gen.py", "compiled_gen_each.py", "compiled_kinds.py"):
         h.update((here / name).read_bytes())
-    return f"pk_grid_{h.hexdigest()[:20]}"
+    return f"pk_{what}_{h.hexdigest()[:20]}"
 
 
 class _Text:
@@ -78,7 +83,7 @@ class _Text:
         self.lines.append("    " * depth + line)
 
 
-class _Writer:
+class Writer:
     """The source of one structure, piece by piece (see source)."""
 
     def __init__(self, P, W, m, nb):
@@ -88,6 +93,8 @@ class _Writer:
         self.rcol, self.rpos = P.tail[1], P.tail[2]
         self.bfirst = P.fine[0]
         self.fixed = P.fixed
+        bnf, bfo, bfs = P.fine[1], P.fine[2], P.fine[3]
+        self.sizes = [[int(bfs[bfo[b] + f]) for f in range(bnf[b])] for b in range(P.nblk)]
         self.blocks = [(int(bk[b]), [int(c) for c in bcols[boff[b]:boff[b] + bk[b]]],
                         [int(r) for r in brows[boff[b]:boff[b] + bk[b]]], bool(baff[b]))
                        for b in range(P.nblk)]
@@ -161,7 +168,7 @@ class _Writer:
 
     # -- one block: every temporary named by its block (x), so that each is assigned once and
     # numba's SSA reconstruction, the slowest part of its first compile, has little to do ----
-    def evaluate(self, d, b, want, x):
+    def evaluate(self, d, b, want, x, matrix=True):
         """Block b's rows: g<x>_<rp>, with want & 2 the gradients d<x>_<rp>_<k> and the block
         matrix J<x>_<k> (of a repeated position the last entry, as System.block_matrix)."""
         kb, cols, rows, _ = self.blocks[b]
@@ -173,7 +180,7 @@ class _Writer:
                 pos = int(self.rpos[row, k])
                 if pos >= 0:
                     src[rp * kb + pos] = f"d{x}_{rp}_{k}"
-        if want & 2:
+        if want & 2 and matrix:
             for k in range(kb * kb):
                 self.out(d, f"J{x}_{k} = {src.get(k, '0.0')}")
 
@@ -242,14 +249,7 @@ class _Writer:
         times the inverse, 2 x 2: Cramer's rule (compiled.solve2)."""
         kb, cols, rows, _ = self.blocks[b]
         for rp, row in enumerate(rows):
-            terms = []
-            for k in range(6):
-                c = int(self.rcol[row, k])
-                known = c < self.n and self.colblock.get(c, b) < b
-                terms.append(f"d{y}_{rp}_{k} * {X}{c}" if known else None)
-            expr = _pairs(terms)
-            r = rhs.format(rp=rp, row=row, x=x)
-            self.out(d, f"{X}r{y}_{rp} = {r} - {expr}" if expr else f"{X}r{y}_{rp} = {r}")
+            self.out(d, f"{X}r{y}_{rp} = {self.rhs(b, rp, row, X, rhs, y, x)}")
         J = [f"J{y}_{k}" for k in range(kb * kb)]
         r = [f"{X}r{y}_{k}" for k in range(kb)]
         if kb == 1:
@@ -259,10 +259,163 @@ class _Writer:
             self.out(d, f"{X}{cols[0]} = ({J[3]} * {r[0]} - {J[1]} * {r[1]}) / {X}det{y}")
             self.out(d, f"{X}{cols[1]} = ({J[0]} * {r[1]} - {J[2]} * {r[0]}) / {X}det{y}")
 
+    def rhs(self, b, rp, row, X, rhs, y, x):
+        """The right-hand side of row rp of block b, rhs minus the gradient's terms of the
+        columns earlier blocks solved (X: their rates' prefix), summed in pairs."""
+        terms = []
+        for k in range(6):
+            c = int(self.rcol[row, k])
+            known = c < self.n and self.colblock.get(c, b) < b
+            terms.append(f"d{y}_{rp}_{k} * {X}{c}" if known else None)
+        expr = pairs(terms)
+        r = rhs.format(rp=rp, row=row, x=x)
+        return f"{r} - {expr}" if expr else r
+
     def first(self, d, b, x):
         o = self.out
         o(d, f"smin[i, {b}] = sm{x}")
-        o(d, f"sign[i, {int(self.bfirst[b])}] = sg{x}")
+        f0 = int(self.bfirst[b])
+        if len(self.sizes[b]) == 1:
+            o(d, f"sign[i, {f0}] = sg{x}")
+        else:       # a path block of two 1 x 1 fine blocks: their signs (System.fine_signs)
+            o(d, f"sign[i, {f0}] = sign_of(J{x}_0)")
+            o(d, f"sign[i, {f0 + 1}] = sign_of(J{x}_3)")
+
+    def dense(self, b):
+        """A block of more than KGEN unknowns (a dense inverse by Gauss-Jordan, as
+        compiled.block and factor): Newton for all points together until every point's
+        correction is at most tol (affine: one step, exact), sigma_min 1 / ||J^-1||_F and the
+        signs of the fine blocks inside at the first iteration; then per point its convergence,
+        residuals and rates with the inverse at the converged positions (compiled.rates)."""
+        kb, cols, rows, aff = self.blocks[b]
+        o = self.out
+        x = str(b)
+        kk = kb * kb
+        o(1, f"# block {b}: columns {cols}, rows {rows} (dense, fine blocks "
+             f"{self.sizes[b]}{'; affine: one step' if aff else ''})")
+        o(1, f"MI{x} = np.empty(N * {kk})")
+        o(1, f"for it in range({'1' if aff else 'maxit'}):")
+        o(2, "small = True")
+        o(2, "for i in range(N):")
+        self.load(3, [b], rates=False)
+        o(3, f"mo = i * {kk}")
+        # the gradients at every iteration, used or not (g is the same bits either way): one
+        # call site a row, not two (the path's kernel, whose few points make its first
+        # compile, not its run, the cost)
+        self.evaluate(3, b, 2 | 1, x, matrix=False)
+        d = 3
+        if not aff:
+            o(3, "if it == 0 or full != 0:")
+            d = 4
+        self.factor(d, b, x, f"MI{x}", "mo")
+        o(d, "if it == 0:")
+        o(d + 1, f"smin[i, {b}] = sm{x}")
+        self.fine_signs(d + 1, b)
+        for rp, row in enumerate(rows):
+            o(3, f"RV[{rp}] = g{x}_{rp} - T[i, {row}]")
+        o(3, "sz = 0.0")
+        o(3, f"for ua in range({kb}):")
+        o(4, "dx = 0.0")
+        o(4, f"for uk in range({kb}):")
+        o(5, f"dx += MI{x}[mo + ua * {kb} + uk] * RV[uk]")
+        o(4, "DX[ua] = dx")
+        o(4, "sz = nanmax(sz, abs(dx))")
+        for a, c in enumerate(cols):
+            o(3, f"q{c} -= DX[{a}]")
+            if c % 3 == 2:
+                o(3, f"c{c // 3} = np.cos(q{c})")
+                o(3, f"s{c // 3} = np.sin(q{c})")
+        o(3, "sz = inf_unless_finite(sz)")
+        self.store(3, [b], rates=False)
+        o(3, "if it == 0:")
+        o(4, f"ratio[i] = nanmax(ratio[i], ratio_of(sz, smin[i, {b}]))")
+        o(3, "iters[i] = max(iters[i], it + 1)")
+        o(3, "SZ[i] = sz")
+        o(3, "small = small & (sz <= tol)")
+        if not aff:
+            o(2, "if small:")
+            o(3, "break")
+        o(1, "for i in range(N):")
+        if aff:     # one step is exact: converged unless not finite
+            o(2, "conv[i] = 1 if (conv[i] != 0 and SZ[i] < np.inf) else 0")
+        else:
+            o(2, "conv[i] = 1 if (conv[i] != 0 and SZ[i] <= tol) else 0")
+        self.load(2, [b])
+        y = x + "c"
+        self.evaluate(2, b, 3, y, matrix=False)
+        for rp, row in enumerate(rows):
+            o(2, f"R[i, {row}] = abs(g{y}_{rp} - T[i, {row}])")
+        self.factor(2, b, y, "MR", "0", norm=False)
+        for rp, row in enumerate(rows):
+            o(2, f"RV[{rp}] = {self.rhs(b, rp, row, 'v', 'NU[i, {row}]', y, x)}")
+        self.apply(2, b, "v")
+        for rp, row in enumerate(rows):
+            o(2, f"_, _, _, _, _, _, _, gm{x}_{rp} = {self.call(row, 4, upto=b)}")
+            o(2, f"RV[{rp}] = {self.rhs(b, rp, row, 'a', '(gm{x}_{rp} + FDD[i, {row}])', y, x)}")
+        self.apply(2, b, "a")
+        self.store(2, [b])
+
+    def factor(self, d, b, x, M, mo, norm=True):
+        """Block b's matrix JW (from the gradients d<x>_...) inverted into M[mo:] by
+        Gauss-Jordan; with norm sm<x>, the bound 1 / ||J^-1||_F (compiled.factor), and sg<x>
+        the determinant's sign."""
+        kb, cols, rows, _ = self.blocks[b]
+        o = self.out
+        o(d, f"for uk in range({kb * kb}):")
+        o(d + 1, "JW[uk] = 0.0")
+        for pos, name in self.entries(b, x).items():
+            o(d, f"JW[{pos}] = {name}")
+        o(d, f"ok{x}, sg{x} = gj({kb}, JW, 0, {M}, {mo}, WK)")
+        if norm:
+            o(d, "fs = 0.0")
+            o(d, f"for uk in range({kb * kb}):")
+            o(d + 1, f"fs += {M}[{mo} + uk] * {M}[{mo} + uk]")
+            o(d, f"sm{x} = 1.0 / np.sqrt(fs) if ok{x} else 0.0")
+
+    def fine_signs(self, d, b):
+        """The determinant signs of the fine blocks inside block b from its matrix JW
+        (compiled.fine_signs); a single fine block: the block's own sign."""
+        o = self.out
+        f0 = int(self.bfirst[b])
+        kb = self.blocks[b][0]
+        if len(self.sizes[b]) == 1:
+            o(d, f"sign[i, {f0}] = sg{b}")
+            return
+        off = 0
+        for f, sz in enumerate(self.sizes[b]):
+            if sz == 1:
+                o(d, f"sign[i, {f0 + f}] = sign_of(JW[{off * kb + off}])")
+            else:
+                for u in range(sz):
+                    for v in range(sz):
+                        o(d, f"SB[{u * sz + v}] = JW[{(off + u) * kb + off + v}]")
+                o(d, f"_, sf = gj({sz}, SB, 0, SI, 0, WK)")
+                o(d, f"sign[i, {f0 + f}] = sf")
+            off += sz
+
+    def apply(self, d, b, X):
+        """The block's columns of X (v, a) = MR RV (compiled.apply)."""
+        kb, cols, rows, _ = self.blocks[b]
+        o = self.out
+        o(d, f"for ua in range({kb}):")
+        o(d + 1, "xa = 0.0")
+        o(d + 1, f"for uk in range({kb}):")
+        o(d + 2, f"xa += MR[ua * {kb} + uk] * RV[uk]")
+        o(d + 1, "DX[ua] = xa")
+        for a, c in enumerate(cols):
+            o(d, f"{X}{c} = DX[{a}]")
+
+    def entries(self, b, x):
+        """Block b's matrix entries: position -> the gradient's name (of a repeated position
+        the last, as System.block_matrix)."""
+        kb, cols, rows, _ = self.blocks[b]
+        src = {}
+        for rp, row in enumerate(rows):
+            for k in range(6):
+                pos = int(self.rpos[row, k])
+                if pos >= 0:
+                    src[rp * kb + pos] = f"d{x}_{rp}_{k}"
+        return src
 
     # -- the passes over points -------------------------------------------------------------
     def affine(self, seg):
@@ -344,13 +497,18 @@ class _Writer:
         for kd in sorted({KINDS[int(k)] for k in self.kind}):
             o(0, f"k_{kd} = numba.njit([ROW], error_model='numpy', _nrt=False, cache=CACHE)"
                  f"(getattr(K.{kd}, 'py_func', K.{kd}))")
+        if any(blk[0] > KGEN for blk in self.blocks):
+            o(0, "F1 = numba.float64[::1]")
+            o(0, "gj = numba.njit([(numba.int64, F1, numba.int64, F1, numba.int64, F1)], "
+                 "error_model='numpy', _nrt=False, cache=CACHE)(getattr(K.gauss_jordan, "
+                 "'py_func', K.gauss_jordan))")
         for helper in ("sign_of", "nanmax", "ratio_of", "inf_unless_finite"):
             o(0, f"{helper} = K.{helper}")
         o(0, "")
         o(0, "")
         o(0, "@numba.njit(cache=CACHE, error_model='numpy', nogil=True)")
         o(0, "def grid(N, Q, Qd, Qdd, T, NU, FDD, prm, maxit, tol, full, order, iters, conv, "
-             "ratio, sign, smin, R, rmax, cond):")
+             "ratio, sign, smin, R, rmax, cond, pred, t, idx, Tn, Qn, Qdn, Qddn, Qf):")
         # the calls' constant arguments as variables (a literal is a statement of numba's IR
         # at every use: the first compile's time is that of the IR's statements)
         o(1, "ZERO = 0.0")
@@ -362,7 +520,21 @@ class _Writer:
         o(1, f"C = np.empty((N, {max(nb, 1)}))")
         o(1, f"S = np.empty((N, {max(nb, 1)}))")
         o(1, "SZ = np.empty(N)")
+        kd = max([blk[0] for blk in self.blocks if blk[0] > KGEN], default=0)
+        if kd:       # the dense blocks' work arrays (compiled.solve_points')
+            fmax = max(max(z) for z in self.sizes)
+            o(1, f"JW = np.empty({kd * kd})")
+            o(1, f"MR = np.empty({kd * kd})")
+            o(1, f"WK = np.empty({2 * kd * kd})")
+            o(1, f"RV = np.empty({kd})")
+            o(1, f"DX = np.empty({kd})")
+            o(1, f"SB = np.empty({fmax * fmax})")
+            o(1, f"SI = np.empty({fmax * fmax})")
         o(1, "for i in range(N):")
+        # pred: the predictions written here from the path's nodes (Qf: Q's flat view), in
+        # the pass that reads them first (compiled_points.hermite's formula)
+        o(2, "if pred != 0:")
+        o(3, f"K.hermite_row(t[i], idx[i], {n + 3}, Tn, Qn, Qdn, Qddn, Qf, i * {n + 3})")
         for b in range(nb):
             o(2, f"C[i, {b}] = np.cos(Q[i, {3 * b + 2}])")
             o(2, f"S[i, {b}] = np.sin(Q[i, {3 * b + 2}])")
@@ -374,12 +546,15 @@ class _Writer:
         o(3, "Qdd[i, a] = 0.0")
         segs: list[list[int]] = []
         for b, blk in enumerate(self.blocks):
-            if blk[3] and segs and self.blocks[segs[-1][0]][3]:
+            if blk[3] and blk[0] <= KGEN and segs and self.blocks[segs[-1][0]][3] \
+                    and self.blocks[segs[-1][0]][0] <= KGEN:
                 segs[-1].append(b)
             else:
                 segs.append([b])
         for seg in segs:
-            if self.blocks[seg[0]][3]:
+            if self.blocks[seg[0]][0] > KGEN:
+                self.dense(seg[0])
+            elif self.blocks[seg[0]][3]:
                 self.affine(seg)
             else:
                 self.newton(seg[0])
@@ -405,15 +580,15 @@ class _Writer:
         o(2, f"for a in range({n}):")
         o(3, "if not math.isfinite(Q[i, a]):")
         o(4, "conv[i] = 0")
-        return "\n".join(_discards(o.lines)) + "\n"
+        return "\n".join(discards(o.lines)) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
     """The module text of the grid pass for the structure of packed system P (covers(P))."""
-    return _Writer(P, W, m, nb).source()
+    return Writer(P, W, m, nb).source()
 
 
-def _pairs(terms):
+def pairs(terms):
     """((t0 + t1) + (t2 + t3)) + (t4 + t5), the missing terms (None) left out."""
     def add(a, b):
         if a is None:
@@ -424,7 +599,7 @@ def _pairs(terms):
     return add(add(add(terms[0], terms[1]), add(terms[2], terms[3])), add(terms[4], terms[5]))
 
 
-def _discards(lines):
+def discards(lines):
     """Each discarded value (the `_` of an unpacking) a name of its own: a name assigned many
     times costs numba's SSA reconstruction time in proportion to its assignments."""
     count = [0]

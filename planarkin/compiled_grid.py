@@ -41,7 +41,22 @@ def function(P, W: int, m: int, nb: int):
     return _fns[key]
 
 
-def _build(name: str, text: str):
+def function_each(P, W: int, m: int, nb: int):
+    """The studies' point-by-point solve generated for packed system P's structure
+    (planarkin.compiled_gen_each), compiled or loaded, or None (as function)."""
+    if generic_only() or not compiled_gen.covers(P):
+        return None
+    key = getattr(P, "each_name", None)
+    if key is None:
+        key = P.each_name = compiled_gen.name_of(compiled_gen.structure(P, W, m, nb), "each")
+    if key not in _fns:
+        from . import compiled_gen_each
+        _fns[key] = _build(key, compiled_gen_each.source(P, W, m, nb), "each",
+                           signature_each())
+    return _fns[key]
+
+
+def _build(name: str, text: str, entry_point: str = "grid", sig=None):
     import numba
     entry = jitcache.prepare()
     try:
@@ -57,9 +72,9 @@ def _build(name: str, text: str):
         mod.CACHE = path is not None
         sys.modules[name] = mod
         exec(compile(text, mod.__file__, "exec"), mod.__dict__)
-        fn = mod.grid
+        fn = getattr(mod, entry_point)
         if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
-            fn.compile(signature())
+            fn.compile(signature() if sig is None else sig)
     finally:
         jitcache.record()
     return fn
@@ -90,7 +105,16 @@ def signature():
     INT, DBL = numba.int64, numba.float64
     F1, F2 = numba.float64[::1], numba.float64[:, ::1]
     return (INT, F2, F2, F2, F2, F2, F2, F2, INT, DBL, INT, INT, numba.int64[::1],
-            numba.uint8[::1], F1, F2, F2, F2, F1, F1)
+            numba.uint8[::1], F1, F2, F2, F2, F1, F1, INT, F1, numba.int64[::1], F1, F1, F1, F1,
+            F1)
+
+
+def signature_each():
+    import numba
+    INT, DBL = numba.int64, numba.float64
+    F1, I1, U1 = numba.float64[::1], numba.int64[::1], numba.uint8[::1]
+    return (INT, F1, F1, F1, F1, F1, F1, INT, DBL, INT, I1, U1, F1, F1, F1, INT, I1, F1, INT,
+            INT, I1, F1, F1, INT, U1, F1)
 
 
 def _c(a):
@@ -99,8 +123,16 @@ def _c(a):
     return a if a.flags.writeable else a.copy()
 
 
-def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
-    """kernel.solve by the generated kernel fn: the same arguments and results."""
+_NONE_F = np.zeros(0)
+_NONE_I = np.zeros(0, dtype=np.int64)
+
+
+def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None, R=None):
+    """kernel.solve by the generated kernel fn: the same arguments and results. predict:
+    (t, idx, Tn, Qn, Qdn, Qddn), Q's rows are then written by the kernel as the quintic
+    Hermite predictions at times t (N,) between path nodes idx (N,) and idx + 1 (Tn (K,), Qn,
+    Qdn, Qddn (K, W)) before they are solved (Q, C-contiguous float, need not hold anything);
+    R: an (N, m) array for the residuals (else a new one)."""
     N, W = Q.shape
     m = S.cm.m
     iters = np.empty(N, dtype=np.int64)
@@ -108,14 +140,26 @@ def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
     ratio = np.empty(N)
     sign = np.zeros((N, P.nfine))
     smin = np.empty((N, P.nblk))
-    R = np.empty((N, m))
+    if R is None or R.shape != (N, m) or R.dtype != float or not R.flags.c_contiguous:
+        R = np.empty((N, m))
     rmax = np.empty(N)
     cond = np.empty(N)
     work = [_c(X) for X in (Q, Qd, Qdd)]
     drv = [_c(np.broadcast_to(X, (N, m))) for X in (T, NU, FDD)]
     prm = np.ascontiguousarray(P.arrays[3], dtype=float)
+    if predict is None:
+        pred = (0, _NONE_F, _NONE_I, _NONE_F, _NONE_F, _NONE_F, _NONE_F, _NONE_F)
+    else:
+        t, idx, Tn, Qn, Qdn, Qddn = predict
+        K = len(Tn)
+        idx = np.ascontiguousarray(idx, dtype=np.int64)
+        if len(t) != N or len(idx) != N or Qn.shape[1:] != (W,) or (
+                N and not 0 <= idx.min() <= idx.max() < K - 1):
+            raise ValueError("planarkin kernel: predictions between nodes that do not exist")
+        pred = (1, _c(t), idx, *(_c(X).reshape(-1) for X in (Tn, Qn, Qdn, Qddn)),
+                work[0].reshape(-1))
     fn(N, *work, *drv, prm, int(maxit), float(tol), int(policy == "full"), int(order), iters,
-       conv, ratio, sign, smin, R, rmax, cond)
+       conv, ratio, sign, smin, R, rmax, cond, *pred)
     for X, Wk in zip((Q, Qd, Qdd), work):
         if Wk is not X:
             X[...] = Wk

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from . import compiled_kinds as K
 from . import jitcache
 
 CACHE = jitcache.prepare()       # the checked cache directory, or None: no disk cache
@@ -37,31 +38,10 @@ def cubic(q0, q1, q2, q3, out):
 @jit
 def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
     """The grid pass's predictions: quintic Hermite interpolation (planarkin.path.hermite5,
-    the same operations in the same order) between path nodes idx[i] and idx[i] + 1, rows of
-    W numbers."""
+    the same operations in the same order: compiled_kinds.hermite_row) between path nodes
+    idx[i] and idx[i] + 1, rows of W numbers."""
     for i in range(N):
-        k = idx[i]
-        h = Tn[k + 1] - Tn[k]
-        s = (t[i] - Tn[k]) / h
-        s2 = s * s
-        s3 = s2 * s
-        s4 = s3 * s
-        s5 = s3 * s2
-        H0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
-        H1 = s - 6 * s3 + 8 * s4 - 3 * s5
-        H2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
-        H3 = 10 * s3 - 15 * s4 + 6 * s5
-        H4 = -4 * s3 + 7 * s4 - 3 * s5
-        H5 = 0.5 * s3 - s4 + 0.5 * s5
-        h1 = H1 * h
-        h2 = H2 * h * h
-        h4 = H4 * h
-        h5 = H5 * h * h
-        o0 = k * W
-        o1 = o0 + W
-        for c in range(W):
-            Q[i * W + c] = (H0 * Qn[o0 + c] + h1 * Qdn[o0 + c] + h2 * Qddn[o0 + c]
-                            + H3 * Qn[o1 + c] + h4 * Qdn[o1 + c] + h5 * Qddn[o1 + c])
+        K.hermite_row(t[i], idx[i], W, Tn, Qn, Qdn, Qddn, Q, i * W)
 
 
 @jit

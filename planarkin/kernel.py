@@ -47,24 +47,33 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # about 250,000 points; the threshold stays.
 COMPILED_FROM_POINTS = 300_000
 
-# kind codes of planarkin.compiled.row_eval; the kinds are matched by class, not by name
-_CODES = {"Revolute": 1, "Translational": 2, "Angle": 3, "XDistance": 4, "YDistance": 5,
-          "Distance": 6, "PinSlot": 7, "Slide": 8}
-# parameter slots: p[0:2] si, p[2:4] sj, p[4:6] vi
-_PARAMS = {1: ("si", "sj"), 2: ("si", "sj", "vi", "vj"), 3: (), 4: ("si", "sj"),
-           5: ("si", "sj"), 6: ("si", "sj"), 7: ("si", "vi", "sj"), 8: ("si", "vi", "sj")}
+# where pack puts a kind's parameters (its compiled_params): p[0:2] si, p[2:4] sj, p[4:6] vi,
+# p[6:8] vj, whatever order the kind lists them in
+_SLOT = {"si": 0, "sj": 2, "vi": 4, "vj": 6}
+
+
+def compiled_kind(kind):
+    """(code, parameter names) of a kind the compiled route compiles (its class's own
+    compiled_code and compiled_params, planarkin.elements.base.Kind: a subclass that does not
+    state them is not compiled on its parent's word), or None."""
+    own = vars(type(kind))
+    code = own.get("compiled_code")
+    return None if code is None else (code, tuple(own.get("compiled_params", ())))
+
 
 _state: dict = {}        # "lib": the loaded Library, or None: numba could not be imported
 
 
 class Library:
     """The compiled entry points, each compiled for its one signature (or loaded from numba's
-    cache) when a job first needs it (need): planarkin.compiled_points' hermite and layout
-    ('points', every job on the route), the generic solve_points of planarkin.compiled with them
-    ('grid': only for a system no generated kernel covers, see solve), compiled_each's
-    solve_each and the cubic ('study')."""
+    cache) when a job first needs it (need): planarkin.compiled_points' layout ('points', every
+    job on the route: the generated kernels write their own predictions), its hermite
+    ('hermite'), the generic solve_points of planarkin.compiled with both ('grid': only for a
+    system no generated kernel covers, see solve), compiled_each's solve_each and the cubic
+    ('study')."""
 
-    PARTS = {"points": ("compiled_points", ("hermite", "layout")),
+    PARTS = {"points": ("compiled_points", ("layout",)),
+             "hermite": ("compiled_points", ("hermite",)),
              "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
              "study": ("compiled_each", ("solve_each",), "compiled_points", ("cubic",))}
 
@@ -156,18 +165,17 @@ def pack(S) -> Packed | None:
     rowel = np.full(cm.m, -1, dtype=np.int32)
     roweq = np.zeros(cm.m, dtype=np.int32)
     for G in cm.groups:
-        code = _CODES.get(type(G.kind).__name__)
-        if code is None or G.kind.nbody != 2 or set(G.params) - set(_PARAMS[code]):
+        ck = compiled_kind(G.kind)
+        if ck is None or G.kind.nbody != 2 or set(G.params) - set(ck[1]):
             return None
+        code, names = ck
         for k in range(len(G)):
             bi, bj = int(G.bodies[k, 0]), int(G.bodies[k, 1])
             if bi == bj:
                 return None
             p = np.zeros(8)
-            for slot, name in enumerate(_PARAMS[code]):
-                # slot order si, sj, vi(, vj) for the revolute-like kinds; pin-slot and slide
-                # list si, vi, sj: keep si in 0:2, sj in 2:4, vi in 4:6 for all
-                at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+            for name in names:
+                at = _SLOT[name]
                 p[at:at + 2] = G.params[name][k]
             e = len(ekind)
             ekind.append(code)
@@ -209,6 +217,18 @@ def pack(S) -> Packed | None:
 
 
 
+def chunk_buffers(keep: dict, N: int, W: int, m: int):
+    """Q, Qd, Qdd (N, W) and the residuals (N, m) of a grid chunk on the compiled route: views
+    of arrays kept in keep (the analysis's) from chunk to chunk, so that no fresh pages are
+    faulted in: nothing of them outlives a chunk (the kernel lays the results out into new
+    arrays, layout). Zeros at first: the ground's columns, which the kernel does not write."""
+    got = keep.get("_chunk_buffers")
+    if got is None or got[0].shape[0] < N or got[0].shape[1] != W or got[3].shape[1] != m:
+        got = keep["_chunk_buffers"] = (np.zeros((N, W)), np.zeros((N, W)), np.zeros((N, W)),
+                                        np.empty((N, m)))
+    return tuple(a[:N] for a in got)
+
+
 def _flat(a, dtype=float):
     """a as a flat, writable, C-contiguous array of dtype (a view where it already is one):
     numba types a read-only array apart, and would compile the entry point again for it."""
@@ -216,18 +236,24 @@ def _flat(a, dtype=float):
     return a if a.flags.writeable else a.copy()
 
 
-def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order):
+def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None,
+          R=None):
     """System.solve_batch by the compiled route: Q, Qd, Qdd (N, n + 3) updated in place.
     Returns (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False
     where a coordinate is not finite), the residual |Phi| (N, m) of every equation at the
     results (redundant ones included), its largest value per point (N,) and the condition
-    estimate (N,) of acceptance.condition."""
+    estimate (N,) of acceptance.condition. predict: (t, idx, Tn, Qn, Qdn, Qddn), Q is then
+    first written with the Hermite predictions between the path's nodes (compiled_grid.solve;
+    by kernel.hermite before the generic kernel); R: an (N, m) array to hold the residuals."""
     from . import compiled_grid
     N, W = Q.shape
     fn = compiled_grid.function(P, W, S.cm.m, S.nb)
     if fn is not None:              # a kernel written out for this structure
-        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
+        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order,
+                                   predict, R)
     lib.need("grid")
+    if predict is not None:
+        Q[...] = hermite(lib, *predict)
     nblk = P.nblk
     iters = np.empty(N, dtype=np.int64)
     conv = np.empty(N, dtype=np.uint8)
@@ -259,10 +285,9 @@ def table(cm, params) -> np.ndarray:
     V = next((a.shape[0] for p in params for a in p.values()), 1)
     parts = []
     for G, p in zip(cm.groups, params):
-        code = _CODES[type(G.kind).__name__]
         out = np.zeros((V, len(G), 8))
-        for name in _PARAMS[code]:
-            at = {"si": 0, "sj": 2, "vi": 4, "vj": 6}[name]
+        for name in compiled_kind(G.kind)[1]:
+            at = _SLOT[name]
             out[:, :, at:at + 2] = p.get(name, G.params[name])
         parts.append(out)
     return np.concatenate(parts, axis=1)
@@ -303,8 +328,8 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     int32 tables (K, m) of which point i reads row trow[i]; rows, table: per-point element
     parameters, an index per point into a (V, E, 8) table of parameter sets (see `table`).
     Returns (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array
-    given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0,
-    kappa, cond_max), the acceptance tests of studies.batch (see compiled_each.accept_point):
+    given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0),
+    the acceptance tests of studies.batch (compiled_each.accept_point, its bounds compiled in):
     good (N,) bool and perr (N,), the path error of the interval from the point before (grid
     times tg, indexed as T); None: not tested (good, perr None). hist: (H0, H1, H2, H3, cub),
     four arrays shaped as Q (the last four solutions, newest first) and cub (N,) bool: the
@@ -345,9 +370,9 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     sign = _buffer(work, "sign", (N, P.nfine))
     smin = _buffer(work, "smin", (N, P.nblk))
     good = perr = None
-    sign0, tg, kappa, cond_max = _NONE_F64, _NONE_F64, 0.0, 0.0
+    sign0, tg = _NONE_F64, _NONE_F64
     if accept is not None:
-        tg, sign0, kappa, cond_max = accept
+        tg, sign0 = accept
         tg = np.ascontiguousarray(tg, dtype=float)
         sign0 = np.ascontiguousarray(sign0, dtype=float)
         if sign0.shape != (N, P.nfine) or len(tg) != len(drv[0]):
@@ -363,6 +388,17 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows) = P.arrays
     inblk, rcol, rpos = P.tail
     prm = eprm if table is None else table
+    from . import compiled_grid
+    fn = compiled_grid.function_each(P, W, S.cm.m, S.nb)
+    if fn is not None:          # the point-by-point solve written out for this structure
+        fn(N, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1), *(X.reshape(-1) for X in drv),
+           int(maxit), float(tol), 1, iters, conv, ratio, sign.reshape(-1), smin.reshape(-1),
+           int(rows is not None), _NONE_I64 if rows is None else rows, prm.reshape(-1),
+           eprm.shape[0], int(trow is not None), _NONE_I64 if trow is None else trow,
+           tg.reshape(-1), sign0.reshape(-1), int(accept is not None),
+           _NONE_U8 if good is None else good, _NONE_F64 if perr is None else perr)
+        return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
+                None if good is None else good.view(bool), perr)
     lib.solve_each(N, W, S.cm.m, S.nb, P.nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
                    bcols, brows, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1),
                    *(X.reshape(-1) for X in drv), int(maxit), float(tol), 1, iters, conv, ratio,
@@ -370,7 +406,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
                    P.nfine, *P.fine, int(rows is not None),
                    _NONE_I64 if rows is None else rows, prm.reshape(-1), eprm.shape[0],
                    int(trow is not None), _NONE_I64 if trow is None else trow,
-                   tg.reshape(-1), sign0.reshape(-1), float(kappa), float(cond_max),
+                   tg.reshape(-1), sign0.reshape(-1),
                    int(accept is not None), _NONE_U8 if good is None else good,
                    _NONE_F64 if perr is None else perr)
     return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
@@ -378,7 +414,9 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
 
 
 def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
-    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)."""
+    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)
+    (the generic kernel's predictions: the generated ones write theirs, compiled_grid.solve)."""
+    lib.need("hermite")
     t = _flat(t)
     idx = _flat(idx, np.int64)
     nodes = [_flat(a) for a in (Tn, Qn, Qdn, Qddn)]

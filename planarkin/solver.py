@@ -575,10 +575,9 @@ class Analysis:
             Qdd = np.repeat(Qddn[:1], N, axis=0)
         elif (lib := self._chunk_kernel(idx := np.clip(
                 np.searchsorted(Tn, t, side="right") - 1, 0, K - 2))) is not None:
-            # the compiled route solves this chunk: its predictions too (the same formula)
-            Q = kernel.hermite(lib, t, idx, Tn, Qn, Qdn, Qddn)
-            Qd = np.zeros_like(Q)
-            Qdd = np.zeros_like(Q)
+            # the compiled route solves this chunk and writes its predictions (solve_batch's
+            # predict) into arrays kept from chunk to chunk (kernel.chunk_buffers)
+            Q, Qd, Qdd, Rbuf = kernel.chunk_buffers(self.__dict__, N, Qn.shape[1], self.cm.m)
         else:
             h = (Tn[idx + 1] - Tn[idx])[:, None]
             s = (t[:, None] - Tn[idx][:, None]) / h
@@ -640,7 +639,9 @@ class Analysis:
             info = self.follower.systems[u][0].solve_batch(
                 tq, Qs, Qds, Qdds, policy=opts.newton, tol=opts.tol, maxit=opts.iterations,
                 order=opts.order, drivers=drivers if whole else tuple(d[sel] for d in drivers),
-                Qddd=Qddds, third=third, compiled=self.compiled)
+                Qddd=Qddds, third=third, compiled=self.compiled,
+                predict=None if lib is None else (tq, idx, Tn, Qn, Qdn, Qddn),
+                R=None if lib is None else Rbuf[:len(tq)])
             ok = self._accepted(info, Qs, u, idx, sel, whole)
             if not whole:
                 Q[sel], Qd[sel], Qdd[sel] = Qs, Qds, Qdds
@@ -696,14 +697,17 @@ class Analysis:
 
     def _chunk_kernel(self, idx):
         """The compiled library when the chunk at node intervals idx is solved (not
-        interpolated), on one segment without a passed bifurcation, by a System that has the
-        kernel; else None."""
+        interpolated), whole (on one segment without a passed bifurcation), by the compiled
+        route (System.route_of); else None."""
         segs = self.seg[idx]
         u = int(segs[0])
         if self.opts.interpolate or (segs != u).any() or self.crossing[idx].any():
             return None
-        k = self.follower.systems[u][0].kernel(self.compiled)
+        k = self.follower.systems[u][0].route_of(self.compiled, self.opts.newton,
+                                                 self.opts.order)
         return None if k is None else k[0]
+
+
 
     def _jerk_at(self, u: int, t: float, q, qd, qdd, third) -> np.ndarray:
         """The jerk at a row solved by path following (a fallback): the jerk system of its

@@ -447,7 +447,8 @@ class System:
 
     # -- the batched solver ----------------------------------------------------------------------
     def solve_batch(self, t, Q, Qd, Qdd, *, policy="reuse", tol=1e-10, maxit=8, order=2,
-                    drivers=None, Qddd=None, third=None, fused=None, compiled=None):
+                    drivers=None, Qddd=None, third=None, fused=None, compiled=None,
+                    predict=None, R=None):
         """Positions, velocities and accelerations (and jerks) at times t, block by block.
 
         t: (N,); Q, Qd, Qdd: (N, n + 3) predictions (ground columns zero), overwritten in place
@@ -461,16 +462,21 @@ class System:
         kernel.route) where it applies (policies reuse and full), else the reference pass; both
         give the same results to rounding.
         Systems whose blocks were replaced after building, and jerks (order 3), take the
-        reference pass.
+        reference pass (route_of says which).
+        predict: (t, idx, Tn, Qn, Qdn, Qddn), on the compiled route only: Q is not read but
+        written with the Hermite predictions between the path's nodes idx and idx + 1, in the
+        kernel's first pass over the points (the grid pass: one pass fewer). R: an (N, m)
+        array the compiled route may keep the residuals in (a caller's buffer).
         Returns BatchInfo.
         """
         args = (t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, Qddd, third)
-        if self.blocks is not getattr(self, "_built", None) or order > 2:
-            fused = False
-        if fused is not False and policy != "fixed" and compiled is not None:
-            k = self.kernel(compiled)
-            if k is not None:
-                return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers)
+        k = self.route_of(compiled, policy, order, fused)
+        if k is not None:
+            return self._solve_kernel(k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers,
+                                      predict, R)
+        if predict is not None:
+            raise ValueError("System.solve_batch: predictions in the solve need the compiled "
+                             "route")
         if max(len(B.cols) for B in self.blocks) < PIN_BLAS_FROM:
             return self._solve_batch(*args)
         with one_blas_thread():
@@ -572,11 +578,21 @@ class System:
         P = self._csc["kernel"]
         return None if P is None else (lib, P)
 
-    def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers):
+    def route_of(self, compiled, policy, order, fused=None):
+        """(lib, packed system) when solve_batch takes the compiled route (compiled: a
+        planarkin.kernel Library, fused not False, policy reuse or full, order <= 2, the
+        blocks as built), else None: the reference pass."""
+        if fused is False or compiled is None or policy == "fixed" or order > 2 or \
+                self.blocks is not getattr(self, "_built", None):
+            return None
+        return self.kernel(compiled)
+
+    def _solve_kernel(self, k, t, Q, Qd, Qdd, policy, tol, maxit, order, drivers, predict=None,
+                      R=None):
         from . import kernel
         T, NU, FDD = self.driver_values(t) if drivers is None else drivers
         iters, conv, ratio, sign, smin, R, rmax, cond = kernel.solve(
-            k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order)
+            k[0], self, k[1], Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict, R)
         return BatchInfo(iters, conv, ratio, sign, smin, R, rmax, cond)
 
     def _direct(self, B: Block, grads, Minv, one: bool, rhs, X) -> None:

@@ -262,3 +262,25 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     finally:
         kernel.COMPILED_FROM_POINTS = saved
     assert np.array_equal(np.load(out), np.concatenate([clean.q, clean.qd, clean.qdd], axis=1))
+
+
+def test_each_compiled_kind_states_its_code_and_parameters():
+    """The kinds the compiled route compiles say so themselves (Kind.compiled_code and
+    compiled_params, issue 17): each code once, a function of planarkin.compiled_kinds for it,
+    parameters the kind has, in the 2-vector slots kernel.pack fills; a subclass that does not
+    state its own is not compiled."""
+    from planarkin import compiled_kinds
+    from planarkin.elements import KINDS
+    coded = {name: kernel.compiled_kind(k) for name, k in KINDS.items()
+             if kernel.compiled_kind(k) is not None}
+    assert sorted(coded) == ["angle", "distance", "pin-slot", "revolute", "slide",
+                             "translational", "x", "y"]
+    codes = [c for c, _ in coded.values()]
+    assert len(set(codes)) == len(codes) and set(codes) <= set(compiled_kinds.KINDS)
+    for name, (code, params) in coded.items():
+        assert set(params) <= {"si", "sj", "vi", "vj"}, name
+        assert set(params) <= {p.name for p in KINDS[name].params}, name
+
+    class Child(type(KINDS["revolute"])):
+        pass
+    assert kernel.compiled_kind(Child()) is None

@@ -24,9 +24,9 @@ from test_reference import compare  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "mechanisms").glob("*.yaml"))
 # the examples whose grid systems a generated kernel covers (the others: kinds kernel.pack
-# declines, or a block of more than compiled_gen.KGEN unknowns: the generic kernel)
+# declines); the Klann leg's 4 x 4 block by Gauss-Jordan (compiled_gen.KDENSE)
 COVERED = {"boom", "four-bar", "four-bar-placed", "four-bar-sketch", "jansen-holy-numbers",
-           "jansen-leg", "peaucellier", "quick-return", "servo-press", "six-bar",
+           "jansen-leg", "klann-leg", "peaucellier", "quick-return", "servo-press", "six-bar",
            "six-bar-sketch", "slider-crank", "table-input", "trammel"}
 # chains of 2 x 2 blocks carry rounding down six blocks (tests/test_perstep.py: ROUNDING)
 ROUNDING = {"jansen-holy-numbers": 3e-15, "jansen-leg": 2e-15, "peaucellier": 2e-15}
@@ -241,3 +241,61 @@ def test_without_a_private_cache_the_kernel_compiles_in_memory(tmp_path):
     got = _run_batch({"PLANARKIN_CACHE": str(bad)})
     assert got["rel"] <= 1e-15 and got["jitted"] and not got["loaded"]
     assert got["file"].startswith("<planarkin pk_grid_") and not any(bad.iterdir())
+
+
+@pytest.mark.parametrize("name,merged", [("four-bar", False), ("klann-leg", False),
+                                         ("jansen-leg", False), ("four-bar", True)])
+def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
+    """The studies' point-by-point solve written out per structure (compiled_gen_each) against
+    compiled_each.solve_each, the arrays kernel.solve_rows returns bit for bit: two parameter
+    sets alternating point by point (a per-point table), the acceptance tests on; 2 x 2
+    blocks (the Jansen leg's chain), a 4 x 4 one (Klann) and the path's merged 9 x 9."""
+    import test_perstep
+    lib = kernel.library().need("study")
+    S, t, Q0 = test_perstep._batch(f"{name}.yaml", merged=merged, N=120)
+    P = kernel.pack(S)
+    T, NU, FDD = S.driver_values(t)
+    table = np.stack([P.arrays[3], P.arrays[3] * (1 + 1e-3)])
+    rows = (np.arange(len(t)) % 2).astype(np.int64)
+    sign0 = np.ones((len(t), P.nfine))
+    out, called = [], []
+    real = compiled_grid.function_each
+    monkeypatch.setattr(compiled_grid, "function_each",
+                        lambda *a: called.append(1) or real(*a))
+    for route in ("generic", "1"):
+        monkeypatch.setenv("PLANARKIN_KERNEL", route)
+        r = kernel.solve_rows(lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8, rows=rows,
+                              table=table, accept=(t, sign0))
+        out.append([np.array(x) for x in r])
+    assert called and compiled_gen.covers(P)
+    for a, b in zip(*out):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert out[1][4].any() and np.isfinite(out[1][9]).all()
+
+
+@pytest.mark.parametrize("name", ["four-bar", "slider-crank", "klann-leg", "jansen-leg",
+                                  "table-input", "six-bar"])
+def test_a_whole_run_on_the_compiled_route_is_the_numpy_routes(name, monkeypatch):
+    """planarkin.solve with the threshold lowered (the grid's chunks by the generated kernel,
+    their predictions written inside it from the path's nodes, into buffers kept from chunk to
+    chunk) against PLANARKIN_KERNEL=0: every column to 1e-15 of its largest value, the same
+    iteration counts."""
+    from test_perstep import close_columns
+
+    from planarkin import solver
+    monkeypatch.setattr(solver, "CHUNK_BYTES", 1)      # chunks of 16 points, the last of 1
+    m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
+    monkeypatch.setenv("PLANARKIN_KERNEL", "0")
+    ref = planarkin.solve(m, steps=240)
+    monkeypatch.setenv("PLANARKIN_KERNEL", "1")
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 0)
+    called = []
+    real = compiled_grid.solve
+    monkeypatch.setattr(compiled_grid, "solve",
+                        lambda *a, **k: called.append(a[-2] is not None) or real(*a, **k))
+    got = planarkin.solve(m, steps=240)
+    assert ref.status == got.status == 0 and len(ref.t) == len(got.t) == 241
+    assert len(called) == 16 and all(called)      # every chunk predicted in the kernel
+    for what in ("q", "qd", "qdd", "p", "pd", "pdd"):
+        close_columns(getattr(ref, what), getattr(got, what), what)
+    assert np.array_equal(ref.iterations, got.iterations)

@@ -19,6 +19,8 @@ _POINTS = (
 
 class Angle(Kind):
     name = "angle"
+    compiled_code = 3                 # planarkin.compiled_kinds.KINDS
+    compiled_params = ()
     reaction_columns = ("torque",)               # a pure moment
     driver = True
     params = ()
@@ -108,6 +110,8 @@ class _Component(Kind):
 
 class XDistance(_Component):
     name = "x"
+    compiled_code = 4                 # planarkin.compiled_kinds.KINDS
+    compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 0
     reaction_sign = (
@@ -121,6 +125,8 @@ class XDistance(_Component):
 
 class YDistance(_Component):
     name = "y"
+    compiled_code = 5                 # planarkin.compiled_kinds.KINDS
+    compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 1
     reaction_sign = (
@@ -136,6 +142,8 @@ class Distance(Kind):
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
+    compiled_code = 6                 # planarkin.compiled_kinds.KINDS
+    compiled_params = ("si", "sj")
     at_points = 2
     target_from_at = True
     between = True

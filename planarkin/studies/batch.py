@@ -46,7 +46,7 @@ import numpy as np
 from ..elements import KINDS
 from ..elements.base import Group
 from ..expr import parse
-from ..acceptance import COND_WARN, KAPPA, accepted, path_errors
+from ..acceptance import COND_WARN, accepted, path_errors
 from .outcome import Outcome
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
@@ -386,7 +386,7 @@ class Batch:
             drv, tg = self._drv1, self.grid
         Qr, Qdr, Qddr, iters, conv, ratio, sg, smin, good, perr = kernel.solve_rows(
             k[0], self.S, k[1], Qr, *drv, o.tol, max(o.iterations, 8), rows=rows, table=table,
-            trow=trow, accept=(tg, sign.reshape(Vn * T, -1), KAPPA, COND_WARN),
+            trow=trow, accept=(tg, sign.reshape(Vn * T, -1)),
             hist=hist, work=work, out=None if out is None else [a.reshape(Vn * T, n3)
                                                                 for a in out])
         # good: finite positions too, with the velocities and accelerations
