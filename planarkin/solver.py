@@ -431,7 +431,7 @@ class Analysis:
         self.timings: dict[str, float] = {}
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
-        self.out = None             # results.Collect: where the kernel lays chunks out (solve())
+        self.out = None             # analysis.Collect: where the kernel lays chunks out (solve())
         # the compiled route (planarkin.kernel.Library) when the grid is large enough to repay
         # numba's start-up, else None: the numpy passes (the route depends on the job only)
         self.compiled = kernel.route(opts.rows)
