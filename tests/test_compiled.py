@@ -49,7 +49,7 @@ ch = an._dense(t)
 ext = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
 Q0 = ext + 1e-4 * np.sin(np.arange(ext.size).reshape(ext.shape))
 Q0[:, S.n:] = 0.0
-lib = kernel.library().need("grid").need("study")
+lib = kernel.library().need("grid").need("study").need("each")
 out = {}
 for name, kw in (("ref", dict(fused=False)), ("lib", dict(compiled=lib))):
     X = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
@@ -105,7 +105,7 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
     """The wrappers give every entry point the types of its one signature (a read-only or
     int32 array would compile it again, silently, and its cache file would not be vouched
     for)."""
-    lib = kernel.library().need("grid").need("study")
+    lib = kernel.library().need("grid").need("study").need("each")
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 100)
     for name in ("four-bar", "slider-crank", "klann-leg", "quick-return"):
         assert planarkin.solve(planarkin.load(ROOT / "mechanisms" / f"{name}.yaml"),
