@@ -129,6 +129,9 @@ def main() -> None:
                     help="leave out the whole `planarkin sweep --jobs 1` command")
     ap.add_argument("--jobs", type=int, default=1,
                     help="also time the whole command with -j JOBS (JOBS > 1)")
+    ap.add_argument("--baseline", default=None,
+                    help="a planarkin checkout whose whole command is also timed, alternating "
+                         "(both then without bytecode files: nothing is written into it)")
     ap.add_argument("--rounds", type=int, default=5,
                     help="rounds of planarkin and pylinkage, alternating (medians printed)")
     args = ap.parse_args()
@@ -172,10 +175,14 @@ def main() -> None:
         cmd_keys = [] if args.no_command else [1] + ([args.jobs] if args.jobs > 1 else [])
         for j in cmd_keys:
             pk[f"planarkin sweep --jobs {j} (whole command)"] = ([], [])
+        if args.baseline and cmd_keys:
+            pk["baseline sweep --jobs 1 (whole command)"] = ([], [])
         env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        if args.baseline:
+            env["PYTHONDONTWRITEBYTECODE"] = "1"
         env["PYTHONPATH"] = str(HERE.parent) + os.pathsep + env.get("PYTHONPATH", "")
 
-        def command(j):
+        def command(j, root=None):
             """The whole `planarkin sweep -j j` in a fresh process: its rates (wall, and CPU
             of the process and its children) appended; the CSV's row count checked."""
             outdir = Path(d) / f"out{j}"
@@ -185,7 +192,8 @@ def main() -> None:
                     "--no-plots"]
             r0 = os.times()
             t0 = time.perf_counter()
-            r = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=3600)
+            e = env if root is None else dict(env, PYTHONPATH=str(root))
+            r = subprocess.run(argv, env=e, capture_output=True, text=True, timeout=3600)
             wall = time.perf_counter() - t0
             r1 = os.times()
             if r.returncode != 0:
@@ -193,14 +201,20 @@ def main() -> None:
             rows = sum(1 for _ in open(outdir / path.stem / "sweep.csv")) - 1
             assert rows == side * side, rows
             c = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
-            key = f"planarkin sweep --jobs {j} (whole command)"
+            key = (f"planarkin sweep --jobs {j} (whole command)" if root is None
+                   else "baseline sweep --jobs 1 (whole command)")
             pk[key][0].append(rows / wall)
-            pk[key][1].append(rows / c)
+            # (-j > 1: the workers are the forkserver's children, their CPU time not counted)
+            pk[key][1].append(rows / c if j == 1 else float("nan"))
 
-        for j in cmd_keys:          # caches filled (numba's, the bytecode), untimed
-            command(j)
-            pk[f"planarkin sweep --jobs {j} (whole command)"][0].clear()
-            pk[f"planarkin sweep --jobs {j} (whole command)"][1].clear()
+        runs = [(j, None) for j in cmd_keys] + (
+            [(1, args.baseline)] if args.baseline and cmd_keys else [])
+        for j, root in runs:        # caches filled (numba's, the bytecode), untimed
+            command(j, root)
+        for key in pk:
+            if "whole command" in key:
+                pk[key][0].clear()
+                pk[key][1].clear()
 
         def timed(key):
             """study.run(sub), its rates appended under key (wall and CPU)."""
@@ -212,8 +226,8 @@ def main() -> None:
 
         for _ in range(args.rounds):
             out = timed("planarkin Study.run (sweep --jobs 1)")
-            for j in cmd_keys:
-                command(j)
+            for j, root in runs:
+                command(j, root)
             if args.numpy:
                 saved = os.environ.get("PLANARKIN_KERNEL")
                 os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
