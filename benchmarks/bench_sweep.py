@@ -23,6 +23,13 @@ and accelerations.
   numpy reference; `--numpy` also times the numpy reference (System.solve_batch, PLANARKIN_KERNEL=0:
   the reference route) in the same rounds and compares the outcomes.
   planarkin and pylinkage alternate, --rounds rounds; printed are the medians and every round.
+* planarkin, the whole command (what issue 17 counts): `python -m planarkin sweep MODEL --vary
+  a=0.03:0.05:S --vary b=0.11:0.13:S --metric max:rocker.phi -j 1 -q --no-plots` in a fresh
+  process per round (interpreter start, imports, numba's import and cache loads, the model's
+  checks, the solve, sweep.csv written), after one untimed run that fills the caches; in the
+  same alternating rounds; `--jobs 2` also times it with -j 2. PYTHONDONTWRITEBYTECODE is
+  dropped from its environment (an installed package has its bytecode; without it every run
+  compiles planarkin's sources again, ~0.15 s). variants/s = V / the process's wall time.
 * textbook: benchmarks/textbook.py per variant (per-step dense Newton) on `--textbook` variants.
 * closed form: benchmarks/models.four_bar_closed_form per variant (vectorised over the grid).
 
@@ -118,6 +125,13 @@ def main() -> None:
     ap.add_argument("--pylinkage-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--numpy", action="store_true",
                     help="also time planarkin's numpy passes (PLANARKIN_KERNEL=0)")
+    ap.add_argument("--no-command", action="store_true",
+                    help="leave out the whole `planarkin sweep --jobs 1` command")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="also time the whole command with -j JOBS (JOBS > 1)")
+    ap.add_argument("--baseline", default=None,
+                    help="a planarkin checkout whose whole command is also timed, alternating "
+                         "(both then without bytecode files: nothing is written into it)")
     ap.add_argument("--rounds", type=int, default=5,
                     help="rounds of planarkin and pylinkage, alternating (medians printed)")
     args = ap.parse_args()
@@ -127,7 +141,8 @@ def main() -> None:
     variants = [{"a": float(a), "b": float(b)} for a in a_vals for b in b_vals]
     t_grid = np.linspace(0, 1, STEPS + 1)
     print(f"four-bar sweep: {len(variants)} variants x {STEPS} steps (P, V, A); "
-          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     rates = {}
     cpu = {}        # variants per CPU second: less sensitive to the other jobs on the machine
 
@@ -157,6 +172,50 @@ def main() -> None:
         print("planarkin route: " + ("numpy passes" if k is None else "compiled (numba)"))
         study.run(sub[:2])
 
+        cmd_keys = [] if args.no_command else [1] + ([args.jobs] if args.jobs > 1 else [])
+        for j in cmd_keys:
+            pk[f"planarkin sweep --jobs {j} (whole command)"] = ([], [])
+        if args.baseline and cmd_keys:
+            pk["baseline sweep --jobs 1 (whole command)"] = ([], [])
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        if args.baseline:
+            env["PYTHONDONTWRITEBYTECODE"] = "1"
+        env["PYTHONPATH"] = str(HERE.parent) + os.pathsep + env.get("PYTHONPATH", "")
+
+        def command(j, root=None):
+            """The whole `planarkin sweep -j j` in a fresh process: its rates (wall, and CPU
+            of the process and its children) appended; the CSV's row count checked."""
+            outdir = Path(d) / f"out{j}"
+            argv = [sys.executable, "-m", "planarkin", "sweep", str(path),
+                    "--vary", f"a=0.03:0.05:{side}", "--vary", f"b=0.11:0.13:{side}",
+                    "--metric", "max:rocker.phi", "--out", str(outdir), "-j", str(j), "-q",
+                    "--no-plots"]
+            r0 = os.times()
+            t0 = time.perf_counter()
+            e = env if root is None else dict(env, PYTHONPATH=str(root))
+            r = subprocess.run(argv, env=e, capture_output=True, text=True, timeout=3600)
+            wall = time.perf_counter() - t0
+            r1 = os.times()
+            if r.returncode != 0:
+                raise SystemExit(f"planarkin sweep failed: {r.stderr.strip()[-400:]}")
+            rows = sum(1 for _ in open(outdir / path.stem / "sweep.csv")) - 1
+            assert rows == side * side, rows
+            c = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
+            key = (f"planarkin sweep --jobs {j} (whole command)" if root is None
+                   else "baseline sweep --jobs 1 (whole command)")
+            pk[key][0].append(rows / wall)
+            # (-j > 1: the workers are the forkserver's children, their CPU time not counted)
+            pk[key][1].append(rows / c if j == 1 else float("nan"))
+
+        runs = [(j, None) for j in cmd_keys] + (
+            [(1, args.baseline)] if args.baseline and cmd_keys else [])
+        for j, root in runs:        # caches filled (numba's, the bytecode), untimed
+            command(j, root)
+        for key in pk:
+            if "whole command" in key:
+                pk[key][0].clear()
+                pk[key][1].clear()
+
         def timed(key):
             """study.run(sub), its rates appended under key (wall and CPU)."""
             t0, c0 = time.perf_counter(), time.process_time()
@@ -167,6 +226,8 @@ def main() -> None:
 
         for _ in range(args.rounds):
             out = timed("planarkin Study.run (sweep --jobs 1)")
+            for j, root in runs:
+                command(j, root)
             if args.numpy:
                 saved = os.environ.get("PLANARKIN_KERNEL")
                 os.environ["PLANARKIN_KERNEL"] = "0"        # read per call
@@ -197,11 +258,17 @@ def main() -> None:
                   f"metric difference {dev:.1e}")
     for key, (w, c) in pk.items():
         rates[key], cpu[key] = median(w), median(c)
-        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in w))
+        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in w)
+              + f" (median {median(w):.0f}, spread {min(w):.0f}-{max(w):.0f})")
     if pl_rates:
         key = "pylinkage + numba (step_fast_with_kinematics)"
         rates[key], cpu[key] = median(pl_rates), median(pl_cpu)
-        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in pl_rates))
+        print(f"{key}: variants/s per round " + ", ".join(f"{x:.0f}" for x in pl_rates)
+              + f" (median {median(pl_rates):.0f}, spread {min(pl_rates):.0f}-"
+                f"{max(pl_rates):.0f})")
+        for k, (w, _) in pk.items():       # the ratio round by round (the sides alternate)
+            print(f"{k} / pylinkage per round: "
+                  + ", ".join(f"{x / y:.2f}" for x, y in zip(w, pl_rates)))
     else:
         print(f"pylinkage: not measured: {why}")
 
@@ -216,6 +283,7 @@ def main() -> None:
         rates["textbook (per-step dense Newton)"] = args.textbook / (time.perf_counter() - t0)
         cpu["textbook (per-step dense Newton)"] = args.textbook / (time.process_time() - c0)
 
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
     key = "pylinkage + numba (step_fast_with_kinematics)"
     ref, cref = rates.get(key), cpu.get(key)
     print(f"\n{'solver':<48} {'variants/s':>12} {'us/step':>9} {'vs pylinkage':>13} "

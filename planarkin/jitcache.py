@@ -81,6 +81,26 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def _stamp(path: Path) -> tuple:
+    st = os.stat(path)
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _known_digest(path: Path, rel: str) -> str:
+    """path's sha256, read again unless this process hashed it already (in prepare or a record)
+    and its inode, size and modification time are unchanged since: the entry holds hundreds of
+    files (numba's index and data for every kernel), and hashing them all at every record()
+    cost a sweep about 0.05 s, twice."""
+    seen = _held.setdefault("seen", {})
+    stamp = _stamp(path)
+    old = seen.get(rel)
+    if old is not None and old[0] == stamp:
+        return old[1]
+    d = _digest(path)
+    seen[rel] = (stamp, d)
+    return d
+
+
 def _files(entry: Path):
     for p in sorted(entry.rglob("*")):
         if p.is_file() and p.name not in (MANIFEST, ".lock"):
@@ -112,7 +132,7 @@ def prepare() -> Path | None:
         known = _manifest(entry)
         for p in _files(entry):
             rel = p.relative_to(entry).as_posix()
-            if known.get(rel) != _digest(p):
+            if known.get(rel) != _known_digest(p, rel):
                 p.unlink()
     except OSError:
         release()
@@ -146,7 +166,10 @@ def record() -> None:
     entry = _held.get("dir")
     try:
         if entry is not None and "lock" in _held:
-            m = {p.relative_to(entry).as_posix(): _digest(p) for p in _files(entry)}
+            m = {}
+            for p in _files(entry):
+                rel = p.relative_to(entry).as_posix()
+                m[rel] = _known_digest(p, rel)
             if m != _manifest(entry):
                 tmp = entry / f".{MANIFEST}.{os.getpid()}"
                 tmp.write_text(json.dumps(m, indent=0, sort_keys=True))

@@ -69,20 +69,22 @@ class Library:
     cache) when a job first needs it (need): planarkin.compiled_points' layout ('points', every
     job on the route: the generated kernels write their own predictions), its hermite
     ('hermite'), the generic solve_points of planarkin.compiled with both ('grid': only for a
-    system no generated kernel covers, see solve), compiled_each's solve_each and the cubic
-    ('study')."""
+    system no generated kernel covers, see solve), the studies' cubic ('study') and the generic
+    solve_each of compiled_each ('each': only for a structure no generated kernel covers, see
+    solve_rows; loading it from the cache costs about 0.4 s of a sweep that never calls it)."""
 
     PARTS = {"points": ("compiled_points", ("layout",)),
              "hermite": ("compiled_points", ("hermite",)),
              "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
-             "study": ("compiled_each", ("solve_each",), "compiled_points", ("cubic",))}
+             "study": ("compiled_points", ("cubic",)),
+             "each": ("compiled_each", ("solve_each",))}
 
     def __init__(self):
         self.cache = None          # numba's disk cache directory once prepared, or None
         self._ready: set = set()
 
     def need(self, part: str) -> "Library":
-        """The entry points of part ('points', 'grid', 'study') compiled or loaded, under the
+        """The entry points of part ('points', 'grid', 'study', 'each') compiled or loaded, under the
         cache's lock (planarkin.jitcache), before anything is solved (and before a study forks
         its workers)."""
         if part not in self._ready:
@@ -399,6 +401,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
            _NONE_U8 if good is None else good, _NONE_F64 if perr is None else perr)
         return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
                 None if good is None else good.view(bool), perr)
+    lib.need("each")
     lib.solve_each(N, W, S.cm.m, S.nb, P.nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
                    bcols, brows, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1),
                    *(X.reshape(-1) for X in drv), int(maxit), float(tol), 1, iters, conv, ratio,

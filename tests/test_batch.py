@@ -122,6 +122,7 @@ def _kernel():
     lib = kernel.library()
     assert lib is not None, "numba is a dependency of planarkin"
     lib.need("study")
+    lib.need("each")
     lib.need("grid")
     return kernel, lib
 
@@ -349,3 +350,20 @@ def test_the_study_routes_agree_to_1e15_of_each_columns_largest_value(name):
     # the metrics the study reports from them: the points' kinematics, the same to 1e-15
     for a, b in zip(B.points(*fast[:3], fast[5]), B.points(*ref[:3], ref[5])):
         close_columns(b.reshape(V * T, -1), a.reshape(V * T, -1), "points")
+
+
+def test_a_study_the_generated_solve_covers_never_loads_the_generic_one(monkeypatch):
+    """The four-bar's study solves through its generated kernel (compiled_grid.function_each):
+    the generic solve_each (Library part 'each', about 0.4 s to load from numba's cache) is not
+    loaded for it, and is for a structure left to it (PLANARKIN_KERNEL=generic)."""
+    from planarkin import kernel
+    _kernel()
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 1)
+    for env, loads in (("1", False), ("generic", True)):
+        monkeypatch.setenv("PLANARKIN_KERNEL", env)
+        lib = kernel.Library()
+        monkeypatch.setitem(kernel._state, "lib", lib)
+        s = Study(FB, analysis={"steps": STEPS}, metrics=["max:rocker.phi"])
+        out = s.run([{"a": 0.04, "b": 0.12}, {"a": 0.041, "b": 0.12}])
+        assert [o.status for o in out] == ["ok", "ok"]
+        assert "study" in lib._ready and ("each" in lib._ready) is loads

@@ -49,7 +49,7 @@ ch = an._dense(t)
 ext = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
 Q0 = ext + 1e-4 * np.sin(np.arange(ext.size).reshape(ext.shape))
 Q0[:, S.n:] = 0.0
-lib = kernel.library().need("grid").need("study")
+lib = kernel.library().need("grid").need("study").need("each")
 out = {}
 for name, kw in (("ref", dict(fused=False)), ("lib", dict(compiled=lib))):
     X = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
@@ -105,7 +105,7 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
     """The wrappers give every entry point the types of its one signature (a read-only or
     int32 array would compile it again, silently, and its cache file would not be vouched
     for)."""
-    lib = kernel.library().need("grid").need("study")
+    lib = kernel.library().need("grid").need("study").need("each")
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 100)
     for name in ("four-bar", "slider-crank", "klann-leg", "quick-return"):
         assert planarkin.solve(planarkin.load(ROOT / "mechanisms" / f"{name}.yaml"),
@@ -227,12 +227,17 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     planted: a new process detects them, compiles those functions again and gives the same
     results as a clean run; the manifest then vouches for the new files."""
     lib = kernel.library()
-    assert lib is not None and lib.cache is not None
+    assert lib is not None
     lib.need("grid")
+    # this process's entry as jitcache has it now (lib.cache is the one of the last part
+    # loaded, None if that was under another test's unusable directory)
+    warm = jitcache.prepare()
+    jitcache.record()
+    assert warm is not None
     cache = tmp_path / "cache"
     cache.mkdir(mode=0o700)
-    shutil.copytree(lib.cache, cache / lib.cache.name)
-    entry = cache / lib.cache.name
+    shutil.copytree(warm, cache / warm.name)
+    entry = cache / warm.name
     files = sorted(p for p in entry.rglob("*") if p.is_file() and p.suffix in (".nbi", ".nbc"))
     layout = [p for p in files if ".layout-" in p.name and p.suffix == ".nbc"]
     hermite = [p for p in files if ".hermite-" in p.name and p.suffix == ".nbi"]

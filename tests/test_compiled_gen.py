@@ -251,7 +251,7 @@ def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
     sets alternating point by point (a per-point table), the acceptance tests on; 2 x 2
     blocks (the Jansen leg's chain), a 4 x 4 one (Klann) and the path's merged 9 x 9."""
     import test_perstep
-    lib = kernel.library().need("study")
+    lib = kernel.library().need("study").need("each")
     S, t, Q0 = test_perstep._batch(f"{name}.yaml", merged=merged, N=120)
     P = kernel.pack(S)
     T, NU, FDD = S.driver_values(t)

@@ -352,6 +352,13 @@ class Batch:
             return None
         if not hasattr(self, "_kpack"):
             self._kpack = kernel.pack(self.S)
+            if self._kpack is not None:
+                # the solve this structure takes, compiled or loaded now (before any worker
+                # forks): the generated one, else the generic solve_each (kernel.solve_rows)
+                from .. import compiled_grid
+                if compiled_grid.function_each(self._kpack, self.S.cm.n + 3, self.S.cm.m,
+                                               self.S.nb) is None:
+                    lib.need("each")
         return None if self._kpack is None else (lib, self._kpack)
 
     def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None, work=None, out=None):
