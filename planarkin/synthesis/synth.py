@@ -27,12 +27,14 @@ The method:
    run's trail), so every returned design is verified over its whole cycle;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
 
-benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml): a seed's
-local runs cost ~5 ms a trial against ~65 ms for an analysis over the cycle (load 0.2), 20-30 s
-a seed instead of 12 min; they still end in one valley (the linkage growing to the bounds, SSE
-1e-6 .. 1e-4 mm^2) from the Latin-hypercube starts, while from Hoeken's straight-line linkage
-one local run reaches 1e-20 in ~50 trials (tests/test_synth_local.py): the starts, not the
-local method, are what the target lacks.
+With search batch: the starts are analysed a batch at a time, each batch's accepted run best
+first, and the search ends at the first `keep` designs below the goal; with probe: a local
+run is abandoned when it falls too slowly (planarkin.synthesis.local.probe_limits), and an
+abandoned run is checked over its cycle only when it would be kept. The six collinear points
+(straight-line.yaml) need that: about one local run in 200 from the Latin-hypercube starts
+lands in the basin of an exact solution (the others slide down a valley, the linkage growing
+until a bound stops it, SSE 1e-6 .. 1e-4 mm^2), and it shows by converging superlinearly, so
+several hundred probed runs of ~30 trials (benchmarks/bench_synth.py) replace 20 long ones.
 """
 
 from __future__ import annotations
