@@ -35,8 +35,9 @@ def straight_line(seeds: int, first: int = 0) -> None:
     from planarkin.synthesis.synth import synthesize
     model = ROOT / "mechanisms" / "synthesis" / "straight-line.yaml"
     ok = 0
-    print("seed  best SSE [mm^2]  evaluations  analyses  jacobians  projections  seconds")
-    ev, an, jac, sec, best_all = [], [], [], [], []
+    print("seed  best SSE [mm^2]  evaluations  analyses  jacobians  projections  local runs  "
+          "seconds")
+    ev, an, jac, sec, best_all, runs = [], [], [], [], [], []
     for seed in range(first, first + seeds):
         r = synthesize(model, seed=seed)
         best = r.designs[0].cost if r.designs else float("nan")
@@ -46,13 +47,15 @@ def straight_line(seeds: int, first: int = 0) -> None:
         jac.append(r.jacobians)
         sec.append(r.seconds)
         best_all.append(best)
+        runs.append(r.runs)
         print(f"{seed:4d}  {best:15.3e}  {r.evaluations:11d}  {r.analyses:8d}  {r.jacobians:9d}  "
-              f"{r.model.project_solves:11d}  {r.seconds:7.1f}", flush=True)
+              f"{r.model.project_solves:11d}  {r.runs:10d}  {r.seconds:7.1f}", flush=True)
     print(f"straight line: SSE < 1e-12 in {ok} of {seeds} seeds (target >= 95 %); best SSE "
           f"median {np.nanmedian(best_all):.2e} (range {np.nanmin(best_all):.2e} .. "
           f"{np.nanmax(best_all):.2e}); evaluations median {np.median(ev):.0f} (range "
           f"{min(ev)}-{max(ev)}), of them analyses over the cycle {np.median(an):.0f} "
-          f"({min(an)}-{max(an)}); Jacobians {np.median(jac):.0f} ({min(jac)}-{max(jac)}); "
+          f"({min(an)}-{max(an)}); local runs {np.median(runs):.0f} ({min(runs)}-{max(runs)}); "
+          f"Jacobians {np.median(jac):.0f} ({min(jac)}-{max(jac)}); "
           f"seconds median {np.median(sec):.1f} (range {min(sec):.1f}-{max(sec):.1f})")
 
 

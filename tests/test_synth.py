@@ -315,6 +315,8 @@ def test_points_out_of_reach_end_with_the_best_design_and_exit_1(tmp_path):
     ({"local": 2.5}, "synthesize: local must be a whole number"),
     ({"goal": float("nan")}, "synthesize: goal must be a number"),
     ({"start": 3}, "synthesize: unknown option 'start'; did you mean 'starts'?"),
+    ({"batch": -1}, "synthesize: batch must be a whole number from 0 to 100000, not -1"),
+    ({"probe_cost": -1.0}, "synthesize: probe_cost must be a number from 0 to inf"),
 ])
 def test_api_options_are_checked(options, message):
     import planarkin

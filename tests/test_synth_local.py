@@ -127,3 +127,38 @@ def test_straight_line_reaches_1e_12_from_a_known_linkage_and_is_verified():
     P = again.state.p[:, syn.points.index("P")]
     assert np.abs(P - np.array(syn.design.targets[0].values)).max() < 1e-6
 
+
+
+def test_probe_limits_are_the_documented_checkpoints():
+    from planarkin.synthesis.local import probe_limits
+    assert probe_limits(30, 3e-2) == [(30, 3e-2), (40, 3e-2 * 1e-2), (60, 3e-2 * 1e-4)]
+
+
+def test_a_probed_run_that_falls_too_slowly_is_abandoned():
+    """With a checkpoint no run can pass (cost 0 after 5 trials) the run stops at its first
+    accepted iterate from the fifth trial on, says so, and returns its best iterate; without
+    it the same run goes on."""
+    syn, loc = _anchored(LINE, [0, 0, 0.3, 10, 40, 30, 40, 20, 20], wrap=True)
+    _, _, d = syn.evaluate(np.array([0, 0, 0.3, 10, 40, 30, 40, 20, 20.0]), jac=False,
+                           final=True)
+    e0 = loc.evaluations
+    x, msg, trail = loc.run(d, 100, 0.0, [(5, 0.0)])
+    assert msg.startswith("abandoned: sum of squares") and "trials" in msg
+    assert 5 <= loc.evaluations - e0 < 20
+    r = loc.evaluate(x)[0]
+    assert abs(float(r @ r) - loc.last_cost) <= 1e-9 * loc.last_cost
+    e0 = loc.evaluations
+    _, msg, _ = loc.run(d, 20, 0.0)
+    assert not msg.startswith("abandoned") and loc.evaluations - e0 >= 19
+
+
+def test_starts_in_batches_end_at_the_first_design_below_the_goal():
+    """four-bar-path.yaml in batches of two starts: its first local run reaches the goal, so
+    the search analyses only the first batch (the starts it took are the batch's accepted)
+    and gives the same design as all starts at once."""
+    once = synthesize(EX / "four-bar-path.yaml", starts=8, local=8)
+    batched = synthesize(EX / "four-bar-path.yaml", starts=8, local=8, batch=2)
+    assert once.status == batched.status == 0
+    assert batched.runs == 1 and len(batched.starts) <= 2 < len(once.starts)
+    assert batched.analyses < once.analyses
+    assert batched.designs[0].cost < 1e-20

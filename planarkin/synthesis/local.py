@@ -43,6 +43,20 @@ class _Done(Exception):
     """Raised inside least_squares once an accepted iterate reaches the stop value."""
 
 
+class _Abandoned(Exception):
+    """Raised inside least_squares when a probed run falls too slowly (see Local.run)."""
+
+
+def probe_limits(probe: int, cost: float) -> list:
+    """(trials, largest sum of squares) checkpoints of a probed local run: cost after probe
+    trials, then a hundredth of it after a third more, a ten-thousandth after twice as many.
+    Why: measured on the six collinear points (seeds 5 and 6, 438 runs of 100 trials), a run
+    in the basin of an exact solution converges superlinearly (8e-4 .. 5e-3 mm^2 after 30
+    trials, 2e-5 .. 3e-5 after 40, 3e-9 .. 6e-8 after 60), while a run sliding down a valley
+    crawls: 22 % of them pass 3e-2 after 30 trials, 5 % 3e-4 after 40, none 1e-6 after 60."""
+    return [(probe, cost), (probe + probe // 3, cost * 1e-2), (2 * probe, cost * 1e-4)]
+
+
 class Local:
     """Cheap residuals and exact Jacobian of a Synthesis at the target inputs (see module)."""
 
@@ -56,6 +70,7 @@ class Local:
         self.k = syn.k
         self.evaluations = 0        # trials at the target inputs (no analysis over the cycle)
         self.ref = None             # the last accepted iterate: (x, times, State with dq)
+        self.last_cost = np.inf     # the best sum of squares of the last run
 
     # -- layout ------------------------------------------------------------------------------
     def unknowns(self, d) -> np.ndarray:
@@ -134,12 +149,15 @@ class Local:
         return np.concatenate(J)
 
     # -- one local run -----------------------------------------------------------------------
-    def run(self, d, max_nfev: int, stop: float = 0.0):
+    def run(self, d, max_nfev: int, stop: float = 0.0, probe=()):
         """Least squares from the fully evaluated design d. Returns (x, message, trail): x in
         the local layout (self.full(x) for Synthesis.evaluate), trail the accepted iterates in
         order (d's first), from which the caller takes the last that passes the full check
         when x does not. stop: an accepted iterate with a sum of squares at or below it ends
-        the run (it has converged for the caller)."""
+        the run (it has converged for the caller). probe: (trials, cost) checkpoints
+        (probe_limits): the run is abandoned (message 'abandoned: ...') when its best sum of
+        squares is above cost once it has used that many trials: many short runs find an
+        exact basin sooner than a few long ones."""
         from scipy.optimize import least_squares
         syn = self.syn
         self.anchor(d)
@@ -171,12 +189,17 @@ class Local:
         cache = {}
         best = [X(z0), float(r0 @ r0)]
         trail = [X(z0)]
+        e0 = self.evaluations - 1
+        limits = sorted(probe)
 
         def fun(z):
             key = z.tobytes()
             if key not in cache:
                 cache.clear()
                 cache[key] = self.evaluate(X(z))
+                used = self.evaluations - e0
+                if any(used >= n and best[1] > lim for n, lim in limits):
+                    raise _Abandoned
             r = cache[key][0]
             return wall if r is None else r
 
@@ -194,6 +217,9 @@ class Local:
                 best[:] = [x, c]
             if c <= stop:
                 raise _Done
+            used = self.evaluations - e0
+            if any(used >= n and best[1] > lim for n, lim in limits):
+                raise _Abandoned
             return J
 
         try:
@@ -205,6 +231,10 @@ class Local:
                 x = best[0]
         except _Done:
             x, msg = best[0], "the sum of squares reached the goal"
+        except _Abandoned:
+            x, msg = best[0], (f"abandoned: sum of squares {best[1]:.3g} after "
+                               f"{self.evaluations - e0} trials")
+        self.last_cost = best[1]
         return x, msg, trail
 
 

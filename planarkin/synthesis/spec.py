@@ -13,6 +13,9 @@
                                               # (either direction: the input may turn back)
       search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12, evaluations: 2000,
                per_local: 300}       # per_local: evaluations of one local run
+      # batch: starts analysed at a time (0: all), the search stopping once the goal is met;
+      # probe, probe_cost: abandon a local run above probe_cost after probe trials (and
+      # above 1e-2, 1e-4 of it after a third more, twice as many: local.probe_limits)
 
 Targets are in the model's units (length unit for points, angle unit for angles); `inputs` are
 values of the model's one driver (its f, in its unit); without them the timing is free (the
@@ -37,7 +40,9 @@ CONSTRAINT_KEYS = ("turns", "transmission", "order")
 SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
           "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
           "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
-          "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0)}
+          "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0),
+          "batch": (int, 0, 100_000, 0), "probe": (int, 0, 10**6, 0),
+          "probe_cost": (float, 0.0, math.inf, 1e-2)}
 QUANTITIES = ("x", "y", "phi")
 
 

@@ -27,12 +27,14 @@ The method:
    run's trail), so every returned design is verified over its whole cycle;
 3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
 
-benchmarks/bench_synth.py measures the six collinear points (straight-line.yaml): a seed's
-local runs cost ~5 ms a trial against ~65 ms for an analysis over the cycle (load 0.2), 20-30 s
-a seed instead of 12 min; they still end in one valley (the linkage growing to the bounds, SSE
-1e-6 .. 1e-4 mm^2) from the Latin-hypercube starts, while from Hoeken's straight-line linkage
-one local run reaches 1e-20 in ~50 trials (tests/test_synth_local.py): the starts, not the
-local method, are what the target lacks.
+With search batch: the starts are analysed a batch at a time, each batch's accepted run best
+first, and the search ends at the first `keep` designs below the goal; with probe: a local
+run is abandoned when it falls too slowly (planarkin.synthesis.local.probe_limits), and an
+abandoned run is checked over its cycle only when it would be kept. The six collinear points
+(straight-line.yaml) need that: about one local run in 200 from the Latin-hypercube starts
+lands in the basin of an exact solution (the others slide down a valley, the linkage growing
+until a bound stops it, SSE 1e-6 .. 1e-4 mm^2), and it shows by converging superlinearly, so
+several hundred probed runs of ~30 trials (benchmarks/bench_synth.py) replace 20 long ones.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .local import Local
+from .local import Local, probe_limits
 from .margins import barrier, length_gradients, turning_loop
 from .problem import Model, Rejected, State, wrap
 from .spec import design_of
@@ -85,6 +87,7 @@ class SynthResult:
     model: object = None
     starts: list = field(default_factory=list)
     analyses: int = 0           # of the evaluations, those analysing a design's whole cycle
+    runs: int = 0               # local runs started
 
 
 class Synthesis:
@@ -368,17 +371,20 @@ class Synthesis:
         return T - float(steps.sum()) if steps.sum() > T * (1 + 1e-9) else float(steps.min())
 
     # -- global start ------------------------------------------------------------------------
-    def candidates(self, n: int, seed: int, nominal: bool = False):
+    def candidates(self, n: int, seed: int, nominal: bool = False, part=None):
         """A seeded Latin hypercube of n designs, each analysed: (score, x, Design) of the
         accepted in order of score, and the rejection reasons counted. nominal: the file's own
         values (with its --set overrides) are a start too, when inside the bounds (a known
-        design to refine)."""
+        design to refine). part: (first, end) rows of the hypercube (with the nominal first)
+        to analyse, so a search can take its starts in batches and stop early."""
         from scipy.stats import qmc
         X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
         if nominal:
             p = np.array([float(self.model.spec.parameters[k]) for k in self.model.free])
             if np.all((self.lo <= p) & (p <= self.hi)):
                 X = np.concatenate([p[None, :], X])
+        if part is not None:
+            X = X[part[0]:part[1]]
         good, reasons = [], {}
         for xp in X:
             out = self.screen(self.model.values(xp))
@@ -479,32 +485,59 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
         if not isinstance(first, Rejected):
             syn.wrap = syn.model.periodic(first[2])
-    good, reasons = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]))
     lo, hi = syn.bounds()
-    designs, rejected_local = [], []
+    designs, rejected_local, good_all, reasons = [], [], [], {}
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
     local = Local(syn)
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
-    for score, x0, d0 in good[:cfg["local"]]:
-        if syn.model.evaluations + local.evaluations >= cfg["evaluations"]:
+    probe = probe_limits(cfg["probe"], cfg["probe_cost"]) if cfg["probe"] else ()
+    total = cfg["starts"] + (1 if cfg["nominal"] else 0)
+    size = cfg["batch"] or total
+    runs = 0
+
+    def spent():
+        return syn.model.evaluations + local.evaluations
+
+    def done():
+        return (runs >= cfg["local"] or spent() >= cfg["evaluations"] or
+                (cfg["goal"] > 0 and sum(o.cost <= cfg["goal"] for o in designs) >= cfg["keep"]))
+
+    # the starts in batches (batch: 0, all at once): a batch's accepted starts are run best
+    # first, and the search stops as soon as the goal is met, so a hit in the first batches
+    # spares the analyses of the rest
+    for first in range(0, total, size):
+        if done():
             break
-        budget = max(1, cfg["evaluations"] - syn.model.evaluations - local.evaluations)
-        e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
-        xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop)
-        d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
-        if d is None:
-            continue
-        d.nfev = syn.model.evaluations + local.evaluations - e0
-        d.njev = syn.model.jacobians - j0
-        d.message = d.message or message
-        norm = (d.x - 0) / np.where(span > 0, span, 1.0)
-        if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
-               for o in designs):
-            continue
-        designs.append(d)
-        designs.sort(key=lambda o: o.cost)
-        if cfg["goal"] > 0 and sum(o.cost <= cfg["goal"] for o in designs) >= cfg["keep"]:
-            break
+        good, why = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
+                                   (first, first + size))
+        good_all += good
+        for key, n in why.items():
+            reasons[key] = reasons.get(key, 0) + n
+        for score, x0, d0 in good:
+            if done():
+                break
+            runs += 1
+            budget = max(1, cfg["evaluations"] - spent())
+            e0, j0 = spent(), syn.model.jacobians
+            xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop, probe)
+            if message.startswith("abandoned") and len(designs) >= cfg["keep"] and \
+                    local.last_cost >= designs[-1].cost:
+                continue        # abandoned and no better than the designs kept: not checked
+            d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
+            if d is None:
+                continue
+            d.nfev = spent() - e0
+            d.njev = syn.model.jacobians - j0
+            d.message = d.message or message
+            norm = (d.x - 0) / np.where(span > 0, span, 1.0)
+            if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
+                   for o in designs):
+                continue
+            designs.append(d)
+            designs.sort(key=lambda o: o.cost)
+            designs = designs[:cfg["keep"]]
+    good_all.sort(key=lambda g: g[0])
+    good = good_all
     designs = designs[:cfg["keep"]]
     ok = [o for o in designs if cfg["goal"] <= 0 or o.cost <= cfg["goal"]]
     if designs and ok:
@@ -520,7 +553,7 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
                        evaluations=syn.model.evaluations + local.evaluations,
                        analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
                        seconds=time.perf_counter() - t0, design=syn.design, model=syn,
-                       starts=[g[0] for g in good])
+                       starts=[g[0] for g in good], runs=runs)
 
 
 def _verified(syn, local, x, trail, lo, hi, rejected, first):
