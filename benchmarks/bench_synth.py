@@ -2,14 +2,14 @@
 
 1. Six collinear points (20, 20), (20, 25), ..., (20, 45) mm, no prescribed timing, a four-bar
    with free ground pivot, ground angle and lengths (mechanisms/synthesis/straight-line.yaml:
-   9 parameters + 6 crank times = 15 unknowns of the classic statement, the times projected
-   here (9 unknowns of the search); constraints: the crank turns fully (Grashof, crank or
+   9 parameters + 6 crank times = 15 unknowns of the classic statement: the starts project
+   the times (the nearest points of the path, in order), the local runs take all 15 as
+   unknowns; the search block of the file: probed runs in batches of starts); constraints: the crank turns fully (Grashof, crank or
    ground shortest), targets in order along the path; error: sum of squared distances, mm^2).
    An evaluation is either an analysis of a design over its whole cycle (the starts, and the
    check of every local run's result) or a local trial at the six target inputs only
-   (planarkin.synthesis.local); a projection one batched solve at the six target times.
-   Target: SSE < 1e-12 in >= 95 % of 20 seeds. Reports per seed the best SSE, the function
-   and Jacobian evaluations and the time.
+   (planarkin.synthesis.local). Target: SSE < 1e-12 in >= 95 % of 20 seeds. Reports per
+   seed the best SSE, the function and Jacobian evaluations, the local runs and the time.
 2. fit: mechanisms/four-bar.yaml's coupler point P at 49 times (one cycle), 0.1 mm Gaussian
    noise on x and y, a, b, c, d free from 2-5 % off: the fraction of (trial, parameter) pairs
    with the true value within 2 standard errors (target >= 90 % of 100 trials); exact data:
