@@ -123,7 +123,6 @@ def _kernel():
     assert lib is not None, "numba is a dependency of planarkin"
     lib.need("study")
     lib.need("each")
-    lib.need("grid")
     return kernel, lib
 
 
