@@ -372,25 +372,34 @@ class Writer:
             o(d + 1, f"fs += {M}[{mo} + uk] * {M}[{mo} + uk]")
             o(d, f"sm{x} = 1.0 / np.sqrt(fs) if ok{x} else 0.0")
 
+    def sign_at(self, f: int) -> str:
+        """Where the determinant sign of fine block f goes (the grid kernel's sign (N, nfine))."""
+        return f"sign[i, {f}]"
+
+    def entry(self, b: int, k: int) -> str:
+        """Entry k of block b's matrix (row-major), as the text reads it."""
+        return f"JW[{k}]"
+
     def fine_signs(self, d, b):
         """The determinant signs of the fine blocks inside block b from its matrix JW
-        (compiled.fine_signs); a single fine block: the block's own sign."""
+        (compiled.fine_signs): 1 x 1 their entry, larger by Gauss-Jordan; a single fine
+        block: the block's own sign."""
         o = self.out
         f0 = int(self.bfirst[b])
         kb = self.blocks[b][0]
         if len(self.sizes[b]) == 1:
-            o(d, f"sign[i, {f0}] = sg{b}")
+            o(d, f"{self.sign_at(f0)} = sg{b}")
             return
         off = 0
         for f, sz in enumerate(self.sizes[b]):
             if sz == 1:
-                o(d, f"sign[i, {f0 + f}] = sign_of(JW[{off * kb + off}])")
+                o(d, f"{self.sign_at(f0 + f)} = sign_of({self.entry(b, off * kb + off)})")
             else:
                 for u in range(sz):
                     for v in range(sz):
                         o(d, f"SB[{u * sz + v}] = JW[{(off + u) * kb + off + v}]")
                 o(d, f"_, sf = gj({sz}, SB, 0, SI, 0, WK)")
-                o(d, f"sign[i, {f0 + f}] = sf")
+                o(d, f"{self.sign_at(f0 + f)} = sf")
             off += sz
 
     def apply(self, d, b, X):

@@ -98,28 +98,12 @@ class EachWriter(Writer):
     def minv(self, b, x, k):
         return f"MB[{self.mof[b] + k}]" if self.blocks[b][0] > KGEN else f"M{x}_{k}"
 
-    def signs(self, d, b, x):
-        """The first iteration's determinant signs: the block's, or its fine blocks' (from J:
-        1 x 1 their entry, larger by Gauss-Jordan, compiled.fine_signs)."""
-        o = self.out
-        kb = self.blocks[b][0]
-        f0 = int(self.bfirst[b])
-        if len(self.sizes[b]) == 1:
-            o(d, f"sign[i * {self.P.nfine} + {f0}] = sg{x}")
-            return
-        off = 0
-        for f, sz in enumerate(self.sizes[b]):
-            at = f"sign[i * {self.P.nfine} + {f0 + f}]"
-            if sz == 1:
-                entry = f"JW[{off * kb + off}]" if kb > KGEN else f"J{x}_{off * kb + off}"
-                o(d, f"{at} = sign_of({entry})")
-            else:
-                for u in range(sz):
-                    for v in range(sz):
-                        o(d, f"SB[{u * sz + v}] = JW[{(off + u) * kb + off + v}]")
-                o(d, f"_, sf = gj({sz}, SB, 0, SI, 0, WK)")
-                o(d, f"{at} = sf")
-            off += sz
+    # the first iteration's determinant signs: Writer.fine_signs with these two
+    def sign_at(self, f: int) -> str:
+        return f"sign[i * {self.P.nfine} + {f}]"      # sign flat (N * nfine)
+
+    def entry(self, b: int, k: int) -> str:
+        return f"JW[{k}]" if self.blocks[b][0] > KGEN else f"J{b}_{k}"   # small: scalars
 
     def position(self, b):
         """Block b for point i: Newton to its own convergence (solve_each's loop)."""
@@ -146,7 +130,7 @@ class EachWriter(Writer):
         self.inverse(d, b, x, True)
         o(d, "if it == 0:")
         o(d + 1, f"smin[i * {nblk} + {b}] = s0{x}")
-        self.signs(d + 1, b, x)
+        self.fine_signs(d + 1, b)
         o(3, "sz = 0.0")
         for a, c in enumerate(cols):
             terms = " + ".join(f"{self.minv(b, x, a * kb + k)} * r{x}_{k}" for k in range(kb))
