@@ -20,6 +20,8 @@ Results are in user units per unit of the parameter.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..diagnostics import Diagnostic, InputError
@@ -33,6 +35,20 @@ def _text(node):
     return v if isinstance(v, str) else float(v)
 
 
+# A file's texts and their symbolic derivatives do not change between the designs of a study or
+# a synthesis (only the parameter values do), so each text is parsed and differentiated once per
+# process rather than at every Jacobian. Bounded: a free parameter's text is its float value,
+# new for every design. Expressions are immutable, so sharing one between callers is safe.
+@lru_cache(maxsize=4096)
+def _parsed(text, names: tuple, allow_t: bool = False):
+    return parse(text, names, allow_t)
+
+
+@lru_cache(maxsize=4096)
+def _derivative(text, names: tuple, allow_t: bool, var: str):
+    return _parsed(text, names, allow_t).diff(var)
+
+
 class ParameterDerivatives:
     """d(number)/d(parameter) for every number of a model file, exact (symbolic chain rule).
 
@@ -42,38 +58,40 @@ class ParameterDerivatives:
     def __init__(self, root, values: dict, texts: dict, wrt: list[str]):
         self.values = dict(values)
         self.wrt = list(wrt)
-        self.order = list(values)
+        self.order = tuple(values)
         # dparam[k][p]: derivative of parameter k with respect to p, in file order
         self.dparam: dict[str, np.ndarray] = {}
         for k, name in enumerate(self.order):
-            e = parse(texts[name], self.order[:k])
             g = np.array([1.0 if name == p else 0.0 for p in self.wrt])
             if name not in self.wrt:
-                g = self._chain(e)
+                g = self._chain(texts[name], self.order[:k])
+            else:
+                _parsed(texts[name], self.order[:k])      # refuses a bad text all the same
             self.dparam[name] = g
 
-    def _chain(self, e, extra=None) -> np.ndarray:
+    def _chain(self, text, names: tuple) -> np.ndarray:
         """Gradient of an expression with respect to wrt, through the parameters it uses."""
-        env = {**self.values, **(extra or {})}
         g = np.zeros(len(self.wrt))
-        for name in e.names:
+        for name in _parsed(text, names).names:
             if name in self.dparam and self.dparam[name].any():
-                g = g + np.asarray(e.diff(name).evaluate(env)) * self.dparam[name]
+                d = _derivative(text, names, False, name)
+                g = g + np.asarray(d.evaluate(self.values)) * self.dparam[name]
         return g
 
     def number(self, node) -> np.ndarray:
         """(len(wrt),) derivative of one scalar node of the file."""
-        return self._chain(parse(_text(node), self.order))
+        return self._chain(_text(node), self.order)
 
     def function(self, node, t: np.ndarray) -> np.ndarray:
         """(N, len(wrt)) derivative of a driver function f(t) with respect to wrt."""
-        e = parse(_text(node), self.order, allow_t=True)
+        text = _text(node)
+        e = _parsed(text, self.order, True)
         out = np.zeros((len(t), len(self.wrt)))
         env = {**self.values, "t": t}
         for name in e.names - {"t"}:
             if name in self.dparam and self.dparam[name].any():
-                out += np.broadcast_to(e.diff(name).evaluate(env), t.shape)[:, None] * \
-                       self.dparam[name]
+                d = _derivative(text, self.order, True, name)
+                out += np.broadcast_to(d.evaluate(env), t.shape)[:, None] * self.dparam[name]
         return out
 
     def depends(self, node) -> bool:
