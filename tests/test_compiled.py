@@ -19,6 +19,8 @@ import pytest
 import planarkin
 from planarkin import jitcache, kernel
 
+from routes import HAVE_NUMBA, needs_numba
+
 ROOT = Path(__file__).resolve().parent.parent
 FOUR_BAR = ROOT / "mechanisms" / "four-bar.yaml"
 
@@ -69,6 +71,7 @@ print(json.dumps({"solve": max(rel(a, b) for a, b in zip(out["lib"][:3], out["re
 """
 
 
+@needs_numba
 def test_the_same_source_runs_interpreted(tmp_path):
     """NUMBA_DISABLE_JIT=1: the compiled route's Python text runs as Python (for debugging),
     with the reference pass's results."""
@@ -101,6 +104,7 @@ print("numba" in sys.modules, "planarkin.compiled" in sys.modules)
     assert r.stdout.split() == ["False", "False"]
 
 
+@needs_numba
 def test_each_entry_point_is_compiled_once(monkeypatch):
     """The wrappers give every entry point the types of its one signature (a read-only or
     int32 array would compile it again, silently, and its cache file would not be vouched
@@ -122,7 +126,8 @@ def test_the_route_is_chosen_by_the_jobs_size(monkeypatch):
     small = prepare(m, resolve(m, {"steps": n - 2}, source="api"))
     assert small.compiled is None
     large = prepare(m, resolve(m, {"steps": n - 1}, source="api"))
-    assert large.compiled is kernel.library() and large.compiled is not None
+    # and the installed packages: where numba is missing, the numpy passes at any size
+    assert large.compiled is kernel.library() and (large.compiled is not None) == HAVE_NUMBA
     monkeypatch.setenv("PLANARKIN_KERNEL", "0")
     assert prepare(m, resolve(m, {"steps": n}, source="api")).compiled is None
 
@@ -222,6 +227,7 @@ np.save(%r, np.concatenate([r.q, r.qd, r.qdd], axis=1))
 """
 
 
+@needs_numba
 def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path):
     """The warm cache copied, then a data file truncated, an index garbled and a foreign file
     planted: a new process detects them, compiles those functions again and gives the same
@@ -269,6 +275,7 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     assert np.array_equal(np.load(out), np.concatenate([clean.q, clean.qd, clean.qdd], axis=1))
 
 
+@needs_numba
 def test_each_compiled_kind_states_its_code_and_parameters():
     """The kinds the compiled route compiles say so themselves (Kind.compiled_code and
     compiled_params, issue 17): each code once, a function of planarkin.compiled_kinds for it,

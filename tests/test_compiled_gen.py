@@ -15,9 +15,13 @@ import numpy as np
 import pytest
 
 import planarkin
-from planarkin import compiled_gen, compiled_grid, jitcache, kernel
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from routes import NO_NUMBA  # noqa: E402
+
+pytest.importorskip("numba", reason=NO_NUMBA)     # the generated kernels are numba's
+from planarkin import compiled_gen, compiled_grid, jitcache, kernel  # noqa: E402
+
 import reference_models as R  # noqa: E402
 from test_reference import compare  # noqa: E402
 
