@@ -474,3 +474,27 @@ def test_deep_trees_stay_far_from_the_recursion_limit():
     assert f.second.evaluate({"t": 0.5}) == at_half[2] == second.evaluate({"t": 0.5})
     assert printed.startswith("cos(sin(sin(") and len(printed) > 100_000
     check_close(f.derivatives(TS)[1], fd(f, C1, 1, 1e-3), 1e-7)
+
+
+@pytest.mark.parametrize("text", [0, -0.0, 3, 2.5, 1e308, 1.7976931348623157e308, -1.5e308,
+                                  10**308, 10**400, float("inf"), float("nan"), "a", " a ",
+                                  "b_2", "big", "huge", "nan_p", "inf_p", "word", "pi", "t",
+                                  "None", "a ", "text_p", "a + 0", "-a"])
+def test_evaluate_constants_shortcuts_equal_the_parse(text):
+    """evaluate_constant takes numbers and parameter names without building an expression;
+    its value, or its error message, is parse_text's for every such text (large, signed zero,
+    not finite, a name with spaces, a keyword, a name not among the parameters, a parameter
+    that is not a finite number)."""
+    from planarkin.expr.parser import parse_text
+    values = {"a": 0.1, "b_2": -0.0, "big": 1e308, "huge": 10**400, "nan_p": float("nan"),
+              "inf_p": float("inf"), "pi": 3.0, "text_p": "x"}
+
+    def outcome(f):
+        try:
+            v = f()
+        except (ExprError, OverflowError) as e:
+            return type(e).__name__, str(e)
+        return "value", repr(v), math.copysign(1.0, v)
+
+    assert outcome(lambda: evaluate_constant(text, values)) == \
+        outcome(lambda: parse_text(text, values.keys(), False, values).value)
