@@ -9,8 +9,7 @@ a grid of --steps intervals), positions + velocities + accelerations:
 * planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call),
   by each grid-pass route of --routes: compiled (the numba route through planarkin/kernel.py,
   taken whatever the job's size: the kernel generated for the structure, planarkin/compiled_gen.py;
-  compiled or loaded from numba's cache by the warm-up call), generic (PLANARKIN_KERNEL=generic:
-  the generic numba kernel, planarkin/compiled.py), numpy (PLANARKIN_KERNEL=0: the numpy
+  compiled or loaded from numba's cache by the warm-up call), numpy (PLANARKIN_KERNEL=0: the numpy
   reference, System._solve_batch, the only numpy solve since issue 17 folded the fused passes
   into it);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
@@ -210,8 +209,8 @@ class _route:
     """Context: planarkin's grid pass takes one route (see the module docstring)."""
 
     def __init__(self, route):
-        if route not in ("compiled", "generic", "numpy"):
-            sys.exit(f"unknown route {route!r} (compiled, generic, numpy)")
+        if route not in ("compiled", "numpy"):
+            sys.exit(f"unknown route {route!r} (compiled, numpy)")
         self.route = route
 
     def __enter__(self):
@@ -219,8 +218,7 @@ class _route:
 
         from planarkin import kernel
         self.saved = (os.environ.get("PLANARKIN_KERNEL"), kernel.COMPILED_FROM_POINTS)
-        os.environ["PLANARKIN_KERNEL"] = {"compiled": "1", "generic": "generic"}.get(self.route,
-                                                                                   "0")
+        os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
         kernel.COMPILED_FROM_POINTS = 0
         return self
 

@@ -51,7 +51,6 @@ def profile(label, text, steps, top, sort, warm=True):
 PHASES = (  # (module, attribute, phase): the functions timed, CPU time
     ("planarkin.solver.Analysis", "follow", "path following (fixed cost)"),
     ("planarkin.solver", "hermite5", "prediction (numpy Hermite)"),
-    ("planarkin.kernel", "hermite", "prediction (compiled Hermite)"),
     ("planarkin.solver.Analysis", "_driver_values", "driver values"),
     ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
     ("planarkin.kernel", "solve", "P+V+A solve, compiled route"),

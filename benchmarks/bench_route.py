@@ -62,7 +62,7 @@ def micro():
     from planarkin import kernel
     from planarkin.options import resolve
     from planarkin.analysis import prepare
-    lib = kernel.library().need("grid")
+    lib = kernel.library().need("points")
     for name in ("four-bar", "slider-crank"):
         m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
         an = prepare(m, resolve(m, {"steps": 100}, source="api"))

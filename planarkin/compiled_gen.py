@@ -1,27 +1,27 @@
 """The grid pass written out for one mechanism structure, as Python for numba (issue 17).
 
-The generic compiled kernel (planarkin.compiled.solve_points) reads a system's structure from
-arrays at every point: each row's kind, bodies and columns, each block's size and matrix
-positions. Here that structure is written into Python source instead, one function per
+The compiled route's one solve: a system's structure (each row's kind, bodies and columns,
+each block's size and matrix positions) is written into Python source, one function per
 structure (the old C generator kernelgen.py's design, in Python): every row a call of its
 kind's function of planarkin.compiled_kinds (the one text of the element equations) with the
 equation, the bodies' coordinates and the parameters named as local variables, every block's
 Newton step, inverse and substitution written out for its size. The kind functions are
-compiled apart (LLVM inlines them); the four-bar's kernel compiles in about 3 s of CPU, where
-the generic kernel takes about 30 s, and runs at 0.2 us a grid point against 0.9 us
-(benchmarks/README.md, "The compiled route generated per structure").
+compiled apart (LLVM inlines them); the four-bar's kernel compiles in about 4 s of CPU and runs
+at 0.2-0.3 us a grid point (docs/explanation/performance.md). A generic kernel that read the
+structure from arrays at every point (0.9 us a point, ~30 s to compile) was removed on
+2026-12-06: every structure kernel.pack accepts is written out here.
 
-The algorithm is System._solve_batch's and solve_points', step for step: the blocks in order;
+The algorithm is System._solve_batch's, step for step: the blocks in order;
 an affine block takes one Newton step (exact), point by point; any other block iterates, all
 points of the batch together, until every point's correction is at most tol (so the iteration
 counts agree with the reference); sigma_min and the determinant's sign at the first iteration;
 then per point the residual of every row, the velocities and accelerations by forward
 substitution with each block's matrix at the converged positions (1 x 1: r times the inverse,
-2 x 2: Cramer's rule, as the generic kernel), the largest residual, the condition estimate,
+2 x 2: Cramer's rule, larger: Gauss-Jordan), the largest residual, the condition estimate,
 and no convergence where a coordinate is not finite.
 
-Covered: the structures kernel.pack packs whose solve blocks have at most KGEN unknowns and are
-one fine block each (covers); the others keep the generic kernel. Only the structure is
+Covered: every structure kernel.pack packs (solve blocks of at most kernel.KMAX = KDENSE
+unknowns, covers). Only the structure is
 written into the source (kinds, bodies, rows, blocks, sizes): the parameters are an argument,
 so every model of one structure shares one compiled function (and one cache entry).
 """
@@ -35,12 +35,9 @@ from pathlib import Path
 import numpy as np
 
 from .compiled_kinds import KINDS
+from .kernel import KMAX as KDENSE   # largest dense block (Gauss-Jordan, its rows written out)
 
 KGEN = 2          # largest block written out in closed form (1 x 1 and 2 x 2)
-# largest dense block (Gauss-Jordan by compiled_kinds.gauss_jordan, its rows written out): the
-# path follower's merged blocks (the whole system of the four-bar and the slider-crank, 9
-# unknowns) and the grid's fine blocks of 3 to 6 unknowns
-KDENSE = 16
 VERSION = 2       # of the generated text's shape: part of its hash
 
 _SLOTS = 6        # parameter slots the kind functions read (si, sj, vi: p[0:6] of pack's 8)
@@ -186,7 +183,7 @@ class Writer:
 
     def invert(self, d, kb, x):
         """M<x>_<k> the inverse of J<x>, sm<x> its sigma_min bound, sg<x> the determinant's
-        sign (as compiled.factor: closed forms)."""
+        sign (closed forms)."""
         o = self.out
         J = [f"J{x}_{k}" for k in range(kb * kb)]
         if kb == 1:
@@ -244,9 +241,9 @@ class Writer:
     def substitute(self, d, b, X, rhs, y, x=None):
         """Block b's rows of Phi_q x = rhs solved for its columns (X: 'v' the velocities, 'a'
         the accelerations; y: the names of the gradients and J): r = rhs - gradient . x summed
-        in pairs as compiled.dot6 (the columns of this block, of later blocks and of the
+        in pairs (the columns of this block, of later blocks and of the
         ground are zero at this time: their terms, exact zeros, are left out), then 1 x 1: r
-        times the inverse, 2 x 2: Cramer's rule (compiled.solve2)."""
+        times the inverse, 2 x 2: Cramer's rule."""
         kb, cols, rows, _ = self.blocks[b]
         for rp, row in enumerate(rows):
             self.out(d, f"{X}r{y}_{rp} = {self.rhs(b, rp, row, X, rhs, y, x)}")
@@ -282,11 +279,10 @@ class Writer:
             o(d, f"sign[i, {f0 + 1}] = sign_of(J{x}_3)")
 
     def dense(self, b):
-        """A block of more than KGEN unknowns (a dense inverse by Gauss-Jordan, as
-        compiled.block and factor): Newton for all points together until every point's
+        """A block of more than KGEN unknowns (a dense inverse by Gauss-Jordan): Newton for all points together until every point's
         correction is at most tol (affine: one step, exact), sigma_min 1 / ||J^-1||_F and the
         signs of the fine blocks inside at the first iteration; then per point its convergence,
-        residuals and rates with the inverse at the converged positions (compiled.rates)."""
+        residuals and rates with the inverse at the converged positions."""
         kb, cols, rows, aff = self.blocks[b]
         o = self.out
         x = str(b)
@@ -357,7 +353,7 @@ class Writer:
 
     def factor(self, d, b, x, M, mo, norm=True):
         """Block b's matrix JW (from the gradients d<x>_...) inverted into M[mo:] by
-        Gauss-Jordan; with norm sm<x>, the bound 1 / ||J^-1||_F (compiled.factor), and sg<x>
+        Gauss-Jordan; with norm sm<x>, the bound 1 / ||J^-1||_F, and sg<x>
         the determinant's sign."""
         kb, cols, rows, _ = self.blocks[b]
         o = self.out
@@ -382,7 +378,7 @@ class Writer:
 
     def fine_signs(self, d, b):
         """The determinant signs of the fine blocks inside block b from its matrix JW
-        (compiled.fine_signs): 1 x 1 their entry, larger by Gauss-Jordan; a single fine
+        : 1 x 1 their entry, larger by Gauss-Jordan; a single fine
         block: the block's own sign."""
         o = self.out
         f0 = int(self.bfirst[b])
@@ -403,7 +399,7 @@ class Writer:
             off += sz
 
     def apply(self, d, b, X):
-        """The block's columns of X (v, a) = MR RV (compiled.apply)."""
+        """The block's columns of X (v, a) = MR RV."""
         kb, cols, rows, _ = self.blocks[b]
         o = self.out
         o(d, f"for ua in range({kb}):")
@@ -530,7 +526,7 @@ class Writer:
         o(1, f"S = np.empty((N, {max(nb, 1)}))")
         o(1, "SZ = np.empty(N)")
         kd = max([blk[0] for blk in self.blocks if blk[0] > KGEN], default=0)
-        if kd:       # the dense blocks' work arrays (compiled.solve_points')
+        if kd:       # the dense blocks' work arrays
             fmax = max(max(z) for z in self.sizes)
             o(1, f"JW = np.empty({kd * kd})")
             o(1, f"MR = np.empty({kd * kd})")

@@ -2,21 +2,21 @@
 target 2: studies solve their variants through a generated kernel with a per-point parameter
 table).
 
-planarkin.compiled_each.solve_each reads the structure from arrays at every point (about 1.2 us
-a point on the four-bar, nearly all of a 10,000-variant sweep's time); here it is written into
+A generic solve reading the structure from arrays at every point took about 1.2 us a point on
+the four-bar (it was removed on 2026-12-06); here the solve is written into
 Python source as planarkin.compiled_gen writes the grid pass: every row a call of its kind's
 function (planarkin.compiled_kinds) with the coordinates named as local variables, every block's
-Newton step, inverse and substitution written out for its size. The algorithm is solve_each's,
-operation for operation: each point alone, block by block, each block by Newton to that point's
-own convergence (an affine block: one step), the inverse as solve_each's invert_small (1 x 1 and
-2 x 2 in closed form, larger ones by Gauss-Jordan), an angle's cosine and sine recomputed when
+Newton step, inverse and substitution written out for its size. The algorithm, operation for
+operation: each point alone, block by block, each block by Newton to that point's
+own convergence (an affine block: one step), the inverse 1 x 1 and
+2 x 2 in closed form, larger ones by Gauss-Jordan, an angle's cosine and sine recomputed when
 it moved or is a zero, then the velocities and accelerations by forward substitution through
 the inverse's entries (an affine block whose gradient its own unknowns do not move keeps its
-Newton inverse, solve_each's `keep`), and the studies' acceptance tests (compiled_kinds.
+Newton inverse), and the studies' acceptance tests (compiled_kinds.
 accept_point). The element parameters of point i are row vrow[i] of a table of parameter sets,
 its drivers' row trow[i]: one compiled function per structure serves every variant.
 
-Arrays are flat (row-major), as solve_each's.
+Arrays are flat (row-major).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ class EachWriter(Writer):
     """The source of one structure's point-by-point solve (see the module docstring)."""
 
     def keep(self, b) -> bool:
-        """solve_each's keep[b]: the Newton inverse of affine block b is exact at the converged
+        """keep[b]: the Newton inverse of affine block b is exact at the converged
         positions (its rows: angle, or revolute, x, y without an angle among its unknowns)."""
         kb, cols, rows, aff = self.blocks[b]
         if not aff:
@@ -63,7 +63,7 @@ class EachWriter(Writer):
                 self.out(d, f"J{x}_{k} = {src.get(k, '0.0')}")
 
     def inverse(self, d, b, x, newton):
-        """The inverse M<x>_<k> (dense: MB[mo<b>:]) as solve_each: with newton, sigma_min's
+        """The inverse M<x>_<k> (dense: MB[mo<b>:]): with newton, sigma_min's
         bound s0<x> and the sign sg<x> (invert_small), else the entries only."""
         kb = self.blocks[b][0]
         o = self.out
@@ -106,7 +106,7 @@ class EachWriter(Writer):
         return f"JW[{k}]" if self.blocks[b][0] > KGEN else f"J{b}_{k}"   # small: scalars
 
     def position(self, b):
-        """Block b for point i: Newton to its own convergence (solve_each's loop)."""
+        """Block b for point i: Newton to its own convergence."""
         kb, cols, rows, aff = self.blocks[b]
         o = self.out
         x = str(b)
@@ -155,7 +155,7 @@ class EachWriter(Writer):
 
     def rate(self, b, X):
         """Block b's rows of the velocity (X 'v') or acceleration ('a') system, through the
-        inverse's entries (solve_each's substitution)."""
+        inverse's entries."""
         kb, cols, rows, aff = self.blocks[b]
         o = self.out
         x = str(b)

@@ -7,8 +7,6 @@ generated now: a file that differs (truncated, doctored, foreign) is replaced, a
 never executed. numba caches the compiled function beside it (cache=True: its index and data
 files, which jitcache's manifest vouches for), so that a second run loads instead of compiling.
 Where there is no usable cache directory the source is compiled in memory.
-
-PLANARKIN_KERNEL=generic: the generic kernel only (for comparisons).
 """
 
 from __future__ import annotations
@@ -24,15 +22,10 @@ from . import compiled_gen, jitcache
 _fns: dict = {}           # module name -> the compiled grid function
 
 
-def generic_only() -> bool:
-    return os.environ.get("PLANARKIN_KERNEL", "1") == "generic"
-
-
 def function(P, W: int, m: int, nb: int):
     """The grid function generated for packed system P's structure, compiled (or loaded from
-    numba's cache), or None: not covered (compiled_gen.covers) or PLANARKIN_KERNEL=generic."""
-    if generic_only() or not compiled_gen.covers(P):
-        return None
+    numba's cache). Every structure kernel.pack accepts is covered (compiled_gen.covers)."""
+    assert compiled_gen.covers(P), "kernel.pack accepted a structure compiled_gen cannot write"
     key = getattr(P, "gen_name", None)
     if key is None:
         key = P.gen_name = compiled_gen.name_of(compiled_gen.structure(P, W, m, nb))
@@ -43,9 +36,8 @@ def function(P, W: int, m: int, nb: int):
 
 def function_each(P, W: int, m: int, nb: int):
     """The studies' point-by-point solve generated for packed system P's structure
-    (planarkin.compiled_gen_each), compiled or loaded, or None (as function)."""
-    if generic_only() or not compiled_gen.covers(P):
-        return None
+    (planarkin.compiled_gen_each), compiled or loaded (as function)."""
+    assert compiled_gen.covers(P), "kernel.pack accepted a structure compiled_gen cannot write"
     key = getattr(P, "each_name", None)
     if key is None:
         key = P.each_name = compiled_gen.name_of(compiled_gen.structure(P, W, m, nb), "each")

@@ -7,11 +7,10 @@ needed: 1 g, 2 the gradient, 4 gamma (the others are returned as 0). The formula
 reference sections 1, 2 and 5, in the operations and order of the numpy elements
 (planarkin/elements), so that both routes round alike.
 
-Both compiled routes take their equations from here and nowhere else: the generic kernel
-(planarkin.compiled.row_eval, which reads the kind from its arrays and calls `row`) and the
-kernels generated per mechanism structure (planarkin.compiled_gen, which names the kind's
+The compiled route takes its equations from here and nowhere else: the kernels generated
+per mechanism structure (planarkin.compiled_gen and compiled_gen_each) name the kind's
 function with its equation and `want` as constants, so that numba keeps only that row's
-terms). Every function is inlined into its caller by numba (inline="always"); with
+terms. Every function is inlined into its caller by numba (inline="always"); with
 NUMBA_DISABLE_JIT=1 they run as Python.
 
 The numpy elements (planarkin/elements/*.py) are still a second text of these formulas (issue

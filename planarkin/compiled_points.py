@@ -1,7 +1,7 @@
-"""The compiled route's small entry points over points (see planarkin.compiled): the grid
-pass's predictions (hermite) and a chunk's user-unit arrays (layout), and the design studies'
-cubic prediction. Apart from the solves, so that a job whose solve is a generated kernel
-(planarkin.compiled_gen) compiles these few lines, not the generic kernel.
+"""The compiled route's small entry points over points (see planarkin.kernel): a chunk's
+user-unit arrays (layout) and the design studies' cubic prediction, apart from the solves
+generated per structure (planarkin.compiled_gen; they write the grid's Hermite predictions
+themselves, compiled_kinds.hermite_row).
 """
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from . import compiled_kinds as K
 from . import jitcache
 
 CACHE = jitcache.prepare()       # the checked cache directory, or None: no disk cache
@@ -21,7 +20,7 @@ F64, I64 = numba.float64[::1], numba.int64[::1]
 INT, DBL = numba.int64, numba.float64
 
 
-# -- the grid pass's predictions and layout; the studies' cubic ----------------------------------
+# -- the grid pass's layout; the studies' cubic ----------------------------------
 @jit
 def cubic(q0, q1, q2, q3, out):
     """A design study's prediction along a repeated parameter step (studies.batch): the cubic
@@ -33,15 +32,6 @@ def cubic(q0, q1, q2, q3, out):
         r -= (q1[k] - q2[k]) * 3.0
         r += q2[k] - q3[k]
         out[k] = r
-
-
-@jit
-def hermite(N, W, t, idx, Tn, Qn, Qdn, Qddn, Q):
-    """The grid pass's predictions: quintic Hermite interpolation (planarkin.path.hermite5,
-    the same operations in the same order: compiled_kinds.hermite_row) between path nodes
-    idx[i] and idx[i] + 1, rows of W numbers."""
-    for i in range(N):
-        K.hermite_row(t[i], idx[i], W, Tn, Qn, Qdn, Qddn, Q, i * W)
 
 
 @jit
@@ -86,7 +76,6 @@ def layout(N, W, n, P, order, unit, L, pbody, ps, Q, Qd, Qdd, q, qd, qdd, p, pd,
 # the route: kernel.Library.need
 SIGNATURES = {
     "cubic": (F64, F64, F64, F64, F64),
-    "hermite": (INT, INT, F64, I64, F64, F64, F64, F64, F64),
     "layout": (INT, INT, INT, INT, INT, F64, DBL, I64, F64, F64, F64, F64, F64, F64, F64, F64, F64,
                F64),
 }

@@ -33,7 +33,7 @@ import sys
 from pathlib import Path
 
 # the modules numba compiles and caches (the generated kernels' names hash their generator)
-SOURCES = ("compiled.py", "compiled_each.py", "compiled_points.py", "compiled_kinds.py")
+SOURCES = ("compiled_points.py", "compiled_kinds.py")
 MANIFEST = "manifest.json"
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
 

@@ -1,12 +1,12 @@
-"""The compiled route of the grid pass: planarkin.compiled's numba functions behind the API the
-solver and the studies call (issue 17).
+"""The compiled route of the grid pass and the studies' solves, on numba (issue 17).
 
-System.solve_batch's reference pass is numpy; the same algorithm over points, written in Python
-loops, is planarkin.compiled (compiled by numba, or interpreted with NUMBA_DISABLE_JIT=1).
-Here: which route a job takes (route), what the compiled functions are given (pack: a System's
-elements and blocks as int32 / float64 arrays; table: a study's per-variant parameters), and
-the calls themselves (solve, solve_rows, hermite, layout), which check and flatten their
-arguments.
+System.solve_batch's reference pass is numpy; the compiled route is the same algorithm written
+out per mechanism structure as Python (planarkin.compiled_gen, compiled_gen_each: compiled by
+numba, or interpreted with NUMBA_DISABLE_JIT=1), with the small entry points of
+planarkin.compiled_points. Here: which route a job takes (route), what the compiled functions
+are given (pack: a System's elements and blocks as int64 / float64 arrays; table: a study's
+per-variant parameters), and the calls themselves (solve, solve_rows, layout), which check and
+flatten their arguments.
 
 The route depends only on the job and the installed packages: a job of at least
 COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled route when
@@ -16,14 +16,15 @@ Never what earlier runs left on disk: the cache (planarkin.jitcache) only saves 
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
 
-A system's solve is the kernel generated for its structure where compiled_gen covers it
-(planarkin.compiled_grid: straight-line Python for numba, compiled in seconds and kept in the
-cache), else the generic solve_points (compiled once per machine, in tens of seconds).
+A system's solve is the kernel generated for its structure (planarkin.compiled_grid: the
+grid pass written out as straight-line Python by compiled_gen, compiled in seconds and kept in
+the cache; a study's point-by-point solve by compiled_gen_each): one compiled route, every
+structure pack accepts written out, no generic kernel beside it.
 
 It covers the kinds whose equations are the point-and-line formulas of reference sections 1-2
 (revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE
-unknowns and solve blocks (the path follower's merged ones) of up to KMAX; any other kind or a
-larger block keeps the numpy passes (pack returns None).
+unknowns and solve blocks of up to KMAX; any other kind or a larger block keeps the numpy
+passes (pack returns None).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import sys
 
 import numpy as np
 
-KMAX = 64             # largest solve block (the path's merged blocks)
+KMAX = 16             # largest solve block (written out by Gauss-Jordan, compiled_gen.dense)
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # A job of at least this many points (grid rows; variants x grid times for a study) takes the
@@ -65,26 +66,20 @@ _state: dict = {}        # "lib": the loaded Library, or None: numba could not b
 
 
 class Library:
-    """The compiled entry points, each compiled for its one signature (or loaded from numba's
-    cache) when a job first needs it (need): planarkin.compiled_points' layout ('points', every
-    job on the route: the generated kernels write their own predictions), its hermite
-    ('hermite'), the generic solve_points of planarkin.compiled with both ('grid': only for a
-    system no generated kernel covers, see solve), the studies' cubic ('study') and the generic
-    solve_each of compiled_each ('each': only for a structure no generated kernel covers, see
-    solve_rows; loading it from the cache costs about 0.4 s of a sweep that never calls it)."""
+    """The compiled entry points apart from the generated solves, each compiled for its one
+    signature (or loaded from numba's cache) when a job first needs it (need):
+    planarkin.compiled_points' layout ('points', every job on the route: the generated kernels
+    write their own predictions) and the studies' cubic ('study')."""
 
     PARTS = {"points": ("compiled_points", ("layout",)),
-             "hermite": ("compiled_points", ("hermite",)),
-             "grid": ("compiled", ("solve_points",), "compiled_points", ("hermite", "layout")),
-             "study": ("compiled_points", ("cubic",)),
-             "each": ("compiled_each", ("solve_each",))}
+             "study": ("compiled_points", ("cubic",))}
 
     def __init__(self):
         self.cache = None          # numba's disk cache directory once prepared, or None
         self._ready: set = set()
 
     def need(self, part: str) -> "Library":
-        """The entry points of part ('points', 'grid', 'study', 'each') compiled or loaded, under the
+        """The entry points of part ('points', 'study') compiled or loaded, under the
         cache's lock (planarkin.jitcache), before anything is solved (and before a study forks
         its workers)."""
         if part not in self._ready:
@@ -114,8 +109,8 @@ def disabled() -> bool:
 
 def route(points: int, part: str = "grid"):
     """The compiled Library for a job of `points` points, its entry points for part ready
-    (Library.need; a grid job: the predictions and layout, its solves compiled per system when
-    first solved, see solve), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
+    (Library.need; a grid job: the layout, its solves generated and compiled per structure
+    when first solved, see solve), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
     PLANARKIN_KERNEL=0, or numba not importable)."""
     if disabled() or points < COMPILED_FROM_POINTS:
         return None
@@ -240,44 +235,18 @@ def _flat(a, dtype=float):
 
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None,
           R=None):
-    """System.solve_batch by the compiled route: Q, Qd, Qdd (N, n + 3) updated in place.
-    Returns (iterations, converged, ratio, sign, smin) as BatchInfo wants them (converged False
-    where a coordinate is not finite), the residual |Phi| (N, m) of every equation at the
-    results (redundant ones included), its largest value per point (N,) and the condition
-    estimate (N,) of acceptance.condition. predict: (t, idx, Tn, Qn, Qdn, Qddn), Q is then
-    first written with the Hermite predictions between the path's nodes (compiled_grid.solve;
-    by kernel.hermite before the generic kernel); R: an (N, m) array to hold the residuals."""
+    """System.solve_batch by the compiled route (the kernel generated for S's structure,
+    compiled_grid.solve): Q, Qd, Qdd (N, n + 3) updated in place. Returns (iterations,
+    converged, ratio, sign, smin) as BatchInfo wants them (converged False where a coordinate
+    is not finite), the residual |Phi| (N, m) of every equation at the results (redundant ones
+    included), its largest value per point (N,) and the condition estimate (N,) of
+    acceptance.condition. predict: (t, idx, Tn, Qn, Qdn, Qddn), Q is then first written with
+    the Hermite predictions between the path's nodes; R: an (N, m) array to hold the
+    residuals."""
     from . import compiled_grid
-    N, W = Q.shape
-    fn = compiled_grid.function(P, W, S.cm.m, S.nb)
-    if fn is not None:              # a kernel written out for this structure
-        return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order,
-                                   predict, R)
-    lib.need("grid")
-    if predict is not None:
-        Q[...] = hermite(lib, *predict)
-    nblk = P.nblk
-    iters = np.empty(N, dtype=np.int64)
-    conv = np.empty(N, dtype=np.uint8)
-    ratio = np.empty(N)
-    sign = np.zeros((N, P.nfine))
-    smin = np.empty((N, nblk))
-    R = np.empty((N, S.cm.m))
-    rmax = np.empty(N)
-    cond = np.empty(N)
-    work = [np.ascontiguousarray(X, dtype=float) for X in (Q, Qd, Qdd)]
-    drv = [_flat(X) for X in (T, NU, FDD)]
-    (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows) = P.arrays
-    inblk, rcol, rpos = P.tail
-    lib.solve_points(N, W, S.cm.m, S.nb, nblk, ekind, ebi, ebj, eprm.reshape(-1), rowel, roweq,
-                     bk, boff, baff, bcols, brows, *[X.reshape(-1) for X in work], *drv,
-                     int(maxit), float(tol), int(policy == "full"), int(order), iters, conv,
-                     ratio, sign.reshape(-1), smin.reshape(-1), inblk, R.reshape(-1),
-                     rcol.reshape(-1), rpos.reshape(-1), P.nfine, *P.fine, P.fixed, rmax, cond)
-    for X, Wk in zip((Q, Qd, Qdd), work):
-        if Wk is not X:
-            X[...] = Wk
-    return iters, conv.view(bool), ratio, sign, smin, R, rmax, cond
+    fn = compiled_grid.function(P, Q.shape[1], S.cm.m, S.nb)
+    return compiled_grid.solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order,
+                               predict, R)
 
 
 def table(cm, params) -> np.ndarray:
@@ -324,14 +293,15 @@ _NONE_U8 = np.zeros(1, dtype=np.uint8)
 
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
                trow=None, accept=None, hist=None, work=None, out=None):
-    """compiled_each.solve_each: full Newton for the positions of N points from the
+    """The studies' point-by-point solve (compiled_gen_each, generated for S's structure):
+    full Newton for the positions of N points from the
     predictions Q (N, n + 3), each point to its own convergence, then velocities and
     accelerations. T, NU, FDD: the drivers' targets, nu and f'' (N, m), or with trow (N,)
     int32 tables (K, m) of which point i reads row trow[i]; rows, table: per-point element
     parameters, an index per point into a (V, E, 8) table of parameter sets (see `table`).
     Returns (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array
     given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0),
-    the acceptance tests of studies.batch (compiled_each.accept_point, its bounds compiled in):
+    the acceptance tests of studies.batch (compiled_kinds.accept_point, its bounds compiled in):
     good (N,) bool and perr (N,), the path error of the interval from the point before (grid
     times tg, indexed as T); None: not tested (good, perr None). hist: (H0, H1, H2, H3, cub),
     four arrays shaped as Q (the last four solutions, newest first) and cub (N,) bool: the
@@ -358,7 +328,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     else:
         Qo = np.empty((N, W)) if hist is not None else None
         Qd, Qdd = np.empty((N, W)), np.empty((N, W))
-    # (solve_each writes every column)
+    # (the study solve writes every column)
     drv = [np.ascontiguousarray(X, dtype=float) for X in (T, NU, FDD)]
     if trow is not None:
         trow = np.ascontiguousarray(trow, dtype=np.int64)
@@ -387,45 +357,18 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
         keep = ~cub
         out[keep] = Q[keep]
         Q = out
-    (ekind, ebi, ebj, eprm, rowel, roweq, bk, boff, baff, bcols, brows) = P.arrays
-    inblk, rcol, rpos = P.tail
+    eprm = P.arrays[3]
     prm = eprm if table is None else table
     from . import compiled_grid
     fn = compiled_grid.function_each(P, W, S.cm.m, S.nb)
-    if fn is not None:          # the point-by-point solve written out for this structure
-        fn(N, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1), *(X.reshape(-1) for X in drv),
-           int(maxit), float(tol), 1, iters, conv, ratio, sign.reshape(-1), smin.reshape(-1),
-           int(rows is not None), _NONE_I64 if rows is None else rows, prm.reshape(-1),
-           eprm.shape[0], int(trow is not None), _NONE_I64 if trow is None else trow,
-           tg.reshape(-1), sign0.reshape(-1), int(accept is not None),
-           _NONE_U8 if good is None else good, _NONE_F64 if perr is None else perr)
-        return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
-                None if good is None else good.view(bool), perr)
-    lib.need("each")
-    lib.solve_each(N, W, S.cm.m, S.nb, P.nblk, ekind, ebi, ebj, rowel, roweq, bk, boff, baff,
-                   bcols, brows, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1),
-                   *(X.reshape(-1) for X in drv), int(maxit), float(tol), 1, iters, conv, ratio,
-                   sign.reshape(-1), smin.reshape(-1), inblk, rcol.reshape(-1), rpos.reshape(-1),
-                   P.nfine, *P.fine, int(rows is not None),
-                   _NONE_I64 if rows is None else rows, prm.reshape(-1), eprm.shape[0],
-                   int(trow is not None), _NONE_I64 if trow is None else trow,
-                   tg.reshape(-1), sign0.reshape(-1),
-                   int(accept is not None), _NONE_U8 if good is None else good,
-                   _NONE_F64 if perr is None else perr)
+    fn(N, Q.reshape(-1), Qd.reshape(-1), Qdd.reshape(-1), *(X.reshape(-1) for X in drv),
+       int(maxit), float(tol), 1, iters, conv, ratio, sign.reshape(-1), smin.reshape(-1),
+       int(rows is not None), _NONE_I64 if rows is None else rows, prm.reshape(-1),
+       eprm.shape[0], int(trow is not None), _NONE_I64 if trow is None else trow,
+       tg.reshape(-1), sign0.reshape(-1), int(accept is not None),
+       _NONE_U8 if good is None else good, _NONE_F64 if perr is None else perr)
     return (Q, Qd, Qdd, iters, conv.view(bool), ratio, sign, smin,
             None if good is None else good.view(bool), perr)
-
-
-def hermite(lib, t, idx, Tn, Qn, Qdn, Qddn) -> np.ndarray:
-    """path.hermite5's positions at times t (N,) between nodes idx (N,) and idx + 1: (N, W)
-    (the generic kernel's predictions: the generated ones write theirs, compiled_grid.solve)."""
-    lib.need("hermite")
-    t = _flat(t)
-    idx = _flat(idx, np.int64)
-    nodes = [_flat(a) for a in (Tn, Qn, Qdn, Qddn)]
-    Q = np.empty((len(t), Qn.shape[1]))
-    lib.hermite(len(t), Qn.shape[1], t, idx, *nodes, Q.reshape(-1))
-    return Q
 
 
 def layout(lib, cm, Q, Qd, Qdd, order: int, unit, out=None):

@@ -115,7 +115,7 @@ def test_path_errors_of_many_variants_are_the_followers_per_variant():
             assert abs(many[v, k] - want) <= 1e-13 * want
 
 
-# -- the compiled route (planarkin.kernel, compiled_each.solve_each) against the numpy reference -
+# -- the compiled route (planarkin.kernel, compiled_gen_each) against the numpy reference ------
 
 def _kernel():
     """planarkin.kernel with its Library ready for studies (skipped only where numba is not
@@ -125,7 +125,6 @@ def _kernel():
     lib = kernel.library()
     assert lib is not None, "numba is installed but cannot be imported"
     lib.need("study")
-    lib.need("each")
     return kernel, lib
 
 
@@ -166,7 +165,7 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
         if f.status == "ok":
             # each to 2e-15 of its column's largest value (the metric's own magnitude; a dev
             # metric's, a distance between positions, that of the positions: L). Not 1e-15:
-            # compiled_each.solve_each converges each point on its own and solves the rate
+            # the compiled study solve converges each point on its own and solves the rate
             # systems through the inverse's entries, the reference (and the grid's compiled
             # route) iterates a block until all points converged and uses Cramer's rule; far
             # from the nominal (a = 0.06) rocker.alpha differs by 1.2e-15 of its largest value
@@ -220,8 +219,8 @@ def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
 
 
 def test_per_point_parameters_equal_a_solve_per_parameter_set(solved):
-    # solve_each with a (V, E, 8) table and a variant index per point against solve_points
-    # with each variant's parameters as the system's own
+    # the study solve with a (V, E, 8) table and a variant index per point against the grid
+    # solve with each variant's parameters as the system's own
     B, groups, targets, env, Q, sign, s, (kernel, k, _, _) = solved
     lib, P = k[:2]
     V, T, W = Q.shape
@@ -293,7 +292,7 @@ def test_the_first_order_prediction_is_numpys_sum_in_its_bits(study):
 
 
 # -- the study routes on every example they cover: the numpy reference (System.solve_batch over
-# per-row parameters, Batch.system) against the compiled route (compiled_each.solve_each) ------
+# per-row parameters, Batch.system) against the compiled route (compiled_gen_each) --------------
 
 # the examples the batched study takes (steps: fine enough for the follower's step test on the
 # grid), and why it declines the others that have parameters (no others may appear)
@@ -352,20 +351,3 @@ def test_the_study_routes_agree_to_1e15_of_each_columns_largest_value(name):
     # the metrics the study reports from them: the points' kinematics, the same to 1e-15
     for a, b in zip(B.points(*fast[:3], fast[5]), B.points(*ref[:3], ref[5])):
         close_columns(b.reshape(V * T, -1), a.reshape(V * T, -1), "points")
-
-
-def test_a_study_the_generated_solve_covers_never_loads_the_generic_one(monkeypatch):
-    """The four-bar's study solves through its generated kernel (compiled_grid.function_each):
-    the generic solve_each (Library part 'each', about 0.4 s to load from numba's cache) is not
-    loaded for it, and is for a structure left to it (PLANARKIN_KERNEL=generic)."""
-    from planarkin import kernel
-    _kernel()
-    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 1)
-    for env, loads in (("1", False), ("generic", True)):
-        monkeypatch.setenv("PLANARKIN_KERNEL", env)
-        lib = kernel.Library()
-        monkeypatch.setitem(kernel._state, "lib", lib)
-        s = Study(FB, analysis={"steps": STEPS}, metrics=["max:rocker.phi"])
-        out = s.run([{"a": 0.04, "b": 0.12}, {"a": 0.041, "b": 0.12}])
-        assert [o.status for o in out] == ["ok", "ok"]
-        assert "study" in lib._ready and ("each" in lib._ready) is loads

@@ -35,7 +35,7 @@ def _python(code, env=None, timeout=300):
 
 
 # a tiny batch both ways: the four-bar's grid System at 7 points 1e-4 off the solution, solved
-# by the reference pass and by the compiled route (solve, solve_rows, hermite, layout); prints
+# by the reference pass and by the compiled route (solve, solve_rows, layout); prints
 # the largest difference relative to each column's largest value, and the route's name
 TINY = """
 import json, numpy as np, planarkin
@@ -51,14 +51,13 @@ ch = an._dense(t)
 ext = S.ext(ch.q / np.tile([m.L, m.L, 1.0 / m.angle_factor], m.nb))
 Q0 = ext + 1e-4 * np.sin(np.arange(ext.size).reshape(ext.shape))
 Q0[:, S.n:] = 0.0
-lib = kernel.library().need("grid").need("study").need("each")
+lib = kernel.library().need("points").need("study")
 out = {}
 for name, kw in (("ref", dict(fused=False)), ("lib", dict(compiled=lib))):
     X = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
     info = S.solve_batch(t, *X, tol=1e-12, maxit=8, policy="full", **kw)
     out[name] = X + [info.iterations]
 X = kernel.solve_rows(lib, S, kernel.pack(S), Q0.copy(), *S.driver_values(t), 1e-12, 8)
-Y = kernel.hermite(lib, t[1:4], np.arange(3), an.Tn, an.Qn, an.Qdn, an.Qddn)
 L = kernel.layout(lib, m, *out["lib"][:3], 2, np.tile([m.L, m.L, 1.0], m.nb))
 def rel(a, b):
     s = np.abs(b[:, :S.n]).max(axis=0)
@@ -66,8 +65,8 @@ def rel(a, b):
 print(json.dumps({"solve": max(rel(a, b) for a, b in zip(out["lib"][:3], out["ref"][:3])),
                   "iters": bool(np.array_equal(out["lib"][3], out["ref"][3])),
                   "rows": max(rel(a, b) for a, b in zip(X[:3], out["ref"][:3])),
-                  "hermite": bool(np.isfinite(Y).all()), "layout": bool(np.isfinite(L[5]).all()),
-                  "jitted": hasattr(lib.solve_points, "py_func")}))
+                  "layout": bool(np.isfinite(L[5]).all()),
+                  "jitted": hasattr(lib.layout, "py_func")}))
 """
 
 
@@ -80,7 +79,7 @@ def test_the_same_source_runs_interpreted(tmp_path):
     got = json.loads(r.stdout.strip().splitlines()[-1])
     assert got["jitted"] is False
     assert got["solve"] <= 1e-15 and got["rows"] <= 1e-15 and got["iters"]
-    assert got["hermite"] and got["layout"]
+    assert got["layout"]
 
 
 def test_small_jobs_do_not_import_numba():
@@ -109,13 +108,18 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
     """The wrappers give every entry point the types of its one signature (a read-only or
     int32 array would compile it again, silently, and its cache file would not be vouched
     for)."""
-    lib = kernel.library().need("grid").need("study").need("each")
+    from planarkin import compiled_grid
+    lib = kernel.library().need("points").need("study")
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 100)
     for name in ("four-bar", "slider-crank", "klann-leg", "quick-return"):
         assert planarkin.solve(planarkin.load(ROOT / "mechanisms" / f"{name}.yaml"),
                                steps=150).status == 0
-    for name in ("solve_points", "hermite", "layout", "solve_each", "cubic"):
+    for name in ("layout", "cubic"):
         assert len(getattr(lib, name).signatures) == 1, name
+    # and the kernels generated for the four structures
+    assert len(compiled_grid._fns) >= 4
+    for fn in compiled_grid._fns.values():
+        assert len(getattr(fn, "signatures", [None])) == 1
 
 
 def test_the_route_is_chosen_by_the_jobs_size(monkeypatch):
@@ -234,7 +238,7 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     results as a clean run; the manifest then vouches for the new files."""
     lib = kernel.library()
     assert lib is not None
-    lib.need("grid")
+    lib.need("points").need("study")
     # this process's entry as jitcache has it now (lib.cache is the one of the last part
     # loaded, None if that was under another test's unusable directory)
     warm = jitcache.prepare()
@@ -246,14 +250,14 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
     entry = cache / warm.name
     files = sorted(p for p in entry.rglob("*") if p.is_file() and p.suffix in (".nbi", ".nbc"))
     layout = [p for p in files if ".layout-" in p.name and p.suffix == ".nbc"]
-    hermite = [p for p in files if ".hermite-" in p.name and p.suffix == ".nbi"]
-    assert layout and hermite
+    cubic = [p for p in files if ".cubic-" in p.name and p.suffix == ".nbi"]
+    assert layout and cubic
     data = layout[0].read_bytes()
     layout[0].write_bytes(data[:len(data) // 2])           # truncated
-    h = bytearray(hermite[0].read_bytes())
+    h = bytearray(cubic[0].read_bytes())
     h[len(h) // 2:] = b"\x00" * (len(h) - len(h) // 2)     # garbled
-    hermite[0].write_bytes(bytes(h))
-    planted = layout[0].parent / "compiled.solve_points-1.py311.9.nbc"
+    cubic[0].write_bytes(bytes(h))
+    planted = layout[0].parent / "compiled_points.foreign-1.py311.9.nbc"
     planted.write_bytes(b"not numba's")
     out = tmp_path / "damaged.npy"
     r = _python(RUN % str(out), {"PLANARKIN_CACHE": str(cache)})

@@ -2,7 +2,7 @@
 by planarkin.compiled_grid; issue 17): the reference pass's results to 1e-15 of each column's
 largest value on every example they cover, the closed forms to 1e-12 / 1e-11 / 1e-10, one
 source run compiled or interpreted, a source file that is not the generated text never run,
-and a first compile of a few seconds (the generic kernel's takes tens)."""
+and a first compile of a few seconds."""
 
 import hashlib
 import json
@@ -94,23 +94,6 @@ def test_generated_kernel_matches_the_reference(path, policy, order):
     assert np.array_equal(cond, (1.0 / np.maximum(smin, 1e-300)).max(axis=1))
 
 
-def test_generated_and_generic_kernels_agree(monkeypatch):
-    """The two compiled routes on the four-bar and the slider-crank: the same bits (the same
-    operations in the same order, from the same kind functions)."""
-    lib = kernel.library().need("grid")
-    for name in ("four-bar", "slider-crank"):
-        S, t, Q0 = _batch(ROOT / "mechanisms" / f"{name}.yaml")
-        out = []
-        for route in ("1", "generic"):
-            monkeypatch.setenv("PLANARKIN_KERNEL", route)
-            X = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
-            r = kernel.solve(lib, S, kernel.pack(S), *X, *S.driver_values(t), "reuse", 1e-12,
-                             8, 2)
-            out.append(X + list(r))
-        for a, b in zip(*out):
-            assert np.array_equal(a, b), name
-
-
 @pytest.mark.parametrize("which", ["slider-crank", "four-bar"])
 def test_generated_route_meets_the_closed_forms(which, monkeypatch):
     """planarkin.solve on the compiled route (the threshold lowered) within the closed forms'
@@ -168,8 +151,8 @@ def test_the_generated_source_runs_interpreted(tmp_path):
 
 
 def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
-    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 3 s here;
-    the generic kernel takes about 30 s) and lands, with its source, in the checked private
+    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 4 s here)
+    and lands, with its source, in the checked private
     cache; a second process loads it instead of compiling."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
     cold = _run_batch(env)
@@ -249,37 +232,49 @@ def test_without_a_private_cache_the_kernel_compiles_in_memory(tmp_path):
 
 @pytest.mark.parametrize("name,merged", [("four-bar", False), ("klann-leg", False),
                                          ("jansen-leg", False), ("four-bar", True)])
-def test_the_generated_study_solve_is_solve_each(name, merged, monkeypatch):
-    """The studies' point-by-point solve written out per structure (compiled_gen_each) against
-    compiled_each.solve_each, the arrays kernel.solve_rows returns bit for bit: two parameter
-    sets alternating point by point (a per-point table), the acceptance tests on; 2 x 2
-    blocks (the Jansen leg's chain), a 4 x 4 one (Klann) and the path's merged 9 x 9."""
+def test_the_generated_study_solve_reads_each_points_parameters(name, merged, monkeypatch):
+    """The studies' point-by-point solve written out per structure (compiled_gen_each), with
+    two parameter sets alternating point by point (a per-point table) and the acceptance tests
+    on, gives each point what a solve with its own set alone gives (bit for bit), and with the
+    model's own set the numpy reference's positions, velocities and accelerations to 1e-15 of
+    each column's largest value (System.solve_batch, every point iterated to convergence);
+    2 x 2 blocks (the Jansen leg's chain), a 4 x 4 one (Klann) and the path's merged 9 x 9."""
     import test_perstep
-    lib = kernel.library().need("study").need("each")
+    lib = kernel.library().need("study")
     S, t, Q0 = test_perstep._batch(f"{name}.yaml", merged=merged, N=120)
     P = kernel.pack(S)
+    assert P is not None and compiled_gen.covers(P)
     T, NU, FDD = S.driver_values(t)
     table = np.stack([P.arrays[3], P.arrays[3] * (1 + 1e-3)])
     rows = (np.arange(len(t)) % 2).astype(np.int64)
     sign0 = np.ones((len(t), P.nfine))
-    out, called = [], []
+    called = []
     real = compiled_grid.function_each
     monkeypatch.setattr(compiled_grid, "function_each",
                         lambda *a: called.append(1) or real(*a))
-    for route in ("generic", "1"):
-        monkeypatch.setenv("PLANARKIN_KERNEL", route)
-        r = kernel.solve_rows(lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8, rows=rows,
-                              table=table, accept=(t, sign0))
-        out.append([np.array(x) for x in r])
-    assert called and compiled_gen.covers(P)
-    for a, b in zip(*out):
-        assert np.array_equal(a, b, equal_nan=True)
-    assert out[1][4].any() and np.isfinite(out[1][9]).all()
+    mixed = [np.array(x) for x in kernel.solve_rows(lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8,
+                                                      rows=rows, table=table,
+                                                      accept=(t, sign0))]
+    assert called and mixed[4].any() and np.isfinite(mixed[9]).all()
+    for k in (0, 1):
+        alone = [np.array(x) for x in kernel.solve_rows(
+            lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8, rows=np.full(len(t), k),
+            table=table, accept=(t, sign0))]
+        sel = rows == k
+        # positions, rates and each point's diagnostics (not the path errors and their test:
+        # each is of the interval from the point before, of the other set in the mixed solve)
+        for a, b in zip(mixed[:8], alone[:8]):
+            assert np.array_equal(a[sel], b[sel], equal_nan=True)
+    own = kernel.solve_rows(lib, S, P, Q0.copy(), T, NU, FDD, 1e-12, 8)
+    X = [Q0.copy(), np.zeros_like(Q0), np.zeros_like(Q0)]
+    S.solve_batch(t, *X, tol=1e-12, maxit=8, policy="full", fused=False)
+    for a, b, what in zip(own[:3], X, ("q", "qd", "qdd")):
+        test_perstep.close_columns(b[:, :S.n], a[:, :S.n], what)
 
 
 # (table-input and six-bar were here too: on an empty cache they cost 64 s and 26 s of the
-# cold suite, table-input for the generic kernel's compile; every example's grid system is
-# held to the numpy pass by test_generated_kernel_matches_the_reference above)
+# cold suite; every example's grid system is held to the numpy pass by
+# test_generated_kernel_matches_the_reference above)
 @pytest.mark.parametrize("name", ["four-bar", "slider-crank", "klann-leg", "jansen-leg"])
 def test_a_whole_run_on_the_compiled_route_is_the_numpy_routes(name, monkeypatch):
     """planarkin.solve with the threshold lowered (the grid's chunks by the generated kernel,

@@ -25,7 +25,7 @@ def compiled():
     skip_without_numba()
     lib = kernel.library()
     assert lib is not None, "numba is installed but cannot be imported"
-    return lib.need("grid")
+    return lib.need("points")
 
 
 def _solve(path, monkeypatch, route, steps=240, **opts):

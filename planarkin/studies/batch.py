@@ -13,8 +13,8 @@ repeated parameter step by the cubic (quadratic, secant) through the previous so
 (a chain's head, from the nominal; a factorial's next row) to first order with the nominal's
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
 equal substeps. For a study large enough (`job_points`: variants x grid times, at least
-kernel.COMPILED_FROM_POINTS) the solve is the compiled route's solve_each where it covers the
-system (planarkin.kernel, planarkin.compiled_each: each row a point with its variant's element
+kernel.COMPILED_FROM_POINTS) the solve is the compiled route's where it covers the
+system (planarkin.kernel, planarkin.compiled_gen_each: each row a point with its variant's element
 parameters, Newton to its own convergence block by block, the acceptance tests below and the
 cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), the grid
 pass's own solve (System.solve_batch) over all variants x grid times at once, its element groups
@@ -354,11 +354,10 @@ class Batch:
             self._kpack = kernel.pack(self.S)
             if self._kpack is not None:
                 # the solve this structure takes, compiled or loaded now (before any worker
-                # forks): the generated one, else the generic solve_each (kernel.solve_rows)
+                # forks)
                 from .. import compiled_grid
-                if compiled_grid.function_each(self._kpack, self.S.cm.n + 3, self.S.cm.m,
-                                               self.S.nb) is None:
-                    lib.need("each")
+                compiled_grid.function_each(self._kpack, self.S.cm.n + 3, self.S.cm.m,
+                                            self.S.nb)
         return None if self._kpack is None else (lib, self._kpack)
 
     def solve_kernel(self, k, groups, targets, env, Q, sign, hist=None, work=None, out=None):
@@ -602,7 +601,7 @@ class Batch:
             hist = None
             if k is not None and lockstep and cubic.any():
                 # the usual case, the chains in lockstep: the cubic chains' predictions
-                # computed by the kernel as it reads their rows (compiled.cubic: the operations of
+                # computed by the kernel as it reads their rows (compiled_points.cubic: the operations of
                 # the numpy lines below, the same bits), the others' below into q
                 base = state[0]
                 hist = [base] + [hq[slots[0, 2 - j]] for j in range(3)] + [
