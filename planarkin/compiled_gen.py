@@ -35,7 +35,11 @@ from pathlib import Path
 import numpy as np
 
 from .compiled_kinds import KINDS
-from .kernel import KMAX as KDENSE   # largest dense block (Gauss-Jordan, its rows written out)
+
+# largest dense block (Gauss-Jordan, its rows written out): kernel.KMAX, the largest block
+# kernel.pack accepts, is this number (a test holds them equal; kernel does not import this
+# module at its top, which imports numba)
+KDENSE = 16
 
 KGEN = 2          # largest block written out in closed form (1 x 1 and 2 x 2)
 VERSION = 2       # of the generated text's shape: part of its hash

@@ -34,7 +34,7 @@ import sys
 
 import numpy as np
 
-KMAX = 16             # largest solve block (written out by Gauss-Jordan, compiled_gen.dense)
+KMAX = 16             # largest solve block: compiled_gen.KDENSE, the largest it writes out
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # A job of at least this many points (grid rows; variants x grid times for a study) takes the

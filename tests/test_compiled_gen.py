@@ -150,6 +150,12 @@ def test_the_generated_source_runs_interpreted(tmp_path):
     assert got["jitted"] is False and got["rel"] <= 1e-15
 
 
+def test_every_structure_pack_accepts_is_written_out():
+    """There is one compiled route: the largest block kernel.pack accepts is the largest the
+    generator writes out, so no packed structure is left without a kernel."""
+    assert kernel.KMAX == compiled_gen.KDENSE
+
+
 def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
     """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 4 s here)
     and lands, with its source, in the checked private
