@@ -111,13 +111,15 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
     from planarkin import compiled_grid
     lib = kernel.library().need("points").need("study")
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 100)
-    for name in ("four-bar", "slider-crank", "klann-leg", "quick-return"):
+    # (two structures: the signature is the entry point's, whatever the structure; each
+    # structure's first compile costs seconds of a cold suite)
+    for name in ("four-bar", "slider-crank"):
         assert planarkin.solve(planarkin.load(ROOT / "mechanisms" / f"{name}.yaml"),
                                steps=150).status == 0
     for name in ("layout", "cubic"):
         assert len(getattr(lib, name).signatures) == 1, name
-    # and the kernels generated for the four structures
-    assert len(compiled_grid._fns) >= 4
+    # and the kernels generated for the two structures
+    assert len(compiled_grid._fns) >= 2
     for fn in compiled_grid._fns.values():
         assert len(getattr(fn, "signatures", [None])) == 1
 
