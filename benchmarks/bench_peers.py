@@ -18,7 +18,8 @@ a grid of --steps intervals), positions + velocities + accelerations:
 
 pylinkage and numba are not planarkin dependencies: they live in their own environment, whose
 interpreter is --peer-python (default /tmp/benchvenv/bin/python, made with
-`python -m venv /tmp/benchvenv && /tmp/benchvenv/bin/pip install pylinkage numba pyyaml`);
+`python -m venv /tmp/benchvenv && /tmp/benchvenv/bin/pip install pylinkage numba pyyaml
+scipy`);
 this script runs a worker there. The measurements alternate between planarkin and pylinkage,
 --rounds times; printed are each one's median wall time per step (with the spread of the
 rounds, min-max) and median CPU time per step, and the ratio planarkin / pylinkage per step
