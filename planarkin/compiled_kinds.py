@@ -240,37 +240,6 @@ def slide(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, 
 
 
 @inline
-def row(kind, eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi,
-        vyi, wi, vxj, vyj, wj):
-    """The row of the element of kind code `kind` (KINDS): the generic kernel's dispatch."""
-    if kind == 1:
-        return revolute(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                        p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 2:
-        return translational(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                             p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 3:
-        return angle(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                     p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 4:
-        return xdistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                         p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 5:
-        return ydistance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                         p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 6:
-        return distance(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                        p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 7:
-        return pinslot(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                       p5, vxi, vyi, wi, vxj, vyj, wj)
-    if kind == 8:
-        return slide(eq, want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4,
-                     p5, vxi, vyi, wi, vxj, vyj, wj)
-    return np.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan     # (kernel.pack admits no other)
-
-
-@inline
 def sign_of(x):
     """The sign of x as a float: 1, -1, 0, nan for nan (a block's determinant)."""
     if x > 0:
@@ -302,9 +271,9 @@ def inf_unless_finite(x):
 def gauss_jordan(k, J, jo, inv, io, A):
     """Inverse of the k x k matrix J[jo:] (row-major) into inv[io:] by Gauss-Jordan with partial
     pivoting, as planarkin.linalg._inv_gauss_jordan: returns (True, the determinant's sign), or
-    (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace. The generic kernel
-    (planarkin.compiled) and the generated ones (planarkin.compiled_gen) compile it apart, for
-    one signature each: one text of the dense blocks' factorisation."""
+    (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace. The generated kernels
+    (planarkin.compiled_gen, compiled_gen_each) compile it apart, for one signature: one text
+    of the dense blocks' factorisation."""
     w = 2 * k
     scale = 0.0
     sg = 1.0
