@@ -641,7 +641,8 @@ class Small2:
     grid chunks' common case, the four-bar's and the Jansen leg's blocks): the entries of the
     inverse (row-major, nan where singular), the determinant's sign (0 where singular) and the
     sigma_min lower bound 1 / ||J^-1||_F = |det| / ||J||_F (0 where singular). The same
-    operations in the same order as the compiled route (planarkin.compiled_gen's 1 x 1 and 2 x 2 blocks)."""
+    operations in the same order as the compiled route (planarkin.compiled_gen's 1 x 1 and
+    2 x 2 blocks)."""
 
     def __init__(self, J: np.ndarray):
         a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]

@@ -14,8 +14,8 @@ repeated parameter step by the cubic (quadratic, secant) through the previous so
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
 equal substeps. For a study large enough (`job_points`: variants x grid times, at least
 kernel.COMPILED_FROM_POINTS) the solve is the compiled route's where it covers the
-system (planarkin.kernel, planarkin.compiled_gen_each: each row a point with its variant's element
-parameters, Newton to its own convergence block by block, the acceptance tests below and the
+system (planarkin.kernel, planarkin.compiled_gen_each: each row a point with its variant's
+element parameters, Newton to its own convergence block by block, the acceptance tests below and the
 cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), the grid
 pass's own solve (System.solve_batch) over all variants x grid times at once, its element groups
 reading per-row parameters (Batch.system). A variant is accepted only if every grid point
@@ -601,8 +601,8 @@ class Batch:
             hist = None
             if k is not None and lockstep and cubic.any():
                 # the usual case, the chains in lockstep: the cubic chains' predictions
-                # computed by the kernel as it reads their rows (compiled_points.cubic: the operations of
-                # the numpy lines below, the same bits), the others' below into q
+                # computed on the compiled route (kernel.solve_rows, compiled_points.cubic: the
+                # operations of the numpy lines below, the same bits), the others' below into q
                 base = state[0]
                 hist = [base] + [hq[slots[0, 2 - j]] for j in range(3)] + [
                     np.repeat(cubic, base.shape[1])]
