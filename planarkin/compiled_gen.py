@@ -284,9 +284,10 @@ class Writer:
 
     def dense(self, b):
         """A block of more than KGEN unknowns (a dense inverse by Gauss-Jordan): Newton for
-        all points together until every point's correction is at most tol (affine: one step, exact), sigma_min 1 / ||J^-1||_F and the
-        signs of the fine blocks inside at the first iteration; then per point its convergence,
-        residuals and rates with the inverse at the converged positions."""
+        all points together until every point's correction is at most tol (affine: one step,
+        exact), sigma_min 1 / ||J^-1||_F and the signs of the fine blocks inside at the first
+        iteration; then per point its convergence, residuals and rates with the inverse at the
+        converged positions."""
         kb, cols, rows, aff = self.blocks[b]
         o = self.out
         x = str(b)
