@@ -123,6 +123,34 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300, 
     return q, it
 
 
+def _joints_regain_rank(S: System, q: np.ndarray, t0: float, mk: int) -> bool:
+    """Whether the joint equations, short of rank at the assembled pose q, are of full rank at
+    poses of the joints a little away from it: then q is a singular pose of the joints (a
+    four-bar folded flat at a change point), not a joint that repeats the others everywhere.
+
+    Whether the smallest singular value at q falls under RANK_TOL depends on how near the fold
+    the assembly converged, which varies with the BLAS and the processor; a step of 1e-2 (of
+    the largest coordinate) along each direction the joints leave free, back onto the joints,
+    moves a change point's smallest singular value to ~1e-3, a repeated joint's stays at
+    rounding: far from that noise on either side."""
+    rows = np.arange(mk)
+    Jk = _row_normalised(S.jacobian(S.ext(q))[0][:mk])
+    _, sv, Vt = np.linalg.svd(Jk)
+    rank = int((sv > RANK_TOL * max(sv[0], 1e-300)).sum())
+    h = 1e-2 * (1.0 + np.abs(q).max())
+    for v in Vt[rank:]:
+        for sign in (1.0, -1.0):
+            q1, _ = _levenberg_marquardt(S, q + sign * h * v, t0, rows=rows)
+            r1 = S.residual(S.ext(q1), t0)[0][:mk]
+            if not np.abs(r1).max() <= ASSEMBLED:
+                continue
+            J1 = _row_normalised(S.jacobian(S.ext(q1))[0][:mk])
+            s1 = np.linalg.svd(J1, compute_uv=False)
+            if s1[-1] > 1e-6 * max(s1[0], 1e-300):
+                return True
+    return False
+
+
 def _row_normalised(J: np.ndarray) -> np.ndarray:
     nrm = np.linalg.norm(J, axis=1)
     return J / np.where(nrm > 0, nrm, 1.0)[:, None]
@@ -242,6 +270,9 @@ def _assemble(cm: CompiledModel, sketched: bool = True) -> Assembly:
         null = Vt[rank:] if m else np.eye(n)
         moving = _bodies_of(cm, np.abs(null).max(axis=0))
         useful = ndrv - len(drv)
+        if rank_k < mk and ndrv >= n - mk and not drv and _joints_regain_rank(S_all, q, t0, mk):
+            dof = n - mk        # the joints' rank was lost at this pose only
+            rank_k = mk
         if rank_k == mk and ndrv >= dof and not drv:
             # enough drivers by count, the joints independent, yet a direction left free: the
             # drivers lose their hold at this pose only (a four-bar folded flat at t = start)
