@@ -125,3 +125,14 @@ analysis: {start: 0, end: END, steps: 9}
     assert r.success and r.t[-1] == float(end)
     assert r.body("crank")["omega"][-1] == 360.0
     assert r.body("crank")["alpha"][-1] == 0.0
+
+
+@pytest.mark.parametrize("page", ["docs/how-to/cams.md", "docs/reference/expressions.md"])
+def test_the_pages_that_speak_of_knots_state_the_rule_the_code_follows(page):
+    # cams.md once said a row at a jump of s'' takes the mean of the two sides, while the
+    # code took the right-hand limit: each page states SIDE_RULE word for word, and no other
+    from planarkin.expr.core import SIDE_RULE
+    from clitools import ROOT
+    text = " ".join((ROOT / page).read_text(encoding="utf-8").split())
+    assert " ".join(SIDE_RULE.split()) in text
+    assert "mean of the two" not in text
