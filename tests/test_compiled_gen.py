@@ -157,19 +157,18 @@ def test_every_structure_pack_accepts_is_written_out():
     assert kernel.KMAX == compiled_gen.KDENSE
 
 
-def test_first_compile_is_quick_and_the_second_run_loads_it(tmp_path):
-    """An empty cache: the four-bar's kernel compiles in a few seconds of CPU (about 4 s here)
-    and lands, with its source, in the checked private
-    cache; a second process loads it instead of compiling."""
+def test_the_first_run_compiles_into_the_cache_and_the_second_loads_it(tmp_path):
+    """An empty cache: the four-bar's kernel compiles and lands, with its source, in the
+    checked private cache; a second process loads it (numba's cache hits) instead of compiling.
+    How long a compile takes is measured in benchmarks/bench_coldstart.py, not here."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
     cold = _run_batch(env)
     assert cold["rel"] <= 1e-15 and cold["jitted"] and not cold["loaded"]
-    assert cold["took"] <= 10.0, cold
     src = Path(cold["file"])
     assert src.parent.parent == tmp_path / "c" / jitcache.tag() and src.suffix == ".py"
     assert src.parent.stat().st_mode & 0o777 == 0o700
     warm = _run_batch(env)
-    assert warm["loaded"] and warm["rel"] <= 1e-15 and warm["took"] < cold["took"]
+    assert warm["loaded"] and warm["rel"] <= 1e-15
 
 
 @pytest.mark.parametrize("damage", ["truncated", "doctored", "foreign", "a link"])

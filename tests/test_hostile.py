@@ -3,7 +3,6 @@ quotes at most a short excerpt of any file (issue 21, items 12-14). Each test ma
 that trips the same guard as the large one would."""
 
 import os
-import time
 
 import pytest
 
@@ -38,9 +37,7 @@ def errors(path) -> list[str]:
 def test_a_fifo_is_refused_at_once_not_read_for_ever(tmp_path):
     os.mkfifo(tmp_path / "pipe.csv")
     p = model(tmp_path, "pipe.csv")
-    t0 = time.monotonic()
-    r = run_process("check", p, timeout=10)   # the old code waited for a writer for ever
-    assert time.monotonic() - t0 < 10
+    r = run_process("check", p, timeout=120)  # a hang guard: the old code waited for ever
     assert r.returncode == 2
     assert f"{p}:6: error: driver 1 (angle ground-a): table: {tmp_path}/pipe.csv: the table is " \
            f"not a regular file (a FIFO, device or folder is not read): give a CSV file" in r.stderr
@@ -109,10 +106,11 @@ def test_a_long_bad_cell_is_quoted_in_part(tmp_path):
 def test_a_table_over_the_row_budget_is_refused_while_it_is_read(tmp_path):
     from planarkin.inputtable import MAX_ROWS
     assert MAX_ROWS == 100_000      # 1e6 rows took 56 s before the analysis began
-    (tmp_path / "long.csv").write_text("".join(f"{k},0\n" for k in range(MAX_ROWS + 1)))
-    t0 = time.monotonic()
+    # a bad cell after the budget: a reader that read on (or read the whole file first)
+    # would name it; one that stops at the budget never reaches it
+    (tmp_path / "long.csv").write_text("".join(f"{k},0\n" for k in range(MAX_ROWS + 1))
+                                       + "1e9,not-a-number\n")
     got = errors(model(tmp_path, "long.csv"))
-    assert time.monotonic() - t0 < 5
     assert got == [f"{tmp_path}/long.csv:100001: error: the table has more than 100000 rows, the "
                    f"most read here (the analysis would take minutes and gigabytes): thin it out "
                    f"(the table of driver 1 (angle ground-a))"]
@@ -140,9 +138,7 @@ drivers:
 
 def test_comment_lines_count_towards_a_budget_too(tmp_path):
     (tmp_path / "c.csv").write_text("#\n" * 400_001 + "0,0\n1,1\n2,2\n3,3\n")
-    t0 = time.monotonic()
     got = errors(model(tmp_path, "c.csv"))
-    assert time.monotonic() - t0 < 5
     assert got == [f"{tmp_path}/c.csv:400001: error: the table has more than 400000 lines, "
                    f"comments and blank lines included (the table of driver 1 (angle ground-a))"]
 

@@ -6,6 +6,7 @@ import os
 import random
 import re
 import time
+import tracemalloc
 
 import pytest
 import yaml
@@ -45,12 +46,13 @@ def one_error(text) -> str:
 
 
 def timed_errors(text, limit=1.0) -> tuple[list[str], float]:
-    """The errors and the CPU seconds they took (CPU, not wall: a loaded CI machine must not
-    fail the test, and a blow-up costs CPU wherever it runs)."""
+    """The errors and the CPU seconds they took. limit: a generous figure for the quiet case;
+    the test fails only at 10 times it, where only a blow-up (an alias bomb, a quadratic scan)
+    gets: CPU, not wall, and the margin, so that a loaded CI machine never fails it."""
     t0 = time.process_time()
     out = errors(text)
     elapsed = time.process_time() - t0
-    assert elapsed < limit, f"took {elapsed:.2f}s"
+    assert elapsed < 10 * limit, f"took {elapsed:.2f}s, a blow-up"
     return out, elapsed
 
 
@@ -401,27 +403,35 @@ def test_5mb_valid_file(tmp_path):
     text = big_valid_yaml(5_000_000)
     path.write_text(text, encoding="utf-8")
     assert 4_900_000 < path.stat().st_size < MAX_FILE_BYTES
-    t0 = time.perf_counter()
     root = read_file(path)
-    elapsed = time.perf_counter() - t0
     assert root.get("notes").kind == "seq"
     assert len(root.get("notes").value) == text.count("\n") - 1
     assert root.get("notes").value[-1].line == text.count("\n")
-    assert elapsed < 30, f"{elapsed:.1f}s"
 
 
 def test_11mb_file_rejected_fast(tmp_path):
     path = tmp_path / "huge.yaml"
     data = ("# " + "x" * 97 + "\n").encode() * (11 * 1024 * 1024 // 100 + 1)
     path.write_bytes(data)
-    t0 = time.perf_counter()
     with pytest.raises(InputError) as info:
         read_file(path, display_name=F)
-    assert time.perf_counter() - t0 < 1.0
     assert [d.format() for d in info.value.diagnostics] == ["model.yaml: error: the file is too large (more than 10 MB)"]
     # the same limit applies to text handed to read_yaml directly, str or bytes
     assert errors(data) == ["model.yaml: error: the file is too large (more than 10 MB)"]
     assert errors(data.decode()) == ["model.yaml: error: the file is too large (more than 10 MB)"]
+
+
+def test_a_huge_file_is_refused_having_read_no_more_than_the_budget(tmp_path):
+    # a bound on bytes, not on seconds: a sparse 1 GB file read whole would take a gigabyte
+    path = tmp_path / "sparse.yaml"
+    with open(path, "wb") as f:
+        f.truncate(10**9)
+    tracemalloc.start()
+    with pytest.raises(InputError, match="the file is too large"):
+        read_file(path, display_name=F)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 3 * MAX_FILE_BYTES
 
 
 # ---------------------------------------------------------------------------------------------
