@@ -392,7 +392,7 @@ def test_hostile_input_fails_fast():
         with pytest.raises(ExprError):
             evaluate_constant(text, {"x": 1.0})
     elapsed = time.process_time() - start
-    assert elapsed < 0.5, elapsed
+    assert elapsed < 5.0, elapsed       # ~0.1 s of CPU quiet: only a blow-up reaches 5
 
 
 def test_limit_messages(monkeypatch):
