@@ -67,6 +67,34 @@ def test_atan2(y, x):
     assert evaluate_constant(f"atan2({y}, {x})", {}) == pytest.approx(math.atan2(y, x), rel=1e-15)
 
 
+DEGREES = [("sind", lambda x: math.sin(math.radians(x)), 30.0),
+           ("cosd", lambda x: math.cos(math.radians(x)), 60.0),
+           ("tand", lambda x: math.tan(math.radians(x)), 45.0),
+           ("asind", lambda x: math.degrees(math.asin(x)), 0.5),
+           ("acosd", lambda x: math.degrees(math.acos(x)), 0.5),
+           ("atand", lambda x: math.degrees(math.atan(x)), 1.0)]
+
+
+@pytest.mark.parametrize("name, ref, x", DEGREES)
+def test_functions_in_degrees(name, ref, x):
+    assert value(f"{name}(x)", x=x) == pytest.approx(ref(x), rel=1e-15)
+    assert evaluate_constant(f"{name}({x!r})", {}) == pytest.approx(ref(x), rel=1e-15)
+    assert value("atan2d(y, x)", y=-1.0, x=-1.0) == pytest.approx(-135.0, rel=1e-15)
+
+
+def test_a_pedal_written_in_degrees_turns_once_a_second_with_exact_derivatives():
+    # a file with units: {angle: deg} wrote cos(360*t), which takes radians (57 turns a second)
+    t = np.linspace(0.0, 1.0, 1001)
+    got = TimeFunction("30*cosd(360*t)", {}).derivatives(t)
+    w = 2 * math.pi
+    want = (30 * np.cos(w * t), -30 * w * np.sin(w * t), -30 * w * w * np.cos(w * t))
+    for g, r in zip(got, want):
+        np.testing.assert_allclose(g, r, rtol=0, atol=1e-15 * np.abs(r).max())
+    # asind's derivative is asin's times 180/pi, exactly
+    d = TimeFunction("asind(t/2)", {}).derivatives(np.array([0.5]))[1][0]
+    assert d == pytest.approx(180 / math.pi / 2 / math.sqrt(1 - 0.0625), rel=1e-15)
+
+
 def test_parameters_and_names():
     assert evaluate_constant("b/2 + 3*a", {"a": 2, "b": 5}) == 8.5
     assert evaluate_constant("a/2", {"a": np.float64(3.0)}) == 1.5

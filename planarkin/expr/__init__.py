@@ -11,11 +11,13 @@ Accepted (anything else is an `ExprError`):
   conditions are 1 or 0;
 * calls, positional arguments only: sin cos tan asin acos atan atan2(y, x) sinh cosh tanh exp
   log sqrt abs sign floor, where(c, a, b), min/max(a, b, ...), clip(x, lo, hi), mod(x, p), and
-  the motion laws of planarkin.laws (cycloidal(u), ...).
+  the motion laws of planarkin.laws (cycloidal(u), ...); the trigonometric functions take
+  radians whatever the file's angle unit, and sind cosd tand asind acosd atand atan2d(y, x) are
+  the same in degrees.
 
 `ast.parse` serves only as the parser; its tree is walked against that whitelist and rebuilt as
-an immutable `Expr`. min, max, clip and mod are rewritten into where() and floor(). Limits: 1000
-characters, 64 levels of nesting, 2000 nodes, derivative trees at most 150 levels deep and
+an immutable `Expr`. min, max, clip and mod are rewritten into where() and floor(), the
+functions in degrees into those in radians. Limits: 1000 characters, 64 levels of nesting, 2000 nodes, derivative trees at most 150 levels deep and
 2,000,000 characters printed, piecewise forms nested at most 6 deep (TimeFunction). Constants
 are folded (one that overflows, divides by zero or is not finite is an error) and trees
 simplified as they are built (x+0, x*1, x*0, x-x, x/x, c1*(c2*u), sqrt(u**2) = abs(u),

@@ -41,7 +41,11 @@ FUNCS = {
 }
 # piecewise and periodic forms, rewritten at parse time into where() and floor() (see sugar_node);
 # arity None: two or more arguments
-SUGAR = {"where": 3, "min": None, "max": None, "clip": 3, "mod": 2}
+SUGAR = {"where": 3, "min": None, "max": None, "clip": 3, "mod": 2,
+         # trigonometry in degrees, whatever the file's angle unit: sind(x) is sin(x*pi/180),
+         # asind(x) is asin(x)*180/pi (sin and the others always take radians)
+         "sind": 1, "cosd": 1, "tand": 1, "asind": 1, "acosd": 1, "atand": 1, "atan2d": 2}
+DEGREE_FUNCS = ("sind", "cosd", "tand", "asind", "acosd", "atand", "atan2d")
 CMPS = {"<": np.less, "<=": np.less_equal, ">": np.greater, ">=": np.greater_equal,
          "==": np.equal, "!=": np.not_equal}
 _LOGIC = {"and": lambda a, b: np.logical_and(a != 0, b != 0),
@@ -598,7 +602,12 @@ def pw_node(pw, u: Expr, order: int = 0) -> Expr:
 
 
 def sugar_node(fn: str, args: tuple) -> Expr:
-    """min, max, clip, mod and where, written with where() and floor()."""
+    """min, max, clip, mod and where, written with where() and floor(); the trigonometric
+    functions in degrees, written with those in radians."""
+    if fn in ("sind", "cosd", "tand"):
+        return call_node(fn[:-1], (bin_node("*", args[0], num_node(math.pi / 180)),))
+    if fn in DEGREE_FUNCS:
+        return bin_node("*", call_node(fn[:-1], args), num_node(180 / math.pi))
     if fn == "where":
         return where_node(*args)
     if fn in ("min", "max"):  # a balanced tree: nesting grows as log2 of the arguments

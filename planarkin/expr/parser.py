@@ -159,7 +159,7 @@ class _Builder:
         return call_node(fn, args, strict=True)
 
 
-_FORMS = {"atan2": "2 arguments (y, x)", "where": "3 arguments (condition, a, b)",
+_FORMS = {"atan2": "2 arguments (y, x)", "atan2d": "2 arguments (y, x)", "where": "3 arguments (condition, a, b)",
           "clip": "3 arguments (x, lo, hi)", "mod": "2 arguments (x, p)",
           "min": "2 or more arguments", "max": "2 or more arguments"}
 # names users bring from elsewhere, answered with the form that exists here
