@@ -327,6 +327,9 @@ if __name__ == "__main__":
     import sys
     if sys.argv[1:] == ["--figure"]:
         figure(FIGURE)
+        from . import load, solve
+        from .forces.figures import FIGURE as TOOTH_FIGURE, PAIR, tooth_force_figure
+        tooth_force_figure(TOOTH_FIGURE, solve(load("tooth-force.yaml", text=PAIR)))
         sys.exit()
     print(keys_table())
     print()

@@ -34,15 +34,38 @@ def check_pressure_angle(arrays, af, au) -> list:
     return []
 
 
+COAXIAL_TOL = 1e-9     # two revolute points of one body this close (internal units) are one axis
+
+
+def centre_on(pivots, b: int, k: int):
+    """The centre of gear (pulley) b on its carrier k: (2,) in b's frame, internal units, or None.
+    It is where b turns on k (their revolute joint), or where b turns on a body about the same
+    point as k does: a sun on the frame, coaxial with the carrier that turns on the frame too,
+    has no joint to the carrier, yet its centre is fixed on it all the same."""
+    if b == k:
+        return None
+    c = pivots.get((b, k))
+    if c is not None:
+        return c
+    for (x, y), on_b in pivots.items():
+        if x != b:
+            continue
+        k_on_y = pivots.get((y, k))
+        if k_on_y is not None and np.abs(pivots[(y, b)] - k_on_y).max() <= COAXIAL_TOL:
+            return on_b
+    return None
+
+
 def carrier_centres(G, pivots):
-    """{'ci', 'cj'}: (K, 2) the centres of i and j in their own frames, their revolute joints
-    to the carrier k (NaN where there is none), and 'ok' (K,) where both are known."""
+    """{'ci', 'cj'}: (K, 2) the centres of i and j in their own frames on the carrier k
+    (`centre_on`; NaN where there is none), and 'ok' (K,) where both are known."""
     K = len(G)
     ci, cj = np.full((K, 2), np.nan), np.full((K, 2), np.nan)
     for k, (bi, bj, bk) in enumerate(G.bodies):
-        a, b = pivots.get((int(bi), int(bk))), pivots.get((int(bj), int(bk)))
-        if a is not None and b is not None:
-            ci[k], cj[k] = a, b
+        for c, b in ((ci, bi), (cj, bj)):
+            found = centre_on(pivots, int(b), int(bk))
+            if found is not None:
+                c[k] = found
     return {"ci": ci, "cj": cj, "ok": np.isfinite(ci).all(axis=1) & np.isfinite(cj).all(axis=1)}
 
 
@@ -75,10 +98,10 @@ def centre_gap(F, G, k, ci, cj) -> float:
 
 
 def carrier_pairs(G, pivots):
-    """(k, centre of i, centre of j) of the instances whose bodies turn on revolute joints to
-    their carrier k (the others are not checked)."""
+    """(k, centre of i, centre of j) of the instances whose bodies' centres on their carrier k
+    are known (`centre_on`; the others are not checked)."""
     for k, (bi, bj, bk) in enumerate(G.bodies):
-        ci, cj = pivots.get((int(bi), int(bk))), pivots.get((int(bj), int(bk)))
+        ci, cj = centre_on(pivots, int(bi), int(bk)), centre_on(pivots, int(bj), int(bk))
         if ci is not None and cj is not None:
             yield k, ci, cj
 
@@ -104,8 +127,9 @@ class Gear(Kind):
     params = params + (PRESSURE_ANGLE,)
     reaction_sign = (
         "fx, fy: the tooth force on gear j (global), along the line of action through the pitch "
-        "point (the relative pole of i and j on the line of their centres, their revolute joints "
-        "to the carrier k): its tangential part F_t = T_j / rj, its radial part |F_t| tan"
+        "point (the relative pole of i and j on the line of their centres: their revolute joints "
+        "to the carrier k, or about k's axis): its tangential part F_t = T_j / rj, its radial "
+        "part |F_t| tan"
         "(pressure_angle) pushing the gears apart; torque: its moment about j's centre (the "
         "torque the teeth put on j, counter-clockwise positive). Gear i gets minus the force at "
         "the same point; the carrier nothing (its bearings take the rest)")

@@ -3,7 +3,8 @@
 The room of `planarkin.derived` that writes ``forces.csv`` (and ``forces.png`` and the ``forces``
 section of summary.json) when the model gives any mass, load, spring or damper. Modules:
 `keys` (validating the YAML keys), `model` (the mass and load data as arrays), `solve` (the
-Lagrange multipliers and the reactions), `output` (table, summary, plot).
+Lagrange multipliers and the reactions), `check` (each chunk's refusals and warnings), `output`
+(table, summary, plot), `figures` (the how-to's figure of a gear pair's tooth force).
 """
 
 from __future__ import annotations

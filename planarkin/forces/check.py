@@ -4,7 +4,8 @@ A non-finite force (a load sqrt(t - 0.5) before 0.5 s, a pole, a spring of zero 
 the run at its row: the rows before it are written, the run fails with the time and the
 columns. A cam whose contact force turns negative (the follower pulled onto the cam: it would
 lift off, the joint being bilateral) gets one warning with the first time, the smallest
-contact force and when.
+contact force and when. A gear pair or belt whose centres on its carrier are not known (no pitch
+point for its tooth force: solve.unplaced) gets one 'tooth-force' warning at the first row.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ class RowCheck:
         self.lift: dict = {}                      # column -> [Event, min, t_min]
         self.K = None
         self.contacts = []
-        from .solve import physical_kind
+        from .solve import physical_kind, unplaced
+        self.unplaced = unplaced(cm)
         if any(el.kind in CONTACT_KINDS or physical_kind(KINDS[el.kind])
                for el in cm.spec.joints):
             self.table = forces_table(cm, opts)
@@ -48,6 +50,12 @@ class RowCheck:
             self.labels = {column_name(el): el.label for el in cm.spec.joints}
 
     def __call__(self, an, ch):
+        if self.unplaced and len(ch.t):
+            for e, missing in self.unplaced:
+                an.follower.warnings.append(Event("tooth-force", float(ch.t[0]),
+                                                  self._unplaced(self.cm.spec.elements[e],
+                                                                 missing)))
+            self.unplaced = []
         if not self.contacts:
             return self._applied(ch)
         X = self.table.compute(ch)
@@ -92,6 +100,19 @@ class RowCheck:
                 if not all(np.isfinite(x).all() for x in v):
                     names.append(ld.name or f"load {ld.index} ({ld.kind} {'-'.join(ld.bodies)})")
         return i, self._message(t, names or ["an applied force (a spring of zero length?)"])
+
+    @staticmethod
+    def _unplaced(el, missing):
+        gear = el.kind == "gear"
+        what, part = ("tooth force", "gear") if gear else ("belt pull", "pulley")
+        carrier = el.bodies[2] if len(el.bodies) > 2 else "ground"
+        one = len(missing) == 1
+        return (f"{el.label}: the {what} is not known: {part}{'' if one else 's'} "
+                f"{' and '.join(missing)} turn{'s' if one else ''} on no revolute joint to the "
+                f"carrier {carrier}, nor on one about the carrier's axis, so "
+                f"{'its centre is' if one else 'their centres are'} not known; forces.csv "
+                f"gives the {'teeth' if gear else 'belt'}'s torque on {el.bodies[1]} alone, and "
+                f"the bearing loads leave the {what} out")
 
     @staticmethod
     def _undetermined(t, cols):

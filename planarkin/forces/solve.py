@@ -60,6 +60,27 @@ def physical_kind(kind) -> bool:
     return type(kind).reaction is not Kind.reaction
 
 
+def unplaced(cm) -> list:
+    """[(element index, [names of its bodies whose centre is not known])] of the gear pairs and
+    belts whose centres on their carrier are not known (their reaction setup's 'ok' is False:
+    elements.gear.centre_on). Their reaction is the constraint's couples -Phi^T lambda, without
+    the tooth force or the belt pull, which has no point to act at: the forces room warns."""
+    piv = pivots(cm.groups)
+    names = list(cm.body_names) + ["ground"]
+    out = []
+    for G in cm.groups:
+        if not physical_kind(G.kind):
+            continue
+        setup = G.kind.reaction_setup(G, piv, cm.L)
+        if not isinstance(setup, dict) or "ok" not in setup:
+            continue
+        for k in np.flatnonzero(~setup["ok"]):
+            missing = [names[int(G.bodies[k, s])] for s, key in enumerate(("ci", "cj"))
+                       if not np.isfinite(setup[key][k]).all()]
+            out.append((int(cm.row_element[G.rows[k, 0]]), missing))
+    return sorted(out)
+
+
 class Kinetostatics:
     """The forces of a compiled model at given states.
 
