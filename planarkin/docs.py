@@ -3,14 +3,24 @@ kinds (planarkin.elements.KINDS, with what each writes to forces.csv: planarkin.
 the analysis options (planarkin.options.OPTIONS) and every key of a model file.
 
     python -m planarkin.docs          # prints the tables (markdown)
+    python -m planarkin.docs --figure # writes the figures of docs/images/ (from a checkout)
 
 The documentation site (mkdocs.yml, docs/_gen/hooks.py) puts these tables into the reference
 pages at build time, so they cannot drift from what the validator accepts. The meaning of each
 model-file key is written here, once (KEYS); tests/test_docs.py checks that it lists exactly the
 keys the validator accepts, section by section.
+
+The figures of the pages are made by code too: the README's (`figure`) and every figure a page
+marks as written by its own example (`replay`, `page_figures`).
 """
 
 from __future__ import annotations
+
+import contextlib
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
 
 from .elements import KINDS, reaction_table
 
@@ -323,6 +333,161 @@ def figure(dest, root=".") -> None:
         shutil.copyfile(Path(tmp) / "four-bar" / "mechanism.png", dest)
 
 
+# -- the pages' examples --------------------------------------------------------------------
+# A page marks what its reader is asked to do with an HTML comment (invisible on the page) on the
+# line before a fenced block, and marks a figure that a run of the page writes on the line before
+# its image:
+#
+#     <!-- file: NAME -->        the next block is a file the reader saves as NAME
+#     <!-- test: exit 0 -->      every planarkin command of the next block exits 0 (or a list,
+#                                `exit 0, 1`: one status per command, in order); the commands are
+#                                the lines starting with `$ ` when the block has any, else the
+#                                lines starting with `planarkin `
+#     <!-- test: python -->      the next block runs (exec) and does not raise
+#     <!-- figure: PATH -->      the next image is the file PATH that the blocks above it write
+#
+# replay() does all of it in order in one directory (tests/test_docs.py runs every page so and
+# compares each figure with the checked-in image; `python -m planarkin.docs --figure` writes the
+# images).
+MARK = re.compile(r"^<!-- (file|test|figure): (.*?) -->\s*$")
+_FENCE = re.compile(r"^(\s*)(`{3,}|~{3,})(.*)$")
+_IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
+
+
+@dataclass(frozen=True)
+class Block:
+    """A fenced block of a page (info, content) or a figure's image (content: its link target),
+    with the marker on the line before it (kind: file, test, figure or None; value) and the
+    0-based line where it starts."""
+    kind: str | None
+    value: str | None
+    info: str
+    content: str
+    line: int
+
+
+def page_blocks(text: str) -> list[Block]:
+    """The fenced blocks of a markdown page and its marked figures, in order (a fence opens with
+    three or more backticks or tildes and closes with at least as many of the same, alone on
+    their line; its content loses the opening fence's indentation)."""
+    lines = text.splitlines()
+    out, n = [], 0
+    while n < len(lines):
+        before = lines[n - 1].strip() if n else ""
+        mark = MARK.match(before)
+        m = _FENCE.match(lines[n])
+        if mark and mark.group(1) == "figure" and lines[n].strip():
+            image = _IMAGE.search("\n".join(lines[n:n + 8]))
+            out.append(Block("figure", mark.group(2), "", image.group(1) if image else "", n))
+        if m is None or (m.group(2)[0] == "`" and "`" in m.group(3)):
+            n += 1
+            continue
+        indent, markup, info = len(m.group(1)), m.group(2), m.group(3).strip()
+        close = re.compile(rf"^\s*{re.escape(markup[0])}{{{len(markup)},}}\s*$")
+        end = next((k for k in range(n + 1, len(lines)) if close.match(lines[k])), len(lines))
+        body = [line[min(indent, len(line) - len(line.lstrip(" "))):]
+                for line in lines[n + 1:end]]
+        kind, value = (mark.group(1), mark.group(2)) if mark and mark.group(1) != "figure" \
+            else (None, None)
+        out.append(Block(kind, value, info, "".join(line + "\n" for line in body), n))
+        n = end + 1
+    return out
+
+
+def page_commands(content: str) -> list[list[str]]:
+    """The planarkin commands of a block, as argument lists without `planarkin`."""
+    import shlex
+    text = content.replace("\\\n", " ")
+    lines = text.splitlines()
+    if any(line.startswith("$ ") for line in lines):
+        lines = [line[2:] for line in lines if line.startswith("$ ")]
+    return [shlex.split(line, comments=True)[1:] for line in lines
+            if line.startswith("planarkin ")]
+
+
+def _run_in_process(args: list[str]) -> tuple[int, str]:
+    from click.testing import CliRunner
+
+    from .cli import main
+    r = CliRunner().invoke(main, args)
+    return r.exit_code, r.output
+
+
+@contextlib.contextmanager
+def _chdir(path):
+    old = os.getcwd()
+    os.chdir(path)
+    try:
+        yield
+    finally:
+        os.chdir(old)
+
+
+def replay(page, workdir, run=None, figure=None, figures_only=False) -> None:
+    """Do what the page asks of its reader, in workdir, in order: save its files, run its marked
+    commands (through run(args) -> (exit status, output); default: in this process) and its
+    Python blocks; at every figure, call figure(written, image, where) with the file the blocks
+    wrote and the page's image (paths). figures_only: stop after the last figure. A command that
+    exits otherwise than the page says, or a figure that was not written, is an AssertionError
+    naming the page's line."""
+    page, workdir = Path(page).resolve(), Path(workdir).resolve()
+    blocks = page_blocks(page.read_text())
+    if figures_only:
+        last = max((k for k, b in enumerate(blocks) if b.kind == "figure"), default=-1)
+        blocks = blocks[:last + 1]
+    run = run or _run_in_process
+    with _chdir(workdir):
+        for b in blocks:
+            where = f"{page.name}:{b.line + 1}"
+            if b.kind == "file":
+                Path(b.value).write_text(b.content)
+            elif b.kind == "test" and b.value == "python":
+                exec(compile(b.content, where, "exec"), {"__name__": "__docs__"})
+            elif b.kind == "test":
+                m = re.fullmatch(r"exit ([\d, ]+)", b.value)
+                if not m:
+                    raise AssertionError(f"{where}: unknown marker {b.value!r}")
+                codes = [int(c) for c in m.group(1).split(",")]
+                commands = page_commands(b.content)
+                codes = codes * len(commands) if len(codes) == 1 else codes
+                if len(commands) != len(codes):
+                    raise AssertionError(f"{where}: {len(commands)} commands, {len(codes)} "
+                                         f"exit statuses")
+                for args, code in zip(commands, codes):
+                    status, output = run(args)
+                    if status != code:
+                        raise AssertionError(f"{where}: planarkin {' '.join(args)} exited "
+                                             f"{status}, not {code}:\n{output}")
+            elif b.kind == "figure":
+                written = workdir / b.value
+                if not written.is_file():
+                    raise AssertionError(f"{where}: the blocks above did not write {b.value}")
+                if not b.content:
+                    raise AssertionError(f"{where}: no image after the figure marker")
+                if figure is not None:
+                    figure(written, page.parent / b.content, where)
+
+
+def page_figures(root=".") -> list[Path]:
+    """Write the image of every figure marked in docs/ (what the page's own blocks write when
+    run, in a temporary directory holding mechanisms/); return the images written."""
+    import shutil
+    import tempfile
+    root = Path(root).resolve()
+    written = []
+
+    def copy(made, image, where):
+        shutil.copyfile(made, image)
+        written.append(image.resolve())
+    for page in sorted((root / "docs").rglob("*.md")):
+        if not any(b.kind == "figure" for b in page_blocks(page.read_text())):
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            (Path(tmp) / "mechanisms").symlink_to(root / "mechanisms")
+            replay(page, tmp, figure=copy, figures_only=True)
+    return written
+
+
 if __name__ == "__main__":
     import sys
     if sys.argv[1:] == ["--figure"]:
@@ -330,6 +495,8 @@ if __name__ == "__main__":
         from . import load, solve
         from .forces.figures import FIGURE as TOOTH_FIGURE, PAIR, tooth_force_figure
         tooth_force_figure(TOOTH_FIGURE, solve(load("tooth-force.yaml", text=PAIR)))
+        for image in page_figures():
+            print(image)
         sys.exit()
     print(keys_table())
     print()

@@ -1,6 +1,7 @@
 """The README and the documentation site's sources (docs/): size and clean CommonMark, the
-generated reference against the validator, every whole model shown passes `planarkin check`, and
-every command marked as runnable exits as the text says.
+generated reference against the validator, every whole model shown passes `planarkin check`,
+every command marked as runnable exits as the text says, and every figure a page marks is what
+its example writes.
 
 Markers in the markdown (HTML comments, invisible on the page), on the line before a fence:
 
@@ -11,20 +12,28 @@ Markers in the markdown (HTML comments, invisible on the page), on the line befo
                                starting with `planarkin `
     <!-- test: python -->      the next block runs (exec) and must not raise
 
+and on the line before an image:
+
+    <!-- figure: PATH -->      the image is the file PATH written by the blocks above it
+
 A page's marked blocks run in order in one temporary directory holding mechanisms/ and the
-page's files, commands in process through click's CliRunner.
+page's files, commands in process (clitools.run_cli), by planarkin.docs.replay: the same code
+that writes the figures (`python -m planarkin.docs --figure`).
+
+The how-to guides open with their example: a whole model saved as a file, run by the page, and
+the figure the run writes, before any prose.
 """
 
 import re
-import shlex
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from clitools import run_cli
 
 from planarkin.cli import main
 from planarkin.docs import (KEYS, figure, keys_table, kinds_reference, kinds_table, options_table,
-                            reaction_signs)
+                            page_blocks, reaction_signs, replay)
 from planarkin.elements import KINDS
 
 try:
@@ -198,18 +207,12 @@ WHOLE = [(p, start, content) for p in ALL for info, content, kind, _, start in _
                          ids=[f"{p.relative_to(ROOT)}:{s + 1}" for p, s, _ in WHOLE])
 def test_every_whole_model_shown_passes_check(path, start, content, tmp_path, monkeypatch):
     monkeypatch.chdir(_workdir(tmp_path))
+    for _, other, kind, name, _ in _blocks(path):      # the files it may read (a table)
+        if kind == "file":
+            Path(name).write_text(other)
     Path("shown.yaml").write_text(content)
     r = CliRunner().invoke(main, ["check", "shown.yaml"])
     assert r.exit_code == 0, f"{path.name}:{start + 1}:\n{r.output}"
-
-
-def _commands(content: str) -> list[list[str]]:
-    text = content.replace("\\\n", " ")
-    lines = text.splitlines()
-    if any(line.startswith("$ ") for line in lines):
-        lines = [line[2:] for line in lines if line.startswith("$ ")]
-    return [shlex.split(line, comments=True)[1:] for line in lines
-            if line.startswith("planarkin ")]
 
 
 RUNNABLE = [p for p in ALL if any(kind == "test" for _, _, kind, _, _ in _blocks(p))]
@@ -219,28 +222,86 @@ RUNNABLE = [p for p in ALL if any(kind == "test" for _, _, kind, _, _ in _blocks
 def test_the_marked_pages_are_the_ones_expected():
     names = {p.stem for p in RUNNABLE}
     assert {"README", "first-mechanism", "studies", "ci-gate", "measures"} <= names
+    assert {p.stem for p in HOW_TO} <= names
+
+
+@needs_markdown_it
+@pytest.mark.parametrize("path", ALL, ids=_ids(ALL))
+def test_replay_reads_the_blocks_markdown_reads(path):
+    """planarkin.docs.page_blocks (what replay runs) finds the fenced blocks CommonMark finds."""
+    ours = [(b.info, b.content, b.kind, b.value, b.line)
+            for b in page_blocks(path.read_text()) if b.kind != "figure"]
+    assert ours == _blocks(path)
+
+
+def _run(args):
+    r = run_cli(*args, cwd=Path.cwd())
+    return r.returncode, r.stdout + r.stderr
+
+
+def _same_image(made: Path, image: Path, where: str):
+    import numpy as np
+    from matplotlib.image import imread
+    assert image.is_file(), f"{where}: {image.name} is missing: python -m planarkin.docs --figure"
+    old, new = imread(image), imread(made)
+    assert old.shape == new.shape, f"{where}: run python -m planarkin.docs --figure"
+    assert np.mean(np.abs(old - new) > 0.1) < 0.002, f"{where}: run python -m planarkin.docs " \
+                                                     f"--figure"
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem == "studies"
                                   else p for p in RUNNABLE], ids=_ids(RUNNABLE))
-def test_every_marked_command_exits_as_the_text_says(path, tmp_path, monkeypatch):
-    monkeypatch.chdir(_workdir(tmp_path))
-    for info, content, kind, value, start in _blocks(path):
-        where = f"{path.name}:{start + 1}"
-        if kind == "file":
-            Path(value).write_text(content)
-        elif kind == "test" and value == "python":
-            exec(compile(content, where, "exec"), {"__name__": "__docs__"})
-        elif kind == "test":
-            m = re.fullmatch(r"exit ([\d, ]+)", value)
-            assert m, f"{where}: unknown marker {value!r}"
-            codes = [int(c) for c in m.group(1).split(",")]
-            commands = _commands(content)
-            codes = codes * len(commands) if len(codes) == 1 else codes
-            assert len(commands) == len(codes), f"{where}: {len(commands)} commands"
-            for args, code in zip(commands, codes):
-                r = CliRunner().invoke(main, args)
-                assert r.exit_code == code, f"{where}: planarkin {shlex.join(args)}:\n{r.output}"
+def test_every_marked_command_exits_as_the_text_says(path, tmp_path):
+    """...and every figure the page marks is the checked-in image."""
+    replay(path, _workdir(tmp_path), run=_run, figure=_same_image)
+
+
+# -- the how-to guides: their examples first ---------------------------------------------------
+# synthesis and dask are written by others at the moment: not held to this yet
+HOW_TO = [p for p in PAGES if p.parent.name == "how-to" and p.stem not in ("synthesis", "dask")]
+
+
+@pytest.mark.parametrize("path", HOW_TO, ids=_ids(HOW_TO))
+def test_a_how_to_opens_with_its_example_and_figure(path):
+    """Under the title, at most a sentence, then a whole model saved as a file; its run's figure
+    comes before the next heading and before any block that is not the example's."""
+    text = path.read_text()
+    lines = text.splitlines()
+    blocks = page_blocks(text)
+    first = blocks[0]
+    assert first.kind == "file" and first.info == "yaml", \
+        f"{path.name}: the first block is not a model saved as a file"
+    assert re.search(r"^(bodies|links):", first.content, re.M), f"{path.name}: not a whole model"
+    lead = [line for line in lines[1:first.line - 1] if line.strip()]
+    assert len(lead) <= 3, f"{path.name}: {len(lead)} lines of prose before the example"
+    fig = next((b for b in blocks if b.kind == "figure"), None)
+    assert fig is not None, f"{path.name}: no figure"
+    fenced = {n for b in blocks if b.kind != "figure"
+              for n in range(b.line, b.line + b.content.count("\n") + 2)}
+    headings = [n for n in range(first.line, fig.line)
+                if lines[n].startswith("#") and n not in fenced]
+    assert not headings, f"{path.name}: a heading between the example and its figure"
+    assert fig.content.startswith("../images/"), fig.content
+    for b in blocks:
+        if b.line > fig.line:
+            break
+        assert b.kind in ("file", "test", "figure"), f"{path.name}:{b.line + 1}: unmarked block"
+
+
+@pytest.mark.parametrize("path", HOW_TO, ids=_ids(HOW_TO))
+def test_every_yaml_block_of_a_how_to_is_a_model_the_page_runs(path):
+    """Each YAML block is a whole model saved as a file that a marked command (or Python block)
+    of the page uses: test_every_marked_command_exits_as_the_text_says loads and runs it."""
+    blocks = page_blocks(path.read_text())
+    used = " ".join(b.content for b in blocks if b.kind == "test")
+    for b in blocks:
+        if b.info != "yaml":
+            continue
+        where = f"{path.name}:{b.line + 1}"
+        assert b.kind == "file", f"{where}: a YAML block that is not a file of the example"
+        assert re.search(r"^(bodies|links):", b.content, re.M), f"{where}: not a whole model"
+        assert re.search(rf"(?<![\w./-]){re.escape(b.value)}(?![\w-])", used), \
+            f"{where}: no marked command runs {b.value}"
 
 
 def test_the_site_configuration_lists_every_hand_written_page():

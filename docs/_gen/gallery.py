@@ -7,6 +7,7 @@ source, the command and every figure it wrote) go into the site.
 """
 
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -19,13 +20,14 @@ ORDER = ("mechanism", "trajectories", "bodies", "points", "forces", "measures", 
 
 
 def comment(path: Path) -> str:
-    """The model file's leading comment lines, as prose."""
+    """The model file's leading comment lines, as prose (a page of the documentation it names,
+    docs/....md, becomes a link to that page)."""
     lines = []
     for line in path.read_text().splitlines():
         if not line.startswith("#"):
             break
         lines.append(line.lstrip("#").strip())
-    return " ".join(lines)
+    return re.sub(r"\bdocs/([\w/.-]+\.md)\b", r"[\g<0>](../\1)", " ".join(lines))
 
 
 def figures(outdir: Path) -> list[Path]:
