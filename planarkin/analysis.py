@@ -75,9 +75,12 @@ def run_info(an: Analysis) -> RunInfo:
                            f"selects the other branch"} for md in A.modes],
         "redundant": [cm.row_label[r] for r in A.redundant_rows],
     }
+    loops = getattr(f, "loops", None)       # the loops' figures (planarkin.measures.loops)
+    if loops is not None:
+        loops.t_stop = an.t_stop
     return RunInfo(status, msg, an.opts, ev, list(f.warnings), asm, len(f.nodes), f.rejected,
                    an.fallbacks, dict(an.timings), list(cm.spec.warnings) + list(A.warnings),
-                   an.breakpoint_info())
+                   an.breakpoint_info(), loops=loops)
 
 
 def stream(an: Analysis, sink=None, progress=None):

@@ -56,6 +56,17 @@ def row_checks(cm, opts) -> list:
     return out
 
 
+def path_figures(f) -> None:
+    """The rooms' figures of a followed path (a room's optional ``path_figures(f)``, f the
+    planarkin.solver.PathFollower at the end of its run, called by planarkin.singular): figures
+    kept on f for the summary (the measures room's f.loops) and warnings added to f.warnings.
+    Imported here by name, as the tables are, so that the solver reaches no room by import."""
+    for name in ROOMS:
+        hook = getattr(importlib.import_module(name), "path_figures", None)
+        if hook is not None:
+            hook(f)
+
+
 def derived_tables(cm, opts) -> list[DerivedTable]:
     """Every derived table the model asks for, in room order."""
     out: list[DerivedTable] = []

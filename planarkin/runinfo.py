@@ -4,6 +4,7 @@ leaf of both, so that the writer's annotations import no module that imports the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from .options import Options
 from .path import Event
@@ -26,6 +27,7 @@ class RunInfo:
     diagnostics: list = field(default_factory=list)   # assembly warnings (FILE:LINE: warning)
     breakpoints: dict = field(default_factory=dict)   # drivers' breakpoints (Analysis.breakpoint_info)
     interrupted: str | None = None   # 'SIGINT' / 'SIGTERM': the rows up to then are complete
+    loops: Any = None                # planarkin.measures.loops.LoopFigures (summary's loops)
 
     @property
     def success(self) -> bool:

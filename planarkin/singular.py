@@ -4,7 +4,9 @@ singular configuration met is classified from the singular vectors of the Jacobi
 lock-up of a driver when the joints alone keep full rank, bifurcation when they lose rank, a
 driver or joint not defined beyond the last node) and its time extrapolated from sigma_min
 (`singular_time`); the near-singular passages it got through become warnings
-(`near_singular_warnings`). f: the planarkin.solver.PathFollower (its model, systems, nodes, options).
+(`near_singular_warnings`), and so do its loops' passages near a toggle
+(planarkin.measures.loops). f: the planarkin.solver.PathFollower (its model, systems, nodes,
+options).
 """
 
 from __future__ import annotations
@@ -171,7 +173,20 @@ def independent_rows(Jn: np.ndarray, n: int) -> np.ndarray:
 
 def near_singular_warnings(f, threshold: float = COND_WARN) -> None:
     """Local maxima of the condition estimate above threshold that the path got through, as
-    warnings of the path follower f."""
+    warnings of the path follower f; then its four-bar and slider-crank loops' figures (f.loops)
+    and their near-toggle passages (planarkin.measures.loops)."""
+    _near_singular(f, threshold)
+    try:
+        from .derived import path_figures
+        path_figures(f)
+    except Exception as e:  # noqa: BLE001 - the figures are an extra: never lose the run to them
+        f.loops = None
+        f.warnings.append(Event("loops", float(f.nodes.t[-1]) if len(f.nodes) else 0.0,
+                                f"the loops' transmission angles were not computed: "
+                                f"{type(e).__name__}: {e} (please report)"))
+
+
+def _near_singular(f, threshold: float) -> None:
     c = np.array(f.nodes.cond)
     t = np.array(f.nodes.t)
     if len(c) < 3:

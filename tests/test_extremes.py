@@ -410,8 +410,9 @@ def test_near_toggle_warnings(turns):
     expected = [k + f for k in range(turns) for f in (0.25, 0.75)]
     assert len(near) == len(expected), [(w.kind, w.t) for w in res.warnings]
     np.testing.assert_allclose(near, expected, rtol=0, atol=2e-3)
-    assert all(w.cond > 1e3 for w in res.warnings)
-    assert [w.kind for w in res.warnings] == ["near-singular"] * len(expected)
+    assert all(w.cond > 1e3 for w in res.warnings if w.kind == "near-singular")
+    # and the slider-crank loop's closest passage to its toggle (planarkin.measures.loops)
+    assert [w.kind for w in res.warnings] == ["near-singular"] * len(expected) + ["toggle"]
     # a comfortable rod gives no warning
     ok, _ = near_toggle_check(1e-2, turns, 36)
     assert not ok.warnings

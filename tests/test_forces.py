@@ -647,8 +647,9 @@ def test_near_singular_warning_says_reactions_grow_without_bound():
     heavy = text.replace("name: slider-crank", "name: toggle\ngravity: [0, -9.81]").replace(
         "slider: {q:", "slider: {mass: 1, q:")
     massive = planarkin.solve(load(heavy), steps=36)
-    assert [w.kind for w in massive.warnings] == ["near-singular"] * 2
-    for w in massive.warnings:
+    near = [w for w in massive.warnings if w.kind != "toggle"]      # (the loop's: test_loops)
+    assert [w.kind for w in near] == ["near-singular"] * 2
+    for w in near:
         assert w.message.endswith("; joint reactions and driver efforts grow without bound near "
                                   "such a configuration (forces.csv)")
     assert all("grow without bound" not in w.message for w in plain.warnings)

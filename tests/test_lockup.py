@@ -10,6 +10,7 @@ driven link's angle from the ground line, and the loop closes only for |b - c| <
 
 import json
 import math
+import re
 
 import pytest
 from click.testing import CliRunner
@@ -182,3 +183,93 @@ def test_a_change_point_loop_with_a_pin_carried_by_three_links(tmp_path):
     dyad = math.dist((0.02, 0.034641016151377546), (0.08, -0.05))
     assert "four-bar loop ground-link2-arm-crank: crank-rocker (crank turns fully)" in r.output
     assert f"arm {dyad:.6g}" in r.output
+
+
+# -- slider-crank loops (issue 31 item 3) ---------------------------------------------------------
+# Closed form: a crank a pivoted at the origin, its pin B = a (cos theta, sin theta), drives a
+# rod b to a slider whose pin runs on the line y = e: the rod reaches it only while
+# |e - a sin(theta)| <= b, so the crank, turned from theta0, locks at the first angle where
+# |e - a sin(theta)| = b (the rod perpendicular to the guide) -- found here by bracketing and
+# bisection of that condition, independent of planarkin's arcs.
+
+def _slider_crank(a, b, e, w):
+    """A slider-crank in body form, the crank at 0 rad at t = 0 turning at w rad/s."""
+    xc = a + math.sqrt(b * b - e * e)
+    return f"""\
+name: short
+units: {{length: m, angle: rad}}
+bodies:
+  crank:  {{q: [0, 0, 0]}}
+  rod:    {{q: [{a!r}, 0, {math.atan2(e, xc - a)!r}]}}
+  slider: {{q: [{xc!r}, {e!r}, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}}
+  - {{type: revolute, i: crank, j: rod, si: [{a!r}, 0], sj: [0, 0]}}
+  - {{type: revolute, i: rod, j: slider, si: [{b!r}, 0], sj: [0, 0]}}
+  - {{type: translational, i: ground, j: slider, si: [0, {e!r}], sj: [0, 0], vi: [1, 0],
+     vj: [1, 0]}}
+drivers:
+  - {{type: angle, body: crank, f: "{w!r}*t"}}
+analysis: {{start: 0, end: 1, steps: 360}}
+"""
+
+
+def _slider_lock(a, b, e, up):
+    """The first crank angle from 0 (turning up or down) where |e - a sin(theta)| = b."""
+    g = lambda th: b - abs(e - a * math.sin(th))
+    s = 1 if up else -1
+    step = 1e-3
+    th = 0.0
+    while g(s * (th + step)) > 0:
+        th += step
+        if th > 2 * math.pi:
+            return None
+    lo, hi = th, th + step
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if g(s * mid) > 0 else (lo, mid)
+    return s * hi
+
+
+@pytest.mark.parametrize("a, b, e, w", [
+    (0.1, 0.04, 0.0, 2 * math.pi),        # the rod shorter than the crank: locks at asin(b / a)
+    (0.1, 0.04, 0.0, -2 * math.pi),       # the other way
+    (0.1, 0.05, 0.02, -2 * math.pi),      # offset: sin(theta) >= (e - b) / a down
+    (0.1, 0.05, 0.02, 2 * math.pi),       # and <= (e + b) / a up
+    (0.1, 0.12, 0.05, -2 * math.pi),      # the rod longer than the crank, but a + |e| > b
+    (0.1, 0.12, 0.05, 2 * math.pi),       # up: over the top, locking beyond 180 deg
+    (0.1, 0.12, -0.05, 2 * math.pi),      # the offset on the other side
+])
+def test_check_and_run_warn_of_a_slider_crank_lock_up(tmp_path, a, b, e, w):
+    assert b < a + abs(e)
+    p = tmp_path / "short.yaml"
+    p.write_text(_slider_crank(a, b, e, w))
+    lim = _slider_lock(a, b, e, w > 0)
+    t_lock = lim / w
+    assert 0 < t_lock < 1
+    r = CliRunner().invoke(main, ["check", str(p)])
+    assert r.exit_code == 0, r.output                  # as a four-bar's: a warning, exit 0
+    warn = [x for x in r.output.splitlines() if "warning:" in x]
+    assert len(warn) == 1, r.output
+    assert (f"short.yaml:14: warning: driver 1 (angle ground-crank): the slider-crank loop "
+            f"ground-crank-rod-slider (rod {b:.6g} m < crank {a:.6g} + |offset| {abs(e):.6g} m: "
+            f"the crank cannot turn fully) locks where crank reaches {lim:.6g} rad of this "
+            f"driver (rod perpendicular to the guide of slider), which the driver reaches at "
+            f"t = {t_lock:.6g} s") in warn[0]
+    assert f"lengthen the rod to at least {a + abs(e):.6g} m" in warn[0]
+    r = CliRunner().invoke(main, ["run", str(p), "--out", str(tmp_path / "out"), "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert r.output.count(warn[0]) == 1
+    at = re.search(r"singular configuration at t = ([0-9.e+-]+) s: lock-up of driver 1", r.output)
+    assert at is not None, r.output
+    assert abs(float(at.group(1)) - t_lock) < 1e-6
+    assert "toggle:" not in r.output and "passes near a toggle" not in r.output
+    s = json.loads((tmp_path / "out" / "short" / "summary.json").read_text())
+    assert warn[0].split("warning: ", 1)[1] in json.dumps(s)
+
+
+@pytest.mark.parametrize("a, b, e", [(0.1, 0.3, 0.0), (0.1, 0.3, 0.15), (0.1, 0.16, -0.05)])
+def test_a_slider_crank_whose_crank_turns_fully_gets_no_lock_up(tmp_path, a, b, e):
+    assert b >= a + abs(e)
+    r = _check(tmp_path, _slider_crank(a, b, e, 2 * math.pi))
+    assert r.exit_code == 0 and "warning" not in r.output, r.output

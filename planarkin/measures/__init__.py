@@ -23,7 +23,8 @@ a ratio or an advantage has .rate, and .accel only with the jerks (its second de
 the measures' third). Written to measures.csv (``t [s]``, then ``<name> [unit]``,
 ``<name>.rate [unit/s]``, ``<name>.accel [unit/s^2]``, ``<name>.jerk [unit/s^3]``), plotted in
 measures.png, and summarised (limit positions, stroke, time ratio) in summary.json under
-``cycle``.
+``cycle``. Unasked, every run also gets the transmission angle and the velocity ratio of every
+four-bar and slider-crank loop (summary.json's ``loops``, planarkin.measures.loops).
 """
 
 from __future__ import annotations
@@ -370,6 +371,15 @@ def compute(cm, measures, ch, order: int = 2) -> np.ndarray:
         vals.append(val)
     cols = [ch.t] + [vals[k][d] for _, _, d, k in columns(cm, measures, order)]
     return np.column_stack(cols)
+
+
+def path_figures(f) -> None:
+    """The loops' figures of a followed path (planarkin.derived.path_figures): every four-bar and
+    slider-crank loop's transmission angle and velocity ratio, asked or not, kept as f.loops for
+    summary.json's ``loops``, and a warning for a passage near a toggle
+    (planarkin.measures.loops)."""
+    from .loops import follow
+    follow(f)
 
 
 def derived_tables(cm, opts) -> list[DerivedTable]:

@@ -7,6 +7,16 @@ between its two pivots). With s the shortest, l the longest and p, q the others:
                     the crank); s = coupler -> double-rocker;
     s + l = p + q   change point (the loop can fold flat);
     s + l > p + q   non-Grashof: triple-rocker (no link turns fully relative to another).
+
+A slider-crank loop is ground, a crank p pinned to ground, a rod c pinned to p and to a slider s
+that slides on a translational joint to ground (s not pinned to ground). With the crank a (its
+pins' distance), the rod b and the offset e (the signed distance of the crank's pivot A from
+the line the rod-slider pin C runs on), the crank's angle theta from the guide direction u
+puts the crank pin at n.(C - B) = e - a sin(theta) off the rod's span (n = u turned by +90
+deg), and the rod reaches only while |e - a sin(theta)| <= b:
+    (e - b) / a <= sin(theta) <= (e + b) / a,
+so the crank turns fully exactly when b >= a + |e|; past a limit the rod stands perpendicular
+to the guide and the loop locks when the crank is driven (`lock_ups`).
 """
 
 from __future__ import annotations
@@ -116,9 +126,207 @@ def _classify(links, lengths, bodies=(), pins=()) -> Loop:
     return Loop(links, lengths, kind, crank, tuple(bodies), tuple(pins))
 
 
+@dataclass(frozen=True)
+class SliderCrank:
+    links: tuple        # (ground, crank, rod, slider) body names
+    bodies: tuple       # their body indices (ground = cm.nb)
+    pins: tuple         # internal body-frame points: ground's pivot of the crank, the crank's
+                        # ends at ground and at the rod, the slider's pin (slider frame)
+    guide: tuple        # (body index carrying the axis, its axis vi (unit, that body's frame),
+                        # spec element index of the translational joint)
+    a: float            # crank length (its pins' distance), internal units
+    b: float            # rod length, internal units
+
+    def offset(self, q) -> float:
+        """e = n.(C - A) at the pose q (internal units, (n,) or extended): the signed distance
+        of the crank's pivot A from the line of the rod-slider pin C (constant: the slider
+        does not turn), n the guide direction u turned by +90 deg."""
+        u, n = self.axes(q)
+        gp, pg, pc, sc = self.pins
+        C = _global(q, self.bodies[3], sc)
+        return float(n[0] * (C[0] - gp[0]) + n[1] * (C[1] - gp[1]))
+
+    def axes(self, q):
+        """The guide direction u and its normal n = k x u (global) at the pose q."""
+        gb, vi, _ = self.guide
+        phi = float(q[3 * gb + 2]) if 3 * gb + 2 < len(q) else 0.0
+        c, s = math.cos(phi), math.sin(phi)
+        u = (c * vi[0] - s * vi[1], s * vi[0] + c * vi[1])
+        return u, (-u[1], u[0])
+
+
+def _global(q, b, s):
+    """Global position of body b's point s (internal units) at the pose q (ground: s)."""
+    if 3 * b + 2 >= len(q):
+        return tuple(s)
+    phi = float(q[3 * b + 2])
+    c, sn = math.cos(phi), math.sin(phi)
+    return (float(q[3 * b]) + c * s[0] - sn * s[1], float(q[3 * b + 1]) + sn * s[0] + c * s[1])
+
+
+def slider_crank_loops(cm) -> list[SliderCrank]:
+    """Every slider-crank loop of the compiled model: a slider on a translational joint to
+    ground (and not pinned to ground), a rod pinned to it, a crank pinned to the rod and to
+    ground; in the order of the translational joints, then of the bodies."""
+    pins = pin_pairs(cm)
+    G = cm.nb
+    name = lambda b: "ground" if b == G else cm.body_names[b]
+    nbrs: dict[int, list] = {}
+    for a, b in pins:
+        nbrs.setdefault(a, []).append(b)
+    out, seen = [], set()
+    for g in cm.groups:
+        if g.kind.name != "translational":
+            continue
+        for k in range(len(g)):
+            bi, bj = (int(x) for x in g.bodies[k, :2])
+            if (bi == G) == (bj == G):
+                continue
+            s = bj if bi == G else bi
+            if (G, s) in pins:
+                continue                      # pinned to ground as well: it does not slide
+            vi = tuple(float(x) for x in g.params["vi"][k])
+            norm = math.hypot(*vi)
+            if not norm > 0:
+                continue
+            el = int(cm.row_element[int(g.rows[k, 0])])
+            for c in sorted(set(nbrs.get(s, ()))):
+                if c in (G, s):
+                    continue
+                for p in sorted(set(nbrs.get(c, ()))):
+                    if p in (G, s, c) or (G, p) not in pins or (p, s, c) in seen:
+                        continue
+                    seen.add((p, s, c))
+                    gp, pg = pins[(G, p)][0]
+                    pc, cp = pins[(p, c)][0]
+                    cs, sc = pins[(c, s)][0]
+                    out.append(SliderCrank(
+                        (name(G), name(p), name(c), name(s)), (G, p, c, s), (gp, pg, pc, sc),
+                        (bi, (vi[0] / norm, vi[1] / norm), el), math.dist(pg, pc),
+                        math.dist(cp, cs)))
+    return out
+
+
+def _first_crossing(theta, ends, start, end, steps):
+    """The first time the driven angle theta(t) (internal radians) leaves [ends[0][0],
+    ends[1][0]] on the run's grid (at most 200,000 samples), by bisection of the driver
+    function: (the end crossed, its reason, t) or None when it stays within."""
+    import numpy as np
+    n = int(min(steps, 200_000))
+    t = np.linspace(start, end, n + 1)
+    th = np.broadcast_to(theta(t), t.shape)
+    past = (th < ends[0][0]) | (th > ends[1][0])
+    if not past.any() or past[0]:
+        return None
+    k = int(np.argmax(past))
+    limit, why = ends[0] if th[k] < ends[0][0] else ends[1]
+    ta, tb = float(t[k - 1]), float(t[k])
+    for _ in range(200):
+        tm = 0.5 * (ta + tb)
+        if tm in (ta, tb):
+            break
+        inside = ends[0][0] <= float(theta(tm)) <= ends[1][0]
+        ta, tb = (tm, tb) if inside else (ta, tm)
+    return limit, why, tb
+
+
+def _slider_crank_window(sc, q0):
+    """The crank angles (from the guide direction u, internal radians, unwrapped around the
+    assembled one) between which the slider-crank sc closes, reached from the pose q0:
+    (theta0, [(lower limit, reason), (upper limit, reason)]), or None when the crank turns
+    fully (b > a + |e|), at b = a + |e| (a change point: the rod touches the perpendicular at one
+    pose, where the branches cross, as a four-bar's change point, which lock_ups leaves to the
+    run's bifurcation) or q0 lies on no branch."""
+    gp, pg, pc, sc_ = sc.pins
+    a, b = sc.a, sc.b
+    e = sc.offset(q0)
+    if a == 0 or b >= a + abs(e) - 1e-12 * (a + b):
+        return None
+    u, _ = sc.axes(q0)
+    p = sc.bodies[1]
+    theta0 = (float(q0[3 * p + 2]) + math.atan2(pc[1] - pg[1], pc[0] - pg[0])
+              - math.atan2(u[1], u[0]))
+    hi, lo = (e + b) / a, (e - b) / a           # sin(theta) must stay within [lo, hi]
+    if lo >= 1 or hi <= -1:
+        return None                              # never closes (assembly refuses it)
+    arcs = []                                    # forbidden open arcs (start, end), radians
+    if hi < 1:      # rod perpendicular, the slider pin on the -n side of the crank pin
+        al = math.asin(hi)
+        arcs.append((al, math.pi - al, "-n"))
+    if lo > -1:     # the slider pin on the +n side
+        be = math.asin(lo)
+        arcs.append((math.pi - be, 2 * math.pi + be, "+n"))
+    up = down = None
+    for s0, s1, why in arcs:
+        k = math.floor((theta0 - s0) / (2 * math.pi))
+        for kk in (k - 1, k, k + 1, k + 2):
+            a0, a1 = s0 + 2 * math.pi * kk, s1 + 2 * math.pi * kk
+            if a0 + 1e-9 < theta0 < a1 - 1e-9:
+                return None                      # assembled inside a forbidden arc
+            if a0 >= theta0 - 1e-9 and (up is None or a0 < up[0]):
+                up = (a0, why)
+            if a1 <= theta0 + 1e-9 and (down is None or a1 > down[0]):
+                down = (a1, why)
+    return theta0, [down, up]
+
+
+def _slider_crank_lock_ups(cm, q0, start, end, steps) -> list:
+    """lock_ups' warnings for slider-crank loops whose crank an angle driver turns past the
+    angle where its rod stands perpendicular to the guide (b < a + |e|)."""
+    import numpy as np
+
+    from ..diagnostics import Diagnostic
+    spec = cm.spec
+    af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
+    loops = slider_crank_loops(cm)
+    out = []
+    if not loops:
+        return out
+    for el in spec.drivers:
+        if el.kind != "angle" or el.f is None or "ground" not in el.bodies[:2] or \
+                el.bodies[0] == el.bodies[1]:
+            continue
+        i, j = el.bodies[:2]
+        sgn = 1.0 if i == "ground" else -1.0           # phi_j - phi_i = f(t)
+        x = cm.body_names.index(j if i == "ground" else i)
+        for sc in loops:
+            if x != sc.bodies[1]:
+                continue
+            win = _slider_crank_window(sc, q0)
+            if win is None:
+                continue
+            theta0, ends = win
+            f0 = float(el.f(start))
+            theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
+            hit = _first_crossing(theta, ends, start, end, steps)
+            if hit is None:
+                continue
+            limit, _, tb = hit
+            lim = lambda v: f0 + sgn * (v - theta0) / af
+            span = sorted(lim(v) for v, _ in ends)
+            u, lu = spec.angle_unit, spec.length_unit
+            L = cm.L
+            e = sc.offset(q0)
+            e = 0.0 if abs(e) <= 1e-12 * (sc.a + sc.b) else e      # rounding of a centred one
+            crank, rod, slider = sc.links[1:]
+            out.append(Diagnostic(spec.file, el.param_lines.get("f", el.line), (
+                f"{el.label}: the slider-crank loop {'-'.join(sc.links)} (rod {sc.b * L:.6g} "
+                f"{lu} < crank {sc.a * L:.6g} + |offset| {abs(e) * L:.6g} {lu}: the crank "
+                f"cannot turn fully) locks where {crank} reaches {lim(limit):.6g} {u} of this "
+                f"driver ({rod} perpendicular to the guide of {slider}), which the driver "
+                f"reaches at t = {tb:.6g} s: the run will stop there (lock-up). "
+                f"{crank} moves only between {span[0]:.6g} and {span[1]:.6g} {u} of this "
+                f"driver; end the run before t = {tb:.6g} s, keep the driver within that "
+                f"range, lengthen the rod to at least {(sc.a + abs(e)) * L:.6g} {lu}, or drive "
+                f"another link"), "warning"))
+            break
+    return out
+
+
 def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
     """Warnings (Diagnostic, at the driver's line) for every angle driver that turns a grounded
-    link of a four-bar loop past the angle where the loop locks, within start..end.
+    link of a four-bar loop, or the crank of a slider-crank loop (see the module docstring),
+    past the angle where the loop locks, within start..end.
 
     With the driven link of length a at the pivot A, the ground line g from A to the other
     pivot D, the coupler b and the other link c, the distance BD from the driven link's far pin
@@ -173,23 +381,12 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
             if not ends[0][0] - 1e-9 <= abs(w) <= ends[1][0] + 1e-9:
                 continue                                 # assembled on no branch of this law
             ends = sorted((theta0 - w + sigma * u, why) for u, why in ends)
-            n = int(min(steps, 200_000))
-            t = np.linspace(start, end, n + 1)
             f0 = float(el.f(start))
             theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
-            th = np.broadcast_to(theta(t), t.shape)
-            past = (th < ends[0][0]) | (th > ends[1][0])
-            if not past.any() or past[0]:
+            hit = _first_crossing(theta, ends, start, end, steps)
+            if hit is None:
                 continue
-            k = int(np.argmax(past))
-            limit, why = ends[0] if th[k] < ends[0][0] else ends[1]
-            ta, tb = float(t[k - 1]), float(t[k])
-            for _ in range(200):
-                tm = 0.5 * (ta + tb)
-                if tm in (ta, tb):
-                    break
-                inside = ends[0][0] <= float(theta(tm)) <= ends[1][0]
-                ta, tb = (tm, tb) if inside else (ta, tm)
+            limit, why, tb = hit
             lim = lambda e: f0 + sgn * (e - theta0) / af
             span = sorted(lim(e) for e, _ in ends)
             u, lu = spec.angle_unit, spec.length_unit
@@ -207,4 +404,4 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
                 f"of this driver; end the run before t = {tb:.6g} "
                 f"s, keep the driver within that range, or drive another link"), "warning"))
             break
-    return out
+    return out + _slider_crank_lock_ups(cm, q0, start, end, steps)

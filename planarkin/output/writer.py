@@ -324,6 +324,8 @@ def build_summary(cm: CompiledModel, info: RunInfo, steps: StepStats, body_stats
         "columns": {getattr(body_stats, "table", "bodies.csv"): body_stats.as_dict()},
         "wall_time": {k: round(v, 6) for k, v in info.timings.items()},
     }
+    if getattr(info, "loops", None) is not None:       # four-bar and slider-crank figures
+        out["loops"] = info.loops.as_dict()
     if spec.overrides:
         out["overrides"] = dict(spec.overrides)
     if point_stats is not None:
