@@ -469,16 +469,30 @@ def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, 
 
 
 # -- synthesis and identification (planarkin.synthesis) ----------------------------------------
-def _synthesis_errors(model_path, report, call):
-    """Run call(); InputError and OutputError are reported (exit 2), None returned."""
+def _synthesis_errors(model_path, report, call, outdir=None, plots=None, progress=None):
+    """Run call() (a search, or the writing of its results) and return its result; or report
+    what stopped it and return None: invalid input or a busy or foreign directory (exit 2), a
+    file that could not be written, a full disk (exit 1, the directory left as it was), an
+    interruption (130/143; a search's designs verified so far are written, marked
+    interrupted, and the report line says what is on disk). progress: its line is cleared
+    before anything is reported."""
     from .diagnostics import Diagnostic, InputError
-    from .output.directory import OutputError
+    from .output.directory import OutputError, WriteError, signame
+    from .synthesis.output import interrupted
     try:
-        return call()
+        try:
+            return call()
+        finally:
+            if progress is not None:
+                progress.close()
     except InputError as e:
         report.invalid(model_path, e.diagnostics)
     except OutputError as e:
         report.invalid(model_path, [Diagnostic(model_path, None, str(e))])
+    except WriteError as e:
+        report.failed(model_path, f"{e}; {outdir}/ is left as it was")
+    except KeyboardInterrupt as e:
+        report.interrupted(model_path, signame(e), interrupted(e, outdir, plots))
     return None
 
 
@@ -501,18 +515,23 @@ def synth(model_path, out, starts, local, keep, seed, goal, steps, no_plots, qui
     """Find the free parameters of MODEL's design: block that meet its targets (path, function
     or motion generation) under its constraints. Writes the best designs as ready-to-run models.
     Exit status: 0 designs found, 1 none acceptable, 2 invalid input."""
+    from .output.directory import interruptible
     from .synthesis.output import write_synth
+    from .synthesis.progress import SearchProgress
     from .synthesis.synth import synthesize
     report = Report(quiet)
-    res = _synthesis_errors(model_path, report, lambda: synthesize(
-        model_path, overrides, {"steps": steps}, starts=starts, local=local, keep=keep,
-        seed=seed, goal=goal))
-    if res is None:
-        sys.exit(report.exit_code)
     outdir = _search_dir(model_path, out, "synth")
-    if _synthesis_errors(model_path, report, lambda: write_synth(
-            res, outdir, None if no_plots else "png")) is None:
-        sys.exit(report.exit_code)
+    plots = None if no_plots else "png"
+    progress = SearchProgress("synth", quiet)
+    with interruptible():       # a signal stops the search in order (what is kept: said)
+        res = _synthesis_errors(model_path, report, lambda: synthesize(
+            model_path, overrides, {"steps": steps}, progress=progress, starts=starts,
+            local=local, keep=keep, seed=seed, goal=goal), outdir, plots, progress)
+        if res is None:
+            sys.exit(report.exit_code)
+        if _synthesis_errors(model_path, report, lambda: write_synth(res, outdir, plots),
+                             outdir, plots) is None:
+            sys.exit(report.exit_code)
     _conclude_search(model_path, report, res, outdir)
 
 
@@ -533,17 +552,27 @@ def fit(model_path, data, free, out, steps, no_plots, quiet, overrides):
     """Estimate parameters of MODEL from measured point trajectories (Levenberg-Marquardt with
     exact sensitivities): estimates, standard errors, correlations, residuals.
     Exit status: 0 fitted, 1 not identifiable or failed, 2 invalid input."""
+    twice = sorted({n for n in free if free.count(n) > 1})
+    if twice:
+        raise click.BadParameter(f"{', '.join(repr(n) for n in twice)} given twice: name "
+                                 f"each parameter once", param_hint="'--free'")
+    from .output.directory import interruptible
     from .synthesis.fit import fit as run_fit
     from .synthesis.output import write_fit
+    from .synthesis.progress import SearchProgress
     report = Report(quiet)
-    res = _synthesis_errors(model_path, report, lambda: run_fit(
-        model_path, data, list(free) or None, overrides, {"steps": steps}))
-    if res is None:
-        sys.exit(report.exit_code)
     outdir = _search_dir(model_path, out, "fit")
-    if _synthesis_errors(model_path, report, lambda: write_fit(
-            res, outdir, None if no_plots else "png")) is None:
-        sys.exit(report.exit_code)
+    plots = None if no_plots else "png"
+    progress = SearchProgress("fit", quiet)
+    with interruptible():       # a signal stops the fit in order (nothing half written)
+        res = _synthesis_errors(model_path, report, lambda: run_fit(
+            model_path, data, list(free) or None, overrides, {"steps": steps},
+            progress=progress), outdir, plots, progress)
+        if res is None:
+            sys.exit(report.exit_code)
+        if _synthesis_errors(model_path, report, lambda: write_fit(res, outdir, plots),
+                             outdir, plots) is None:
+            sys.exit(report.exit_code)
     if not quiet:
         for i, n in enumerate(res.names):
             click.echo(f"  {n} = {res.estimate[i]:.10g} +- {res.se[i]:.3g}")

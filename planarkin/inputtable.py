@@ -27,7 +27,8 @@ from .expr import Expr, TimeFunction
 from .expr.core import bin_node, num_node, pw_node, sugar_node
 from .piecewise import Piece, Piecewise
 
-__all__ = ["TableError", "confined", "read_columns", "read_table", "spline", "table_function"]
+__all__ = ["TableError", "confined", "open_lines", "read_columns", "read_table", "spline",
+           "table_function"]
 
 # A driver or cam table of 1e5 rows is checked in 2.4 s and 180 MB; 1e6 rows took 56 s (the
 # piecewise polynomial keeps a Python object per interval). A curve's points cost more in the
@@ -215,6 +216,13 @@ def _open(path: Path):
         raise TableError([(None, f"cannot read the table: {exc.strerror or exc}")]) from None
     finally:
         f.close()
+
+
+def open_lines(path: Path):
+    """The lines of a tabular file under the budgets of a model's tables (see `_open`), for the
+    other readers of such files (planarkin.synthesis.fit's tracked data): a context manager
+    of (line number, line); TableError for a file refused."""
+    return _open(path)
 
 
 def _lines(f):

@@ -188,3 +188,101 @@ def test_fit_and_run_in_the_same_out_keep_each_others_files(tmp_path, track):
     fitted = {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()}
     assert runner.invoke(main, ["run", str(FOUR), "--out", str(out), "--no-plots"]).exit_code == 0
     assert {f.name: f.read_bytes() for f in (out / "four-bar.fit").iterdir()} == fitted
+
+
+# -- the data file under the budgets of the tables a model reads (issue 33) --------------------
+
+def _fit_cli(tmp_path, data, *more):
+    from clitools import run_cli
+    return run_cli("fit", FOUR, "--data", data, "--free", "a", "--out", tmp_path / "out",
+                   "--no-plots", *more)
+
+
+def test_a_fifo_or_a_device_is_refused_before_it_is_read(tmp_path):
+    """A FIFO without a writer (it hung for ever) and /dev/zero (it grew past 6 GB): refused
+    from their type, before they are opened for reading. Hang guard: after 10 s a writer
+    opens the FIFO and closes it, so a reader gets end of file instead of waiting."""
+    import os
+    import threading
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+
+    def release():
+        try:
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        except OSError:             # no reader: nothing waits on it
+            pass
+    guard = threading.Timer(10.0, release)
+    guard.start()
+    try:
+        for data in (fifo, Path("/dev/zero")):
+            r = _fit_cli(tmp_path, data)
+            assert r.returncode == 2, r.stdout + r.stderr
+            assert f"{data}: error: the data file is not a regular file (a FIFO, device or " \
+                   f"folder is not read): give a CSV file" in r.stderr, r.stderr
+    finally:
+        guard.cancel()
+
+
+def test_data_file_budgets_bound_what_is_read(tmp_path, monkeypatch):
+    """The table reader's budgets, each a FILE[:LINE] error with exit 2: a file larger than
+    MAX_BYTES refused from its size (a sparse 16 MB file: nothing read); a line longer than
+    MAX_LINE (a 140 kB field ended in a _csv.Error traceback); a quote left open, the rest of
+    the file one field; more than MAX_ROWS rows refused at the row after the last allowed
+    (a 2,000,000-row file grew past 6 GB)."""
+    from planarkin import inputtable
+    big = tmp_path / "big.csv"
+    with open(big, "wb") as f:
+        f.truncate(inputtable.MAX_BYTES + 1)
+    r = _fit_cli(tmp_path, big)
+    assert r.returncode == 2 and f"{big}: error: the data file is too large " \
+                                 f"({inputtable.MAX_BYTES + 1} bytes" in r.stderr, r.stderr
+    wide = tmp_path / "wide.csv"
+    wide.write_text("t [s],P.x [mm],P.y [mm]\n0,\"" + "1" * 140_000 + "\",2\n0.1,1,2\n")
+    r = _fit_cli(tmp_path, wide)
+    assert r.returncode == 2 and f"{wide}:2: error: the line is longer than " \
+                                  f"{inputtable.MAX_LINE} characters" in r.stderr, r.stderr
+    quote = tmp_path / "quote.csv"
+    quote.write_text("t [s],P.x [mm],P.y [mm]\n0,\"1\n" + "2\n" * 70_000 + "0.1,1,2\n")
+    r = _fit_cli(tmp_path, quote)
+    assert r.returncode == 2 and f"{quote}:" in r.stderr and "error: not a CSV line" in \
+        r.stderr, r.stderr
+    monkeypatch.setattr(inputtable, "MAX_ROWS", 50)
+    rows = tmp_path / "rows.csv"
+    rows.write_text("t [s],P.x [mm],P.y [mm]\n" + "".join(f"{k * 1e-3},1,2\n"
+                                                          for k in range(10_000)))
+    r = _fit_cli(tmp_path, rows)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"{rows}:52: error: the data file has more than 50 rows" in r.stderr, r.stderr
+
+
+def test_free_given_twice_is_a_usage_error(tmp_path, track):
+    """--free a --free a answered 'not identifiable' (exit 1: J^T J of two equal columns is
+    singular); it is a usage error naming the option, as is the API's."""
+    p = _write(tmp_path / "d.csv", *track)
+    r = _fit_cli(tmp_path, p, "--free", "a")
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "Invalid value for '--free': 'a' given twice: name each parameter once" in \
+        r.stderr, r.stderr
+    with pytest.raises(planarkin.InputError, match="--free a is given twice"):
+        planarkin.fit(FOUR, p, ["a", "b", "a"])
+
+
+def test_fitted_yaml_carries_every_set_value_and_reproduces_its_rms(tmp_path, track):
+    """--set d=0.098 (d not fitted) against data of d = 0.1: the fit uses it, so fitted.yaml
+    must carry it (it held the file's d = 0.1: the written model was not the one fitted).
+    Running fitted.yaml at the data's times reproduces the rms residual it states."""
+    t, x, y = track
+    p = _write(tmp_path / "d.csv", t, x, y)
+    r = _fit_cli(tmp_path, p, "--set", "d=0.098", "--set", "a=0.041")
+    assert r.returncode == 0, r.stdout + r.stderr
+    out = tmp_path / "out" / "four-bar.fit"
+    s = json.loads((out / "summary.json").read_text())
+    assert s["set"] == {"d": 0.098} and s["rms_residual"] > 1e-5
+    assert "# planarkin fit" in (out / "fitted.yaml").read_text()
+    assert "set: d = 0.098" in (out / "fitted.yaml").read_text()
+    fitted = planarkin.load(out / "fitted.yaml")
+    assert fitted.spec.parameters["d"] == 0.098
+    P = planarkin.solve(fitted, steps=len(t) - 1).point("P")
+    res = np.concatenate([P["x"] - x, P["y"] - y])
+    assert np.sqrt(np.mean(res ** 2)) == pytest.approx(s["rms_residual"], rel=1e-6)

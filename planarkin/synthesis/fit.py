@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Diagnostic, InputError
-from .problem import Model, Rejected
+from ..output.directory import checkpoint
+from .problem import Model, Rejected, memory_problem
 
 LENGTHS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "in": 0.0254,
            "ft": 0.3048}
@@ -60,14 +61,34 @@ def _err(file, line, msg):
 
 def read_data(path, cm) -> Data:
     """Read a tracked-data CSV against the compiled model; InputError (FILE:LINE) for a missing
-    or wrong column, a unit that is not a length, a non-number or NaN, times out of order."""
+    or wrong column, a unit that is not a length, a non-number or NaN, times out of order.
+
+    The file is read under the budgets of the tables a model reads (planarkin.inputtable): a
+    regular file only (a FIFO or a device is refused before it is opened for reading), at
+    most MAX_BYTES, lines of at most MAX_LINE characters, MAX_LINES lines and MAX_ROWS rows
+    of data, so that a wrong --data costs a message, not the machine's memory."""
+    from .. import inputtable
+    from ..inputtable import TableError, open_lines
     file = str(path)
+    rows = []
     try:
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError) as e:
-        raise _err(file, None, f"cannot read the data file: {e}") from None
-    rows = [(k, r) for k, r in enumerate(rows, start=1) if r and not r[0].startswith("#")]
+        with open_lines(path) as lines:
+            reader = csv.reader(raw for _, raw in lines)
+            try:
+                for r in reader:
+                    if r and not r[0].startswith("#"):
+                        rows.append((reader.line_num, r))
+                    if len(rows) > inputtable.MAX_ROWS + 1:
+                        raise _err(file, reader.line_num, (
+                            f"the data file has more than {inputtable.MAX_ROWS} rows, the most "
+                            f"read here (the fit would take minutes and gigabytes): thin it "
+                            f"out"))
+            except csv.Error as e:          # an unclosed quote that swallows the file
+                raise _err(file, reader.line_num, f"not a CSV line ({e}): write "
+                                                  f"'t [s],P.x [m],P.y [m]' and numbers") from None
+    except TableError as e:
+        raise InputError([Diagnostic(file, line, msg.replace("the table", "the data file"))
+                          for line, msg in e.args[0]]) from None
     if not rows:
         raise _err(file, 1, "the data file is empty: it needs a header 't [s],P.x [m],P.y [m]' "
                             "and one row per time")
@@ -119,10 +140,12 @@ def read_data(path, cm) -> Data:
     return Data(t=D[:, 0], columns=cols, y=D[:, 1:] * np.array(scale))
 
 
-def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
+def fit(path, data, free=None, overrides=None, analysis=None, progress=None) -> FitResult:
     """Fit the parameters `free` (names; default the model's design: free) of the model file
-    to the tracked data (a CSV path). InputError for invalid input."""
-    from scipy.optimize import least_squares
+    to the tracked data (a CSV path). InputError for invalid input (a name given twice, a grid
+    whose analyses would pass the study budget's memory too). progress: called as
+    progress(evaluations, best sum of squares so far) before each analysis. An interruption
+    (KeyboardInterrupt) is raised again with the analyses done as its `evaluations`."""
     t0 = time.perf_counter()
     from ..model.compile import compile_model
     from ..model.validate import validate
@@ -135,6 +158,10 @@ def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
         d = design_of(root, cm0.spec, required="fit")
         free = list(d.free)
         bounds = (np.array([d.free[n][0] for n in free]), np.array([d.free[n][1] for n in free]))
+    twice = sorted({n for n in free if list(free).count(n) > 1})
+    if twice:
+        raise InputError([Diagnostic(str(path), None, f"--free {n} is given twice: name each "
+                                                      f"parameter once") for n in twice])
     unknown = [n for n in free if n not in cm0.spec.parameters]
     if unknown:
         from ..diagnostics import did_you_mean
@@ -149,18 +176,34 @@ def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
     if D.t[-1] > (a.get("end") or spec_a.end):
         a["end"] = float(D.t[-1])
     model = Model(path, free, overrides, a)
+    problem = memory_problem(model, 2, "the design being analysed, the last one kept")
+    if problem:
+        raise InputError([Diagnostic(str(path), None, "fit: " + problem)])
+    try:
+        return _fit(path, free, bounds, cm0, D, model, progress, t0)
+    except KeyboardInterrupt as e:
+        e.evaluations = model.evaluations
+        raise
+
+
+def _fit(path, free, bounds, cm0, D, model, progress, t0) -> FitResult:
+    from scipy.optimize import least_squares
     x0 = np.array([cm0.spec.parameters[n] for n in free], dtype=float)
     if bounds is not None:
         x0 = np.clip(x0, *bounds)
     rows = np.array([c[0] for c in D.columns])
     comps = np.array([c[1] for c in D.columns])
     cache = {}
+    best = [math.inf]
 
     def evaluate(x, sens=True):
         """(r, J or None, State) or (None, None, Rejected); the last state is kept, so the
         Jacobian at the point just evaluated costs only its sensitivities."""
         key = x.tobytes()
         if key not in cache:
+            checkpoint()            # a signal lost in a finalizer is raised again here
+            if progress is not None:
+                progress(model.evaluations, best[0])
             cache.clear()
             out = model.analyse(model.values(x))
             st = out if isinstance(out, Rejected) else model.solve_at(out[0], out[2], D.t,
@@ -170,6 +213,7 @@ def fit(path, data, free=None, overrides=None, analysis=None) -> FitResult:
         if isinstance(st, Rejected):
             return None, None, st
         r = (st.p[:, rows, comps] - D.y).ravel()
+        best[0] = min(best[0], float(r @ r))
         J = None
         if sens:
             if st.dp is None:

@@ -93,6 +93,7 @@ class Local:
     def evaluate(self, x):
         """(residuals, State, barrier) at x, or (None, Rejected, None)."""
         syn, model = self.syn, self.syn.model
+        syn.tick()
         self.evaluations += 1
         try:
             cm = model.study.model(model.values(x[:self.k]))

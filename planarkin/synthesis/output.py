@@ -7,10 +7,18 @@ residuals.csv (per target point and constraint), design-1.yaml ... (ready-to-run
 synth.png (targets against the achieved path, law or poses).
 fit: summary.json, estimates.csv (estimate, standard error, correlations), residuals.csv,
 fitted.yaml, fit.png (measured against fitted trajectories).
+
+Every write is checked: a file that cannot be written (disk full, a file size limit) abandons
+the new directory, leaving the previous one as it was, and raises WriteError naming the file
+(exit 1 in the CLI, as for `run`). The written models carry every --set value, so that running
+one reproduces the residuals its header states. A search interrupted with designs found is
+written as such (summary.json status "interrupted"); `interrupted` says what an interruption
+left on disk.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
@@ -40,8 +48,68 @@ def model_yaml(path, values: dict, q0=None, header: str = "") -> str:
     return "".join(f"# {line}\n" for line in header.splitlines()) + text
 
 
-def _write_csv(path, head, rows):
-    with open(path, "w", newline="", encoding="utf-8") as f:
+def fixed_values(cm, free) -> dict:
+    """The --set values of a compiled model (their numbers, as the search used them) other than
+    the free parameters: a written model must carry them, or it is not the design whose
+    residuals it states."""
+    return {k: float(v) for k, v in cm.spec.overrides.items() if k not in free}
+
+
+def _set_line(fixed: dict) -> str:
+    return ("\nset: " + ", ".join(f"{n} = {v!r}" for n, v in fixed.items())) if fixed else ""
+
+
+@contextlib.contextmanager
+def _writing(name: str):
+    """An OSError (disk full, a file size limit, an I/O error) while writing `name` becomes
+    WriteError naming it."""
+    from ..output.directory import WriteError
+    try:
+        yield
+    except OSError as e:
+        raise WriteError(f"writing {name} failed: {e.strerror or e}") from None
+
+
+def _write_text(rd, name: str, text: str) -> None:
+    with _writing(name), open(rd.path(name), "w", encoding="utf-8") as f:
+        f.write(text)
+
+
+def _stage(outdir: Path):
+    """The new result directory, staged in a critical block: a signal while it is made cannot
+    leave a temporary directory that nothing removes."""
+    from ..output.directory import ResultDirectory, critical
+    rd = None
+    try:
+        with critical():
+            rd = ResultDirectory(Path(outdir))
+    except KeyboardInterrupt as e:
+        if rd is not None:          # made, and the signal raised as the block ended
+            rd.abandon()
+        e.stage = "writing"
+        raise
+    return rd
+
+
+def _put_in_place(rd) -> None:
+    """Commit rd whole (a signal waits until it is in place: raised then, marked 'written');
+    an OSError abandons the new directory (WriteError)."""
+    from ..output.directory import WriteError, critical
+    try:
+        with critical():
+            try:
+                rd.commit()
+            except OSError as e:
+                rd.abandon()
+                raise WriteError(f"putting {rd.final.name}/ in place failed: "
+                                 f"{e.strerror or e}") from None
+    except KeyboardInterrupt as e:
+        e.stage = "written"
+        raise
+
+
+def _write_csv(rd, name, head, rows):
+    with _writing(name), open(rd.path(name), "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(head)
         for r in rows:
@@ -63,16 +131,17 @@ def _json(x):
 
 
 def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
-    from ..output.directory import ResultDirectory
+    """The result directory of a synthesis (see the module docstring): put in place whole, or
+    the previous one left as it was (WriteError, OutputError, an interruption)."""
     syn = res.model
-    rd = ResultDirectory(Path(outdir))
+    rd = _stage(outdir)
     try:
         names = list(syn.design.free)
         # the free times: of every target without inputs (unknowns or projected)
         free = [i for i, tg in enumerate(syn.design.targets) if tg.inputs is None
                 and tg.kind != "function"]
         nfree = sum(len(syn.design.targets[i]) for i in free)
-        _write_csv(rd.path("designs.csv"),
+        _write_csv(rd, "designs.csv",
                    ["design", "cost"] + names + [f"t{j + 1} [s]" for j in range(nfree)]
                    + ["evaluations", "jacobians"],
                    [[k + 1, d.cost] + [d.values[n] for n in names]
@@ -87,42 +156,52 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
             for name, m in d.margins.items():
                 rows.append([k + 1, f"constraint {name}", "", "", m["value"], "", "",
                              "ok" if m["ok"] else "violated"])
-        _write_csv(rd.path("residuals.csv"),
+        _write_csv(rd, "residuals.csv",
                    ["design", "target", "index", "t [s]", "r1", "r2", "r3", "norm / margin"],
                    rows)
         files = []
         for k, d in enumerate(res.designs):
             st = d.state
+            fixed = fixed_values(st.cm if st is not None else syn.model.nominal, names)
             fn = f"design-{k + 1}.yaml"
             files.append(fn)
             header = (f"design {k + 1} of planarkin synth {syn.model.path}: sum of squared "
                       f"residuals {d.cost:.6g}\nparameters: " +
-                      ", ".join(f"{n} = {v:.10g}" for n, v in d.values.items()))
-            rd.path(fn).write_text(model_yaml(syn.model.path, d.values,
-                                              st.result.q[0] if st is not None else None,
-                                              header), encoding="utf-8")
+                      ", ".join(f"{n} = {v:.10g}" for n, v in d.values.items()) +
+                      _set_line(fixed))
+            with _writing(fn):      # the model file is read again (it may be gone by now)
+                text = model_yaml(syn.model.path, {**fixed, **d.values},
+                                  st.result.q[0] if st is not None else None, header)
+            _write_text(rd, fn, text)
         if plots and res.designs:
-            _plot_synth(res, rd.path(f"synth.{plots}"))
+            with _writing(f"synth.{plots}"):
+                _plot_synth(res, rd.path(f"synth.{plots}"))
+        status = ("interrupted" if getattr(res, "interrupted", None) else
+                  "ok" if res.status == 0 else "failed")
         summary = {"planarkin": __version__, "command": "synth", "model": syn.model.path,
-                   "status": "ok" if res.status == 0 else "failed", "message": res.message,
+                   "status": status, "message": res.message,
                    "evaluations": res.evaluations, "analyses": res.analyses,
                    "jacobians": res.jacobians,
                    "seconds": res.seconds, "rejected_starts": res.rejected,
+                   "set": fixed_values(syn.model.nominal, names),
                    "designs": [{"file": f, "cost": d.cost, "parameters": d.values,
                                 "times": d.times, "margins": d.margins,
                                 "evaluations": d.nfev, "jacobians": d.njev}
                                for f, d in zip(files, res.designs)]}
-        rd.path("summary.json").write_text(json.dumps(_json(summary), indent=2),
-                                           encoding="utf-8")
-    except BaseException:
+        _write_text(rd, "summary.json", json.dumps(_json(summary), indent=2))
+    except BaseException as e:
         rd.abandon()
+        if isinstance(e, KeyboardInterrupt):
+            e.stage = "writing"
         raise
-    rd.commit()
+    _put_in_place(rd)
     return Path(outdir)
 
 
 def _plot_synth(res, path):
     from matplotlib.figure import Figure     # not pyplot: an API caller's backend stays its own
+
+    from ..output.plots.render import save_figure
     syn = res.model
     tgs = syn.design.targets
     fig = Figure(figsize=(5.5 * len(tgs), 5))
@@ -160,48 +239,57 @@ def _plot_synth(res, path):
     fig.suptitle(f"{Path(syn.model.path).stem}: best sum of squares "
                  f"{res.designs[0].cost:.3g}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, Path(path))
 
 
 def write_fit(res, outdir: Path, plots: str | None = "png") -> Path:
-    from ..output.directory import ResultDirectory
-    rd = ResultDirectory(Path(outdir))
+    """The result directory of a fit (see the module docstring), put in place whole or not at
+    all."""
+    rd = _stage(outdir)
     try:
         names = res.names
-        _write_csv(rd.path("estimates.csv"),
+        _write_csv(rd, "estimates.csv",
                    ["parameter", "estimate", "standard error", "start"] +
                    [f"corr {n}" for n in names],
                    [[n, float(res.estimate[i]), float(res.se[i]), float(res.start[i])] +
                     [float(c) for c in res.corr[i]] for i, n in enumerate(names)])
         D = res.data
-        _write_csv(rd.path("residuals.csv"), ["t [s]"] + [f"{c[2]} residual" for c in
-                                                         D.columns],
+        _write_csv(rd, "residuals.csv", ["t [s]"] + [f"{c[2]} residual" for c in D.columns],
                    [[float(t)] + [float(x) for x in row] for t, row in zip(D.t, res.residuals)])
         m = res.model
         st = res.state
-        rd.path("fitted.yaml").write_text(model_yaml(
-            m.path, dict(zip(names, res.estimate)), st.result.q[0] if st is not None else None,
-            f"planarkin fit {m.path}: rms residual {res.rms:.6g}"), encoding="utf-8")
+        fixed = fixed_values(st.cm if st is not None else m.nominal, names)
+        with _writing("fitted.yaml"):
+            text = model_yaml(m.path, {**fixed, **dict(zip(names, res.estimate))},
+                              st.result.q[0] if st is not None else None,
+                              f"planarkin fit {m.path}: rms residual {res.rms:.6g}"
+                              + _set_line(fixed))
+        _write_text(rd, "fitted.yaml", text)
         if plots and st is not None:
-            _plot_fit(res, rd.path(f"fit.{plots}"))
+            with _writing(f"fit.{plots}"):
+                _plot_fit(res, rd.path(f"fit.{plots}"))
         summary = {"planarkin": __version__, "command": "fit", "model": m.path,
                    "status": "ok" if res.status == 0 else "failed", "message": res.message,
                    "parameters": {n: {"estimate": res.estimate[i], "se": res.se[i],
                                       "start": res.start[i]} for i, n in enumerate(names)},
+                   "set": fixed,
                    "correlation": res.corr, "rms_residual": res.rms, "dof": res.dof,
                    "evaluations": res.evaluations, "jacobians": res.jacobians,
                    "seconds": res.seconds}
-        rd.path("summary.json").write_text(json.dumps(_json(summary), indent=2),
-                                           encoding="utf-8")
-    except BaseException:
+        _write_text(rd, "summary.json", json.dumps(_json(summary), indent=2))
+    except BaseException as e:
         rd.abandon()
+        if isinstance(e, KeyboardInterrupt):
+            e.stage = "writing"
         raise
-    rd.commit()
+    _put_in_place(rd)
     return Path(outdir)
 
 
 def _plot_fit(res, path):
     from matplotlib.figure import Figure
+
+    from ..output.plots.render import save_figure
     D, st = res.data, res.state
     pts = sorted({c[0] for c in D.columns})
     fig = Figure(figsize=(6, 5))
@@ -221,4 +309,36 @@ def _plot_fit(res, path):
     ax.set_title(f"fit: rms residual {res.rms:.3g} {u}")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, Path(path))
+
+
+def interrupted(e: KeyboardInterrupt, outdir: Path, plots: str | None = "png") -> str:
+    """What an interruption of synth or fit leaves on disk, said as the report's detail. The
+    designs a search verified before it (the exception's `partial` SynthResult) are written,
+    summary.json saying status interrupted; otherwise nothing was written and the previous
+    directory stays as it was (the new one, if staged, was removed)."""
+    from ..output.directory import OutputError, WriteError
+    kept = f"nothing was written; {outdir}/ is left as it was"
+    stage = getattr(e, "stage", None)
+    if stage == "written":
+        return f"after the results were put in place -> {outdir}/"
+    if stage == "writing":
+        return f"while the results were being written: {kept}"
+    partial = getattr(e, "partial", None)
+    if partial is not None:
+        n = partial.evaluations
+        what = f"during the search after {n} evaluation{'s' if n != 1 else ''}"
+        if not partial.designs:
+            return f"{what}, before a design was verified: {kept}"
+        try:
+            write_synth(partial, outdir, plots)
+        except (OutputError, WriteError) as w:
+            return f"{what}: the designs verified so far could not be written ({w}); {kept}"
+        except KeyboardInterrupt:
+            return f"{what}: {kept}"
+        return (f"{what}: the {len(partial.designs)} design(s) verified so far (best sum of "
+                f"squares {partial.designs[0].cost:.3g}) -> {outdir}/, status interrupted")
+    if hasattr(e, "evaluations"):
+        n = e.evaluations
+        return f"during the fit after {n} evaluation{'s' if n != 1 else ''}: {kept}"
+    return f"before the search began: {kept}"

@@ -137,10 +137,10 @@ class Model:
     def solve_from(self, cm, t, Q0, jump: float, sens: bool = True, accel: bool = False):
         """State at times t (N,) by Newton from the guess Q0 (N, n) in internal units (lengths
         over cm.L, angles in rad), or Rejected when Newton does not converge or moves a pose by
-        more than `jump` (internal units; a number or one per time) from the guess: the guess is a pose on the branch
-        wanted (the grid's interpolant, or a first-order predictor from a nearby design), so a
-        larger correction means another branch. The state's `Q` is the solution in internal
-        units (the next guess of a continuation)."""
+        more than `jump` (internal units; a number or one per time) from the guess: the guess
+        is a pose on the branch wanted (the grid's interpolant, or a first-order predictor
+        from a nearby design), so a larger correction means another branch. The state's `Q`
+        is the solution in internal units (the next guess of a continuation)."""
         from ..kinematics import point_kinematics
         from ..system import System
         t = np.asarray(t, dtype=float)
@@ -244,6 +244,22 @@ class Model:
                                          f"a prescribed input value; the time of that input is "
                                          f"not defined")])
         return -fp / ft[:, None]
+
+
+def memory_problem(model, grids: int, held: str, more: str = "", k: int = 0) -> str | None:
+    """Why `grids` analyses over the whole range, held at once, would pass the memory budget of
+    a study (planarkin.studies.budget: its bytes per grid row and column), naming the largest
+    --steps that fits; None when they fit. held: what the grids are; more: other fixes."""
+    from ..studies.budget import ROW_BYTES, STUDY_BYTES, study_cost
+    cm, opts = model.nominal, model.study.opts
+    grid = study_cost(cm, opts, 1, k)[0]
+    if grids * grid <= STUDY_BYTES:
+        return None
+    per_row = ROW_BYTES * (cm.n + 2 * len(cm.point_names))     # as study_cost counts a row
+    most = max(1, int((STUDY_BYTES / grids - (grid - opts.rows * per_row)) // per_row) - 1)
+    return (f"{grids} grids of {opts.rows} rows would be held at once ({held}): about "
+            f"{grids * grid / 2**30:.3g} GB of memory, more than the budget of "
+            f"{STUDY_BYTES / 2**30:.3g} GB: use --steps {most} or fewer{more}")
 
 
 def _solve(J, R):

@@ -46,9 +46,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..output.directory import checkpoint
 from .local import Local, probe_limits
 from .margins import barrier, length_gradients, turning_loop
-from .problem import Model, Rejected, State, wrap
+from .problem import Model, Rejected, State, memory_problem, wrap
 from .spec import design_of
 
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
@@ -89,6 +90,7 @@ class SynthResult:
     starts: list = field(default_factory=list)
     analyses: int = 0           # of the evaluations, those analysing a design's whole cycle
     runs: int = 0               # local runs started
+    interrupted: str | None = None      # the signal that stopped the search, if one did
 
 
 class Synthesis:
@@ -127,6 +129,10 @@ class Synthesis:
         self.use_barrier = True
         self._cache = None
         self.wall = None
+        self.progress = None          # called by tick(evaluations, best sum of squares so far)
+        self.best = math.inf          # of the designs evaluated over their whole cycle
+        self.local = None             # the Local of the search (its trials are evaluations)
+        self.runs = 0                 # local runs started
 
     # -- layout ------------------------------------------------------------------------------
     def bounds(self):
@@ -372,12 +378,15 @@ class Synthesis:
         return T - float(steps.sum()) if steps.sum() > T * (1 + 1e-9) else float(steps.min())
 
     # -- global start ------------------------------------------------------------------------
-    def candidates(self, n: int, seed: int, nominal: bool = False, part=None):
+    def candidates(self, n: int, seed: int, nominal: bool = False, part=None, limit=None):
         """A seeded Latin hypercube of n designs, each analysed: (score, x, Design) of the
-        accepted in order of score, and the rejection reasons counted. nominal: the file's own
-        values (with its --set overrides) are a start too, when inside the bounds (a known
-        design to refine). part: (first, end) rows of the hypercube (with the nominal first)
-        to analyse, so a search can take its starts in batches and stop early."""
+        accepted in order of score, the rejection reasons counted, and every accepted start's
+        score. nominal: the file's own values (with its --set overrides) are a start too, when
+        inside the bounds (a known design to refine). part: (first, end) rows of the hypercube
+        (with the nominal first) to analyse, so a search can take its starts in batches and
+        stop early. limit: only the best `limit` accepted are returned whole (a Design holds
+        its grid: tens of kB each, gigabytes over 1e5 starts), the others by their score."""
+        import heapq
         from scipy.stats import qmc
         X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
         if nominal:
@@ -386,8 +395,9 @@ class Synthesis:
                 X = np.concatenate([p[None, :], X])
         if part is not None:
             X = X[part[0]:part[1]]
-        good, reasons = [], {}
-        for xp in X:
+        heap, reasons, scores = [], {}, []      # heap: the best `limit`, worst on top
+        for e, xp in enumerate(X):
+            self.tick()
             out = self.screen(self.model.values(xp))
             if out is None:
                 out = self.model.analyse(self.model.values(xp))
@@ -402,9 +412,24 @@ class Synthesis:
                 key = _kind(d.reason)
                 reasons[key] = reasons.get(key, 0) + 1
                 continue
-            good.append((float(r @ r), x, d))
-        good.sort(key=lambda g: g[0])
-        return good, reasons
+            score = float(r @ r)
+            scores.append(score)
+            self.best = min(self.best, d.cost)
+            heapq.heappush(heap, (-score, -e, x, d))
+            if limit is not None and len(heap) > limit:
+                heapq.heappop(heap)
+        good = sorted(((-s, -e, x, d) for s, e, x, d in heap), key=lambda g: g[:2])
+        return [(g[0], g[2], g[3]) for g in good], reasons, scores
+
+    def tick(self) -> None:
+        """Before each evaluation: a signal lost in a finalizer is raised again here, and the
+        progress callback, if any, is called (it decides when to show a line)."""
+        checkpoint()
+        if self.progress is not None:
+            self.progress(self.model.evaluations + self.local_evaluations(), self.best)
+
+    def local_evaluations(self) -> int:
+        return self.local.evaluations if self.local is not None else 0
 
     def screen(self, values):
         """Rejected when the design is invalid or its four-bar loop cannot turn (the turns
@@ -475,49 +500,93 @@ class Synthesis:
         return np.array([grid[i][e] for i, e in self.free_t])
 
 
-def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
+def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> SynthResult:
     """Synthesis of a model's design block (see the module docstring). search: overrides of
-    design: search: (starts, local, keep, seed, goal, evaluations). Raises InputError for
-    invalid input; returns a SynthResult (status 0 with designs, 1 none acceptable)."""
+    design: search: (starts, local, keep, seed, goal, evaluations). progress: called as
+    progress(evaluations, best sum of squares so far) before each evaluation. Raises
+    InputError for invalid input, or for a search that would pass the study budget
+    (planarkin.studies.budget: memory, time); returns a SynthResult (status 0 with designs,
+    1 none acceptable). An interruption (KeyboardInterrupt) is raised again with the
+    designs verified so far as its `partial` SynthResult (`interrupted` set)."""
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
     cfg = {**syn.design.search, **_search_options(path, search)}
+    total = cfg["starts"] + (1 if cfg["nominal"] else 0)
+    size = cfg["batch"] or total
+    check_cost(syn, cfg, total, size)
+    syn.progress = progress
+    local = syn.local = Local(syn)
+    designs, rejected_local, scores, reasons = [], [], [], {}
+
+    def result(status, msg, interrupted=None):
+        return SynthResult(status=status, message=msg, designs=designs, rejected=reasons,
+                           evaluations=syn.model.evaluations + local.evaluations,
+                           analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
+                           seconds=time.perf_counter() - t0, design=syn.design, model=syn,
+                           starts=sorted(scores), runs=syn.runs, interrupted=interrupted)
+
+    try:
+        _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons)
+    except KeyboardInterrupt as e:
+        designs.sort(key=lambda o: o.cost)
+        del designs[cfg["keep"]:]
+        from ..output.directory import signame
+        e.partial = result(1, f"interrupted by {signame(e)} during the search after "
+                              f"{syn.model.evaluations + local.evaluations} evaluations: "
+                              + (f"the {len(designs)} design(s) verified so far, best sum of "
+                                 f"squares {designs[0].cost:.3g}" if designs else
+                                 "no design verified yet"), signame(e))
+        raise
+    del designs[cfg["keep"]:]
+    ok = [o for o in designs if cfg["goal"] <= 0 or o.cost <= cfg["goal"]]
+    if designs and ok:
+        status, msg = 0, f"{len(designs)} design(s), best sum of squares {designs[0].cost:.3g}"
+    elif designs:
+        status, msg = 1, (f"no design reaches the goal {cfg['goal']:g}: the best sum of "
+                          f"squares is {designs[0].cost:.3g}")
+    else:
+        status, msg = 1, ("no acceptable design: " + (", ".join(f"{n} {k}" for k, n in
+                          sorted(reasons.items(), key=lambda kv: -kv[1])) + " among the "
+                          f"{cfg['starts']} starts" if reasons else "the local searches failed"))
+    return result(status, msg)
+
+
+def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons) -> None:
+    """The global start and the local runs (see the module docstring), filling designs (best
+    first, in place, so that an interruption finds those verified so far), scores (of the
+    accepted starts) and reasons (of the rejected); syn.runs counts the local runs."""
     if syn.nt or syn.projected:     # free times may wrap around a full cycle
+        syn.tick()
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
         if not isinstance(first, Rejected):
             syn.wrap = syn.model.periodic(first[2])
     lo, hi = syn.bounds()
-    designs, rejected_local, good_all, reasons = [], [], [], {}
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
-    local = Local(syn)
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
     probe = probe_limits(cfg["probe"], cfg["probe_cost"]) if cfg["probe"] else ()
-    total = cfg["starts"] + (1 if cfg["nominal"] else 0)
-    size = cfg["batch"] or total
-    runs = 0
 
     def spent():
         return syn.model.evaluations + local.evaluations
 
     def done():
-        return (runs >= cfg["local"] or spent() >= cfg["evaluations"] or
+        return (syn.runs >= cfg["local"] or spent() >= cfg["evaluations"] or
                 (cfg["goal"] > 0 and sum(o.cost <= cfg["goal"] for o in designs) >= cfg["keep"]))
 
     # the starts in batches (batch: 0, all at once): a batch's accepted starts are run best
     # first, and the search stops as soon as the goal is met, so a hit in the first batches
-    # spares the analyses of the rest
+    # spares the analyses of the rest. Only the starts that can still be run are kept whole.
     for first in range(0, total, size):
         if done():
             break
-        good, why = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
-                                   (first, first + size))
-        good_all += good
+        good, why, sc = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
+                                       (first, first + size), limit=cfg["local"] - syn.runs)
+        scores += sc
         for key, n in why.items():
             reasons[key] = reasons.get(key, 0) + n
         for score, x0, d0 in good:
             if done():
                 break
-            runs += 1
+            syn.runs += 1
             budget = max(1, cfg["evaluations"] - spent())
             e0, j0 = spent(), syn.model.jacobians
             xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop, probe)
@@ -534,27 +603,34 @@ def synthesize(path, overrides=None, analysis=None, **search) -> SynthResult:
             if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
                    for o in designs):
                 continue
+            syn.best = min(syn.best, d.cost)
             designs.append(d)
             designs.sort(key=lambda o: o.cost)
-            designs = designs[:cfg["keep"]]
-    good_all.sort(key=lambda g: g[0])
-    good = good_all
-    designs = designs[:cfg["keep"]]
-    ok = [o for o in designs if cfg["goal"] <= 0 or o.cost <= cfg["goal"]]
-    if designs and ok:
-        status, msg = 0, f"{len(designs)} design(s), best sum of squares {designs[0].cost:.3g}"
-    elif designs:
-        status, msg = 1, (f"no design reaches the goal {cfg['goal']:g}: the best sum of "
-                          f"squares is {designs[0].cost:.3g}")
-    else:
-        status, msg = 1, ("no acceptable design: " + (", ".join(f"{n} {k}" for k, n in
-                          sorted(reasons.items(), key=lambda kv: -kv[1])) + " among the "
-                          f"{cfg['starts']} starts" if reasons else "the local searches failed"))
-    return SynthResult(status=status, message=msg, designs=designs, rejected=reasons,
-                       evaluations=syn.model.evaluations + local.evaluations,
-                       analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
-                       seconds=time.perf_counter() - t0, design=syn.design, model=syn,
-                       starts=[g[0] for g in good], runs=runs)
+            del designs[cfg["keep"]:]
+
+
+def check_cost(syn, cfg, total: int, size: int) -> None:
+    """InputError, before the first analysis, when the search would pass the study budget
+    (planarkin.studies.budget, whose figures per grid row and per analysis it uses): the grids
+    held at once (the starts of a batch kept for the local runs, the designs kept, the one
+    being analysed) against STUDY_BYTES, the analyses of the starts against STUDY_SECONDS."""
+    from ..diagnostics import Diagnostic, InputError
+    from ..studies.budget import STUDY_SECONDS, study_cost
+    m = syn.model
+    starts = min(size, cfg["local"])
+    errors = [memory_problem(m, starts + cfg["keep"] + 1, (
+        f"{starts} start(s) for the local runs, {cfg['keep']} design(s) kept, the one being "
+        f"analysed"), " (or fewer --local runs, or a smaller design: search: batch)"
+        if starts > 1 else "", k=syn.k)]
+    seconds = study_cost(m.nominal, m.study.opts, 1, syn.k)[1]
+    if total * seconds > STUDY_SECONDS:
+        errors.append(
+            f"the search would analyse {total} starts of {m.study.opts.rows} grid rows: about "
+            f"{total * seconds / 3600:.3g} h, more than the budget of "
+            f"{STUDY_SECONDS / 3600:.3g} h: use fewer --starts (or fewer --steps)")
+    errors = [e for e in errors if e]
+    if errors:
+        raise InputError([Diagnostic(m.path, None, "synth: " + e) for e in errors])
 
 
 def _verified(syn, local, x, trail, lo, hi, rejected, first):
