@@ -128,11 +128,9 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
                                      param_hint="'--table-format'")
     if animate_fps or animate_width:
         animate = {k: v for k, v in (("fps", animate_fps), ("width", animate_width)) if v}
-    from .output.directory import check_writable, out_dirs
+    from .output.directory import out_dirs
     from .run import run_models
-    problem = check_writable(Path(out))
-    if problem is not None:
-        raise click.BadParameter(problem, param_hint="'--out'")
+    _check_out(out)
     report = Report(quiet)
     run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
                None if no_plots else fmt, animate, x_axis, cycle=report_what == "cycle",
@@ -317,30 +315,49 @@ def _study_options(unit: str, writes: str, plot: str):
 
 
 def _check_scheduler(scheduler) -> None:
-    """A malformed --scheduler address: one line, exit 2, before anything else (no Dask
-    needed)."""
-    from .studies.execute import scheduler_problem
-    problem = scheduler and scheduler_problem(scheduler)
+    """A --scheduler this command cannot use: malformed (no Dask needed), Dask missing, or TLS
+    without Dask's TLS settings: one line, exit 2, before anything else."""
+    if scheduler is None:
+        return
+    from .studies.execute import dask_problem, scheduler_problem
+    problem = scheduler_problem(scheduler) or dask_problem(scheduler)
     if problem:
-        click.echo(f"planarkin: error: --scheduler: {problem}", err=True)
+        click.echo(f"error: --scheduler: {problem}", err=True)
+        sys.exit(2)
+
+
+def _check_out(out) -> None:
+    """An --out that cannot hold result directories (a file, a link to nowhere, no permission):
+    one line naming the fix, exit 2, before anything is read; exit 1 when the disk itself
+    fails (full)."""
+    from .output.directory import WriteError, check_writable
+    try:
+        problem = check_writable(Path(out))
+    except WriteError as e:
+        click.echo(f"error: --out {out}: {e}", err=True)
+        sys.exit(1)
+    if problem is not None:
+        click.echo(f"error: --out {out}: {problem}", err=True)
         sys.exit(2)
 
 
 def _run_study(model_path, report: Report, outdir: Path, work):
     """work() (a study's runs and its files) under the interruption contract; returns its
     result, or reports and exits: interrupted 130/143 (the study's files are the earlier run's
-    or this one's, never a mix, and no temporary is left), a worker that died or an unreachable
-    scheduler 1, a directory being written by another run 2."""
+    or this one's, never a mix, and no temporary is left), 1 for units lost with a worker or
+    the cluster (the variants solved are written), an unusable scheduler or a full disk (the
+    earlier files are left), 2 for a directory being written by another run or one that
+    cannot be."""
     from .diagnostics import Diagnostic, InputError
-    from .output.directory import OutputError, interruptible, signame
-    from .studies.execute import SchedulerError, WorkerDied
+    from .output.directory import OutputError, WriteError, interruptible, signame
+    from .studies.execute import StudyIncomplete
     with interruptible():
         try:
             return work()
         except KeyboardInterrupt as e:
             report.interrupted(model_path, signame(e), f"the study's files in {outdir}/ are "
                                                        f"the earlier run's or this one's")
-        except (WorkerDied, SchedulerError) as e:
+        except (StudyIncomplete, WriteError) as e:
             report.failed(model_path, str(e))
         except OutputError as e:
             report.invalid(model_path, [Diagnostic(model_path, None, str(e))])
@@ -378,6 +395,7 @@ def sweep(model_path, vary, samples, seed, metrics, out, steps, end, no_plots, f
     _check_scheduler(scheduler)
     report = Report(quiet)
     ranges = _ranges(vary, need_count=samples is None)
+    _check_out(out)
     study = _study(model_path, report, overrides, {"steps": steps, "end": end}, metrics,
                    [r.name for r in ranges])
     if study is None:
@@ -437,6 +455,7 @@ def tolerance(model_path, sigma, samples, seed, dist, metrics, out, steps, end, 
     _check_scheduler(scheduler)
     report = Report(quiet)
     sig = _sigmas(sigma)
+    _check_out(out)
     if not metrics:
         from .model.yamlread import read_file
         try:

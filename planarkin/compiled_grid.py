@@ -49,26 +49,35 @@ def function_each(P, W: int, m: int, nb: int):
 
 
 def _build(name: str, text: str, entry_point: str = "grid", sig=None):
-    import numba
     entry = jitcache.prepare()
     try:
         path = None if entry is None else written(entry, name, text)
-        if entry is not None and path is None:
-            entry = None
-        if entry is not None:           # numba imported before: its configuration read then
-            numba.config.CACHE_DIR = str(entry)
-        # a module of its own in sys.modules: numba's cache finds the function's globals
-        # there when it loads it in a later process
-        mod = types.ModuleType(name)
-        mod.__file__ = str(path) if path else f"<planarkin {name}>"
-        mod.CACHE = path is not None
-        sys.modules[name] = mod
-        exec(compile(text, mod.__file__, "exec"), mod.__dict__)
-        fn = getattr(mod, entry_point)
-        if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
-            fn.compile(signature() if sig is None else sig)
+        try:
+            fn = _load(name, text, entry if path is not None else None, path, entry_point, sig)
+        except OSError as e:            # numba could not save to the cache: compiled without
+            if path is None:
+                raise
+            jitcache.unwritable(entry, e)
+            fn = _load(name, text, None, None, entry_point, sig)
     finally:
         jitcache.record()
+    return fn
+
+
+def _load(name: str, text: str, entry, path, entry_point: str, sig):
+    import numba
+    if entry is not None:           # numba imported before: its configuration read then
+        numba.config.CACHE_DIR = str(entry)
+    # a module of its own in sys.modules: numba's cache finds the function's globals
+    # there when it loads it in a later process
+    mod = types.ModuleType(name)
+    mod.__file__ = str(path) if path else f"<planarkin {name}>"
+    mod.CACHE = path is not None
+    sys.modules[name] = mod
+    exec(compile(text, mod.__file__, "exec"), mod.__dict__)
+    fn = getattr(mod, entry_point)
+    if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
+        fn.compile(signature() if sig is None else sig)
     return fn
 
 

@@ -20,7 +20,11 @@ user can write and vouches for every file in it:
   deleted, so that numba compiles it again and never reads it.
 
 A lock (flock, where the platform has it) serialises processes from prepare() to record(), so
-that one process's manifest never names another's half-written files.
+that one process's manifest never names another's half-written files. A process waits for it
+LOCK_WAIT seconds at most (another run may hold it for as long as it is suspended, with Ctrl-Z
+during its first compile), then says so in one line and compiles without the cache. A cache
+that cannot be written (a full disk, a file size limit) costs only the caching: the compile
+goes on in memory, said in one line (compile_cached()). Either line once per process.
 """
 
 from __future__ import annotations
@@ -30,12 +34,28 @@ import json
 import os
 import stat
 import sys
+import time
 from pathlib import Path
 
 # the modules numba compiles and caches (the generated kernels' names hash their generator)
 SOURCES = ("compiled_points.py", "compiled_kinds.py")
 MANIFEST = "manifest.json"
+LOCK_WAIT = 5.0           # seconds to wait for another process's hold on the entry
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
+_said: set = set()        # the lines said (once per process)
+
+
+def _say(key: str, line: str) -> None:
+    if key not in _said:
+        _said.add(key)
+        print(f"planarkin: {line}", file=sys.stderr, flush=True)
+
+
+def unwritable(entry, e: OSError) -> None:
+    """The cache cannot be written (e): said once, and not used again by this process."""
+    _say("unwritable", f"the compiled code's cache {entry} cannot be written "
+                       f"({e.strerror or e}): compiling without it (the results are the same)")
+    _held["dir"] = None
 
 
 def base_dir() -> Path:
@@ -72,7 +92,8 @@ def private(path: Path) -> bool:
 def _make(path: Path) -> bool:
     try:
         os.makedirs(path, mode=0o700, exist_ok=True)
-    except OSError:
+    except OSError as e:
+        unwritable(path, e)
         return False
     return private(path)
 
@@ -134,9 +155,9 @@ def prepare() -> Path | None:
             rel = p.relative_to(entry).as_posix()
             if known.get(rel) != _known_digest(p, rel):
                 p.unlink()
-    except OSError:
+    except OSError as e:
         release()
-        _held["dir"] = None
+        unwritable(entry, e)
         return None
     os.environ["NUMBA_CACHE_DIR"] = str(entry)
     _held["dir"] = entry
@@ -144,20 +165,71 @@ def prepare() -> Path | None:
 
 
 def _lock(entry: Path) -> bool:
+    """Hold the entry's lock (False: not within LOCK_WAIT seconds, said once; or no lock file)."""
     try:
-        lock = open(entry / ".lock", "a")
-    except OSError:
+        lock = open(entry / ".lock", "a+")
+    except OSError as e:
+        unwritable(entry, e)
         return False
     try:
         import fcntl
-        fcntl.flock(lock, fcntl.LOCK_EX)
     except ImportError:           # (no flock: Windows)
-        pass
+        _held["lock"] = lock
+        return True
+    deadline = time.monotonic() + LOCK_WAIT
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:
+            if time.monotonic() < deadline:
+                time.sleep(0.05)
+                continue
+            holder = _holder(lock)
+            lock.close()
+            _say("locked", f"the compiled code's cache {entry} is held by another planarkin "
+                           f"process{holder} for more than {LOCK_WAIT:g} s (suspended?): "
+                           f"compiling without the cache")
+            return False
+        except OSError:
+            lock.close()
+            return False
+    try:                          # who holds it, for the line of a process that waits
+        lock.seek(0)
+        lock.truncate()
+        lock.write(str(os.getpid()))
+        lock.flush()
     except OSError:
-        lock.close()
-        return False
+        pass
     _held["lock"] = lock
     return True
+
+
+def _holder(lock) -> str:
+    try:
+        lock.seek(0)
+        pid = int(lock.read(20).strip())
+    except (OSError, ValueError):
+        return ""
+    return f" (pid {pid})"
+
+
+def compile_cached(fn, sig):
+    """fn.compile(sig) for a numba dispatcher made with cache=True: its disk cache only under
+    the entry's lock (without it, fn compiles in memory), and a cache that cannot be written
+    (numba raises OSError as it saves, the overload already compiled) costs only the caching,
+    said once."""
+    cache = getattr(fn, "_cache", None)       # numba's FunctionCache (NullCache: cache=False)
+    if "lock" not in _held and cache is not None:
+        cache.disable()
+    try:
+        return fn.compile(sig)
+    except OSError as e:
+        if cache is None:
+            raise
+        cache.disable()
+        unwritable(_held.get("dir") or base_dir(), e)
+        return fn.compile(sig)
 
 
 def record() -> None:
@@ -183,6 +255,10 @@ def record() -> None:
 def release() -> None:
     lock = _held.pop("lock", None)
     if lock is not None:
+        try:                      # no holder named once it is free (a waiter reads it)
+            lock.truncate(0)
+        except OSError:
+            pass
         lock.close()
 
 

@@ -94,7 +94,7 @@ class Library:
                     for name in spec[k + 1]:
                         fn = getattr(mod, name)
                         if hasattr(fn, "compile"):          # (not with NUMBA_DISABLE_JIT=1)
-                            fn.compile(mod.SIGNATURES[name])
+                            jitcache.compile_cached(fn, mod.SIGNATURES[name])
                         setattr(self, name, fn)
             finally:
                 jitcache.record()

@@ -91,7 +91,7 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
     from .diagnostics import Diagnostic, InputError
     from .model.spec import x_axis_problem
     from .options import resolve
-    from .output.directory import OutputError, critical
+    from .output.directory import OutputError, WriteError, critical
     from .output.writer import DirectoryWriter
     from .analysis import prepare, stream
     t0 = time.perf_counter()
@@ -117,6 +117,9 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
                                      table_format=table_format, stop=stop)
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
+        return
+    except WriteError as e:             # a full disk as the directory was staged
+        report.failed(path, f"{e}; {outdir}/ is left as it was")
         return
     except KeyboardInterrupt:
         if writer is not None:  # staged, nothing written: the earlier results stay as they were
@@ -205,6 +208,9 @@ def report_line(path, outdir, report, info, summary, cycle, seconds):
 
 # -- run --jobs ------------------------------------------------------------------------------
 
+HUNG = 120.0    # seconds an interrupted `run --jobs` waits for a worker to stop in order
+
+
 def _init_run(stop, command_line: bool = False) -> None:
     """A `run --jobs` worker: between models a signal must not end it in the executor's own
     loop (a traceback); each model takes the signals over (interruptible) and stops in order,
@@ -213,11 +219,13 @@ def _init_run(stop, command_line: bool = False) -> None:
     import signal
 
     from . import options
+    from .processes import accept_signals
     global _RUN_STOP
     _RUN_STOP = stop
     options.COMMAND_LINE = command_line
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
+    accept_signals()
 
 
 def _run_model(args):
@@ -241,7 +249,27 @@ def _run_model(args):
                           table_format=table_format, stop=_RUN_STOP)
         except KeyboardInterrupt as e:          # the directory says so already
             stopped = signame(e)
+            if rep.signal is None:              # before its directory was staged
+                rep.interrupted(path, stopped, f"nothing was written, {outdir}/ is left as it "
+                                               f"was")
     return out.getvalue(), err.getvalue(), rep.counts, stopped
+
+
+def on_disk(outdir: Path, since: float) -> str:
+    """What a model's directory holds when its worker could not say (it died, or hung): the
+    results its summary.json describes when they were put in place after `since` (a
+    time.time()), else the earlier ones, untouched."""
+    import json
+    try:
+        mtime = (outdir / "summary.json").stat().st_mtime
+        with open(outdir / "summary.json", encoding="utf-8") as f:
+            s = json.load(f)
+        status, rows = s["status"], s["time"]["rows_written"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return f"{outdir}/ is left as it was"
+    if mtime < since:
+        return f"{outdir}/ is left as it was"
+    return f"{outdir}/ holds its {status} results ({rows} rows, as its summary.json says)"
 
 
 def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, jobs: int,
@@ -249,18 +277,20 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
     """`planarkin run --jobs N` (dirs: one output directory per model, in order): the models in
     N local processes, each writing its own directory; the terminal lines in model order, the
     counts into report. Interrupted (SIGINT, SIGTERM to this process alone or to the whole
-    group): the models not started are dropped, the running ones are told (a shared value
-    their writers check between blocks of rows) and stop in order, every finished model's
-    lines are printed and counted, and the interruption is raised again. A worker that dies
-    fails its model (exit 1)."""
+    group): the running models are told (a shared value their writers check between blocks of
+    rows, and the models not started read first) and stop in order, every model's lines are
+    printed and counted, and the interruption is raised again once every worker has ended. A
+    worker that dies fails its model (exit 1), its line saying what its directory holds."""
     import signal
     from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import TimeoutError as NoAnswer
     from concurrent.futures.process import BrokenProcessPool   # here: 20 ms a plain run skips
 
     from .options import from_command_line
     from .output.directory import critical, signame
     from .processes import context, stop_workers
     ctx = context()
+    since = time.time()
     tasks = [(m, d, report.quiet, overrides, analysis, plots, animate, table_format, x_axis)
              for m, d in zip(models, dirs)]
 
@@ -273,9 +303,9 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
         if stopped is not None:
             report.signal = stopped
 
-    def died(path) -> None:
-        report.failed(path, "its worker process died (killed by a signal, out of memory or a "
-                            "crash); its directory is left as it was")
+    def died(path, outdir) -> None:
+        report.failed(path, f"its worker process died (killed by a signal, out of memory or a "
+                            f"crash); {on_disk(outdir, since)}")
 
     stop = ctx.Value("i", 0, lock=False)
     pool = ProcessPoolExecutor(min(jobs, len(models)), mp_context=ctx,
@@ -289,25 +319,30 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
             try:
                 take(f.result())
             except BrokenProcessPool:
-                died(models[k])
+                died(models[k], dirs[k])
     except KeyboardInterrupt as e:
         with critical():                # a second signal is ignored anyway; this must finish
             stop.value = int(signal.SIGTERM if signame(e) == "SIGTERM" else signal.SIGINT)
-            for f in futures[k:]:
-                f.cancel()
-            for f, path in zip(futures[k:], models[k:]):
-                if f.cancelled():
-                    continue
+            # nothing is cancelled here: a model not started returns at once (its worker reads
+            # `stop` first), and a future cancelled here as the executor's thread failed it (a
+            # broken pool) raised InvalidStateError in that thread: a traceback
+            deadline = time.monotonic() + HUNG
+            hung = []
+            for f, path, outdir in zip(futures[k:], models[k:], dirs[k:]):
                 try:
-                    take(f.result(timeout=120))
+                    take(f.result(timeout=max(0.0, deadline - time.monotonic())))
                 except BrokenProcessPool:
-                    died(path)
-                except Exception:  # noqa: BLE001 - a worker that hung: its line is lost
-                    pass
-            if not all(f.done() for f in futures):      # a worker that hung: ended now
-                stop_workers(pool, kill=True)
+                    died(path, outdir)
+                except NoAnswer:
+                    if f.running():         # else never started: it has nothing to say
+                        hung.append((path, outdir))
+            if hung:
+                stop_workers(pool)
+                for path, outdir in hung:
+                    report.failed(path, f"its worker did not stop within {HUNG:g} s of the "
+                                        f"{signame(e)} and was killed; {on_disk(outdir, since)}")
         if report.signal is None:
             report.signal = signame(e)
-        pool.shutdown(cancel_futures=True)      # the idle workers end: nothing outlives us
+        pool.shutdown()         # every worker ends before the command does
         raise
     pool.shutdown()

@@ -8,6 +8,7 @@ concurrent runs, colliding and hostile file names. Never a traceback, never a ha
 writer process left behind.
 """
 
+import errno
 import json
 import os
 import resource
@@ -174,7 +175,8 @@ def test_unwritable_out_is_a_usage_error(tmp_path):
     f.write_text("")
     r = run_cli("run", SLIDER, "--out", f / "sub", "--no-plots")
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert "Invalid value for '--out'" in r.stderr and "cannot write into" in r.stderr
+    assert r.stderr == f"error: --out {f / 'sub'}: {f} is a file, not a directory: remove it " \
+                       f"or choose another --out\n", r.stderr
     if os.geteuid() != 0:          # root writes anywhere; a read-only directory needs a user
         ro = tmp_path / "ro"
         ro.mkdir(mode=0o500)
@@ -560,3 +562,225 @@ def test_no_lock_file_is_left_beside_the_results(tmp_path):
     assert hidden == []
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["four-bar", "lock",
                                                                      "slider-crank"]
+
+
+# -- issue 33: a full disk, an --out that cannot be, the compiled code's cache ------------------
+
+def _no_space(*args, **kwargs):
+    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+STUDY_ARGS = {
+    "sweep": ["sweep", str(ROOT / "mechanisms" / "four-bar.yaml"), "--vary", "a=0.03:0.05:3",
+              "--steps", "24", "--jobs", "1"],
+    "tolerance": ["tolerance", str(ROOT / "mechanisms" / "four-bar.yaml"), "--sigma", "a=1e-4",
+                  "--samples", "3", "--steps", "24", "--jobs", "1"]}
+
+
+@pytest.mark.parametrize("command, patch, name", [
+    ("sweep", "planarkin.studies.sweep.write_csv", "sweep.csv"),
+    ("sweep", "planarkin.studies.plots.sweep_plot", "sweep.png"),
+    ("tolerance", "planarkin.studies.tolerance.write_csv", "tolerance.csv"),
+    ("tolerance", "planarkin.output.tables.CsvWriter.write", "sensitivities.csv"),
+    ("tolerance", "planarkin.studies.plots.tolerance_plot", "tolerance.png")])
+def test_a_full_disk_fails_a_study_in_one_line(tmp_path, monkeypatch, command, patch, name):
+    """Any of a study's writes on a full disk: an OSError traceback (exit 1). Now exit 1 and
+    one line naming the file, the earlier files as they were, nothing else left behind."""
+    out = tmp_path / "out"
+    assert run_cli(*STUDY_ARGS[command], "--out", out).returncode == 0
+    d = out / "four-bar"
+    before = {f.name: f.read_bytes() for f in d.iterdir()}
+    monkeypatch.setattr(patch, _no_space)
+    r = run_cli(*STUDY_ARGS[command], "--out", out)
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    assert r.stderr == (f"{STUDY_ARGS[command][1]}: error: writing {name} failed: No space left "
+                        f"on device; the earlier files in {d}/ are left as they were\n"), r.stderr
+    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    no_leftovers(out)
+
+
+@pytest.mark.parametrize("command", ["sweep", "tolerance"])
+def test_a_file_size_limit_fails_a_study_in_one_line(tmp_path, command):
+    """`ulimit -f` (here 1 kB: each study's first table passes it) in a real process (run:
+    test_full_disk_leaves_the_previous_results)."""
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))
+    r = subprocess.run(ENTRY + STUDY_ARGS[command] + ["--out", str(tmp_path / "out")],
+                       capture_output=True, text=True, timeout=120, env=_env(),
+                       preexec_fn=small_files)
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert ": error: writing " in r.stderr and " failed: File too large" in r.stderr, r.stderr
+    no_leftovers(tmp_path / "out")
+
+
+@pytest.mark.parametrize("moment", ["summary", "plots", "staging", "--out"])
+def test_a_full_disk_fails_a_run_in_one_line(tmp_path, monkeypatch, moment):
+    """summary.json, the plots, the staged directory, --out itself on a full disk: an
+    internal error (please report), a usage error (exit 2) or a mere warning (exit 0). Now
+    exit 1, one line, the earlier results as they were."""
+    from pathlib import Path as P
+    out = tmp_path / "out"
+    assert run_cli("run", SLIDER, "--out", out, "--steps", "10", "--no-plots").returncode == 0
+    d = out / "slider-crank"
+    before = {f.name: f.read_bytes() for f in d.iterdir()}
+    if moment == "summary":
+        monkeypatch.setattr("planarkin.output.writer.write_json", _no_space)
+    elif moment == "plots":
+        monkeypatch.setattr("planarkin.output.plots.write_plots", _no_space)
+    else:
+        mkdir = P.mkdir
+        full = ".tmp-" if moment == "staging" else ".planarkin-probe"
+
+        def no_space(self, *a, **k):
+            if full in self.name:
+                _no_space()
+            return mkdir(self, *a, **k)
+        monkeypatch.setattr(P, "mkdir", no_space)
+    r = run_cli("run", SLIDER, "--out", out, "--steps", "20",
+                *(["--no-plots"] if moment != "plots" else []))
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    what = {"summary": "writing summary.json failed: No space left on device",
+            "plots": "writing the plots failed: No space left on device",
+            "staging": f"cannot write into {out}/: No space left on device"}
+    if moment == "--out":
+        assert r.stderr == f"error: --out {out}: cannot write into {out}/: No space left on " \
+                           f"device\n", r.stderr
+    else:
+        assert r.stderr == f"{SLIDER}: error: {what[moment]}; {d}/ is left as it was\n", r.stderr
+    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    monkeypatch.undo()
+    no_leftovers(out)
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "tolerance"])
+def test_an_out_that_is_a_link_to_nowhere_is_a_usage_error(tmp_path, command):
+    """--out a dangling symbolic link: "File exists" (run) or a traceback (the studies)."""
+    link = tmp_path / "results"
+    link.symlink_to(tmp_path / "gone")
+    args = STUDY_ARGS.get(command, ["run", str(SLIDER), "--steps", "10"])
+    r = run_cli(*args, "--no-plots", "--out", link)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert r.stderr == (f"error: --out {link}: {link} is a symbolic link to {tmp_path / 'gone'}, "
+                        f"which does not exist: create {tmp_path / 'gone'} or remove the link, "
+                        f"or choose another --out\n"), r.stderr
+    assert link.is_symlink() and not (tmp_path / "gone").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "tolerance"])
+def test_a_model_directory_that_is_a_link_to_nowhere_is_left_alone(tmp_path, command):
+    """The model's directory in --out a dangling link: "internal error during the analysis:
+    NotADirectoryError ... (please report)", exit 1 (run), a FileExistsError traceback (the
+    studies)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    name = "slider-crank" if command == "run" else "four-bar"
+    (out / name).symlink_to(tmp_path / "gone")
+    args = STUDY_ARGS.get(command, ["run", str(SLIDER), "--steps", "10"])
+    r = run_cli(*args, "--no-plots", "--out", out)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert r.stderr == (f"{args[1]}: error: {out / name} is a symbolic link to "
+                        f"{tmp_path / 'gone'}, which does not exist: create {tmp_path / 'gone'} "
+                        f"or remove the link, or choose another --out\n"), r.stderr
+    assert (out / name).is_symlink() and not (tmp_path / "gone").exists()
+    no_leftovers(out)
+
+
+@pytest.fixture
+def own_cache(monkeypatch, tmp_path):
+    """planarkin.jitcache as in a new process, its directory under tmp_path (this process's
+    state put back after)."""
+    numba = pytest.importorskip("numba")
+    from planarkin import jitcache
+    saved = dict(jitcache._held)
+    jitcache.forget()
+    monkeypatch.setattr(jitcache, "_said", set())
+    monkeypatch.setenv("PLANARKIN_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", os.environ.get("NUMBA_CACHE_DIR", ""))
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
+    yield tmp_path / "cache"
+    jitcache.forget()
+    jitcache._held.update(saved)
+
+
+def _hold_cache_lock(cache: Path):
+    """The cache entry's lock, held here as another process would (its pid in the file)."""
+    import fcntl
+
+    from planarkin import jitcache
+    entry = cache / jitcache.tag()
+    entry.mkdir(parents=True, mode=0o700)
+    cache.chmod(0o700)
+    lock = open(entry / ".lock", "a+")
+    fcntl.flock(lock, fcntl.LOCK_EX)
+    lock.write("4242")
+    lock.flush()
+    return lock
+
+
+def test_a_cache_held_by_another_process_is_given_up_in_one_line(own_cache, monkeypatch,
+                                                                 capsys):
+    """A run suspended (Ctrl-Z) during its first compile held the lock, and every other run of
+    300,000 points or more waited for it, silently, for as long. Now LOCK_WAIT s, then one
+    line, and the process compiles without the cache."""
+    from planarkin import jitcache
+    monkeypatch.setattr(jitcache, "LOCK_WAIT", 0.2)
+    lock = _hold_cache_lock(own_cache)
+    try:
+        assert jitcache.prepare() is None
+        assert jitcache.prepare() is None           # once given up, for the whole process
+        jitcache.record()
+    finally:
+        lock.close()
+    assert capsys.readouterr().err == (f"planarkin: the compiled code's cache "
+                                       f"{own_cache / jitcache.tag()} is held by another "
+                                       f"planarkin process (pid 4242) for more than 0.2 s "
+                                       f"(suspended?): compiling without the cache\n")
+
+
+def test_a_run_goes_on_while_another_holds_the_cache(tmp_path):
+    """The real thing: a run of 300,000 points (the compiled route) while the test holds the
+    lock; it says so and finishes. The timeout is a hang guard only."""
+    pytest.importorskip("numba")
+    from planarkin import jitcache
+    cache = tmp_path / "cache"
+    lock = _hold_cache_lock(cache)
+    try:
+        r = subprocess.run(ENTRY + ["run", str(SLIDER), "--steps", "300000", "--no-plots",
+                                    "--out", str(tmp_path / "out"), "-q"],
+                           capture_output=True, text=True, timeout=300,
+                           env=dict(_env(), PLANARKIN_CACHE=str(cache)))
+    finally:
+        lock.close()
+    assert r.returncode == 0, (r.stdout, r.stderr)
+    assert r.stderr == (f"planarkin: the compiled code's cache {cache / jitcache.tag()} is held "
+                        f"by another planarkin process (pid 4242) for more than 5 s "
+                        f"(suspended?): compiling without the cache\n"), r.stderr
+    s = assert_contract(tmp_path / "out" / "slider-crank")
+    assert s["time"]["rows_written"] == 300001
+    assert sorted(p.name for p in (cache / jitcache.tag()).iterdir()) == [".lock"]
+
+
+def test_a_cache_that_cannot_be_written_costs_only_the_caching(own_cache, monkeypatch,
+                                                               capsys):
+    """numba's save on a full disk (an OSError out of the compile) aborted the run. Now the
+    compiled code is used from memory, one line says so, and later compiles skip the cache."""
+    from numba.core import caching
+
+    from planarkin import compiled_grid, jitcache
+    monkeypatch.setattr(caching.IndexDataCacheFile, "_save_data", _no_space)
+    text = ("import numba\n\n\n@numba.njit(cache=CACHE)\ndef grid(x):\n    return x + 1\n")
+    import numba
+    fn = compiled_grid._build("pk_grid_issue33_full", text, "grid", (numba.int64,))
+    assert fn(41) == 42
+    entry = own_cache / jitcache.tag()
+    assert capsys.readouterr().err == (f"planarkin: the compiled code's cache {entry} cannot be "
+                                       f"written (No space left on device): compiling without "
+                                       f"it (the results are the same)\n")
+    assert jitcache.prepare() is None               # the rest of the process: no cache
+
+    @numba.njit(cache=True)
+    def twice(x):
+        return 2 * x
+    jitcache.compile_cached(twice, (numba.int64,))         # not under the lock: no cache at all
+    assert twice(21) == 42 and capsys.readouterr().err == ""

@@ -31,6 +31,7 @@ directory is left untouched. Everything happens in the process that solves:
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -55,12 +56,48 @@ STUDY_FILES = frozenset(
     + [f"{stem}.{f}" for stem in ("sweep", "tolerance") for f in PLOT_FORMATS])
 
 
+# failures of the disk rather than of the path asked for (a full disk, a quota, a file size
+# limit, an I/O error): exit 1 as an analysis failure, where a path that cannot hold results
+# (not a directory, a link to nowhere, no permission) is a usage error (exit 2)
+DISK_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+
+
 class OutputError(Exception):
     """The results cannot be written where asked (busy, not ours, not writable)."""
 
 
 class WriteError(Exception):
-    """A table could not be written (disk full, file size limit, I/O error)."""
+    """A file could not be written (disk full, file size limit, I/O error). errno: the
+    OSError's, when there was one."""
+
+    def __init__(self, message: str, code: int | None = None):
+        super().__init__(message)
+        self.errno = code
+
+
+def path_error(e: OSError, where: Path) -> Exception:
+    """The error to raise for e, met while making or writing in the directory `where`:
+    WriteError for the disk's own failures (DISK_ERRORS), else OutputError."""
+    if e.errno in DISK_ERRORS:
+        return WriteError(f"cannot write into {where}/: {e.strerror}", e.errno)
+    return OutputError(f"cannot write results into {where}/: {e.strerror or e}")
+
+
+def link_problem(path: Path) -> str | None:
+    """Why a result directory cannot be path when path is a symbolic link (one to nowhere
+    made mkdir fail with a bare "File exists", and the final rename with "Not a directory"),
+    or a file; None otherwise."""
+    if path.is_symlink():
+        target = os.readlink(path)
+        if not path.exists():
+            return (f"{path} is a symbolic link to {target}, which does not exist: create "
+                    f"{target} or remove the link, or choose another --out")
+        if not path.is_dir():
+            return (f"{path} is a symbolic link to {target}, which is not a directory: remove "
+                    f"the link or choose another --out")
+    elif path.exists() and not path.is_dir():
+        return f"{path} is a file, not a directory: remove it or choose another --out"
+    return None
 
 
 class Interrupted(KeyboardInterrupt):
@@ -192,7 +229,7 @@ def out_dirs(models, out: Path) -> list[Path]:
 def _is_ours(path: Path) -> bool:
     """True when path is absent, an empty directory, a planarkin result directory, or holds
     only the files of the study commands."""
-    if not path.exists():
+    if not os.path.lexists(path):
         return True
     if not path.is_dir() or path.is_symlink():
         return False
@@ -221,8 +258,7 @@ class _Lock:
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as e:
-                raise OutputError(f"cannot write results into {final.parent}/: "
-                                  f"{e.strerror}") from None
+                raise path_error(e, final.parent) from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -253,18 +289,33 @@ def locked(final: Path):
     """Hold NAME's lock (a study writing its files into a model's directory). Raises
     OutputError when a run or another study writes NAME."""
     final = Path(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
+    _make_parent(final)
     lock = _Lock(final)
     try:
         _restore(final)
+        problem = link_problem(final)
+        if problem is not None:
+            raise OutputError(problem)
         yield
     finally:
         lock.release()
 
 
+def _make_parent(final: Path) -> None:
+    """final's parent directory, made when missing (OutputError or WriteError when it cannot
+    be)."""
+    problem = next((p for p in map(link_problem, reversed(final.parents)) if p), None)
+    if problem is not None:
+        raise OutputError(problem)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise path_error(e, final.parent) from None
+
+
 def _restore(final: Path) -> None:
     """Put back the previous results a run killed between its two renames left aside."""
-    if not final.exists():
+    if not os.path.lexists(final):
         for old in sorted(final.parent.glob(f".{final.name}.old-*")):
             os.replace(old, final)
             break
@@ -281,13 +332,15 @@ class ResultDirectory:
         self.final = Path(final)
         parent = self.final.parent
         name = self.final.name
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+        _make_parent(self.final)
         self.lock = _Lock(self.final)
         try:
             _restore(self.final)
+            if self.final.is_symlink():      # (replaced, not followed, by the final rename)
+                raise OutputError(link_problem(self.final) or
+                                  f"{self.final} is a symbolic link to "
+                                  f"{os.readlink(self.final)}: a result directory is never "
+                                  f"written through a link; remove it or choose another --out")
             if not _is_ours(self.final):
                 raise OutputError(f"{self.final} exists and is not a planarkin result directory "
                                   f"(no summary.json of ours): it is left alone; choose another "
@@ -298,7 +351,7 @@ class ResultDirectory:
             try:
                 self.tmp.mkdir()
             except OSError as e:
-                raise OutputError(f"cannot write results into {parent}/: {e.strerror}") from None
+                raise path_error(e, parent) from None
         except BaseException:
             self.lock.release()
             raise
@@ -334,15 +387,21 @@ class ResultDirectory:
 
 
 def check_writable(out: Path) -> str | None:
-    """None if result directories can be made under `out`, else why not (for a usage error)."""
+    """None if result directories can be made under `out`, else why not, naming the fix (a
+    usage error). Raises WriteError when the disk itself fails (DISK_ERRORS)."""
     out = Path(out)
+    problem = next((p for p in map(link_problem, [*reversed(out.parents), out]) if p), None)
+    if problem is not None:
+        return problem
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".planarkin-probe-{os.getpid()}"
         probe.mkdir()
         probe.rmdir()
     except OSError as e:
-        return f"cannot write into {out}/: {e.strerror}"
+        if e.errno in DISK_ERRORS:
+            raise WriteError(f"cannot write into {out}/: {e.strerror}", e.errno) from None
+        return f"cannot write into {out}/: {e.strerror}: choose another --out"
     return None
 
 
@@ -365,7 +424,7 @@ class _Sink:
         try:
             self._write(X)
         except OSError as e:
-            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}", e.errno) from None
         self.stats.add(X)
         if self.extra is not None:
             self.extra.add(X)
@@ -378,7 +437,7 @@ class _Sink:
         try:
             self._close()
         except OSError as e:
-            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}", e.errno) from None
         self.busy += time.perf_counter() - t0
         return self.stats, (self.extra.as_dict() if self.extra is not None else None), self.busy
 
@@ -395,7 +454,7 @@ class TableSink(_Sink):
         try:
             self.csv = CsvWriter(path, header)
         except OSError as e:
-            raise WriteError(f"writing {self.name} failed: {e.strerror or e}") from None
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}", e.errno) from None
 
     def _write(self, X: np.ndarray) -> None:
         self.csv.write(X)
@@ -417,7 +476,10 @@ class ParquetSink(_Sink):
         self.pa = pa
         self.schema = pa.schema([(h, pa.float64()) for h in header])
         # dictionary encoding would not pay for doubles that rarely repeat
-        self.writer = pq.ParquetWriter(path, self.schema, use_dictionary=False)
+        try:
+            self.writer = pq.ParquetWriter(path, self.schema, use_dictionary=False)
+        except OSError as e:
+            raise WriteError(f"writing {self.name} failed: {e.strerror or e}", e.errno) from None
 
     def _write(self, X: np.ndarray) -> None:
         if len(X):

@@ -18,8 +18,8 @@ from ..chunks import concat, take
 from ..derived import derived_tables
 from ..options import ORDERS
 from ..solver import Chunk, Options
-from .directory import (SINKS, OutputError, ResultDirectory, WriteError, checkpoint, critical,
-                        signame)
+from .directory import (DISK_ERRORS, SINKS, OutputError, ResultDirectory, WriteError,
+                        checkpoint, critical, signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
 from ..layout import Layout
 from ..runinfo import RunInfo
@@ -28,12 +28,14 @@ if TYPE_CHECKING:                     # annotations only
     from ..model.compile import CompiledModel
 
 PLOT_ROWS = 4000    # rows kept for plots (the tables keep every row)
+PLOT_BYTES = 64 << 20   # and at most this much of them (a model of thousands of points)
 
 
 class PlotBuffer:
     """Every k-th row of the run (and the last), enough for plots of any run length."""
 
     def __init__(self, total_rows: int):
+        self.total = total_rows
         self.stride = max(1, math.ceil(total_rows / PLOT_ROWS))
         self.seen = 0
         self.parts: list[Chunk] = []
@@ -41,6 +43,9 @@ class PlotBuffer:
 
     def add(self, ch: Chunk) -> None:
         n = len(ch.t)
+        if not self.seen and n:         # the width of a row is known from the first chunk
+            row = sum(a.nbytes for a in vars(ch).values() if isinstance(a, np.ndarray)) / n
+            self.stride = max(self.stride, math.ceil(self.total * row / PLOT_BYTES))
         first = (-self.seen) % self.stride
         sel = np.arange(first, n, self.stride)
         self.parts.append(take(ch, sel))
@@ -116,6 +121,8 @@ class DirectoryWriter:
                             for d in derived_tables(cm, opts)]
         except WriteError as e:
             self.abort()
+            if e.errno in DISK_ERRORS:      # a full disk: an analysis failure (exit 1)
+                raise
             raise OutputError(str(e)) from None
         except BaseException:
             self.abort()
@@ -185,6 +192,12 @@ class DirectoryWriter:
                 t0 = time.perf_counter()
                 try:
                     drawn = [p.name for p in self._plots(info, data)]
+                except OSError as e:
+                    if e.errno in DISK_ERRORS:  # the summary and the rename would fail next
+                        raise WriteError(f"writing the plots failed: {e.strerror or e}",
+                                         e.errno) from None
+                    summary["warnings"].append({"kind": "plots", "message": f"drawing the plots "
+                                                f"failed: {type(e).__name__}: {e}"})
                 except Exception as e:  # noqa: BLE001 - a figure must not cost the tables
                     summary["warnings"].append({"kind": "plots", "message": f"drawing the plots "
                                                 f"failed: {type(e).__name__}: {e}"})
@@ -208,8 +221,16 @@ class DirectoryWriter:
                     if p.name not in summary["files"] and p.name not in drawn:
                         p.unlink()
                 summary["plots"] = drawn
-                write_json(self.out / "summary.json", summary)
-                self.dir.commit()
+                try:
+                    write_json(self.out / "summary.json", summary)
+                except OSError as e:
+                    raise WriteError(f"writing summary.json failed: {e.strerror or e}",
+                                     e.errno) from None
+                try:
+                    self.dir.commit()
+                except OSError as e:
+                    raise WriteError(f"putting {self.final}/ in place failed: "
+                                     f"{e.strerror or e}", e.errno) from None
                 self.committed = True
                 if self.on_commit is not None and pending is None:
                     self.reported = True

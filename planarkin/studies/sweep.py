@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output.directory import WriteError
+from .execute import kept, solve
 from .variants import Outcome, Study
 
 _DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z", re.ASCII)
@@ -158,6 +160,12 @@ def write_csv(path: Path, head: list[str], table: list[list]) -> None:
 PLOT_FORMATS = ("png", "svg", "pdf")
 
 
+class FilesNotWritten(WriteError, OSError):
+    """A study's file that could not be written (a full disk, a file size limit): WriteError
+    for the command line (exit 1, one line), and still the OSError it was for the API's
+    callers."""
+
+
 @contextlib.contextmanager
 def staged(outdir: Path, family: tuple[str, ...]):
     """A study command's files in outdir (a model's directory it may share with `planarkin
@@ -167,10 +175,14 @@ def staged(outdir: Path, family: tuple[str, ...]):
     place together (a critical block) and the family's files this run did not write (the plot
     of an earlier run, now run with --no-plots; sweep.parquet without a Parquet library) are
     removed. An error or interruption before that leaves the earlier files as they were and
-    no temporary behind; a killed run's temporaries are removed by the next."""
-    from ..output.directory import checkpoint, critical, locked
+    no temporary behind; a killed run's temporaries are removed by the next. A file that
+    cannot be written (a full disk, a file size limit) raises WriteError naming it."""
+    from ..output.directory import checkpoint, critical, locked, path_error
     with locked(outdir):
-        outdir.mkdir(parents=True, exist_ok=True)
+        try:
+            outdir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise path_error(e, outdir) from None
         for old in outdir.glob(".tmp-*-*"):           # a killed run's (we hold the lock)
             m = re.match(r"\.tmp-(\d+)-(.+)$", old.name)
             if m and m.group(2) in family:
@@ -181,21 +193,33 @@ def staged(outdir: Path, family: tuple[str, ...]):
             tmp[name] = outdir / f".tmp-{os.getpid()}-{name}"   # (the suffix stays the format)
             return tmp[name]
 
+        def failed(e: OSError, what: str):
+            return FilesNotWritten(f"writing {what} failed: {e.strerror or e}; the earlier "
+                                   f"files in {outdir}/ are left as they were", e.errno)
+
         try:
-            yield stage
+            try:
+                yield stage
+            except OSError as e:        # the file being written is the one staged last
+                raise failed(e, next(reversed(tmp), "the study's files")) from None
             checkpoint()                # a signal lost in a finalizer: nothing goes in place
             with critical():
                 written = set()
-                for name, path in tmp.items():
-                    if path.exists():       # (staged but not written: sweep.parquet without a
-                        os.replace(path, outdir / name)     # Parquet library)
-                        written.add(name)
-                for name in family:
-                    if name not in written:
-                        (outdir / name).unlink(missing_ok=True)
+                try:
+                    for name, path in tmp.items():
+                        if path.exists():       # (staged but not written: sweep.parquet
+                            os.replace(path, outdir / name)     # without a Parquet library)
+                            written.add(name)
+                    for name in family:
+                        if name not in written:
+                            (outdir / name).unlink(missing_ok=True)
+                except OSError as e:
+                    raise FilesNotWritten(f"putting the study's files into {outdir}/ failed: "
+                                          f"{e.strerror or e}", e.errno) from None
         finally:
             for path in tmp.values():
-                path.unlink(missing_ok=True)
+                with contextlib.suppress(OSError):
+                    path.unlink(missing_ok=True)
 
 
 def write_parquet(path: Path, head: list[str], table: list[list]) -> str | None:
@@ -250,7 +274,7 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
     check_study(study, count, len(ranges) + len(study.metrics),
                 "the N of each --vary" if samples is None else "--samples")
     variants = factorial(ranges) if samples is None else latin_hypercube(ranges, samples, seed)
-    outcomes = (execute or Study.run)(study, variants)
+    outcomes, lost = solve(execute, study, variants)
     names = [r.name for r in ranges]
     head = header(study, names)
     table = rows(study, variants, outcomes)
@@ -271,4 +295,6 @@ def run_sweep(study: Study, ranges: list[Range], outdir: Path, samples: int | No
             sweep_plot(stage(f"sweep.{plots}"), names, P, [o.status for o in outcomes],
                        [m.label for m in study.metrics], M, grid, title)
             files.append(outdir / f"sweep.{plots}")
+    if lost is not None:
+        raise kept(lost, files[0])
     return SweepResult(variants, outcomes, files)

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .execute import kept, solve
 from .sweep import PLOT_FORMATS, staged, write_csv
 from .variants import Outcome, Study
 
@@ -116,7 +117,7 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
     s = np.array([sigma[p] for p in names])
     fo = np.sqrt(((G * s) ** 2).sum(axis=1)) if len(names) else np.zeros(len(study.metrics))
     variants = draw(names, study.parameters, sigma, samples, seed, dist)
-    outcomes = (execute or Study.run)(study, variants)
+    outcomes, lost = solve(execute, study, variants)
     Y = np.array([o.metrics for o in outcomes], dtype=float).reshape(len(outcomes), -1)
     stats = []
     for i in range(Y.shape[1]):
@@ -148,6 +149,8 @@ def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: i
             tolerance_plot(stage(f"tolerance.{plots}"), labels, Y, list(nominal), list(fo),
                            {q: [st[q] for st in stats] for q in (5, 95)}, title)
             files.append(outdir / f"tolerance.{plots}")
+    if lost is not None:
+        raise kept(lost, files[1])
     return ToleranceResult(names, variants, outcomes, nominal, G, fo, stats, files)
 
 
