@@ -662,7 +662,8 @@ def test_forces_plot(tmp_path, slider_crank):
     from PIL import Image
     from planarkin.derived import derived_tables
     res = slider_crank
-    (d,) = derived_tables(res.model, res.info.options)
+    d, loads = derived_tables(res.model, res.info.options)
+    assert loads.filename == "loads.csv" and loads.plot is None
     files = d.plot(res.model, d.compute(res._chunk), res.info, tmp_path, "png")
     assert [f.name for f in files] == ["forces.png"]
     with Image.open(tmp_path / "forces.png") as im:
@@ -739,7 +740,9 @@ def test_units_follow_the_length_unit():
     from planarkin.derived import derived_tables
     from planarkin.solver import Options
     cm = load(mm)
-    (d,) = derived_tables(cm, Options.from_model(cm))
+    d, loads = derived_tables(cm, Options.from_model(cm))
+    assert "joint_1_revolute_ground-boom.boom.direction [deg]" in loads.header
+    assert "joint_1_revolute_ground-boom.magnitude [kg*mm/s^2]" in loads.header
     assert d.header[1] == "cylinder.force [kg*mm/s^2]"
     assert d.header[-1] == "shaking.torque [kg*mm^2/s^2]"
     assert "cylinder.power [kg*mm^2/s^3]" in d.header

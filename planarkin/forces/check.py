@@ -15,7 +15,7 @@ import numpy as np
 from ..elements import KINDS
 from ..solver import Event
 from .layout import CONTACT_KINDS
-from .output import APPLIED_MEMO, ROWS_MEMO, forces_table
+from .output import APPLIED_MEMO, ROWS_MEMO, ForceRows
 from .solve import Kinetostatics
 
 
@@ -29,10 +29,11 @@ class RowCheck:
     lift-off warnings to the analysis' warnings.
 
     A model with cams has its whole forces table computed here (the contact forces decide
-    lift-off); the rows are handed to the writer's forces table (output.ROWS_MEMO), so that they
-    are computed once. Other models have only their applied forces computed (loads, springs,
-    gravity and inertia: what can make a force row non-finite when the motion is finite; the
-    multipliers solve a regular system with it), at a fraction of the table's cost."""
+    lift-off); the rows, with loads.csv's, are handed to the writer's forces table
+    (output.ROWS_MEMO), so that they are computed once. Other models have only their applied
+    forces computed (loads, springs, gravity and inertia: what can make a force row non-finite
+    when the motion is finite; the multipliers solve a regular system with it), at a fraction of
+    the table's cost."""
 
     def __init__(self, cm, opts):
         self.cm = cm
@@ -43,7 +44,7 @@ class RowCheck:
         self.unplaced = unplaced(cm)
         if any(el.kind in CONTACT_KINDS or physical_kind(KINDS[el.kind])
                for el in cm.spec.joints):
-            self.table = forces_table(cm, opts)
+            self.table = ForceRows(cm)
             self.header = self.table.header
             self.contacts = [k for k, h in enumerate(self.header) if ".contact [" in h]
             from .layout import column_name
@@ -58,9 +59,9 @@ class RowCheck:
             self.unplaced = []
         if not self.contacts:
             return self._applied(ch)
-        X = self.table.compute(ch)
+        X, XL = self.table.compute(ch)
         ROWS_MEMO.clear()                             # one chunk's rows at most are held
-        ROWS_MEMO[id(self.cm)] = (ch.t, X)
+        ROWS_MEMO[id(self.cm)] = (ch.t, X, XL)
         stop = None
         fin = np.isfinite(X).all(axis=1)
         if not fin.all():
@@ -145,10 +146,11 @@ class RowCheck:
         if f[j] < rec[1]:
             rec[1], rec[2] = float(f[j]), float(t[j])
         ev, low, tl = rec
-        ev.message = (f"{self.labels.get(name, name)}: the cam's contact force turns negative at t = {ev.t:.6g} s and "
-                      f"reaches {low:.4g} {unit} at t = {tl:.6g} s: the follower would lift off "
-                      f"the cam there (the cam joint holds it as if glued); a spring must press "
-                      f"it on with at least {-low:.4g} {unit} more there")
+        ev.message = (f"{self.labels.get(name, name)}: the cam's contact force turns negative "
+                      f"at t = {ev.t:.6g} s and reaches {low:.4g} {unit} at t = {tl:.6g} s: the "
+                      f"follower would lift off the cam there (the cam joint holds it as if "
+                      f"glued); a spring must press it on with at least {-low:.4g} {unit} more "
+                      f"there")
 
 
 def _row(ch, i):

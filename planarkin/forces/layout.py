@@ -48,21 +48,28 @@ def redundancy(cm):
     return np.asarray(A.active_rows), elements, labels
 
 
-def columns(cm, left_out=frozenset()):
-    """[(header, getter(Forces) -> (N,) array, role)] in table order (t excluded); role is
-    'effort', 'reaction', 'contact', 'power' or 'shaking'."""
-    u = unit_names(cm.spec.length_unit)
-    spec = cm.spec
-    nj = len(spec.joints)
+def element_names(cm) -> dict:
+    """{element index: its column name}: `column_name`, made unique (``_2``, ``_3`` ...) and
+    never ``total`` or ``shaking`` (forces.csv's own columns)."""
     used: set = {"total", "shaking"}
     names = {}
-    for e, el in enumerate(spec.elements):
+    for e, el in enumerate(cm.spec.elements):
         base = column_name(el)
         name, k = base, 2
         while name in used:
             name, k = f"{base}_{k}", k + 1
         used.add(name)
         names[e] = name
+    return names
+
+
+def columns(cm, left_out=frozenset()):
+    """[(header, getter(Forces) -> (N,) array, role)] in table order (t excluded); role is
+    'effort', 'reaction', 'contact', 'power' or 'shaking'."""
+    u = unit_names(cm.spec.length_unit)
+    spec = cm.spec
+    nj = len(spec.joints)
+    names = element_names(cm)
     out = []
     for d, el in enumerate(spec.drivers):
         e = nj + d

@@ -1,4 +1,5 @@
-"""forces.csv, the ``forces`` section of summary.json and forces.png.
+"""forces.csv, the ``forces`` section of summary.json and forces.png; loads.csv and the ``loads``
+section (planarkin.forces.loads), from the same solve.
 
 Columns (units follow the model's length unit, mass in kg, see `model.unit_names`): ``t [s]``;
 per driver its effort (``<name>.torque`` for angle drivers, ``<name>.force`` otherwise: what the
@@ -16,6 +17,8 @@ import numpy as np
 
 from ..derived import DerivedTable
 from .layout import columns, redundancy
+from .loads import (MEAN_NOTE, PEAK_NOTE, SIGN_NOTE, LoadsAccumulator, LoadsLayout,
+                    loads_units)
 from .model import unit_names
 from .solve import Kinetostatics
 
@@ -24,22 +27,28 @@ SINGULAR_NOTE = ("near a singular configuration (see the near-singular warnings)
                  "sensitive to the geometry")
 
 
-def forces_table(cm, opts) -> DerivedTable | None:
-    rows, left_out, labels = redundancy(cm)
-    K = Kinetostatics(cm, rows)
-    cols = columns(cm, left_out)
-    header = ["t [s]"] + [h for h, _, _ in cols]
-    per = K.points_per_solve
+class ForceRows:
+    """The rows of forces.csv and loads.csv (planarkin.forces.loads) of a model, both from one
+    solve of each chunk (`compute`)."""
 
-    def compute(ch) -> np.ndarray:
-        memo = ROWS_MEMO.pop(id(cm), None)          # the rows the refusal check computed already
-        if memo is not None and memo[0] is ch.t:
-            return memo[1]
+    def __init__(self, cm):
+        self.cm = cm
+        rows, self.left_out, self.labels = redundancy(cm)
+        self.K = Kinetostatics(cm, rows)
+        self.cols = columns(cm, self.left_out)
+        self.header = ["t [s]"] + [h for h, _, _ in self.cols]
+        self.loads = LoadsLayout(cm, self.left_out)
+
+    def compute(self, ch, loads: bool = True):
+        """(forces.csv rows, loads.csv rows or None) of the chunk ch (t, q, qd, qdd)."""
+        cm, K, cols = self.cm, self.K, self.cols
+        per = K.points_per_solve
         N = len(ch.t)
         applied = APPLIED_MEMO.pop(id(cm), None)    # its applied and inertia forces
         if applied is not None and (applied[0] is not ch.t or N > per):
             applied = None
-        X = np.empty((N, len(header)))
+        X = np.empty((N, len(self.header)))
+        XL = np.empty((N, len(self.loads.header))) if loads else None
         X[:, 0] = ch.t
         for a in range(0, N, per):
             sl = slice(a, a + per)
@@ -52,25 +61,70 @@ def forces_table(cm, opts) -> DerivedTable | None:
                     X[sl, k] = ground[k - len(cols) + 2]
                 else:
                     X[sl, k] = get(F)
+            if loads:
+                self.loads.rows(F, XL[sl])
+        return X, XL
+
+
+def force_tables(cm, opts) -> list[DerivedTable]:
+    """[forces.csv, loads.csv]: two DerivedTables fed by one solve per chunk. The writer
+    computes a chunk's tables in order, so loads.csv takes the rows computed with forces.csv's
+    (held for that chunk only, by the identity of its t); asked alone (Result.table), it solves
+    the chunk itself."""
+    R = ForceRows(cm)
+    held: dict = {}
+
+    def forces(ch) -> np.ndarray:
+        memo = ROWS_MEMO.pop(id(cm), None)          # the rows the refusal check computed already
+        if memo is not None and memo[0] is ch.t:
+            X, XL = memo[1], memo[2]
+        else:
+            X, XL = R.compute(ch)
+        held.clear()
+        held["rows"] = (ch.t, XL)
         return X
 
+    def loads(ch) -> np.ndarray:
+        memo = held.pop("rows", None)
+        if memo is not None and memo[0] is ch.t and memo[1] is not None:
+            return memo[1]
+        return R.compute(ch)[1]
+
     notes = [SINGULAR_NOTE]
-    if labels:
+    if R.labels:
         notes.append("redundant constraints have no unique reaction; left out of forces.csv: "
-                     + "; ".join(labels))
+                     + "; ".join(R.labels))
+    cols = R.cols
     efforts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "effort"]
     contacts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "contact"]
     if contacts:
         notes.append(LIFT_OFF_NOTE)
     units = unit_names(cm.spec.length_unit)
     units["length"] = cm.spec.length_unit
+    header = R.header
+    labels = R.labels
 
     def accumulator():
         return Accumulator(header, efforts, notes, labels, units, contacts)
 
+    load_notes = [SIGN_NOTE, PEAK_NOTE, MEAN_NOTE, SINGULAR_NOTE]
+    if labels:
+        load_notes.append("redundant constraints have no unique reaction; left out of "
+                          "loads.csv: " + "; ".join(labels))
+
+    def load_accumulator():
+        return LoadsAccumulator(R.loads, loads_units(cm), load_notes, labels)
+
     from .plot import forces_plot
-    return DerivedTable("forces.csv", header, compute, section="forces", accumulator=accumulator,
-                        plot=forces_plot)
+    return [DerivedTable("forces.csv", header, forces, section="forces", accumulator=accumulator,
+                         plot=forces_plot),
+            DerivedTable("loads.csv", R.loads.header, loads, section="loads",
+                         accumulator=load_accumulator)]
+
+
+def forces_table(cm, opts) -> DerivedTable:
+    """forces.csv's DerivedTable alone (force_tables)."""
+    return force_tables(cm, opts)[0]
 
 
 LIFT_OFF_NOTE = ("a cam joint is bilateral: it holds the follower on the cam as if glued. "
@@ -78,8 +132,9 @@ LIFT_OFF_NOTE = ("a cam joint is bilateral: it holds the follower on the cam as 
                  "the follower; where it is negative the follower would lift off (see contact."
                  "<name>.min and the lift-off warning): a spring must add at least that much")
 
-# a non-finite value in a written row: the run stops there (planarkin.forces.check); a column's
-# peak and RMS then never hide it
+# id(cm) -> (t, forces.csv rows, loads.csv rows) of the chunk the refusal check computed (models
+# with cams: planarkin.forces.check); a non-finite value in a written row: the run stops there;
+# a column's peak and RMS then never hide it
 ROWS_MEMO: dict = {}
 # id(cm) -> (t, Q^A, Q^in) of the chunk the refusal check just passed: a model without cams has
 # only its applied and inertia forces computed there, the same arrays the table needs (one chunk
