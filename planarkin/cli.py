@@ -186,11 +186,43 @@ def check(models, quiet, derived, overrides):
                      f"choose)" if modes else ""))
         report.ok(path, detail)
         if not quiet:
-            from .measures.grashof import four_bar_loops
+            from .measures.grashof import four_bar_loops, slider_crank_loops
             for loop in four_bar_loops(model):
                 click.echo(f"         {loop.describe(model.spec.length_unit)}")
+            for sc in slider_crank_loops(model):
+                click.echo(f"         {sc.describe(A.q, model.L, model.spec.length_unit)}")
+            for line in _driver_ranges(model):
+                click.echo(f"         {line}")
     report.summary("checked")
     sys.exit(report.exit_code)
+
+
+def _driver_ranges(model, samples: int = 8192) -> list[str]:
+    """Each driver's range over the analysis and how often its motion reverses (its exact f'
+    changes sign), so that a motion far from what was meant shows at check (a pedal written
+    cos(360*t) in a file in degrees: radians, 57 swings a second)."""
+    import numpy as np
+
+    from .elements import KINDS
+    spec = model.spec
+    a = spec.analysis
+    t = np.linspace(a.start, a.end, samples + 1)
+    out = []
+    for el in spec.drivers:
+        if el.f is None:
+            continue
+        with np.errstate(all="ignore"):
+            f, f1, _ = (np.asarray(x, dtype=float) for x in el.f.derivatives(t))
+        if not (np.isfinite(f).all() and np.isfinite(f1).all()):
+            continue            # the run says where (a driver not defined at a grid row)
+        unit = {"length": spec.length_unit, "angle": spec.angle_unit}.get(
+            KINDS[el.kind].target_unit, "")
+        sign = np.sign(f1[np.abs(f1) > 1e-12 * max(np.abs(f1).max(), 1e-300)])
+        turns = int((sign[1:] != sign[:-1]).sum())
+        out.append(f"{el.label}: f from {f.min():.6g} to {f.max():.6g}{' ' + unit if unit else ''}"
+                   f" over t = {a.start:g} to {a.end:g} s, {turns} reversal"
+                   f"{'' if turns == 1 else 's'} of its motion")
+    return out
 
 
 @main.command()

@@ -328,3 +328,46 @@ def test_a_model_without_loops_has_none(tmp_path):
     r, s = _run(tmp_path, path=ROOT / "mechanisms" / "boom.yaml")
     assert r.returncode == 0
     assert "loops" not in s
+
+
+# ---- check: every loop and every driver's motion in words (issue 31, items 2 and 3) ---------
+
+def _check(tmp_path, text):
+    path = tmp_path / "model.yaml"
+    path.write_text(text)
+    return run_cli("check", path)
+
+
+def test_check_names_a_slider_cranks_class_with_the_lengths_that_decide_it(tmp_path):
+    from clitools import PLAIN_SLIDER_CRANK
+    r = _check(tmp_path, PLAIN_SLIDER_CRANK)
+    assert r.returncode == 0
+    assert ("slider-crank loop ground-crank-rod-slider: crank turns fully; rod > crank + "
+            "|offset|: 0.3 > 0.1 m (crank 0.1, rod 0.3, offset 0 m)") in r.stdout
+
+
+@pytest.mark.parametrize("f, low, high, reversals", [
+    ("20*sind(360*t)", -20, 20, 2),            # a pedal swinging once a second, as meant
+    ("20*sin(360*t)", -20, 20, 115),           # radians: 360/(2 pi) = 57.3 swings a second
+    ("90*t", 0, 90, 0),
+])
+def test_check_prints_each_drivers_range_and_its_reversals(tmp_path, f, low, high, reversals):
+    # the reversals are the sign changes of the exact f' = 7200 pi/180 cos(2 pi t) (2, at
+    # t = 1/4 and 3/4), of 7200 cos(360 t) (zeros at (k + 1/2) pi / 360 < 1: k = 0 .. 114)
+    text = f"""\
+name: pedal
+units: {{length: m, angle: deg}}
+bodies:
+  pedal: {{q: [0, 0, 0]}}
+joints:
+  - {{type: revolute, i: ground, j: pedal, si: [0, 0], sj: [0, 0]}}
+drivers:
+  - {{type: angle, body: pedal, f: "{f}"}}
+analysis: {{start: 0, end: 1, steps: 36}}
+"""
+    r = _check(tmp_path, text)
+    assert r.returncode == 0
+    line = next(x.strip() for x in r.stdout.splitlines() if x.strip().startswith("driver 1"))
+    s = "" if reversals == 1 else "s"
+    assert line == (f"driver 1 (angle ground-pedal): f from {low:g} to {high:g} deg over t = 0 "
+                    f"to 1 s, {reversals} reversal{s} of its motion")

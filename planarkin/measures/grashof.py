@@ -146,6 +146,25 @@ class SliderCrank:
         C = _global(q, self.bodies[3], sc)
         return float(n[0] * (C[0] - gp[0]) + n[1] * (C[1] - gp[1]))
 
+    def describe(self, q, L: float, unit: str) -> str:
+        """In words for `check`: whether the crank turns fully at the pose q (internal units;
+        L: user length per internal unit), with the lengths that decide it."""
+        a, b, e = self.a * L, self.b * L, self.offset(q) * L
+        if abs(e) <= 1e-12 * max(a, b):
+            e = 0.0                             # on the guide's line, to rounding
+        names = "-".join(self.links)
+        crank, rod = self.links[1], self.links[2]
+        lens = f"crank {a:.6g}, rod {b:.6g}, offset {e:.6g} {unit}"
+        if b > a + abs(e):
+            return (f"slider-crank loop {names}: {crank} turns fully; rod > crank + |offset|: "
+                    f"{b:.6g} > {a + abs(e):.6g} {unit} ({lens})")
+        if b == a + abs(e):
+            return (f"slider-crank loop {names}: change point (rod = crank + |offset|: the "
+                    f"loop can fold flat) ({lens})")
+        return (f"slider-crank loop {names}: {crank} cannot turn fully (rod < crank + |offset|: "
+                f"{b:.6g} < {a + abs(e):.6g} {unit}): {rod} reaches only while (e - b)/a <= "
+                f"sin(theta) <= (e + b)/a, theta the crank's angle from the guide ({lens})")
+
     def axes(self, q):
         """The guide direction u and its normal n = k x u (global) at the pose q."""
         gb, vi, _ = self.guide
