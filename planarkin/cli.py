@@ -28,6 +28,9 @@ def _parse_set(ctx, param, values) -> dict:
         name = name.strip()
         if not eq or not name or not value.strip():
             raise click.BadParameter(f"'{v}': write NAME=VALUE, e.g. --set a=0.12")
+        if name in out:         # the last one silently won
+            raise click.BadParameter(f"'{name}' is set twice ({name}={out[name]} and "
+                                     f"{name}={value.strip()}): give each parameter once")
         out[name] = value.strip()
     return out
 

@@ -67,6 +67,15 @@ def test_the_command_line_in_process_still_says_set():
                                "'aa'; did you mean 'a'?\n")
 
 
+@pytest.mark.parametrize("command", [["check"], ["run", "--no-plots"], ["synth"]])
+def test_a_parameter_set_twice_is_a_usage_error(command):
+    # the last --set silently won: a sweep script that appends a value ran the old one
+    from clitools import run_cli
+    r = run_cli(*command, FB, "--set", "a=0.04", "--set", "a = 0.05")
+    assert r.returncode == 2
+    assert "'a' is set twice (a=0.04 and a=0.05): give each parameter once" in r.stderr
+
+
 def test_a_broken_parameter_is_one_error_not_one_per_use():
     # 'zz' is unknown: each number using a was reported too (8 errors, 7 of them consequences)
     with pytest.raises(planarkin.InputError) as e:
