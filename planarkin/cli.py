@@ -92,6 +92,40 @@ def _analysis_options(f):
     return f
 
 
+def _junit_option(cases: str):
+    return click.option("--junit", "junit", type=click.Path(), metavar="FILE",
+                        help=f"Also write a JUnit XML report for CI: one test case per {cases}. "
+                             f"Written whole or not at all.")
+
+
+def _check_junit(junit) -> None:
+    """A --junit FILE that cannot be written (a folder, under a file, no permission): one line
+    naming the fix, exit 2, before anything runs."""
+    if junit is None:
+        return
+    from .output.junit import problem
+    why = problem(junit)
+    if why is not None:
+        click.echo(f"error: --junit {junit}: {why}", err=True)
+        sys.exit(2)
+
+
+def _write_junit(junit, suite: str, entries, seconds: float, code: int) -> int:
+    """Write the JUnit report of entries at junit (if given); the exit status: code, or 1 when
+    the report could not be written (one line; the file is left as it was)."""
+    if junit is None:
+        return code
+    from .output.junit import write
+    from .report import junit_cases
+    try:
+        write(junit, suite, junit_cases(entries, suite.replace(" ", ".")), seconds)
+    except OSError as e:
+        click.echo(f"error: --junit {junit}: cannot write: {e.strerror or e}; {junit} is left "
+                   f"as it was", err=True)
+        return max(code, 1)
+    return code
+
+
 @main.command()
 @click.argument("models", nargs=-1, required=True, type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), default="out", show_default=True,
@@ -121,8 +155,10 @@ def _analysis_options(f):
 @_set_option
 @click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
               help="Models analysed at once in local processes.")
+@_junit_option("model: failure for a failed analysis, error for invalid input or an "
+               "interruption, skipped for a model not reached")
 def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis, quiet,
-        overrides, jobs, report_what=None, table_format=None, **analysis):
+        overrides, jobs, junit=None, report_what=None, table_format=None, **analysis):
     """Analyse MODELS: positions, velocities and accelerations over the time grid."""
     if table_format is not None:
         problem = table_format_problem(table_format, "--table-format")
@@ -134,12 +170,14 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
     from .output.directory import out_dirs
     from .run import run_models
     _check_out(out)
+    _check_junit(junit)
     report = Report(quiet)
     run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
                None if no_plots else fmt, animate, x_axis, cycle=report_what == "cycle",
                table_format=table_format, jobs=jobs)
     report.summary()
-    sys.exit(report.exit_code)
+    sys.exit(_write_junit(junit, "planarkin run", report.model_entries(models),
+                          time.perf_counter() - report.started, report.exit_code))
 
 
 @main.command()
@@ -274,17 +312,62 @@ def tradeoff(model_path, out, steps, repeats, no_plots, quiet, overrides):
 @click.option("--atol", type=click.FloatRange(min=0), default=1e-12, show_default=True,
               help="Absolute tolerance, in each column's unit.")
 @click.option("--show", type=click.IntRange(0), default=10, show_default=True,
-              help="How many of the worst differing columns to print.")
-def compare(new, golden, rtol, atol, show):
+              help="How many of the worst differing columns to print (two roots: in each "
+                   "model's --junit failure; the terminal has a line per model).")
+@_junit_option("model directory: failure for a difference or a model missing on one side, "
+               "error for unusable input")
+def compare(new, golden, rtol, atol, show, junit):
     """Compare result directory NEW against GOLDEN column by column (every CSV or Parquet
     table, either format against the other, and summary.json's status). Exit status: 0 same
     within the tolerances, 1 differs, 2 unusable input (missing directory or table, malformed
-    CSV, different columns or rows)."""
-    from .studies.compare import UNUSABLE, compare_dirs, report
+    CSV, different columns or rows).
+
+    NEW and GOLDEN may also be two roots of result directories (`run MODEL... --out ROOT`):
+    each model directory on either side is compared, one line each (same, differs with its
+    worst column, missing on one side, unusable), then a summary line; the exit status is the
+    worst: 0 all same, 1 a model differs or is missing on one side, 2 unusable input."""
+    from .studies.compare import UNUSABLE, Unusable, compare_dirs, report, root_models
+    _check_junit(junit)
+    t0 = time.perf_counter()
+    try:
+        names = root_models(new, golden)
+    except Unusable as e:
+        click.echo(f"error: cannot compare: {e}", err=True)
+        sys.exit(_write_junit(junit, "planarkin compare", [_compare_entry(
+            new, "unusable", str(e), f"error: cannot compare: {e}", t0)],
+                              time.perf_counter() - t0, 2))
+    if names is not None:
+        sys.exit(_compare_roots(new, golden, names, rtol, atol, show, junit))
     c = compare_dirs(new, golden, rtol=rtol, atol=atol)
-    for line in report(c, rtol, atol, show):
+    lines = report(c, rtol, atol, show)
+    for line in lines:
         click.echo(line, err=c.status == UNUSABLE)
-    sys.exit(c.status)
+    outcome = ("same", "differs", "unusable")[c.status]
+    message = ("" if c.status == 0 else c.error if c.status == UNUSABLE else
+               lines[0].removeprefix("differs: ")
+               + "".join(f"; worst: {d.format()}" for d in c.differences[:1]))
+    entry = _compare_entry(new, outcome, message, "\n".join(lines), t0)
+    sys.exit(_write_junit(junit, "planarkin compare", [entry], time.perf_counter() - t0,
+                          c.status))
+
+
+def _compare_entry(new, outcome: str, message: str, text: str, t0: float):
+    """The JUnit entry of a comparison of two model directories (named by NEW's folder)."""
+    from .report import Entry
+    return Entry(Path(new).name or str(new), outcome, message, text, time.perf_counter() - t0)
+
+
+def _compare_roots(new, golden, names, rtol, atol, show, junit) -> int:
+    """`compare` on two roots of result directories: a line per model, the summary line; the
+    exit status."""
+    from .report import CompareReport
+    from .studies.compare import compare_roots
+    rep = CompareReport()
+    for m in compare_roots(new, golden, names, rtol, atol, show):
+        rep.add(m.name, m.outcome, m.line, m.text, m.seconds)
+    rep.summary()
+    return _write_junit(junit, "planarkin compare", rep.entries,
+                        time.perf_counter() - rep.started, rep.exit_code)
 
 
 def _ranges(texts, need_count: bool):

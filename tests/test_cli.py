@@ -151,3 +151,53 @@ def test_the_command_runs_openblas_on_one_thread_unless_told(given, expected):
                        timeout=60)
     assert r.returncode == 0, r.stderr
     assert f"threads {expected}" in r.stdout
+
+
+def test_run_junit_has_a_case_per_model_failure_error_and_time(tmp_path):
+    """run --junit: a test case per model argument, in order: nothing for an analysis that ran
+    to its end, failure for one that failed, error for invalid input; also from run --jobs,
+    whose models are reported by their workers."""
+    from test_compare import check_junit
+    failing = tmp_path / "equal.yaml"
+    failing.write_text((ROOT / SC).read_text().replace("b: 3*a", "b: a"))
+    models = [SC, "tests/cases/unknown-body.yaml", str(failing), "mechanisms/four-bar.yaml"]
+    for jobs in ("1", "2"):
+        junit = tmp_path / f"jobs{jobs}" / "run.xml"
+        r = run_cli("run", *models, "--out", tmp_path / "o", "--no-plots", "--steps", "20",
+                    "--jobs", jobs, "--junit", junit)
+        assert r.returncode == 2, r.stdout + r.stderr
+        cases = check_junit(junit, tests=4, failures=1, errors=1)
+        assert list(cases) == models
+        assert cases[SC] == cases["mechanisms/four-bar.yaml"] == (None, None)
+        kind, message = cases[str(failing)]
+        assert kind == "failure" and message.startswith("singular configuration at t = 0.25 s")
+        kind, message = cases["tests/cases/unknown-body.yaml"]
+        assert kind == "error" and message.startswith("invalid input: 1 error; tests/cases/"
+                                                      "unknown-body.yaml:7: error: ")
+        import xml.etree.ElementTree as ET
+        root = ET.parse(junit).getroot()
+        assert root.find(".//testcase").get("classname") == "planarkin.run"
+        assert "-> " in root.find(".//testcase/system-out").text     # its terminal line
+        assert [p.name for p in junit.parent.iterdir()] == ["run.xml"]
+
+
+def test_run_junit_path_checked_before_anything_runs(tmp_path):
+    (tmp_path / "file").write_text("")
+    r = run_cli("run", SC, "--out", tmp_path / "o", "--junit", tmp_path / "file" / "run.xml")
+    assert r.returncode == 2 and r.stdout == "" and "Traceback" not in r.stderr
+    assert r.stderr == (f"error: --junit {tmp_path}/file/run.xml: {tmp_path}/file is not a "
+                        f"folder: choose another path\n")
+    assert not (tmp_path / "o" / "slider-crank").exists()
+
+
+def test_run_junit_marks_models_an_interruption_never_reached_as_skipped():
+    """An interruption stops the batch: the model it stopped is an error, the ones after it
+    skipped (planarkin.report.Report.model_entries)."""
+    from planarkin.report import Report
+    rep = Report(quiet=True)
+    rep.ok("a.yaml", "fine")
+    rep.interrupted("b.yaml", "SIGTERM", "3 complete rows -> out/b/")
+    got = [(e.name, e.outcome) for e in rep.model_entries(["a.yaml", "b.yaml", "c.yaml"])]
+    assert got == [("a.yaml", "ok"), ("b.yaml", "interrupted"), ("c.yaml", "skipped")]
+    assert rep.model_entries(["c.yaml"])[0].message == ("not analysed: the run was "
+                                                        "interrupted by SIGTERM first")

@@ -6,6 +6,10 @@ compared value by value with numpy's rule |new - golden| <= atol + rtol *
 |golden| (NaN equals NaN, infinities must match exactly), and summary.json's status must agree.
 The outcome is an exit status: 0 equal within the tolerances, 1 differs, 2 unusable input
 (a missing directory or table, a malformed CSV, different columns or row counts).
+
+Two roots of result directories (`planarkin run MODEL... --out ROOT`) are compared model by
+model (root_models, compare_roots): each directory on either side is same, differs, missing on
+one side or unusable, and a run that did not end ok is said so from its summary.json.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import csv
 import json
 import math
 import stat
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -295,3 +300,170 @@ def report(c: Comparison, rtol: float, atol: float, show: int = 10) -> list[str]
     if len(c.differences) > show:
         lines.append(f"  ... and {len(c.differences) - show} more columns")
     return lines
+
+
+# -- two result roots (`planarkin run MODEL... --out ROOT`): one comparison per model ----------
+
+@dataclass
+class ModelComparison:
+    """One model of two roots: outcome same, differs, missing (on one side) or unusable; line:
+    the terminal's words after the model's name; text: the whole verdict (report())."""
+
+    name: str
+    outcome: str
+    line: str
+    text: str
+    seconds: float
+
+
+def _summary(d: Path) -> dict | None:
+    """d's summary.json when it is a readable planarkin summary, else None."""
+    p = d / "summary.json"
+    if not _regular(p):
+        return None
+    try:
+        s = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return s if isinstance(s, dict) and "planarkin" in s else None
+
+
+def _holds_results(d: Path) -> bool:
+    """Whether folder d holds a result: a summary.json or a CSV or Parquet table."""
+    try:
+        return any(p.name == "summary.json" or p.suffix in (".csv", ".parquet")
+                   for p in d.iterdir())
+    except OSError:
+        return False
+
+
+def _model_dirs(root: Path) -> list[str]:
+    """The result directories in root: its folders (not hidden: a run's temporaries and locks
+    start with a dot) that hold a summary.json or a table."""
+    try:
+        subs = [p for p in root.iterdir() if not p.name.startswith(".") and p.is_dir()]
+    except OSError as e:
+        raise Unusable(f"{root}: cannot read: {e.strerror or e}") from None
+    return sorted(p.name for p in subs if _holds_results(p))
+
+
+def _is_root(d: Path) -> bool:
+    """A root of result directories: no table or summary.json of its own, and at least one
+    folder whose summary.json is a planarkin summary."""
+    return not _holds_results(d) and any(_summary(d / n) is not None for n in _model_dirs(d))
+
+
+def root_models(new: str | Path, golden: str | Path) -> list[str] | None:
+    """The models to compare when new and golden are roots of result directories (a root and
+    an empty folder too: every model is then missing on one side): the union of their result
+    directories' names, sorted. None when they are not roots (compare_dirs compares them as
+    two result directories). Unusable when one is a root and the other a model's directory."""
+    new, golden = Path(new), Path(golden)
+    if not (new.is_dir() and golden.is_dir()):
+        return None
+    rn, rg = _is_root(new), _is_root(golden)
+    if not (rn or rg):
+        return None
+    for root, other, is_root in ((new, golden, rg), (golden, new, rn)):
+        if not is_root and _holds_results(other):
+            raise _mismatch(root, other)
+    return sorted(set(_model_dirs(new)) | set(_model_dirs(golden)))
+
+
+def _mismatch(root: Path, single: Path) -> Unusable:
+    n = len(_model_dirs(root))
+    return Unusable(f"{root} holds {n} result director{'ies' if n != 1 else 'y'} but {single} "
+                   f"is one model's result directory: give two roots (planarkin run ... --out "
+                   f"ROOT) or two model directories (e.g. {root / single.name} {single})")
+
+
+_RUN_WORDS = {"failed": ("failed", "the failure"),
+              "interrupted": ("was interrupted", "the interruption"),
+              "invalid": ("found the model invalid", "then")}
+
+
+def _how(s: dict) -> tuple[str, str]:
+    """A run's status and the lead clause of its summary.json message (`singular
+    configuration at t = 0.25 s`)."""
+    msg = s.get("message")
+    lead = msg.split(": ", 1)[0][:120] if isinstance(msg, str) else ""
+    return str(s.get("status")), lead
+
+
+def _runs_said(sn: dict | None, sg: dict | None) -> str:
+    """What the summaries say of the runs that did not end ok, and so what their directories
+    hold ('' when both ended ok)."""
+    bad = [(side, s) for side, s in (("new", sn), ("golden", sg))
+           if s is not None and s.get("status") != "ok"]
+    if not bad:
+        return ""
+
+    def said(status, lead):
+        verb, upto = _RUN_WORDS.get(status, (f"ended with status '{status}'", "then"))
+        return verb + (f" ({lead})" if lead else ""), upto
+    if len(bad) == 2 and _how(sn) == _how(sg):
+        verb, upto = said(*_how(sn))
+        return f"both runs {verb}, as summary.json says: the tables hold the rows up to {upto}"
+    parts = []
+    for side, s in bad:
+        verb, upto = said(*_how(s))
+        parts.append(f"the {side} run {verb}, as its summary.json says: its directory holds "
+                     f"the rows up to {upto}")
+    return "; ".join(parts)
+
+
+def _rows(s: dict):
+    t = s.get("time")
+    return t.get("rows_written") if isinstance(t, dict) else None
+
+
+def compare_model(name: str, new: Path, golden: Path, rtol: float, atol: float,
+                  show: int = 10) -> ModelComparison:
+    """Compare new/name against golden/name: missing on a side, unusable, or the verdict of
+    compare_dirs, with what summary.json says when a run did not end ok."""
+    t0 = time.perf_counter()
+    n, g = new / name, golden / name
+
+    def done(outcome, line, text=None):
+        return ModelComparison(name, outcome, line, line if text is None else text,
+                               time.perf_counter() - t0)
+    if not _holds_results(n) or not _holds_results(g):
+        if not _holds_results(g):
+            return done("missing", f"missing in {golden}/: a new model? make its golden "
+                                   f"results (planarkin run MODEL --out {golden}) and review "
+                                   f"them")
+        return done("missing", f"missing in {new}/: the model was not run, or its run found it "
+                               f"invalid (`planarkin run` writes no directory for invalid "
+                               f"input)")
+    c = compare_dirs(n, g, rtol=rtol, atol=atol)
+    text = "\n".join(report(c, rtol, atol, show))
+    sn, sg = _summary(n), _summary(g)
+    said = _runs_said(sn, sg)
+    if said and sn is not None and sg is not None and (
+            sn.get("status") != sg.get("status") or _rows(sn) != _rows(sg)):
+        # the runs ended otherwise: a difference, whatever the tables (they have other rows)
+        line = f"{said}; {_rows(sn)} rows (new) vs {_rows(sg)} (golden)"
+        if c.status == DIFFERS and c.differences:
+            line += f"; worst column: {c.differences[0].format()}"
+        return done("differs", line, line + ("\n" + text if c.status != UNUSABLE else ""))
+    if c.status == UNUSABLE:
+        return done("unusable", c.error + (f"; {said}" if said else ""),
+                    text + (f"\n{said}" if said else ""))
+    if c.status == SAME:
+        line = text.splitlines()[0].removeprefix("same: ")
+        return done("same", line + (f"; {said}" if said else ""))
+    line = (f"{len(c.differences)} of {c.columns} columns outside rtol {rtol:g}, atol {atol:g}"
+            + (f"; {'; '.join(c.notes)}" if c.notes else ""))
+    if c.differences:
+        line += f"; worst: {c.differences[0].format()}"
+    return done("differs", line + (f"; {said}" if said else ""),
+                text + (f"\n{said}" if said else ""))
+
+
+def compare_roots(new: str | Path, golden: str | Path, names: list[str], rtol: float = 1e-9,
+                  atol: float = 1e-12, show: int = 10):
+    """Compare each model of names (root_models) in root new against root golden: yields a
+    ModelComparison per model, in order, as it is compared."""
+    new, golden = Path(new), Path(golden)
+    for name in names:
+        yield compare_model(name, new, golden, rtol, atol, show)
