@@ -313,7 +313,7 @@ def test_loop_figures_agree_with_the_measures(tmp_path):
     assert r.returncode == 0, r.stderr
     (lp,) = s["loops"]
     m = s["cycle"]["measures"]
-    # the measure's grid extremes (refined by a Taylor step): the same angle
+    # the measure's grid extremes (refined between rows by measures.extremes): the same angle
     ref = lambda x: x.get("refined", x)["value"]
     assert abs(ref(m["mu"]["min"]) - lp["transmission_angle"]["min"]["value"]) < 1e-9
     assert abs(ref(m["mu"]["max"]) - lp["transmission_angle"]["max"]["value"]) < 1e-6

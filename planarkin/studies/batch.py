@@ -475,38 +475,40 @@ class Batch:
 
     # -- metrics -------------------------------------------------------------------------------
     def metrics(self, Q, Qd, Qdd, s) -> np.ndarray:
-        """(Vn, metrics) from solutions (Vn, T, n + 3), point offsets s (Vn, P, 2)."""
+        """(Vn, metrics) from solutions (Vn, T, n + 3), point offsets s (Vn, P, 2): each refined
+        between the grid rows from the column's exact rate and acceleration, as the per-variant
+        path and run's cycle figures (Metric.value)."""
         cm = self.cm
         study = self.study
         L, af = cm.L, cm.angle_factor
         out = np.empty((Q.shape[0], len(study.metrics)))
         pts = None
+        levels = {"x": 0, "y": 0, "phi": 0, "vx": 1, "vy": 1, "omega": 1, "ax": 2, "ay": 2,
+                  "alpha": 2}
         for i, m in enumerate(study.metrics):
             name, q = m.column.rsplit(".", 1) if m.kind != "dev" else (m.column, None)
+            if m.kind == "dev":
+                if pts is None:
+                    pts = self.points(Q, Qd, Qdd, s)
+                j = cm.point_names.index(name)
+                d = pts[0][:, :, j] - study.reference[None, :, j]
+                out[:, i] = m.value(self.grid, np.hypot(d[..., 0], d[..., 1]))
+                continue
+            lev = levels[q]
             if m.source == "bodies.csv":
                 b = cm.body_names.index(name)
                 k = {"x": 0, "y": 1, "phi": 2, "vx": 0, "vy": 1, "omega": 2, "ax": 0, "ay": 1,
                      "alpha": 2}[q]
-                src = Q if q in ("x", "y", "phi") else Qd if q in ("vx", "vy", "omega") else Qdd
-                col = src[:, :, 3 * b + k] * (L if k < 2 else 1.0 / af)
+                scale = L if k < 2 else 1.0 / af
+                cols = [src[:, :, 3 * b + k] * scale for src in (Q, Qd, Qdd)[lev:]]
             else:
                 if pts is None:
                     pts = self.points(Q, Qd, Qdd, s)
                 j = cm.point_names.index(name)
-                if m.kind == "dev":
-                    d = pts[0][:, :, j] - study.reference[None, :, j]
-                    col = np.hypot(d[..., 0], d[..., 1])
-                else:
-                    arr = pts[{"x": 0, "y": 0, "vx": 1, "vy": 1, "ax": 2, "ay": 2}[q]]
-                    col = arr[:, :, j, 0 if q in ("x", "vx", "ax") else 1]
-            if m.kind == "max":
-                out[:, i] = col.max(axis=1)
-            elif m.kind == "min":
-                out[:, i] = col.min(axis=1)
-            elif m.kind == "stroke":
-                out[:, i] = col.max(axis=1) - col.min(axis=1)
-            else:
-                out[:, i] = np.abs(col).max(axis=1)
+                c = 0 if q in ("x", "vx", "ax") else 1
+                cols = [arr[:, :, j, c] for arr in pts[lev:]]
+            cols += [None] * (3 - len(cols))
+            out[:, i] = m.value(self.grid, *cols)
         return out
 
     def points(self, Q, Qd, Qdd, s):

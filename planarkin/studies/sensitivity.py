@@ -15,7 +15,9 @@ velocity solve. Phi_p is exact, by the chain rule, never by finite differences:
 
 A parameter that reaches a direction (vi, vj), a gear radius, or a global placement ``at`` is
 refused with a message naming the element (those enter nonlinearly through the compile step).
-Results are in user units per unit of the parameter.
+Results are in user units per unit of the parameter. A metric of a study (the max, min, stroke
+or absmax of a position column, refined between the grid rows) has for derivative its column's
+sensitivity at the refined extreme's time (`metric_gradients`), solved there.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from ..diagnostics import Diagnostic, InputError
 from ..elements import KINDS
 from ..elements.base import make_frame
 from ..expr import ExprError, parse
+from ..measures.extremes import extreme, hermite
 
 
 def _text(node):
@@ -217,3 +220,63 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
     dq_user[:, 1::3] *= L
     dq_user[:, 2::3] /= af
     return dq_user, dP * L
+
+
+def pose_at(res, times) -> np.ndarray:
+    """(K, n) body coordinates of a Result at times (K,) within its grid (user units): the rows
+    themselves at grid times, between rows the quintic Hermite of the two rows' exact q, q' and
+    q'' (planarkin.measures.extremes.hermite, O(h^6) of the grid step; cubic without q'')."""
+    t = res.t
+    times = np.asarray(times, dtype=float)
+    j = np.clip(np.searchsorted(t, times, side="right") - 1, 0, max(len(t) - 2, 0))
+    if len(t) < 2 or res.qd is None:
+        return res.q[np.clip(np.searchsorted(t, times), 0, len(t) - 1)]
+    h = (t[j + 1] - t[j])[:, None]
+    s = (times[:, None] - t[j][:, None]) / h
+    acc = (lambda k: res.qdd[k]) if res.qdd is not None else \
+        (lambda k: np.full_like(res.q[k], np.nan))
+    out = hermite(s, h, res.q[j], res.qd[j], acc(j), res.q[j + 1], res.qd[j + 1], acc(j + 1))
+    at = times == t[j]
+    out[at] = res.q[j[at]]
+    at = times == t[j + 1]
+    out[at] = res.q[j[at] + 1]
+    return out
+
+
+def metric_gradients(study, res, names: list[str]) -> np.ndarray:
+    """(metrics, parameters) exact d(metric)/dp at the nominal Result res, for the max, min,
+    stroke and absmax of a position column (x, y, phi of a body, x, y of a point); nan for the
+    others. A metric is its column's refined extreme (planarkin.measures.extremes.extreme, as
+    the metric itself): there the column's rate is zero, so its derivative is the column's
+    sensitivity at the extreme's time, from the sensitivity equations Phi_q dq/dp = -Phi_p
+    (`sensitivities`) solved at that time and the pose interpolated there (`pose_at`)."""
+    cm = study.nominal
+    G = np.full((len(study.metrics), len(names)), np.nan)
+    need = []          # (metric, time, sign, column kind, index, component)
+    for i, m in enumerate(study.metrics):
+        if not m.position:
+            continue
+        name, q = m.column.rsplit(".", 1)
+        if m.source == "bodies.csv":
+            k = 3 * cm.body_names.index(name) + ("x", "y", "phi").index(q)
+            cols = [a[:, k] if a is not None else None for a in (res.q, res.qd, res.qdd)]
+            where = ("q", k, 0)
+        else:
+            j, c = cm.point_names.index(name), ("x", "y").index(q)
+            cols = [a[:, j, c] if a is not None else None for a in (res.p, res.pd, res.pdd)]
+            where = ("p", j, c)
+        if len(res.t) == 0:
+            continue
+        (th, yh), (tl, yl) = (extreme(res.t, *cols, sense) for sense in (1.0, -1.0))
+        picks = {"max": [(th, 1.0)], "min": [(tl, 1.0)], "stroke": [(th, 1.0), (tl, -1.0)],
+                 "absmax": [(th, 1.0)] if yh >= -yl else [(tl, -1.0)]}[m.kind]
+        need += [(i, float(tt), sg) + where for tt, sg in picks]
+    if not need:
+        return G
+    times = np.array(sorted({n[1] for n in need}))
+    dq, dP = sensitivities(cm, study.root, study.texts(), names, times, pose_at(res, times))
+    G[[n[0] for n in need]] = 0.0
+    for i, tt, sg, kind, k, c in need:
+        r = int(np.searchsorted(times, tt))
+        G[i] += sg * (dq[r, k] if kind == "q" else dP[r, k, c])
+    return G

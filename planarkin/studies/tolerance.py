@@ -10,7 +10,7 @@ from its nominal path.
 
 First order: for an output on a position column (max, min, stroke, absmax of x, y, phi of a
 body or x, y of a point) d(output)/dp is the exact sensitivity (planarkin.studies.sensitivity) at
-the nominal extreme's grid time, and the first-order standard deviation is
+the time of the nominal's refined extreme, and the first-order standard deviation is
 sqrt(sum_p (d(output)/dp sigma_p)^2), to set against the Monte-Carlo spread.
 """
 
@@ -56,36 +56,10 @@ class ToleranceResult:
 
 def output_gradients(study: Study, res, names: list[str]) -> np.ndarray:
     """(outputs, parameters) exact d(output)/dp at the nominal result res (nan where the
-    output is not a max/min/stroke/absmax of a position column)."""
-    from .sensitivity import sensitivities
-    cm = study.nominal
-    G = np.full((len(study.metrics), len(names)), np.nan)
-    if not any(m.position for m in study.metrics):
-        return G
-    dq, dP = sensitivities(cm, study.root, study.texts(), names, res.t, res.q)
-    for i, m in enumerate(study.metrics):
-        if not m.position:
-            continue
-        name, q = m.column.rsplit(".", 1)
-        if m.source == "bodies.csv":
-            b = cm.body_names.index(name)
-            col = res.q[:, 3 * b + ("x", "y", "phi").index(q)]
-            d = dq[:, 3 * b + ("x", "y", "phi").index(q)]
-        else:
-            j = cm.point_names.index(name)
-            col = res.p[:, j, ("x", "y").index(q)]
-            d = dP[:, j, ("x", "y").index(q)]
-        imax, imin = int(np.argmax(col)), int(np.argmin(col))
-        if m.kind == "max":
-            G[i] = d[imax]
-        elif m.kind == "min":
-            G[i] = d[imin]
-        elif m.kind == "stroke":
-            G[i] = d[imax] - d[imin]
-        else:
-            ia = int(np.argmax(np.abs(col)))
-            G[i] = np.sign(col[ia]) * d[ia]
-    return G
+    output is not a max/min/stroke/absmax of a position column): the column's sensitivity at
+    its refined extreme's time (planarkin.studies.sensitivity.metric_gradients)."""
+    from .sensitivity import metric_gradients
+    return metric_gradients(study, res, names)
 
 
 def run_tolerance(study: Study, sigma: dict, outdir: Path, samples: int, seed: int = 0,

@@ -8,7 +8,11 @@ event: both are results of the study, kept in its table, never exceptions.
 
 Metrics are ``KIND:COLUMN``: KIND one of `KINDS`, COLUMN a column of bodies.csv or points.csv
 without its unit (``slider.ax``, ``P.y``) or of a derived table the model writes (forces.csv,
-measures.csv, ...), e.g. ``max:slider.ax``, ``stroke:slider.x``.
+measures.csv, ...), e.g. ``max:slider.ax``, ``stroke:slider.x``. A column's largest and smallest
+values are refined between the grid rows from its exact rate and acceleration by the function
+`planarkin run`'s cycle figures use (planarkin.measures.extremes.extreme), so a study's metric of
+the nominal model is run's figure; a column without a rate in its table (an acceleration, a
+force, a ratio measure), and dev, are taken at the grid.
 """
 
 from __future__ import annotations
@@ -18,14 +22,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Diagnostic, InputError, did_you_mean
+from ..measures.extremes import GRID_ONLY, derivative_columns, extreme
 from .outcome import Outcome
 
 KINDS = {
-    "max": "largest value over the grid",
-    "min": "smallest value over the grid",
-    "stroke": "max - min over the grid",
-    "absmax": "largest magnitude over the grid",
-    "dev": "largest distance of a point's path from its nominal path, at the same times",
+    "max": "largest value (refined between the grid rows, as run's cycle figures)",
+    "min": "smallest value (refined between the grid rows)",
+    "stroke": "max - min",
+    "absmax": "largest magnitude",
+    "dev": "largest distance of a point's path from its nominal path, at the same (grid) times",
 }
 STATUSES = ("ok", "failed", "invalid")
 
@@ -43,17 +48,21 @@ class Metric:
         return f"{self.kind}:{self.column} [{self.unit}]" if self.unit else \
             f"{self.kind}:{self.column}"
 
-    def value(self, col: np.ndarray) -> float:
-        """The metric of one column over the grid (for dev: the (N,) distances)."""
-        if len(col) == 0:
-            return float("nan")
-        if self.kind == "max":
-            return float(np.max(col))
-        if self.kind == "min":
-            return float(np.min(col))
-        if self.kind == "stroke":
-            return float(np.max(col) - np.min(col))
-        return float(np.max(np.abs(col)))
+    def value(self, t, col, rate=None, acc=None):
+        """The metric of columns col (..., N) sampled at times t (N,), refined between the rows
+        from their exact rate and acceleration when given (planarkin.measures.extremes; for
+        dev: the distances, at the grid). A float for one column, else an array."""
+        col = np.asarray(col, dtype=float)
+        if col.shape[-1] == 0:
+            out = np.full(col.shape[:-1], np.nan)
+        elif self.kind == "dev":
+            out = np.max(col, axis=-1)
+        elif self.kind in ("max", "min"):
+            out = extreme(t, col, rate, acc, 1.0 if self.kind == "max" else -1.0)[1]
+        else:
+            hi, lo = (extreme(t, col, rate, acc, sense)[1] for sense in (1.0, -1.0))
+            out = hi - lo if self.kind == "stroke" else np.fmax(hi, -lo)
+        return float(out) if np.ndim(out) == 0 else out
 
     @property
     def position(self) -> bool:
@@ -124,9 +133,22 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
     return out
 
 
+def rate_columns(cm, source: str, header: list[str], k: int) -> tuple:
+    """(rate, acceleration) column indices (or None) of column k of table `source`: those its
+    value is refined from (planarkin.measures.extremes.derivative_columns), none for a ratio or
+    an advantage measure (infinite at a dead point: run's cycle figures keep its grid
+    extremes)."""
+    names = [split_unit(h)[0] for h in header]
+    grid = {m.name for m in getattr(cm.spec, "measures", ()) if m.kind in GRID_ONLY}
+    if source == "measures.csv" and names[k].partition(".")[0] in grid:
+        return None, None
+    return derivative_columns(names, k)
+
+
 def metric_values(metrics, cm, opts, chunk, reference=None) -> tuple:
-    """Metric values from a result chunk (only the tables the metrics need are computed).
-    reference: (N, P, 2) nominal point positions, for dev metrics."""
+    """Metric values from a result chunk (only the tables the metrics need are computed), each
+    refined between the grid rows as run's cycle figures (Metric.value). reference: (N, P, 2)
+    nominal point positions, for dev metrics."""
     if not metrics:
         return ()
     tabs = tables(cm, opts)
@@ -138,11 +160,14 @@ def metric_values(metrics, cm, opts, chunk, reference=None) -> tuple:
                 vals.append(float("nan"))
                 continue
             d = chunk.p[:, m.index] - reference[:, m.index]
-            vals.append(m.value(np.hypot(d[:, 0], d[:, 1])))
+            vals.append(m.value(chunk.t, np.hypot(d[:, 0], d[:, 1])))
             continue
         if m.source not in cache:
             cache[m.source] = tabs[m.source][1](chunk)
-        vals.append(m.value(cache[m.source][:, m.index]))
+        X = cache[m.source]
+        r, a = rate_columns(cm, m.source, tabs[m.source][0], m.index)
+        vals.append(m.value(X[:, 0], X[:, m.index], None if r is None else X[:, r],
+                            None if a is None else X[:, a]))
     return tuple(vals)
 
 

@@ -12,6 +12,11 @@ max(m_crank, m_ground), in the model's length unit. The lengths are distances be
 joints' body-frame points si, sj, so their gradients are exact by the chain rule through the
 file's expressions (studies.sensitivity.ParameterDerivatives).
 
+The constraints measured on the analysed cycle take their extremes between the grid rows as
+every figure does (planarkin.measures.extremes.extreme, from the exact rates and
+accelerations): `angle_span` for `turns` without a four-bar loop (a driven angle's max - min)
+and `worst_transmission` for `transmission` (the smallest of mu and 180 deg - mu).
+
 Search near a margin of zero (a change point: the loop folds flat, the analysis stops at a
 bifurcation) is steered off it by one residual row, zero above BAND of the loop's length sum
 and rising as (m0 - m)^2 / m below it (C1 at m0; infinite at m = 0), so that a local solve
@@ -24,6 +29,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..measures.extremes import extreme
 
 BAND = 0.01        # the barrier acts below this fraction of the loop's length sum
 
@@ -120,3 +127,47 @@ def barrier(m: float, dm: np.ndarray, total: float, dtotal: np.ndarray):
         return 0.0, np.zeros_like(dm)
     r = (m0 - m) ** 2 / m
     return r, (2 * (m0 - m) * (dm0 - dm) * m - (m0 - m) ** 2 * dm) / m ** 2
+
+
+def angle_span(res, k: int) -> float:
+    """max - min of body coordinate k of a Result (a link's angle, for `turns` without a
+    four-bar loop), both refined between the grid rows from the exact rate and acceleration."""
+    cols = [None if a is None else a[:, k] for a in (res.q, res.qd, res.qdd)]
+    return float(extreme(res.t, *cols, 1.0)[1] - extreme(res.t, *cols, -1.0)[1])
+
+
+def transmission_angle(res, b: int, c: int, d: int, deg: bool) -> tuple:
+    """(mu, mu', mu'') (N,) of a Result: the angle at point c between c->b and c->d in [0,
+    180] deg (deg; else [0, pi]), with its exact rate and acceleration by the chain rule from
+    the points' velocities and accelerations (None where the run has none)."""
+    P = (res.p, res.pd, res.pdd)
+    u = [None if X is None else X[:, b] - X[:, c] for X in P]
+    w = [None if X is None else X[:, d] - X[:, c] for X in P]
+    cross = lambda x, y: x[:, 0] * y[:, 1] - x[:, 1] * y[:, 0]     # noqa: E731
+    dot = lambda x, y: x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1]      # noqa: E731
+    cr, dt = cross(u[0], w[0]), dot(u[0], w[0])
+    sc = np.where(cr < 0, -1.0, 1.0)
+    mu = np.arctan2(sc * cr, dt)
+    f = 180 / math.pi if deg else 1.0
+    if u[1] is None:
+        return mu * f, None, None
+    r2 = cr * cr + dt * dt
+    c1 = sc * (cross(u[1], w[0]) + cross(u[0], w[1]))
+    d1 = dot(u[1], w[0]) + dot(u[0], w[1])
+    num = dt * c1 - sc * cr * d1
+    if u[2] is None:
+        return mu * f, num / r2 * f, None
+    c2 = sc * (cross(u[2], w[0]) + 2 * cross(u[1], w[1]) + cross(u[0], w[2]))
+    d2 = dot(u[2], w[0]) + 2 * dot(u[1], w[1]) + dot(u[0], w[2])
+    r21 = 2 * (sc * cr * c1 + dt * d1)
+    mu2 = (dt * c2 - sc * cr * d2) / r2 - num * r21 / (r2 * r2)
+    return mu * f, num / r2 * f, mu2 * f
+
+
+def worst_transmission(res, b: int, c: int, d: int, deg: bool) -> float:
+    """The smallest of mu and 180 deg - mu over the run (`transmission_angle`), mu's extremes
+    refined between the grid rows."""
+    mu, mu1, mu2 = transmission_angle(res, b, c, d, deg)
+    half = 180.0 if deg else math.pi
+    return float(min(extreme(res.t, mu, mu1, mu2, -1.0)[1],
+                     half - extreme(res.t, mu, mu1, mu2, 1.0)[1]))

@@ -48,7 +48,8 @@ import numpy as np
 
 from ..output.directory import checkpoint
 from .local import Local, probe_limits
-from .margins import barrier, length_gradients, turning_loop
+from .margins import (angle_span, barrier, length_gradients, turning_loop,
+                      worst_transmission)
 from .problem import Model, Rejected, State, memory_problem, wrap
 from .spec import design_of
 
@@ -333,21 +334,14 @@ class Synthesis:
                                                      f"the shortest link)",
                                 "unit": self.lunit, "ok": m > 0}
             else:
-                phi = res.q[:, 3 * self.bodies.index(d.turns) + 2]
                 turn = 360.0 if self.unit == "deg" else 2 * math.pi
-                span = float(phi.max() - phi.min())
+                span = angle_span(res, 3 * self.bodies.index(d.turns) + 2)
                 out["turns"] = {"value": span - turn, "needs": ">= 0 (a full turn)",
                                 "unit": self.unit, "ok": span >= turn * (1 - 1e-9)}
         if d.transmission is not None:
             (b, c, dd), mn = d.transmission
-            P = res.p
             ib, ic, idd = (self.points.index(n) for n in (b, c, dd))
-            u, w = P[:, ib] - P[:, ic], P[:, idd] - P[:, ic]
-            mu = np.arctan2(np.abs(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]),
-                            (u * w).sum(axis=1))
-            mu = mu * (180 / math.pi if self.unit == "deg" else 1.0)
-            half = 180.0 if self.unit == "deg" else math.pi
-            worst = float(np.minimum(mu, half - mu).min())
+            worst = worst_transmission(res, ib, ic, idd, self.unit == "deg")
             out["transmission"] = {"value": worst - mn, "needs": f">= 0 (min {mn:g})",
                                    "unit": self.unit, "ok": worst >= mn}
         if d.order and (self.nt or self.projected):
