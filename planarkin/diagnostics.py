@@ -92,8 +92,14 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
         if len(longer) == 1:
             return f"; did you mean '{longer[0]}'?"
     best, best_d = None, None
+    low = name.lower()
+    letters = set(low)
     for c in choices:
-        d = _edits(name.lower(), c.lower())
+        # a name whose letters differ from these in more than 4 (two edits' worth) is too far
+        # before the alignment is computed: thousands of names cost no more than a glance each
+        if len(letters.symmetric_difference(c.lower())) > 4:
+            continue
+        d = _edits(low, c.lower())
         if best_d is None or d < best_d:
             best, best_d = c, d
     if best is None or best_d > (1 if len(name) < 8 else 2):

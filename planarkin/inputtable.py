@@ -273,6 +273,10 @@ def table_function(t: np.ndarray, y: np.ndarray, periodic: bool, shown: str) -> 
         t0, period = float(t[0]), float(t[-1] - t[0])
         arg = bin_node("+", num_node(t0),
                        sugar_node("mod", (bin_node("-", tt, num_node(t0)), num_node(period))))
-        return TimeFunction.from_expr(pw_node(pw, arg), f"table {shown} (periodic)")
-    return TimeFunction.from_expr(pw_node(pw, tt), f"table {shown}",
-                                  domain=(float(t[0]), float(t[-1])))
+        fn = TimeFunction.from_expr(pw_node(pw, arg), f"table {shown} (periodic)")
+    else:
+        period = None
+        fn = TimeFunction.from_expr(pw_node(pw, tt), f"table {shown}",
+                                    domain=(float(t[0]), float(t[-1])))
+    fn.table = (pw, period, len(t))
+    return fn

@@ -93,15 +93,16 @@ class Piecewise:
         """The order-th derivative at x, piece[i] + 1 being the index into pieces (so
         piece = j for x just right of knot j and j - 1 just left of it)."""
         x = np.asarray(x, dtype=float)
-        P = self.pieces(order)
         sel = np.asarray(piece, dtype=np.int64) + 1
-        if len(P) <= 8 and (len(sel) == 1 or (sel == sel[0]).all()):  # one piece (the usual)
+        count = len(self.knots) + 1
+        if count <= 8 and (len(sel) == 1 or (sel == sel[0]).all()):  # one piece (the usual)
+            P = self.pieces(order)
             k = int(sel[0])
             return P[k](x) if 0 <= k < len(P) else np.full(x.shape, np.nan)
         out = np.full(x.shape, np.nan)
-        if len(P) > 8 and self._table(order) is not None:
+        if count > 8 and self._table(order) is not None:
             C, O = self._table(order)
-            ok = (sel >= 0) & (sel < len(P))
+            ok = (sel >= 0) & (sel < count)
             s = sel[ok]
             w = x[ok] - O[s]
             r = C[s, 0].copy()
@@ -109,17 +110,37 @@ class Piecewise:
                 r = r * w + C[s, c]
             out[ok] = r
             return out
+        P = self.pieces(order)
         for k in range(len(P)):
             m = sel == k
             if m.any():
                 out[m] = P[k](x[m])
         return out
 
+    def interior_ends(self, order: int) -> np.ndarray:
+        """(len(knots) - 1, 2): the order-th derivative at the start and at the end of every
+        piece between the first and the last knot (each piece from its own side)."""
+        K = self.knots
+        if len(K) < 2:
+            return np.zeros((0, 2))
+        j = np.arange(len(K) - 1)
+        x0, x1 = K[:-1], K[1:]
+        return np.stack([self.evaluate(x0, order, j), self.evaluate(x1, order, j)], axis=1)
+
     def _table(self, order: int):
         """(coefficients (pieces, degree + 1), origins) when no piece has sinusoids."""
         if self._poly is None:
             self._poly = {}
         if order not in self._poly:
+            below = self._table(order - 1) if order > 0 else None
+            if below is not None:
+                # the derivative of every piece at once, with np.polyder's products: a table's
+                # pieces one by one as Piece objects are a Python call per piece and order
+                C, O = below
+                deg = C.shape[1] - 1
+                D = C[:, :-1] * np.arange(deg, 0, -1, dtype=float) if deg else np.zeros_like(C)
+                self._poly[order] = (D, O)
+                return self._poly[order]
             P = self.pieces(order)
             if any(p.sines for p in P):
                 self._poly[order] = None

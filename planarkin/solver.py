@@ -42,7 +42,7 @@ import numpy as np
 from .acceptance import COND_WARN, accepted, condition, taylor_error
 from .assembly import Assembly
 from . import kernel
-from .budget import node_limit
+from .budget import node_limit, point_row_bytes
 from .kinematics import point_jerk, point_kinematics
 from .tolerances import NODE_TOL
 from .model.compile import CompiledModel
@@ -493,7 +493,8 @@ class Analysis:
         not grow with the number of steps: the 300-coordinate arch solves 130 points per chunk,
         the slider-crank the default 8192; a model of many solve blocks up to CHUNK_MIN_POINTS
         within CHUNK_BYTES_MANY (the 6,003-coordinate chain 232)."""
-        per_point = max(S.point_bytes() for S, _ in self.follower.systems)
+        per_point = max(S.point_bytes() for S, _ in self.follower.systems) \
+            + point_row_bytes(self.cm)
         size = CHUNK_BYTES // per_point
         if max(len(S.blocks) for S, _ in self.follower.systems) >= CHUNK_MANY_BLOCKS:
             size = max(size, min(CHUNK_MIN_POINTS, CHUNK_BYTES_MANY // per_point))

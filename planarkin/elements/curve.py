@@ -33,6 +33,7 @@ class Curve:
     """Quintic spline through points (M, 2) (internal units, body frame); closed: periodic."""
 
     SAMPLES = 512                       # coarse samples along the curve for the projection
+    CANDIDATES = 4                      # nearest samples by the k-d tree, compared exactly
 
     def __init__(self, points, closed: bool):
         from scipy.interpolate import make_interp_spline
@@ -81,12 +82,35 @@ class Curve:
         C = self.coef[:, m, :]
         return (60 * C[5] * h + 24 * C[4]) * h + 6 * C[3]
 
+    def nearest_sample(self, p) -> np.ndarray:
+        """Index of the sample nearest to each of p (n, 2), the first of equals: what the
+        argmin over every sample's squared distance gives, found through a k-d tree of the
+        samples. A table of every distance grows as the pins times the samples (a curve of
+        10,000 points has 20,000 samples, a grid chunk thousands of pins); the tree's few
+        nearest are compared by that same formula, so Newton's method starts where it did."""
+        if getattr(self, "_tree", None) is None:
+            from scipy.spatial import cKDTree
+            self._tree = cKDTree(self.samples)
+        n, k = len(p), min(self.CANDIDATES, len(self.samples))
+        fin = np.isfinite(p).all(axis=1)
+        out = np.zeros(n, dtype=np.intp)      # a point not finite: the first, as argmin gives
+        if not fin.any():
+            return out
+        q = p[fin]
+        _, idx = self._tree.query(q, k=k)
+        idx = np.asarray(idx, dtype=np.intp).reshape(len(q), k)
+        d2 = ((q[:, None, :] - self.samples[idx]) ** 2).sum(axis=2)
+        # among the nearest, the lowest index (argmin over all samples breaks ties so)
+        low = d2.min(axis=1, keepdims=True)
+        tied = np.where(d2 == low, idx, len(self.samples))
+        out[fin] = np.where(np.isfinite(low[:, 0]), tied.min(axis=1), 0)   # all inf: the first
+        return out
+
     def project(self, p):
         """Closest points of p (n, 2): (alpha (n,), c, c', c'' (n, 2), off (n,) bool: beyond an
         end of an open curve)."""
         p = np.asarray(p, dtype=float)
-        d2 = ((p[:, None, :] - self.samples[None, :, :]) ** 2).sum(axis=2)
-        a = self.grid[np.argmin(d2, axis=1)]
+        a = self.grid[self.nearest_sample(p)]
         step = self.a1 / (len(self.grid) - 1)
         last = False
         for _ in range(30):

@@ -8,6 +8,7 @@ import difflib
 import keyword
 import math
 import re
+from collections.abc import Set as AbstractSet
 from typing import Iterable, Mapping
 
 import numpy as np
@@ -226,7 +227,10 @@ def parse_text(text, names: Iterable[str], allow_t: bool, values: Mapping | None
     except Exception:  # ValueError, RecursionError, MemoryError, ... on hostile text
         raise ExprError(f"cannot parse expression {q}") from None
     try:
-        return _Builder(frozenset(names), allow_t, values).build(tree.body, 1)
+        # a set or a dict's keys as they are: a copy per expression made a model of
+        # thousands of parameters quadratic to read
+        known = names if isinstance(names, AbstractSet) else frozenset(names)
+        return _Builder(known, allow_t, values).build(tree.body, 1)
     except BuildError as exc:
         raise ExprError(exc.args[0].replace("{}", q)) from None
 

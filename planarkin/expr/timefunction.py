@@ -34,6 +34,9 @@ class TimeFunction:
 
     def _setup(self, expr: Expr, text: str, domain: tuple | None = None) -> None:
         self.expr, self.text, self.domain = expr, text, domain
+        # a table's interpolant f(t) = pw(t), or pw(t0 + mod(t - t0, period)) when periodic:
+        # (pw, period or None, rows), set by inputtable.table_function (the budget reads it)
+        self.table = None
         if _switch_depth(expr, {}) > MAX_SWITCH_NESTING:
             raise ExprError(f"expression {quote(str(text).strip())} nests piecewise forms (where, "
                             f"min, max, clip, mod, abs, sign, floor, laws) more than "
@@ -48,10 +51,13 @@ class TimeFunction:
         self._bp: dict = {}
 
     def __getstate__(self):
-        return {"expr": self.expr, "text": self.text, "domain": getattr(self, "domain", None)}
+        return {"expr": self.expr, "text": self.text, "domain": getattr(self, "domain", None),
+                "table": getattr(self, "table", None)}
 
     def __setstate__(self, state):
         self._setup(state["expr"], state["text"], state.get("domain"))
+        if state.get("table") is not None:
+            self.table = state["table"]
 
     def __repr__(self) -> str:
         return f"TimeFunction({self.text!r})"

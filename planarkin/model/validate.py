@@ -34,6 +34,10 @@ TURN = 2 * math.pi
 RESERVED = {"t", "pi", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh",
             "tanh", "exp", "log", "sqrt", "abs"} | set(function_names())
 MAX_MAGNITUDE = 1e100    # squares and products of lengths must stay far from overflow
+MAX_ERRORS = 100         # errors reported before the validator stops reading
+# named points (sketch pins included): 2048 points are 16,384 columns of points.csv with jerks,
+# as wide as a spreadsheet opens
+MAX_POINTS = 2048
 
 
 class _Validator(ElementSections):
@@ -49,12 +53,21 @@ class _Validator(ElementSections):
         self.bodies_ok = True        # False when the bodies section itself is broken
         self.sketch = None           # planarkin.model.sketch.Sketch (pins and links)
         self.sketch_tolerance = None  # assembly: sketch_tolerance (user length unit)
+        self.error_count = 0         # err() calls: the reading stops at MAX_ERRORS
+        self._places = None          # (parameters node, name -> place, names): _defined_later
 
     # -- small typed readers -------------------------------------------------------------------
     def err(self, node_or_line, msg: str) -> None:
         line = node_or_line if isinstance(node_or_line, int) or node_or_line is None \
             else node_or_line.line
         self.C.error(line, msg)
+        self.error_count += 1
+        if self.error_count >= MAX_ERRORS:
+            # a file of thousands of broken elements: each error may search every name for
+            # the one meant, so the reading stops here
+            self.C.error(None, f"{MAX_ERRORS} errors, and the file was not read further: "
+                               f"mend these first")
+            self.C.raise_if_any()
 
     def keys(self, node: Node, allowed, what: str) -> bool:
         """Report unknown keys of a mapping; False if node is not a mapping."""
@@ -228,6 +241,12 @@ class _Validator(ElementSections):
         file_points = list(points)
         names = {p.name for p in points}
         points += [p for p in sk.points() if p.name not in names]
+        if len(points) > MAX_POINTS:
+            self.err(root.key_lines.get("points") if root.key_lines else None,
+                     f"points: {len(points)} points, more than {MAX_POINTS} (the budget: each "
+                     f"is 6-8 columns of points.csv with statistics in summary.json, a path in "
+                     f"the plots and a share of every grid row's memory): keep the points you "
+                     f"need, or analyse a grid of them in parts")
         from ..measures import read_measures
         measures = read_measures(self, root.value.get("measures"), [p.name for p in points],
                                  {el.name: el for el in joints if el.name})
@@ -335,12 +354,17 @@ class _Validator(ElementSections):
         """(name, line) of a parameter after `key` that val's expression uses, or None."""
         if val.kind != "scalar" or not isinstance(val.value, str):
             return None
-        keys = list(node.value)
+        # the parameters' places, once per mapping (looked up from every parameter's text)
+        if self._places is None or self._places[0] is not node:
+            self._places = (node, {k: i for i, k in enumerate(node.value)}, list(node.value))
+        _, place, keys = self._places
         used = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", val.value))
-        for k in keys[keys.index(key) + 1:]:
-            if k in used and k not in self.params:
-                return k, node.key_lines[k]
-        return None
+        later = [place[k] for k in used if k in place and place[k] > place[key]
+                 and k not in self.params]
+        if not later:
+            return None
+        k = keys[min(later)]
+        return k, node.key_lines[k]
 
     def bodies(self, node: Node | None) -> list[BodySpec]:
         out: list[BodySpec] = []

@@ -26,7 +26,9 @@ stay strings. Map keys are the *source text* of the key scalar (a body named ``y
 ``"yes"``); duplicate keys and merge keys (``<<``) are errors.
 
 Limits: `MAX_FILE_BYTES` (10 MB), `MAX_LINES`, `MAX_NODES`, `MAX_DEPTH`. The pure-Python parser
-reads about 2-3 MB/s, so even a file at the size limit is settled within a few seconds.
+reads about 2-3 MB/s, so even a file at the size limit is settled within a few seconds. Only a
+regular file is read (`read_file`): a FIFO would wait for a writer for ever, a device such as
+/dev/zero never ends; both are refused before they are read.
 
 Every problem becomes a `planarkin.diagnostics.Diagnostic`; as many as can be found are collected
 and raised together as one `InputError`. `read_yaml` and `read_file` raise nothing else.
@@ -36,6 +38,7 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 from dataclasses import dataclass
 from typing import Any, Iterator
 
@@ -158,7 +161,16 @@ def read_file(path: "str | os.PathLike", display_name: str | None = None) -> Nod
     except (TypeError, ValueError):
         name = str(path)
     try:
-        with open(path, "rb") as f:
+        kind = _not_regular(path)
+        if kind is not None:
+            raise InputError([Diagnostic(name, None, f"cannot read file: it is {kind}, not a "
+                                                     f"regular file (a FIFO, device or socket is "
+                                                     f"not read): give a YAML file")])
+        # without blocking: a FIFO swapped in after the look would wait in open() for a writer
+        with open(path, "rb", opener=_open_nonblocking) as f:
+            if _not_regular(f.fileno()) is not None:     # replaced between the looks
+                raise InputError([Diagnostic(name, None, "cannot read file: it is not a "
+                                                         "regular file: give a YAML file")])
             data = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         reason = e.strerror or str(e) or type(e).__name__
@@ -166,6 +178,24 @@ def read_file(path: "str | os.PathLike", display_name: str | None = None) -> Nod
     except (ValueError, TypeError) as e:  # e.g. a path with a NUL character
         raise InputError([Diagnostic(name, None, f"cannot read file: {e}")]) from None
     return read_yaml(data, name)
+
+
+def _not_regular(path) -> str | None:
+    """What path (or an open descriptor) is when it is a FIFO, a device or a socket; None for
+    a regular file, and for anything os.stat cannot look at (open says why). A folder is
+    left to open and read, which name it ("Is a directory")."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError, TypeError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return ("a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode)
+            or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "no regular file")
+
+
+def _open_nonblocking(path, flags):
+    return os.open(path, flags | getattr(os, "O_NONBLOCK", 0))
 
 
 def read_yaml(text: "str | bytes", filename: str) -> Node:

@@ -9,7 +9,7 @@ import numpy as np
 from .plane import Drawing, fit_legend, plane_figure
 from .render import renderer_class
 from .scene import Scene
-from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, FONT, styled, text_width
+from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, CROWD, FONT, styled, text_width
 
 
 @styled
@@ -33,7 +33,17 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
     fps = int(fps or ANIM_FPS)
     fig, ax, beside = plane_figure(cm, scene, (width or 640) / ANIM_DPI,
                                     0.7 + text_width(cm.body_names), dpi=ANIM_DPI)
-    traces = [ax.plot([], [], color=c, lw=w, zorder=5)[0] for _, _, c, w in scene.trace_styles]
+    # the named points' and the joints' paths one line each, the crowd's one collection
+    npts = len(cm.point_names)
+    own = [k for k in range(len(scene.traces)) if not scene.named <= k < npts]
+    traces = [ax.plot([], [], color=scene.trace_styles[k][2], lw=scene.trace_styles[k][3],
+                      zorder=5)[0] for k in own]
+    crowd = None
+    if npts > scene.named:
+        from matplotlib.collections import LineCollection
+        crowd = LineCollection([], colors=CROWD, linewidths=0.6, zorder=4.5)
+        ax.add_collection(crowd, autolim=False)
+        traces.append(crowd)
     drawing = Drawing(ax, scene, rows[-1], body_colors=True, zorder=10)
     stamp = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=FONT,
                     bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
@@ -52,8 +62,11 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
 
     def render(i) -> "Image.Image":
         drawing.set_row(i)
-        for line, xy in zip(traces, scene.traces):
+        for line, k in zip(traces, own):
+            xy = scene.traces[k]
             line.set_data(xy[: i + 1, 0], xy[: i + 1, 1])
+        if crowd is not None:
+            crowd.set_segments(scene.crowd(i))
         stamp.set_text(f"t = {data.t[i]:.4g} s")
         renderer.restore_region(background)
         for a in moving:

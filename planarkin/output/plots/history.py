@@ -9,8 +9,8 @@ import numpy as np
 
 from ...layout import BODY_QUANTITIES, POINT_QUANTITIES, units
 from .axes import add_axes
-from .style import (FONT, ROW_NAMES, body_palette, duration, entry_width, plot_title, point_palette,
-                    pretty, styled, tick_label_width)
+from .style import (FONT, NAMED_POINTS, ROW_NAMES, body_palette, duration, entry_width, plot_title,
+                    point_palette, pretty, styled, tick_label_width)
 
 
 @styled
@@ -58,7 +58,8 @@ def points_figure(cm, data, info, x: str = "time"):
     """One column: x, y of every point (and their derivatives) against time; constant and
     repeated curves left out as in bodies.<fmt>."""
     series = [a for a in (data.p, data.pd, data.pdd, data.pddd) if a is not None]
-    colors = point_palette(len(cm.point_names))
+    names = list(cm.point_names[:NAMED_POINTS])        # the rest: in points.csv only
+    colors = point_palette(len(names))
     xa = XAxis(cm, x)
     X = xa(data.t)
     fig, axes = time_grid(len(series), 1, xa.label)
@@ -69,15 +70,20 @@ def points_figure(cm, data, info, x: str = "time"):
         qx, qy = POINT_QUANTITIES[o]
         ax = axes[o][0]
         curves = [(arr[:, k, c], colors[k], ls, f"{name}.{q}", (k, c))
-                  for k, name in enumerate(cm.point_names)
+                  for k, name in enumerate(names)
                   for c, q, ls in ((0, qx, "-"), (1, qy, "--"))]
         sel.draw(ax, X, curves, cm.L / T ** o, tu, o)
         ax.set_ylabel(f"{qx}, {qy} [{tu}]")
     handles = _style_handles([("-", "x"), ("--", "y")]) + _name_handles(
-        cm.point_names, colors, sel.drawn)
+        names, colors, sel.drawn)
     finish_time_axes(axes, data, info, xa)
     title = plot_title(cm, "points: " + ", ".join(ROW_NAMES[:len(series)]) + xa.against, info)
-    arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=sel.note())
+    note = sel.note()
+    if len(cm.point_names) > len(names):
+        note = "; ".join(([note] if note else []) + [
+            f"the points after the first {len(names)} ({len(cm.point_names) - len(names)} "
+            f"more) are not drawn: points.csv has every point"])
+    arrange_time_grid(fig, axes, handles, title, width=7.0, row_height=1.7, note=note)
     return fig
 
 

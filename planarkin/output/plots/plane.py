@@ -9,7 +9,8 @@ from . import labels
 from .axes import add_axes
 from .render import renderer_class
 from .scene import Scene
-from .style import DPI, FONT, GROUND_Z, darker, styled, text_width, tick_label_width, with_alpha
+from .style import (CROWD, DPI, FONT, GROUND_Z, darker, styled, text_width, tick_label_width,
+                    with_alpha)
 
 
 class Drawing:
@@ -57,9 +58,12 @@ class Drawing:
                          alpha=alpha, zorder=zorder + 0.5)
         self.points = [line(ls="none", marker="D", ms=5, mfc=scene.point_colors[k], mec=edge,
                             mew=0.8, alpha=alpha, zorder=zorder + 0.6)
-                       for k in range(len(cm.point_names))]
+                       for k in range(scene.named)]
+        # the points after the named ones: one artist of small markers
+        self.crowd = line(ls="none", marker="o", ms=2.5, mfc=CROWD, mec="none", alpha=alpha,
+                          zorder=zorder + 0.55) if len(cm.point_names) > scene.named else None
         self.artists = ([a for a, _, _, _ in self.parts] + self.links + [self.pins]
-                        + self.points)
+                        + self.points + ([self.crowd] if self.crowd is not None else []))
         self.set_row(row)
         if labels:
             self._annotate(row)
@@ -80,6 +84,9 @@ class Drawing:
             self.pins.set_data(pins[:, 0], pins[:, 1])
         for m, xy in zip(self.points, sc.traces):      # the points' paths come first
             m.set_data(xy[i:i + 1, 0], xy[i:i + 1, 1])
+        if self.crowd is not None:
+            xy = sc.point_xy[i, sc.named:]
+            self.crowd.set_data(xy[:, 0], xy[:, 1])
 
     def _annotate(self, i):
         """Body names (beside each body's centre) and point names at row i, placed clear of the
@@ -93,11 +100,11 @@ class Drawing:
                 V = sc.dashed[b][0] if sc.dashed[b] and b not in sc.shaped else np.zeros((1, 2))
             items.append((name, sc.at(b, V, i).mean(axis=0), True))
             colors.append(darker(sc.colors[b]))
-        for k, name in enumerate(sc.cm.point_names):
+        for k, name in enumerate(sc.cm.point_names[:sc.named]):
             items.append((name, sc.traces[k][i], False))
             colors.append(darker(sc.point_colors[k]))
         pins = [sc.at(b, s, i)[0] for b, s in sc.pins] + list(sc.pivots) + \
-            [sc.traces[k][i] for k in range(len(sc.cm.point_names))]
+            [sc.traces[k][i] for k in range(sc.named)]
         pins = [p for p in pins if np.isfinite(p).all()]
         obstacles = labels.pin_boxes(self.ax, np.array(pins)) + \
             labels.pivot_boxes(self.ax, sc.pivots, 0.55 * sc.size)
@@ -184,7 +191,8 @@ def trajectories_figure(cm, scene: Scene):
     fig, ax, _ = plane_figure(cm, scene, 8.0, 0.25, ground_alpha=0.5)
     Drawing(ax, scene, 0, color="0.6", alpha=0.45, zorder=9)
     handles, heads, tips, colors = [], [], [], []
-    for k, name in enumerate(cm.point_names):
+    crowd = _crowd(ax, scene, zorder=11)
+    for k, name in enumerate(cm.point_names[:scene.named]):
         xy = scene.traces[k]
         c = scene.point_colors[k]
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=1.6, zorder=12, label=name)
@@ -205,6 +213,7 @@ def trajectories_figure(cm, scene: Scene):
                                          + fig.dpi_scale_trans, facecolors=colors,
                                          edgecolors="none", linewidths=0, zorder=13),
                           autolim=False)
+    handles += crowd
     handles += [Line2D([], [], ls="none", marker="o", color="0.2", ms=6, label="start"),
                 Line2D([], [], ls="none", marker=">", color="0.2", ms=6, label="direction"),
                 Line2D([], [], color="0.6", lw=3, alpha=0.6, label=f"mechanism at t = "
@@ -215,6 +224,20 @@ def trajectories_figure(cm, scene: Scene):
     ax.set_title(f"{cm.spec.name}: paths of the points "
                  f"(t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s)", fontsize=12, y=1.0)
     return fig
+
+
+def _crowd(ax, scene: Scene, zorder) -> list:
+    """The paths of the points after the named ones as one collection (Scene.crowd); returns
+    its legend handle ([] when there are none)."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    paths = scene.crowd()
+    if not paths:
+        return []
+    ax.add_collection(LineCollection(paths, colors=CROWD, linewidths=0.7, zorder=zorder),
+                      autolim=False)
+    return [Line2D([], [], color=CROWD, lw=1.2, label=f"{len(paths)} more points")]
 
 
 def _arrow_head(d, length=5.2, half_width=2.6, shrink=2.0) -> np.ndarray:
@@ -319,14 +342,20 @@ def mechanism_figure(cm, scene: Scene, instants: int | None = None):
         times[0] += " (named)"
     alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
     # a centrode's label on two lines: a long one would narrow the drawing
-    labels = times + [s[0] for s, xy in zip(scene.trace_styles, scene.traces)
-                      if not s[1] or np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span] + \
+    npts = len(cm.point_names)
+    crowd = f"{npts - scene.named} more points"
+    labels = times + [s[0] for k, (s, xy) in enumerate(zip(scene.trace_styles, scene.traces))
+                      if not scene.named <= k < npts
+                      and (not s[1] or np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span)] + \
+        ([crowd] if npts > scene.named else []) + \
         [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")] + \
         [w for j, _ in scene.moving for w in ("moving centrode", f"of {scene.names[j]}")]
     fig, ax, beside = plane_figure(cm, scene, 9.0, 0.65 + text_width(labels))
     handles, seen = [], set()
     tol = 1e-6 * scene.span
-    for xy, (label, is_point, c, w) in zip(scene.traces, scene.trace_styles):
+    for k, (xy, (label, is_point, c, w)) in enumerate(zip(scene.traces, scene.trace_styles)):
+        if scene.named <= k < npts:
+            continue            # the crowd: one collection, after the named paths
         line, = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=w, zorder=5,
                         ls="-" if is_point else (0, (4, 2)))
         if is_point and not np.nanmax(np.ptp(xy, axis=0)) > tol:
@@ -335,6 +364,7 @@ def mechanism_figure(cm, scene: Scene, instants: int | None = None):
             seen.add(label)
             line.set_label(label)
             handles.append(line)
+    handles += _crowd(ax, scene, zorder=4.5)
     # output: centres: each floating body's fixed centrode, light, in the body's colour
     for j, xy in scene.centrodes:
         line, = ax.plot(xy[:, 0], xy[:, 1], color=scene.colors[j], lw=1.5, alpha=0.8,

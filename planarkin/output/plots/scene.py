@@ -7,7 +7,10 @@ import numpy as np
 
 from ...elements.base import pivots
 from ...elements.drawing import Parts
-from .style import body_palette, point_palette
+from .style import CROWD, CROWD_VERTICES, NAMED_POINTS, body_palette, point_palette
+
+
+UNIQUE_PAIRS = 64       # attachment points of one body compared pair by pair (_unique)
 
 
 class Scene:
@@ -27,7 +30,12 @@ class Scene:
         self.nb = cm.nb
         self.names = cm.body_names
         self.colors = body_palette(cm.nb)
-        self.point_colors = point_palette(len(cm.point_names))
+        # the first NAMED_POINTS points are drawn one by one in their colours; the rest (the
+        # crowd) as one grey collection
+        npts = len(cm.point_names)
+        self.named = min(npts, NAMED_POINTS)
+        self.point_colors = point_palette(self.named) + [CROWD] * (npts - self.named)
+        self.point_xy = data.p                          # (N, points, 2)
         q = data.q
         self.x, self.y = q[:, 0::3], q[:, 1::3]
         phi = self.phi = q[:, 2::3] * cm.angle_factor
@@ -190,6 +198,17 @@ class Scene:
                 out.append((j, xy))
         return out
 
+    def crowd(self, upto: int | None = None) -> list:
+        """The paths of the points after the first NAMED_POINTS ((k, 2) each, rows 0..upto),
+        every stride-th row and the last, so that all of them have at most CROWD_VERTICES."""
+        P = self.point_xy[:, self.named:, :] if self.point_xy is not None else np.zeros((0, 0, 2))
+        if not P.shape[1]:
+            return []
+        rows = len(self.t) if upto is None else upto + 1
+        stride = max(1, -(-(P.shape[1] * rows) // CROWD_VERTICES))
+        sel = np.unique(np.r_[np.arange(0, rows, stride), rows - 1])
+        return list(np.swapaxes(P[sel], 0, 1))
+
     def instants(self, n: int) -> np.ndarray:
         """Up to n rows evenly spread over the run, the first and (unless the run is a full
         cycle, whose end is its start) the last among them; a row whose pose repeats one
@@ -232,9 +251,14 @@ class Scene:
 
 
 def _unique(points, tol=1e-9) -> np.ndarray:
-    """(k, 2) distinct points (relative tolerance), in first-seen order."""
+    """(k, 2) distinct points (relative tolerance), in first-seen order. Beyond UNIQUE_PAIRS
+    points (a body carrying thousands of points of interest), those that round to the same
+    cell of that tolerance, in one sort rather than each against every other kept."""
     P = np.asarray(points, float).reshape(-1, 2)
     scale = max(np.abs(P).max(), 1e-300)
+    if len(P) > UNIQUE_PAIRS:
+        _, first = np.unique(np.round(P / (tol * scale)), axis=0, return_index=True)
+        return P[np.sort(first)]
     out = []
     for p in P:
         if not any(np.abs(p - o).max() <= tol * scale for o in out):

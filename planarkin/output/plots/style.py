@@ -18,6 +18,13 @@ FONT = 9                       # legends, annotations (ticks and labels use matp
 STYLE = {"axes.grid": False, "grid.color": "0.88", "grid.linewidth": 0.6,
          "xtick.labelsize": 9, "ytick.labelsize": 9, "axes.titley": 1.0}
 GROUND_Z = 25                  # ground pivots above every drawn instant (zorders 10 to 20)
+# Points drawn one by one (a line, a marker, a legend entry and a placed name each; their time
+# histories compared pairwise): the first NAMED_POINTS. The paths of the rest are one grey
+# collection (CROWD) of at most CROWD_VERTICES vertices, their time histories left out with a
+# note; points.csv has every point.
+NAMED_POINTS = 24
+CROWD = "0.62"
+CROWD_VERTICES = 400_000
 ROW_NAMES = ("position", "velocity", "acceleration", "jerk")
 
 
