@@ -393,6 +393,9 @@ def check_writable(out: Path) -> str | None:
     problem = next((p for p in map(link_problem, [*reversed(out.parents), out]) if p), None)
     if problem is not None:
         return problem
+    # the folders made for the probe are removed again: a command refused later (invalid
+    # input, a study too large) leaves nothing on disk, not even an empty --out
+    made = [d for d in [*reversed(out.parents), out] if not d.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".planarkin-probe-{os.getpid()}"
@@ -402,6 +405,12 @@ def check_writable(out: Path) -> str | None:
         if e.errno in DISK_ERRORS:
             raise WriteError(f"cannot write into {out}/: {e.strerror}", e.errno) from None
         return f"cannot write into {out}/: {e.strerror}: choose another --out"
+    finally:
+        for d in reversed(made):
+            try:
+                d.rmdir()
+            except OSError:
+                break               # not made here after all (another run), or not empty
     return None
 
 
