@@ -346,9 +346,22 @@ def _probe(address: str) -> None:
     command for ever) and reads any answer as a frame length (a server answering anything else
     made it allocate exabytes). Raises SchedulerError, in one line."""
     import asyncio
+    import socket
     import threading
 
     from distributed.comm import connect
+
+    # a plain TCP connect first: connect's retries end in a timeout whose cause, refused or
+    # not, depends on how busy the machine is, while the reason is what the user needs
+    m = re.fullmatch(r"tcp://(\[[^\]]+\]|[^:/]+):(\d+)", address)
+    if m is not None:
+        try:
+            socket.create_connection((m.group(1).strip("[]"), int(m.group(2))),
+                                     timeout=DASK_TIMEOUT).close()
+        except OSError as e:
+            why = e.strerror or type(e).__name__
+            raise SchedulerError(f"cannot reach the Dask scheduler at {address} within "
+                                 f"{DASK_TIMEOUT:g} s ({why})") from None
 
     async def handshake():
         # connect's own retries end first: nothing listening is then told from no answer
