@@ -245,7 +245,8 @@ def test_many_small_blocks_get_larger_chunks_within_their_bound(monkeypatch):
     cm = planarkin.load("scissor.yaml", text=bigmodels.scissor_yaml(8, 200))
     A = assembly.assemble(cm)
     nblocks = len(A.system.blocks)
-    per_point = A.system.point_bytes()
+    from planarkin.budget import point_row_bytes
+    per_point = A.system.point_bytes() + point_row_bytes(cm)    # as Analysis sizes its chunks
     monkeypatch.setattr(solver, "CHUNK_BYTES", 20 * per_point)
     runs = {}
     for many, bound in ((10 ** 9, 10 ** 12), (nblocks, 60 * per_point), (nblocks, 10 ** 12)):
