@@ -3,9 +3,10 @@
 The room of `planarkin.derived` that writes ``forces.csv`` (and ``forces.png`` and the ``forces``
 section of summary.json) and ``loads.csv`` (every joint's reaction in the ground frame and in
 its bodies' frames, and the ``loads`` section) when the model gives any mass, load, spring or
-damper. Modules: `keys` (validating the YAML keys), `model` (the mass and load data as arrays),
-`solve` (the Lagrange multipliers and the reactions), `check` (each chunk's refusals and
-warnings), `output` (tables, summary, plot), `loads` (loads.csv's columns and summary),
+damper. Modules: `keys` (validating the YAML keys), `units` (the force, mass and system units
+of the units: section, and the unit of every output), `model` (the mass and load data as
+arrays), `solve` (the Lagrange multipliers and the reactions), `check` (each chunk's refusals
+and warnings), `output` (tables, summary, plot), `loads` (loads.csv's columns and summary),
 `figures` (the how-to's figure of a gear pair's tooth force).
 """
 

@@ -1,14 +1,16 @@
 """Validation of the forces keys of a model file: body mass data, gravity and loads.
 
 Called by `planarkin.model.validate` with its validator (whose typed readers report every
-problem at its FILE:LINE, naming the element); returns a `ForcesSpec` in user units, or None when
-the file gives no mass, gravity or load at all.
+problem at its FILE:LINE, naming the element); returns a `ForcesSpec` in user units (the units
+of the file's units: section, planarkin.forces.units), or None when the file gives no mass,
+gravity or load at all. A model with forces whose units the file did not choose gets a note.
 """
 
 from __future__ import annotations
 
 from ..diagnostics import did_you_mean, one_of
 from ..model.spec import ForcesSpec, LoadSpec, MassSpec
+from .units import force_units, unit_notes
 
 BODY_KEYS = ("mass", "inertia", "cm")
 LOAD_KINDS = ("force", "torque", "spring", "damper")
@@ -32,7 +34,15 @@ def validate_forces(V, root) -> ForcesSpec | None:
     loads = _loads(V, v.get("loads"))
     if not masses and gravity is None and not loads:
         return None
-    return ForcesSpec(tuple(masses), gravity, tuple(loads), gline)
+    choice = getattr(V, "unit_choice", None)
+    units = force_units(choice.length, choice.force, choice.mass) if choice is not None else \
+        None
+    weighty = any(m.mass > 0 or m.inertia > 0 for m in masses)
+    if weighty or loads:                        # the model has forces (model.has_forces)
+        shown = units or force_units("m")
+        for line, msg in unit_notes(choice, shown, weighty):
+            V.C.warning(line or None, msg)
+    return ForcesSpec(tuple(masses), gravity, tuple(loads), gline, units)
 
 
 def _nonnegative(V, node, what: str, meaning: str):

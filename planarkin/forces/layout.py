@@ -9,7 +9,7 @@ import numpy as np
 
 from ..elements import KINDS
 from ..elements.base import Kind
-from .model import unit_names
+from .units import unit_names
 from .solve import JOINT_OUTPUT
 
 UNIQUE_TOL = 1e-9       # a left null vector of Phi_q with an entry above this makes a row's
@@ -66,7 +66,7 @@ def element_names(cm) -> dict:
 def columns(cm, left_out=frozenset()):
     """[(header, getter(Forces) -> (N,) array, role)] in table order (t excluded); role is
     'effort', 'reaction', 'contact', 'power' or 'shaking'."""
-    u = unit_names(cm.spec.length_unit)
+    u = unit_names(cm.spec)
     spec = cm.spec
     nj = len(spec.joints)
     names = element_names(cm)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .layout import element_names
-from .model import unit_names
+from .units import unit_names
 from .solve import JOINT_OUTPUT
 
 PEAK_NOTE = ("peak: the grid row with the largest reaction magnitude |(fx, fy)| (|torque| for a "
@@ -71,7 +71,7 @@ class LoadsLayout:
 
     def __init__(self, cm, left_out=frozenset()):
         spec = cm.spec
-        u = unit_names(spec.length_unit)
+        u = unit_names(spec)
         self.deg = spec.angle_unit == "deg"
         angle = spec.angle_unit
         names = element_names(cm)
@@ -244,6 +244,6 @@ class LoadsAccumulator:
 
 
 def loads_units(cm) -> dict:
-    u = unit_names(cm.spec.length_unit)
+    u = unit_names(cm.spec)
     return {"force": u["force"], "torque": u["torque"], "angle": cm.spec.angle_unit,
             "length": cm.spec.length_unit}

@@ -1,5 +1,7 @@
 """The mass and load data of a model as arrays, in physical units: the model's length unit,
-radians, seconds and its mass unit (kg by default; forces then follow as mass * length / s^2).
+radians, seconds, its force unit and the mass unit consistent with them (planarkin.forces.units:
+kg by default, forces then following as kg * length / s^2; masses and inertias written in
+another mass unit are converted here, the only conversion of the forces room).
 
 Built from `ModelSpec.forces` when the forces room runs; never mutated.
 """
@@ -12,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..elements.revolute import to_body
+from .units import units_of
 
 
 @dataclass(frozen=True)
@@ -57,9 +60,10 @@ def force_model(cm) -> ForceModel:
     mass = np.zeros(nb)
     inertia = np.zeros(nb)
     com = np.zeros((nb, 2))
+    mf = units_of(spec).mass_factor              # the file's mass unit -> the consistent one
     for m in fs.masses:
         b = index[m.body]
-        mass[b], inertia[b], com[b] = m.mass, m.inertia, m.cm
+        mass[b], inertia[b], com[b] = m.mass * mf, m.inertia * mf, m.cm
     grav = np.zeros(2) if fs.gravity is None else np.array(fs.gravity, dtype=float)
     fb, fsp, ff, tb, tf = [], [], [], [], []
     si, sj, ps, pj, k, l0, c = [], [], [], [], [], [], []
@@ -91,15 +95,3 @@ def has_forces(cm) -> bool:
     fs = cm.spec.forces
     return fs is not None and (any(m.mass > 0 or m.inertia > 0 for m in fs.masses)
                                or bool(fs.loads))
-
-
-def unit_names(length_unit: str) -> dict:
-    """Units of force, torque and power for a length unit (mass in kg, time in s)."""
-    if length_unit == "m":
-        return {"force": "N", "torque": "N*m", "power": "W", "mass": "kg"}
-    L = length_unit
-    return {"force": f"kg*{L}/s^2", "torque": f"kg*{L}^2/s^2", "power": f"kg*{L}^2/s^3",
-            "mass": "kg"}
-
-
-

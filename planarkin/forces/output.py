@@ -1,7 +1,7 @@
 """forces.csv, the ``forces`` section of summary.json and forces.png; loads.csv and the ``loads``
 section (planarkin.forces.loads), from the same solve.
 
-Columns (units follow the model's length unit, mass in kg, see `model.unit_names`): ``t [s]``;
+Columns (units: the model's force unit, force * length for torques, see `units`): ``t [s]``;
 per driver its effort (``<name>.torque`` for angle drivers, ``<name>.force`` otherwise: what the
 actuator exerts on its body j along the driven coordinate); per joint its reaction on body j
 (``<name>.fx``, ``<name>.fy`` global, ``<name>.torque`` about the joint's point where the kind
@@ -19,7 +19,7 @@ from ..derived import DerivedTable
 from .layout import columns, redundancy
 from .loads import (MEAN_NOTE, PEAK_NOTE, SIGN_NOTE, LoadsAccumulator, LoadsLayout,
                     loads_units)
-from .model import unit_names
+from .units import unit_names
 from .solve import Kinetostatics
 
 SINGULAR_NOTE = ("near a singular configuration (see the near-singular warnings) joint "
@@ -99,7 +99,7 @@ def force_tables(cm, opts) -> list[DerivedTable]:
     contacts = [k for k, (_, _, role) in enumerate(cols, start=1) if role == "contact"]
     if contacts:
         notes.append(LIFT_OFF_NOTE)
-    units = unit_names(cm.spec.length_unit)
+    units = unit_names(cm.spec)
     units["length"] = cm.spec.length_unit
     header = R.header
     labels = R.labels

@@ -52,14 +52,14 @@ def forces_figure(cm, X, info):
     from ..output.plots.history import finish_time_axes
     from ..output.plots.render import text_inches
     from ..output.plots.style import FONT, body_palette, plot_title, pretty, tick_label_width
-    from .model import unit_names
+    from .units import unit_names
 
     def _pretty(unit):
         return pretty(unit).replace("*", "\u00b7")
 
     header = _header_of(cm, X)
     t = X[:, 0]
-    u = unit_names(cm.spec.length_unit)
+    u = unit_names(cm.spec)
     efforts = same_curves([(h.split(" [", 1)[0], X[:, k]) for k, h, role in header
                            if role == "effort"])
     effort_units = sorted({h.split(" [", 1)[1].rstrip("]") for _, h, role in header

@@ -162,8 +162,9 @@ class ModelSpec:
 
 @dataclass(frozen=True)
 class MassSpec:
-    """Mass properties of one body (user units): mass (mass unit), inertia about the centre of
-    mass (mass * length^2), cm: centre of mass in the body frame (length)."""
+    """Mass properties of one body (user units): mass (the file's mass unit, ForcesSpec.units),
+    inertia about the centre of mass (mass * length^2), cm: centre of mass in the body frame
+    (length)."""
 
     body: str
     mass: float
@@ -203,9 +204,12 @@ class LoadSpec:
 
 @dataclass(frozen=True)
 class ForcesSpec:
-    """What the forces room needs: per body mass data, gravity (length/s^2) and the loads."""
+    """What the forces room needs: per body mass data, gravity (length/s^2), the loads, and the
+    units they are in (planarkin.forces.units.ForceUnits; None: the default ones, masses in kg
+    and forces in kg*length/s^2)."""
 
     masses: tuple[MassSpec, ...] = ()
     gravity: tuple[float, float] | None = None
     loads: tuple[LoadSpec, ...] = ()
     gravity_line: int = 0
+    units: Any = None

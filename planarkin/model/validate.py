@@ -286,9 +286,12 @@ class _Validator(ElementSections):
                                         f"model's angle unit is rad)")
 
     def units(self, node: Node | None):
+        from ..forces.units import UNIT_KEYS, read_units    # force, mass, system: forces room
         length, angle = "m", "rad"
-        if node is None or not self.keys(node, ("length", "angle"), "units"):
+        self.unit_choice = None
+        if node is None or not self.keys(node, UNIT_KEYS, "units"):
             return length, angle
+        given = False
         if "length" in node.value:
             n = node.value["length"]
             text = self.text(n, "units: length")
@@ -296,10 +299,11 @@ class _Validator(ElementSections):
                 self.err(n, f"units: length {text!r} is not a unit name: write letters only "
                             f"(m, mm, cm, in, ft, um, ...); it labels every column")
             elif text is not None:
-                length = text
+                length, given = text, True
         if "angle" in node.value:
             angle = self.choice(node.value["angle"], "units: angle", ("rad", "deg")) or angle
-        return length, angle
+        self.unit_choice = read_units(self, node, length, given)
+        return self.unit_choice.length, angle
 
     def parameters(self, node: Node | None) -> None:
         if node is not None and node.kind != "map":
