@@ -14,7 +14,8 @@ import pytest
 
 SLOW_MODULES = {
     "test_batch", "test_compiled", "test_compiled_gen", "test_perstep",    # numba compiles
-    "test_contract", "test_execute", "test_plotworker",                     # real processes
+    "test_contract", "test_execute", "test_plotworker", "test_interrupts",  # real processes
+    "test_dask_errors",                                                     # servers, clusters
     "test_fuzz", "test_properties", "test_extremes", "test_sketch_fuzz",    # generated inputs
     "test_docs",                                                            # the docs' commands
 }
@@ -29,14 +30,19 @@ SLOW_TESTS = {
                     "test_ordinary_drivers_pass_the_preflight"},
     "test_cam_data_laws": {"test_rise_dwell_return_segments_over_cam_angle"},
     "test_centres": {"test_centrodes_figure"},
-    "test_cli": {"test_plot_formats", "test_tradeoff_writes_table_and_plot"},
+    "test_cli": {"test_plot_formats", "test_tradeoff_writes_table_and_plot",
+                 "test_run_junit_has_a_case_per_model_failure_error_and_time"},
     "test_closedforms": {"test_four_bar_against_a_50_digit_solution"},
     "test_contact_forces": {"test_every_body_of_the_machine_element_examples_obeys_newton_euler"},
     "test_curve_segments": {"test_curve_table_from_a_file_equals_the_inline_table"},
     "test_fastcsv": {"test_random_bit_patterns", "test_random_uniform"},
     "test_figures": {"test_a_cam_or_a_disc_is_drawn_by_its_outline_not_as_a_slider_block",
                      "test_measures_png_leaves_the_callers_matplotlib_backend_alone"},
+    "test_budgets_hostile": {"test_plots_of_many_points_draw_a_bounded_number_of_artists"},
+    "test_cycle_dwells": {
+        "test_tolerance_nominal_equals_run_and_its_sensitivities_are_the_metrics_derivatives"},
     "test_fit": {"test_cli_fit_writes_estimates", "test_fit_the_slider_crank_and_the_six_bar",
+                 "test_noisy_data_true_within_two_standard_errors",
                  "test_fit_and_run_in_the_same_out_keep_each_others_files"},
     "test_forces": {"test_machine_elements_balance_on_their_bodies"},
     "test_hostile": {"test_a_table_over_the_row_budget_is_refused_while_it_is_read"},
@@ -68,6 +74,8 @@ SLOW_TESTS = {
                    "test_synth_and_run_in_the_same_out_keep_each_others_files",
                    "test_synth_finds_the_slider_crank_and_the_six_bar_again",
                    "test_turns_barrier_row_and_its_gradient"},
+    "test_synth_hostile": {"test_sigterm_to_synth_leaves_nothing_staged_and_says_what_happened",
+                           "test_only_the_starts_that_can_be_run_are_held_whole"},
     "test_synth_local": {"test_starts_in_batches_end_at_the_first_design_below_the_goal",
                          "test_straight_line_reaches_1e_12_from_a_known_linkage_and_is_verified"},
     "test_synth_sensitivities": {"test_parameters_not_differentiated_are_refused_by_name",
