@@ -4,6 +4,7 @@ the analysis options (planarkin.options.OPTIONS) and every key of a model file.
 
     python -m planarkin.docs          # prints the tables (markdown)
     python -m planarkin.docs --figure # writes the figures of docs/images/ (from a checkout)
+    python -m planarkin.docs --figure docs/images/NAME.png ...   # only these
 
 The documentation site (mkdocs.yml, docs/_gen/hooks.py) puts these tables into the reference
 pages at build time, so they cannot drift from what the validator accepts. The meaning of each
@@ -491,19 +492,24 @@ def replay(page, workdir, run=None, figure=None, figures_only=False) -> None:
                     figure(written, page.parent / b.content, where)
 
 
-def page_figures(root=".") -> list[Path]:
+def page_figures(root=".", only=None) -> list[Path]:
     """Write the image of every figure marked in docs/ (what the page's own blocks write when
-    run, in a temporary directory holding mechanisms/); return the images written."""
+    run, in a temporary directory holding mechanisms/); return the images written. only: the
+    images to write (paths; default all), the pages without one of them are not run."""
     import shutil
     import tempfile
     root = Path(root).resolve()
     written = []
+    wanted = None if only is None else {Path(p).resolve() for p in only}
 
     def copy(made, image, where):
-        shutil.copyfile(made, image)
-        written.append(image.resolve())
+        if wanted is None or image.resolve() in wanted:
+            shutil.copyfile(made, image)
+            written.append(image.resolve())
     for page in sorted((root / "docs").rglob("*.md")):
-        if not any(b.kind == "figure" for b in page_blocks(page.read_text())):
+        images = [(page.parent / b.content).resolve() for b in page_blocks(page.read_text())
+                  if b.kind == "figure"]
+        if not images or (wanted is not None and not wanted & set(images)):
             continue
         with tempfile.TemporaryDirectory() as tmp:
             (Path(tmp) / "mechanisms").symlink_to(root / "mechanisms")
@@ -513,6 +519,10 @@ def page_figures(root=".") -> list[Path]:
 
 if __name__ == "__main__":
     import sys
+    if sys.argv[1:2] == ["--figure"] and sys.argv[2:]:     # only these pages' images
+        for image in page_figures(only=sys.argv[2:]):
+            print(image)
+        sys.exit()
     if sys.argv[1:] == ["--figure"]:
         figure(FIGURE)
         from . import load, solve

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -649,18 +650,38 @@ def derived_tables(cm, opts) -> list:
 
     out = []
     lu, au = cm.spec.length_unit, cm.spec.angle_unit
+    for c in cam_joints(cm):
+        value = f"s [{lu}]" if c.kind == "cam" else f"psi [{au}]"
+        header = ["t [s]", f"theta [{au}]", value, f"pitch.x [{lu}]", f"pitch.y [{lu}]",
+                  f"surface.x [{lu}]", f"surface.y [{lu}]", f"rho_pitch [{lu}]",
+                  f"rho_surface [{lu}]", f"pressure_angle [{au}]"]
+        out.append(DerivedTable(f"cam-{c.name}.csv", header,
+                                _table(cm, c.kind, c.par, c.bodies)))
+    return out
+
+
+class CamJoint(NamedTuple):
+    """One cam joint of a model: name (the element's name, else <role><index>: its table is
+    cam-<name>.csv), kind ("cam" or "cam-rocker"), par (its parameters, internal units, as
+    `instance` gives them), bodies (i, j, k) and label (the element's message label)."""
+    name: str
+    kind: str
+    par: dict
+    bodies: tuple
+    label: str
+
+
+def cam_joints(cm) -> list[CamJoint]:
+    """Every cam joint of the compiled model cm, in the order of their tables (`derived_tables`):
+    what cam-<name>.csv and the cam figures (planarkin.output.plots.cam) are made from."""
+    out = []
     for G in cm.groups:
         if G.kind.name not in ("cam", "cam-rocker"):
             continue
         for k in range(len(G)):
             el = cm.element_of_row(int(G.rows[k, 0]))
-            name = el.name or f"{el.role}{el.index}"
-            value = f"s [{lu}]" if G.kind.name == "cam" else f"psi [{au}]"
-            header = ["t [s]", f"theta [{au}]", value, f"pitch.x [{lu}]", f"pitch.y [{lu}]",
-                      f"surface.x [{lu}]", f"surface.y [{lu}]", f"rho_pitch [{lu}]",
-                      f"rho_surface [{lu}]", f"pressure_angle [{au}]"]
-            out.append(DerivedTable(f"cam-{name}.csv", header,
-                                    _table(cm, G.kind.name, instance(G, k), G.bodies[k])))
+            out.append(CamJoint(el.name or f"{el.role}{el.index}", G.kind.name, instance(G, k),
+                                tuple(int(b) for b in G.bodies[k]), el.label))
     return out
 
 
