@@ -20,7 +20,7 @@ class Drawing:
     body's own colour (as in bodies.<fmt>)."""
 
     def __init__(self, ax, scene: Scene, row: int, color=None, body_colors=False, alpha=1.0,
-                 fill=0.25, zorder=10.0, labels=False, width=4.5):
+                 fill=0.25, zorder=10.0, labels=False, width=4.5, surfaces=True):
         from matplotlib.lines import Line2D
         from matplotlib.patches import Polygon
 
@@ -34,6 +34,7 @@ class Drawing:
         cm = scene.cm
         col = (lambda b: scene.colors[b]) if body_colors else (lambda b: color)
         self.parts = []                 # (artist, body, vertices, kind)
+        outlines = {id(poly) for _, poly in scene.outlines}
         for b in range(scene.nb):
             c = col(b)
             if scene.fills[b] is not None:
@@ -45,7 +46,13 @@ class Drawing:
                 self.parts.append((line(color=c, lw=width, alpha=alpha, solid_capstyle="round",
                                         zorder=zorder), b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
-                self.parts.append((line(color=c, lw=1.0, ls="--", alpha=alpha,
+                # a cam's or disc's profile is its working surface: drawn solid, as a part
+                # drawing does; pitch circles and slots stay dashed
+                surface = id(poly) in outlines
+                if surface and not surfaces:
+                    continue
+                self.parts.append((line(color=c, lw=1.6 if surface else 1.0,
+                                        ls="-" if surface else "--", alpha=alpha,
                                         zorder=zorder + 0.1), b, poly, "line"))
             for poly in scene.faces[b]:
                 self.parts.append((line(color=c, lw=0.75 * width, alpha=alpha,
@@ -374,11 +381,12 @@ def mechanism_figure(cm, scene: Scene, instants: int | None = None):
     if scene.moving:
         from ...centres import draw_moving
         handles += draw_moving(ax, scene, rows[0])
-    # later instants below the first, fainter the later they are
+    # later instants below the first, fainter the later they are; a cam's profile at the
+    # first only (turned copies of it overlapped into a tangle: cam.png draws the profile)
     for k in range(len(rows) - 1, -1, -1):
         Drawing(ax, scene, rows[k], body_colors=True, alpha=alphas[k],
                  fill=0.22 if k == 0 else 0.12, zorder=20 - k, labels=(k == 0),
-                 width=4.5 if k == 0 else 3.0)
+                 width=4.5 if k == 0 else 3.0, surfaces=(k == 0))
     handles += [Line2D([], [], color="0.2", lw=4 if k == 0 else 3, alpha=a, label=tt)
                 for k, (tt, a) in enumerate(zip(times, alphas))]
     legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside,
