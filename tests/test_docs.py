@@ -257,8 +257,7 @@ def test_every_marked_command_exits_as_the_text_says(path, tmp_path):
 
 
 # -- the how-to guides: their examples first ---------------------------------------------------
-# synthesis and dask are written by others at the moment: not held to this yet
-HOW_TO = [p for p in PAGES if p.parent.name == "how-to" and p.stem not in ("synthesis", "dask")]
+HOW_TO = [p for p in PAGES if p.parent.name == "how-to"]
 
 
 @pytest.mark.parametrize("path", HOW_TO, ids=_ids(HOW_TO))
@@ -286,6 +285,21 @@ def test_a_how_to_opens_with_its_example_and_figure(path):
         if b.line > fig.line:
             break
         assert b.kind in ("file", "test", "figure"), f"{path.name}:{b.line + 1}: unmarked block"
+
+
+# benchmark logs (load averages, clock times, dates) and team notes belong to the Performance
+# page and benchmarks/README.md, not to a user's guide
+NOTES = re.compile(r"\bload( average)? (of )?\d|\bUTC\b|\b20\d\d-\d\d-\d\d\b"
+                   r"|\b\d{1,2} [a-z]{3,9} 20\d\d\b|\bissue \d|\bteam notes?\b"
+                   r"|\banother branch\b|\bsession\b", re.I)
+
+
+@pytest.mark.parametrize("path", HOW_TO, ids=_ids(HOW_TO))
+def test_a_how_to_holds_no_benchmark_log_or_team_notes(path):
+    found = [f"{path.name}:{n}: {m.group()!r}"
+             for n, line in enumerate(path.read_text().splitlines(), 1)
+             for m in [NOTES.search(line)] if m]
+    assert not found, "; ".join(found)
 
 
 @pytest.mark.parametrize("path", HOW_TO, ids=_ids(HOW_TO))
