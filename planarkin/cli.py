@@ -734,3 +734,26 @@ def _conclude_search(model_path, report: Report, res, outdir: Path):
     else:
         report.failed(model_path, res.message, detail)
     sys.exit(report.exit_code)
+
+
+@main.command("export")
+@click.argument("model_path", metavar="MODEL", type=click.Path())
+@click.option("--dxf", is_flag=True, help="Write DXF (R2000, mm: LINE, CIRCLE, LWPOLYLINE, TEXT).")
+@click.option("--svg", is_flag=True, help="Write SVG (sized in millimetres).")
+@click.option("--out", type=click.Path(file_okay=False), default="out", show_default=True,
+              help="Writes DIR/<file stem>.drawings/.")
+@click.option("--width", type=float, help="Plate width around the pins, mm (default 12).")
+@click.option("--pin", type=float, help="Pin diameter, mm (default 6).")
+@click.option("--clearance", type=float, help="Added to the pin for the holes, mm (default 0.1).")
+@click.option("--thickness", type=float, help="Plate thickness, noted on parts, mm (default 5).")
+@click.option("--tolerance", type=float, help="Cam profiles' chordal tolerance, mm (default 0.01).")
+@click.option("--module", type=float, help="Gear module, mm: outside circles (default: none).")
+@click.option("--pose", type=float, metavar="TIME", help="Turn the layout's parts as at TIME (s).")
+@click.option("--body", multiple=True, metavar="NAME", help="Draw this body (repeatable).")
+@_set_option
+def export_drawings(model_path, overrides, **options):
+    """Fabrication drawings of MODEL's parts at true size: plates with pin holes, cam profiles
+    (arcs within the tolerance), gear blanks, and a layout sheet. Exit status: 0 written,
+    1 the pose or a file failed, 2 invalid input."""
+    from .export.command import export
+    sys.exit(export(model_path, overrides=overrides, **options))
