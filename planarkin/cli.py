@@ -148,9 +148,13 @@ def _write_junit(junit, suite: str, entries, seconds: float, code: int) -> int:
               help="File format of the tables: csv, or parquet (bodies.parquet ...; needs "
                    "pip install 'planarkin[parquet]'). Default: output: table_format of the "
                    "model, or csv.")
-@click.option("--report", "report_what", type=click.Choice(("cycle",)),
-              help="Also print the cycle figures of the coordinates that move and of the measures "
-                   "(limit positions, stroke, time ratio).")
+@click.option("--report", "report_what", multiple=True, metavar="cycle|html",
+              callback=lambda ctx, param, values: _parse_report(values),
+              help="cycle: also print the cycle figures of the coordinates that move and of the "
+                   "measures (limit positions, stroke, time ratio); html: also write "
+                   "report.html per model (one self-contained page: summary, figures, the "
+                   "mechanism moving) and DIR/index.html linking them. Repeatable, or a comma "
+                   "list: --report cycle,html.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @_set_option
 @click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
@@ -172,12 +176,27 @@ def run(models, out, no_plots, fmt, animate, animate_fps, animate_width, x_axis,
     _check_out(out)
     _check_junit(junit)
     report = Report(quiet)
-    run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
-               None if no_plots else fmt, animate, x_axis, cycle=report_what == "cycle",
-               table_format=table_format, jobs=jobs)
+    index = run_models(models, out_dirs(models, Path(out)), report, overrides, analysis,
+                       None if no_plots else fmt, animate, x_axis, cycle="cycle" in report_what,
+                       table_format=table_format, jobs=jobs, html="html" in report_what)
     report.summary()
     sys.exit(_write_junit(junit, "planarkin run", report.model_entries(models),
-                          time.perf_counter() - report.started, report.exit_code))
+                          time.perf_counter() - report.started, max(report.exit_code, index)))
+
+
+def _parse_report(values) -> tuple:
+    """--report (repeatable, or a comma list) -> the reports asked for, each once."""
+    out = []
+    for v in values:
+        for word in v.split(","):
+            word = word.strip()
+            if word not in ("cycle", "html"):
+                raise click.BadParameter(f"{word!r} is not one of 'cycle', 'html' (repeat the "
+                                         f"option or give a comma list: --report cycle,html)",
+                                         param_hint="'--report'")
+            if word not in out:
+                out.append(word)
+    return tuple(out)
 
 
 @main.command()

@@ -21,26 +21,65 @@ _RUN_STOP = None    # a `run --jobs` worker's stop value (the parent's signal nu
 
 def run_models(models, dirs, report: Report, overrides: dict | None, analysis: dict, plots,
                animate, x_axis=None, cycle: bool = False, table_format=None,
-               jobs: int = 1) -> None:
+               jobs: int = 1, html: bool = False) -> int:
     """Analyse models into dirs (one directory each, planarkin.output.directory.out_dirs), in
     order, reporting into report (its exit_code says how it went); with jobs > 1 in that many
-    local processes. An interruption is reported (report.signal) and ends the batch."""
+    local processes. An interruption is reported (report.signal) and ends the batch.
+
+    html: each model's directory gets report.html, and their parent index.html, a row per
+    model linking its report (written at the end, after an interruption too). Returns 0, or 1
+    when index.html could not be written (one line said why)."""
     from .output.directory import checkpoint, interruptible, signame
+    since = time.time()
     with interruptible():
         try:
             if jobs > 1 and len(models) > 1:
                 _run_parallel(models, dirs, report, overrides, analysis, plots, animate, jobs,
-                              table_format, x_axis)
-                return
-            for path, outdir in zip(models, dirs):
-                checkpoint()            # a signal lost in a finalizer: no further model
-                model = load_model(path, report, overrides)
-                if model is not None:
-                    run_model(path, model, outdir, report, dict(analysis), plots, animate,
-                              x_axis, cycle=cycle, table_format=table_format)
+                              table_format, x_axis, html)
+            else:
+                for path, outdir in zip(models, dirs):
+                    checkpoint()            # a signal lost in a finalizer: no further model
+                    model = load_model(path, report, overrides)
+                    if model is not None:
+                        run_model(path, model, outdir, report, dict(analysis), plots, animate,
+                                  x_axis, cycle=cycle, table_format=table_format, html=html)
         except KeyboardInterrupt as e:
             if report.signal is None:        # stopped before a model had its directory
                 report.interrupted(None, signame(e), "nothing more was written")
+        return write_index(models, dirs, report, since) if html and dirs else 0
+
+
+def write_index(models, dirs, report: Report, since: float) -> int:
+    """The batch's index.html in the parent of dirs: a row per model (its outcome, and a link
+    to its report.html when this batch wrote one: ok, or failed with its directory put in
+    place after `since`, a time.time()). Written whole or not at all; returns 0, or 1 after a
+    line saying why it could not be (the earlier page is left as it was)."""
+    from .output.directory import critical, signame
+    from .output.report_html import REPORT, write_index as write_page
+    root = Path(dirs[0]).parent
+    items = []
+    for entry, outdir in zip(report.model_entries(models), dirs):
+        page = Path(outdir) / REPORT
+        try:
+            fresh = entry.outcome in ("ok", "failed") and page.stat().st_mtime >= since
+        except OSError:
+            fresh = False
+        lines = entry.text.splitlines()
+        message = entry.message or (lines[-1].split(": ", 1)[-1] if lines else "")
+        items.append((entry.name, entry.outcome, message,
+                      f"{Path(outdir).name}/{REPORT}" if fresh else None))
+    try:
+        with critical():
+            write_page(root, f"planarkin run: {len(models)} model{'s' * (len(models) != 1)}",
+                       items)
+    except OSError as e:
+        click.echo(f"error: writing {root / 'index.html'} failed: {e.strerror or e}; it is left "
+                   f"as it was", err=True)
+        return 1
+    except KeyboardInterrupt as e:      # the page is written: a signal during it stops here
+        if report.signal is None:
+            report.interrupted(None, signame(e), "after the last model")
+    return 0
 
 
 def load_model(path: str, report: Report, overrides: dict | None = None):
@@ -83,11 +122,12 @@ class Progress:
 
 
 def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, animate,
-             x_axis=None, cycle=False, table_format=None, stop=None):
+             x_axis=None, cycle=False, table_format=None, stop=None, html=False):
     """One model: options, preparation, then the directory. Invalid input (options, budget,
     assembly, a busy or foreign directory) is reported before anything is written; an
     interruption keeps the complete rows (status interrupted) and is raised again to stop the
-    batch. stop: a `run --jobs` worker's stop value (see DirectoryWriter)."""
+    batch. stop: a `run --jobs` worker's stop value (see DirectoryWriter); html: write
+    report.html too."""
     from .diagnostics import Diagnostic, InputError
     from .model.spec import x_axis_problem
     from .options import resolve
@@ -114,7 +154,7 @@ def run_model(path, model, outdir: Path, report: Report, analysis: dict, plots, 
     try:
         with critical():    # a signal waits until the writer exists, so that it can abandon it
             writer = DirectoryWriter(model, outdir, opts, plots=plots, animate=animate, x=x_axis,
-                                     table_format=table_format, stop=stop)
+                                     table_format=table_format, stop=stop, report=html)
     except OutputError as e:
         report.invalid(path, [Diagnostic(path, None, str(e))])
         return
@@ -191,8 +231,8 @@ def report_line(path, outdir, report, info, summary, cycle, seconds):
         report.ok(path, detail)
     else:
         report.failed(path, info.message, detail)
-    for w in summary.get("warnings", ()):
-        if isinstance(w, dict) and w.get("kind") == "plots":     # the tables are written
+    for w in summary.get("warnings", ()):     # a figure or the page left out: the tables are in
+        if isinstance(w, dict) and w.get("kind") in ("plots", "report"):
             report.warning(path, w["message"])
     if cycle:
         from .measures.cycle import format_cycle
@@ -235,7 +275,7 @@ def _run_model(args):
     import io
 
     from .output.directory import interruptible, signame
-    path, outdir, quiet, overrides, analysis, plots, animate, table_format, x_axis = args
+    path, outdir, quiet, overrides, analysis, plots, animate, table_format, x_axis, html = args
     out, err = io.StringIO(), io.StringIO()
     rep = Report(quiet)
     stopped = None
@@ -246,7 +286,7 @@ def _run_model(args):
             model = load_model(path, rep, overrides)
             if model is not None:
                 run_model(path, model, outdir, rep, dict(analysis), plots, animate, x_axis,
-                          table_format=table_format, stop=_RUN_STOP)
+                          table_format=table_format, stop=_RUN_STOP, html=html)
         except KeyboardInterrupt as e:          # the directory says so already
             stopped = signame(e)
             if rep.signal is None:              # before its directory was staged
@@ -273,7 +313,8 @@ def on_disk(outdir: Path, since: float) -> str:
 
 
 def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, jobs: int,
-                  table_format: str | None = None, x_axis: str | None = None) -> None:
+                  table_format: str | None = None, x_axis: str | None = None,
+                  html: bool = False) -> None:
     """`planarkin run --jobs N` (dirs: one output directory per model, in order): the models in
     N local processes, each writing its own directory; the terminal lines in model order, the
     counts into report. Interrupted (SIGINT, SIGTERM to this process alone or to the whole
@@ -291,8 +332,8 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
     from .processes import context, stop_workers
     ctx = context()
     since = time.time()
-    tasks = [(m, d, report.quiet, overrides, analysis, plots, animate, table_format, x_axis)
-             for m, d in zip(models, dirs)]
+    tasks = [(m, d, report.quiet, overrides, analysis, plots, animate, table_format, x_axis,
+              html) for m, d in zip(models, dirs)]
 
     def take(result) -> None:
         out, err, counts, stopped = result

@@ -101,6 +101,12 @@ def test_interrupted_batch_with_plots_leaves_every_directory_consistent(tmp_path
             assert "mechanism.png" in s["plots"] and "animation.gif" in s["plots"]
         for f in s["plots"]:
             data = (d / f).read_bytes()
+            if f == "animation.mp4":        # where ffmpeg is installed: its boxes fill the file
+                k = 0
+                while k + 8 <= len(data) and int.from_bytes(data[k:k + 4], "big") >= 8:
+                    k += int.from_bytes(data[k:k + 4], "big")
+                assert data[4:8] == b"ftyp" and k == len(data), (d, f)
+                continue
             assert data[:6] in (b"\x89PNG\r\n", b"GIF89a"), (d, f)
             assert data.endswith(b"IEND\xaeB`\x82") or data.endswith(b";"), (d, f)
         assert f"{name}.yaml" in stdout, (name, stdout)

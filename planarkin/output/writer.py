@@ -7,7 +7,9 @@ results (chunks, `planarkin.results.RunInfo`); it computes nothing of the analys
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import shutil
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -75,7 +77,7 @@ class DirectoryWriter:
 
     def __init__(self, cm: CompiledModel, out: Path, opts: Options, plots: str | None = "png",
                  animate: bool = False, x: str | None = None, table_format: str | None = None,
-                 stop=None):
+                 stop=None, report: bool = False):
         self.cm = cm
         self.final = Path(out)
         self.stop = stop
@@ -94,8 +96,10 @@ class DirectoryWriter:
             self.steps = StepStats()
             self.plots = plots
             self.animate = animate
+            self.report = report                    # report.html (planarkin.output.report_html)
+            self.notes: list[str] = []              # summary.json's notes (an MP4 not written)
             self.x = x or cm.spec.output.x          # abscissa of the time histories
-            self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate) else None
+            self.buffer = PlotBuffer(opts.steps + 1) if (plots or animate or report) else None
             self.t_write = 0.0
             # table_format: "csv" or "parquet" (default: the model's output: table_format);
             # the sinks, and summary.json's files and columns, go by the names of the files
@@ -188,6 +192,7 @@ class DirectoryWriter:
             raise
         try:
             drawn: list = []
+            material = None                # what report.html shows besides the summary
             if data is not None and pending is None:
                 t0 = time.perf_counter()
                 try:
@@ -204,6 +209,22 @@ class DirectoryWriter:
                 except KeyboardInterrupt as e:
                     pending = e
                 summary["wall_time"]["plots"] = round(time.perf_counter() - t0, 6)
+                if self.notes:
+                    summary["notes"] = list(self.notes)
+                if self.report and pending is None:
+                    t0 = time.perf_counter()
+                    try:
+                        material = self._report_material(info, data)
+                    except OSError as e:
+                        if e.errno in DISK_ERRORS:
+                            raise WriteError(f"writing report.html failed: {e.strerror or e}",
+                                             e.errno) from None
+                        summary["warnings"].append(_no_report(e))
+                    except Exception as e:  # noqa: BLE001 - the page must not cost the tables
+                        summary["warnings"].append(_no_report(e))
+                    except KeyboardInterrupt as e:
+                        pending = e
+                    summary["wall_time"]["report"] = round(time.perf_counter() - t0, 6)
             if pending is None:
                 try:
                     checkpoint()           # a signal lost in a finalizer meanwhile
@@ -216,16 +237,17 @@ class DirectoryWriter:
                                                              "the tables are complete, the "
                                                              "plots are left out"))
                     drawn = []
+                    summary.pop("notes", None)      # (about a video not drawn either)
                 # a figure drawn half (an interruption, an error) is not left in the directory
                 for p in self.out.iterdir():
                     if p.name not in summary["files"] and p.name not in drawn:
                         p.unlink()
                 summary["plots"] = drawn
-                try:
-                    write_json(self.out / "summary.json", summary)
-                except OSError as e:
-                    raise WriteError(f"writing summary.json failed: {e.strerror or e}",
-                                     e.errno) from None
+                if material is not None and pending is None:
+                    summary["report"] = "report.html"
+                self._write_summary(summary)
+                if material is not None and pending is None:
+                    self._write_report(summary, material)
                 try:
                     self.dir.commit()
                 except OSError as e:
@@ -263,26 +285,112 @@ class DirectoryWriter:
         return summary
 
     def _plots(self, info: RunInfo, data) -> list:
-        """Draw the model's and the rooms' figures; returns their files in figure order."""
+        """Draw the model's and the rooms' figures and the animation; returns their files in
+        figure order."""
+        return self._figures(info, data, self.out, self.plots, self.animate)
+
+    def _figures(self, info: RunInfo, data, out: Path, fmt: str | None, animate=None) -> list:
+        """Draw the model's and the rooms' figures (format fmt; None: none) into out, and with
+        animate the animation between them (animation.gif, and animation.mp4 where ffmpeg is,
+        else a note for the summary); returns their files in figure order."""
         from . import plots as plotting       # matplotlib only when plotting
         files = []
-        if self.plots:
-            files += plotting.write_plots(self.cm, data, info, self.out, fmt=self.plots,
-                                          x=self.x)
-        if self.animate:
-            opts = self.animate if isinstance(self.animate, dict) else {}
-            files.append(plotting.write_animation(self.cm, data, self.out, **opts))
-        if self.plots:
+        if fmt:
+            files += plotting.write_plots(self.cm, data, info, out, fmt=fmt, x=self.x)
+        if animate:
+            from .plots.animation import write_animations
+            opts = animate if isinstance(animate, dict) else {}
+            written, notes = write_animations(self.cm, data, out, **opts)
+            files += written
+            self.notes += notes
+        if fmt:
             for d in self.derived:
                 if d.plot is not None:
-                    files += d.plot(self.cm, d.compute(data), info, self.out, self.plots)
+                    files += d.plot(self.cm, d.compute(data), info, out, fmt)
+            # cam.<fmt>: drawn here, not as cam-<name>.csv's plot (the elements may not import
+            # the plots)
+            from .plots.cam import cam_figures
+            files += cam_figures(self.cm, data, info, out, fmt)
         return files
+
+    def _report_material(self, info: RunInfo, data):
+        """What report.html shows besides the summary (planarkin.output.report_html.Material):
+        the figures as SVG (drawn into a folder of the staged directory, removed at once; none
+        when the run draws no plots), the mechanism moving, key rows of bodies.csv."""
+        from . import report_html as rh
+        from ..chunks import take
+        m = rh.Material()
+        n = len(data.t)
+        if not n:
+            return m
+        index = np.arange(n) * self.buffer.stride        # the plot rows' rows in the tables
+        index[-1] = self.rows - 1
+        if self.plots:
+            few, _ = rh.thin(data, rh.FIGURE_ROWS)
+            tmp = self.out / ".report-figures"
+            try:
+                tmp.mkdir()
+                files = self._figures(info, few, tmp, "svg")
+                m.figures = [(f"{p.stem}.{self.plots}",
+                              rh.inline_svg(p.read_text(encoding="utf-8"), f"f{k}-"))
+                             for k, p in enumerate(files)]
+            except Exception as e:  # noqa: BLE001 - the page without its figures, saying why
+                if isinstance(e, OSError) and e.errno in DISK_ERRORS:
+                    raise
+                m.notes.append(f"The figures could not be drawn for this page: "
+                               f"{type(e).__name__}: {e}.")
+            finally:
+                shutil.rmtree(tmp, ignore_errors=True)
+            if m.figures and len(few.t) < self.rows:
+                m.notes.append(f"The figures are drawn from {len(few.t)} of the run's "
+                               f"{self.rows} rows, evenly spread.")
+        m.motion, frames = rh.motion(self.cm, data, index, self.rows)
+        m.notes.append(f"The animation has {frames} frames: "
+                       + ("every row of the run." if frames == self.rows else
+                          f"rows evenly spread over the run's {self.rows} rows."))
+        key = np.unique(np.linspace(0, n - 1, min(rh.KEY_ROWS, n)).round().astype(int))
+        m.table, m.header = self.names["bodies.csv"], list(self.layout.body_header)
+        m.rows = self.layout.body_table(take(data, key)) + 0.0      # no -0.0, as in the file
+        m.row_index = index[key]
+        return m
+
+    def _write_summary(self, summary: dict) -> None:
+        try:
+            write_json(self.out / "summary.json", summary)
+        except OSError as e:
+            raise WriteError(f"writing summary.json failed: {e.strerror or e}", e.errno) from None
+
+    def _write_report(self, summary: dict, material) -> None:
+        """report.html, made from summary.json as written (its values as they are there); a
+        bug making it leaves it out and says so in the summary (written again)."""
+        from .report_html import REPORT, page
+        try:
+            text = page(json.loads((self.out / "summary.json").read_text(encoding="utf-8")),
+                        material)
+        except OSError as e:
+            raise WriteError(f"reading summary.json back failed: {e.strerror or e}",
+                             e.errno) from None
+        except Exception as e:  # noqa: BLE001 - the page must not cost the tables
+            del summary["report"]
+            summary["warnings"].append(_no_report(e))
+            self._write_summary(summary)
+            return
+        try:
+            (self.out / REPORT).write_text(text, encoding="utf-8")
+        except OSError as e:
+            raise WriteError(f"writing {REPORT} failed: {e.strerror or e}", e.errno) from None
 
     def abort(self) -> None:
         """Close every table and remove the new files; the previous directory stays."""
         for s in self.sinks.values():
             s.kill()
         self.dir.abandon()
+
+
+def _no_report(e: BaseException) -> dict:
+    """The summary's warning for a report.html left out by an error."""
+    return {"kind": "report", "message": f"report.html was not written: {type(e).__name__}: "
+                                         f"{e} (please report)"}
 
 
 def _interrupted_status(info: RunInfo, how: str) -> dict:

@@ -1,7 +1,9 @@
-"""animation.gif: the mechanism moving over the run, blitted frames on one palette."""
+"""animation.gif: the mechanism moving over the run, blitted frames on one palette; and
+animation.mp4 of the same frames where ffmpeg is installed (`write_animations`)."""
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +14,39 @@ from .scene import Scene
 from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, CROWD, FONT, styled, text_width
 
 
-@styled
 def write_animation(cm, data, out: Path, fps: int | None = None,
                     width: int | None = None) -> Path:
+    """Write out/animation.gif (see `_animate`); returns its path."""
+    return _animate(cm, data, out, fps, width, mp4=False)[0]
+
+
+def write_animations(cm, data, out: Path, fps: int | None = None,
+                     width: int | None = None) -> tuple[list[Path], list[str]]:
+    """Write out/animation.gif and, where ffmpeg is installed, out/animation.mp4 of the same
+    frames (matplotlib's FFMpegWriter, H.264). Returns (the files written, notes): a note says
+    why the MP4 was not written (no ffmpeg, or ffmpeg failed); that is not an error, the GIF
+    is there."""
+    why = mp4_missing()
+    gif, failed = _animate(cm, data, out, fps, width, mp4=why is None)
+    why = why or failed
+    if why is None:
+        return [gif, gif.with_suffix(".mp4")], []
+    return [gif], [f"animation.mp4 was not written: {why}; animation.gif has the frames"]
+
+
+def mp4_missing() -> str | None:
+    """Why animation.mp4 cannot be written here (None: it can): matplotlib finds no ffmpeg."""
+    import matplotlib as mpl
+    from matplotlib.animation import writers
+    if writers.is_available("ffmpeg"):
+        return None
+    return (f"ffmpeg was not found (matplotlib's animation.ffmpeg_path is "
+            f"{mpl.rcParams['animation.ffmpeg_path']!r}): install ffmpeg")
+
+
+@styled
+def _animate(cm, data, out: Path, fps: int | None, width: int | None,
+             mp4: bool) -> tuple[Path, str | None]:
     """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
     joint and point paths growing), up to ANIM_FRAMES frames at fps frames per second (default
     ANIM_FPS), width pixels wide (default 640; the height follows the drawing, the legend
@@ -22,7 +54,10 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
 
     Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
-    more), and every frame is mapped onto one shared palette before Pillow writes the GIF."""
+    more), and every frame is mapped onto one shared palette before Pillow writes the GIF.
+
+    mp4: also write out/animation.mp4 from the same frames (`_write_mp4`). Returns the GIF's
+    path and why the MP4 is missing (None: written, or not asked for)."""
     from matplotlib.animation import PillowWriter
     from PIL import Image
 
@@ -104,6 +139,53 @@ def write_animation(cm, data, out: Path, fps: int | None = None,
         writer.row = i
         writer.grab_frame()
     writer.finish()
-    return path
+    return path, (_write_mp4(writer.images, fig, path.with_suffix(".mp4"), fps) if mp4
+                  else None)
+
+
+def _write_mp4(images, fig, path: Path, fps: int) -> str | None:
+    """Write the RGB frames `images` to path as H.264 through matplotlib's FFMpegWriter (frames
+    piped as raw RGBA, padded with white to even sizes, which yuv420p needs). Returns None, or
+    why there is no file (ffmpeg failed: a partial file is removed). ffmpeg never outlives this
+    call, whatever stops it."""
+    from matplotlib.animation import FFMpegWriter
+    from PIL import Image
+
+    w, h = images[0].size
+    size = (w + w % 2, h + h % 2)
+
+    class FrameWriter(FFMpegWriter):
+        """FFMpegWriter fed with our frames, not with the figure's canvas (whose size it would
+        change to even pixels)."""
+        frame_size = size
+
+        def _adjust_frame_size(self):
+            return size[0] / self.dpi, size[1] / self.dpi
+
+        def grab_frame(self, **savefig_kwargs):
+            frame = Image.new("RGBA", size, "white")
+            frame.paste(self.image, (0, 0))
+            self._proc.stdin.write(frame.tobytes())
+
+    # no encoder version in the file: the same frames give the same bytes
+    writer = FrameWriter(fps=fps, codec="h264", extra_args=["-fflags", "+bitexact"])
+    writer._proc = None
+    try:
+        writer.setup(fig, path, ANIM_DPI)
+        for im in images:
+            writer.image = im
+            writer.grab_frame()
+        writer.finish()
+    except (OSError, subprocess.CalledProcessError) as e:
+        path.unlink(missing_ok=True)
+        err = (getattr(e, "stderr", None) or "").strip().splitlines()
+        return f"ffmpeg failed: {err[-1] if err else e}"
+    finally:
+        proc = writer._proc
+        if proc is not None and proc.poll() is None:     # stopped between two frames
+            proc.kill()
+            proc.communicate()
+            path.unlink(missing_ok=True)
+    return None
 
 
