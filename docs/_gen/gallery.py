@@ -39,7 +39,7 @@ def main():
     models = sorted((ROOT / "mechanisms").glob("*.yaml"))
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "planarkin", "run", *map(str, models), "--out", tmp,
-               "--quiet"]
+               "--quiet", "--report", "html"]
         done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
         if done.returncode not in (0, 1):
             raise RuntimeError(f"the gallery's planarkin run exited {done.returncode}:\n"
@@ -57,12 +57,20 @@ def main():
                 with mkdocs_gen_files.open(f"gallery/{name}/{fig.name}", "wb") as f:
                     f.write(fig.read_bytes())
             about = comment(path)
+            report = out / "report.html"        # the page a user can send: one file, offline
+            if report.exists():
+                with mkdocs_gen_files.open(f"gallery/{name}/report.html", "wb") as f:
+                    f.write(report.read_bytes())
+            link = f"[report.html]({name}/report.html)" if report.exists() else ""
             index += [f"## [{name}]({name}.md)", "", about, ""]
+            if link:
+                index += [f"Its run's {link}, one self-contained page.", ""]
             if figs:
                 index += [f"[![{name}: {figs[0].stem}]({name}/{figs[0].name})]({name}.md)", ""]
             page = [f"# {name}", "", f"[Gallery](index.md) / `mechanisms/{path.name}`", "",
                     about, "",
-                    f"`planarkin run mechanisms/{path.name}` (status: **{status}**)", "",
+                    f"`planarkin run mechanisms/{path.name}` (status: **{status}**)"
+                    + (f"; its {link} (`--report html`)" if link else ""), "",
                     f'??? example "mechanisms/{path.name}"', "", "    ```yaml"]
             page += [f"    {line}".rstrip() for line in path.read_text().splitlines()]
             page += ["    ```", ""]
