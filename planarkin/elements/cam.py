@@ -715,10 +715,10 @@ def draw_cam(G, k: int, parts) -> None:
     P = profile(G.kind.name, par, np.linspace(lo, hi, 181))
     centre = parts.pivot(bi, bk)
     parts.shape(bi)
-    parts.outline(bi, centre + np.c_[P["surface_x"], P["surface_y"]] * parts.L)
+    parts.outline(bi, centre + np.c_[P["surface_x"], P["surface_y"]] * parts.L, surface=True)
     roller = float(par["roller"]) * parts.L
     if roller > 0:
-        parts.outline(bj, circle(parts.point(G, k, "sj"), roller, 31))
+        parts.outline(bj, circle(parts.point(G, k, "sj"), roller, 31), surface=True)
     face = _flat_face(G, k, par, parts.phi)
     if face is not None:
         parts.face(bj, face * parts.L)

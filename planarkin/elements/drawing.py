@@ -45,6 +45,7 @@ class Parts:
         self.discs: list = []
         self.shaped: set = set()
         self.outlines: list = []
+        self.surfaces: list = []      # the outlines that are a part's working surface (a cam)
         self.faces: list = []
 
     # -- what the hooks read ------------------------------------------------------------------
@@ -123,8 +124,12 @@ class Parts:
         """Body is drawn by its outlines (a disc, a cam profile): no slider block for it."""
         self.shaped.add(body)
 
-    def outline(self, body: int, polyline) -> None:
+    def outline(self, body: int, polyline, surface: bool = False) -> None:
+        """A dashed outline of body (a slot, a pitch circle), or with surface its working
+        surface (a cam's profile, a roller), drawn solid at the named instant only."""
         self.outlines.append((body, np.asarray(polyline, float)))
+        if surface:
+            self.surfaces.append(self.outlines[-1][1])
 
     def face(self, body: int, polyline) -> None:
         self.faces.append((body, np.asarray(polyline, float)))

@@ -34,7 +34,7 @@ class Drawing:
         cm = scene.cm
         col = (lambda b: scene.colors[b]) if body_colors else (lambda b: color)
         self.parts = []                 # (artist, body, vertices, kind)
-        outlines = {id(poly) for _, poly in scene.outlines}
+        outlines = {id(poly) for poly in scene.surfaces}
         for b in range(scene.nb):
             c = col(b)
             if scene.fills[b] is not None:
@@ -46,7 +46,7 @@ class Drawing:
                 self.parts.append((line(color=c, lw=width, alpha=alpha, solid_capstyle="round",
                                         zorder=zorder), b, scene.bars[b], "line"))
             for poly in scene.dashed[b]:
-                # a cam's or disc's profile is its working surface: drawn solid, as a part
+                # a cam's profile and its roller are working surfaces: drawn solid, as a part
                 # drawing does; pitch circles and slots stay dashed
                 surface = id(poly) in outlines
                 if surface and not surfaces:

@@ -80,6 +80,7 @@ class Scene:
                 parts.attach[int(b)].append(np.asarray(s) * L)
         self.pins, self.pivots, self.links = parts.pins, parts.pivots_drawn, parts.links
         self.outlines, self.faces_out = parts.outlines, parts.faces
+        self.surfaces = parts.surfaces
         self.shaped = parts.shaped
         return parts.attach, parts.joints, parts.slides, parts.slide_dir, parts.discs
 
