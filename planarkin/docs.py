@@ -271,8 +271,11 @@ KEYS = {
     "gravity": "`[gx, gy]`, length/s^2 (e.g. `[0, -9.81]` in m); default none",
     "loads": "list of loads, each with `type` and optional `name` (the load kinds below)",
     "design": "synthesis and fitting (`planarkin synth`, `planarkin fit`): `free: {NAME: [low, "
-              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`), "
-              "`constraints:` (`turns`, `transmission`, `order`) and `search:` settings",
+              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`; a path "
+              "is `closed` when its last point repeats its first, or with `closed: true`), "
+              "`constraints:` (`turns`, with `{body, shortest: true}` for a crank that must be "
+              "the shortest link; `transmission`, `order`) and `search:` settings (`starts`, "
+              "`local` per draw, `evaluations` and `time` budgets, `goal`, `seed`)",
 }
 
 LOAD_DOCS = {

@@ -154,7 +154,10 @@ def test_cli_synth_writes_ready_to_run_designs(tmp_path):
 
 
 def test_cli_synth_none_acceptable_exits_1(tmp_path):
-    p = _variant(tmp_path, EX / "four-bar-function.yaml", "goal: 1e-12", "goal: 1e-30")
+    # a small evaluation budget: the search spends the whole budget when the goal is out of
+    # reach (the default's 2,000 evaluations took 20 s here)
+    p = _variant(tmp_path, EX / "four-bar-function.yaml", "goal: 1e-12",
+                 "goal: 1e-30, evaluations: 200")
     p = _variant(tmp_path, p, "outputs: [86.1774462707", "outputs: [96.1774462707",
                  "far.yaml")
     r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
@@ -302,6 +305,7 @@ def test_points_out_of_reach_end_with_the_best_design_and_exit_1(tmp_path):
     residuals and the summary says the goal was not reached."""
     p = _variant(tmp_path, EX / "four-bar-path.yaml", "[[0.035916759466, 0.074888765157]",
                  "[[1000.035916759466, 0.074888765157]")
+    p = _variant(tmp_path, p, "goal: 1e-20}", "goal: 1e-20, evaluations: 200}")   # (as above)
     r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",
                                   "--local", "1", "--no-plots"])
     assert r.exit_code == 1, r.output

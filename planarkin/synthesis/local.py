@@ -43,6 +43,10 @@ class _Done(Exception):
     """Raised inside least_squares once an accepted iterate reaches the stop value."""
 
 
+class _Halted(Exception):
+    """Raised inside least_squares when the search's budget runs out (see Local.run)."""
+
+
 class _Abandoned(Exception):
     """Raised inside least_squares when a probed run falls too slowly (see Local.run)."""
 
@@ -101,7 +105,7 @@ class Local:
             return None, Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
                                                          if d.severity == "error")), None
         if syn.design.turns is not None:
-            loop = turning_loop(cm, syn.design.turns)
+            loop = turning_loop(cm, syn.design.turns, syn.design.shortest)
             if loop is not None and not loop.margin() > 0:
                 return None, Rejected("constraint turns"), None
         times, where = [], []
@@ -150,7 +154,7 @@ class Local:
         return np.concatenate(J)
 
     # -- one local run -----------------------------------------------------------------------
-    def run(self, d, max_nfev: int, stop: float = 0.0, probe=()):
+    def run(self, d, max_nfev: int, stop: float = 0.0, probe=(), halt=None):
         """Least squares from the fully evaluated design d. Returns (x, message, trail): x in
         the local layout (self.full(x) for Synthesis.evaluate), trail the accepted iterates in
         order (d's first), from which the caller takes the last that passes the full check
@@ -158,7 +162,9 @@ class Local:
         the run (it has converged for the caller). probe: (trials, cost) checkpoints
         (probe_limits): the run is abandoned (message 'abandoned: ...') when its best sum of
         squares is above cost once it has used that many trials: many short runs find an
-        exact basin sooner than a few long ones."""
+        exact basin sooner than a few long ones. halt: called before each trial; true ends the
+        run at its best accepted iterate (message 'halted: ...': a budget of the search ran
+        out)."""
         from scipy.optimize import least_squares
         syn = self.syn
         self.anchor(d)
@@ -197,6 +203,8 @@ class Local:
             key = z.tobytes()
             if key not in cache:
                 cache.clear()
+                if halt is not None and halt():
+                    raise _Halted
                 cache[key] = self.evaluate(X(z))
                 used = self.evaluations - e0
                 if any(used >= n and best[1] > lim for n, lim in limits):
@@ -232,6 +240,9 @@ class Local:
                 x = best[0]
         except _Done:
             x, msg = best[0], "the sum of squares reached the goal"
+        except _Halted:
+            x, msg = best[0], (f"halted: the search's {halt()} budget ran out after "
+                               f"{self.evaluations - e0} trials")
         except _Abandoned:
             x, msg = best[0], (f"abandoned: sum of squares {best[1]:.3g} after "
                                f"{self.evaluations - e0} trials")

@@ -8,9 +8,10 @@ three y, the margin
 
 is positive exactly then: x + max(y) < sum(y) - max(y) forces x below every y (a y below x
 would give x + max(y) > y + max(y) >= the two others). The constraint's margin is
-max(m_crank, m_ground), in the model's length unit. The lengths are distances between the
-joints' body-frame points si, sj, so their gradients are exact by the chain rule through the
-file's expressions (studies.sensitivity.ParameterDerivatives).
+max(m_crank, m_ground), in the model's length unit (m_crank alone with `shortest: true`).
+The lengths are distances between the joints' body-frame points si, sj, so their gradients
+are exact by the chain rule through the file's expressions
+(studies.sensitivity.ParameterDerivatives).
 
 The constraints measured on the analysed cycle take their extremes between the grid rows as
 every figure does (planarkin.measures.extremes.extreme, from the exact rates and
@@ -41,8 +42,11 @@ class TurnLoop:
     lengths: tuple      # user length unit
     pins: tuple         # per length: ((body, element, 'si'|'sj'), (body, element, key))
     driven: int         # index of the driven link in links (1 or 3)
+    shortest: bool = False      # the driven link must be the shortest (not the ground)
 
     def margin(self) -> float:
+        if self.shortest:
+            return self._margin(self.driven)[0]
         return max(self._margin(self.driven)[0], self._margin(0)[0])
 
     def _margin(self, x):
@@ -58,11 +62,13 @@ class TurnLoop:
     def gradient(self, dlengths: np.ndarray) -> np.ndarray:
         """d(margin)/dp from dlengths (4, k): the active branch's linear combination."""
         a, b = self._margin(self.driven), self._margin(0)
-        return (a if a[0] >= b[0] else b)[1] @ dlengths
+        return (a if self.shortest or a[0] >= b[0] else b)[1] @ dlengths
 
 
-def turning_loop(cm, body: str):
-    """The four-bar loop in which `body` is a link pinned to ground, or None."""
+def turning_loop(cm, body: str, shortest: bool = False):
+    """The four-bar loop in which `body` is a link pinned to ground, or None. shortest: its
+    margin is m_body alone (the body the shortest link, a crank-rocker or a double crank with
+    the driven link shortest; not a drag link with the ground shortest)."""
     pins = {}
     for g in cm.groups:
         if g.kind.name != "revolute":
@@ -91,7 +97,7 @@ def turning_loop(cm, body: str):
             lengths = (math.dist(gp, gr) * L, math.dist(pg, pc) * L, math.dist(cp, cr) * L,
                        math.dist(rc, rg) * L)
             return TurnLoop(links=("ground", body, cm.body_names[c], cm.body_names[r]),
-                            lengths=lengths, driven=1,
+                            lengths=lengths, driven=1, shortest=shortest,
                             pins=((ngp, ngr), (npg, npc), (ncp, ncr), (nrc, nrg)))
     return None
 

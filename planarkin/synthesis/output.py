@@ -181,7 +181,7 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
         summary = {"planarkin": __version__, "command": "synth", "model": syn.model.path,
                    "status": status, "message": res.message,
                    "evaluations": res.evaluations, "analyses": res.analyses,
-                   "jacobians": res.jacobians,
+                   "jacobians": res.jacobians, "ended": getattr(res, "ended", None),
                    "seconds": res.seconds, "rejected_starts": res.rejected,
                    "set": fixed_values(syn.model.nominal, names),
                    "designs": [{"file": f, "cost": d.cost, "parameters": d.values,

@@ -6,13 +6,20 @@
         - {path: P, points: [[20, 20], [20, 25]], inputs: [0, 30]}     # inputs optional
         - {function: rocker.phi, inputs: [0, 30, 60], outputs: [80, 92, 101]}
         - {motion: coupler, point: P, poses: [[x, y, phi], ...], inputs: [...]}
+        - {path: P, points: [[20, 20], ..., [20, 20]]}   # closed: the first point again last
+          # (or closed: true): free timing in order around one turn (Target.closed)
       constraints:
         turns: crank                          # the driven link turns fully over the range
+                                              # ({body: crank, shortest: true}: a four-bar
+                                              # loop with the crank its shortest link)
         transmission: {points: [B, C, D], min: 30}
         order: true                           # free-timing targets in order along the path
                                               # (either direction: the input may turn back)
       search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12, evaluations: 2000,
                per_local: 300}       # per_local: evaluations of one local run
+      # evaluations, time (s, 0: none): the budgets; the search draws `starts` starts at a
+      # time from one seeded sequence (at most `local` runs a draw) until the goal is met or a
+      # budget runs out, and ends with the best designs so far
       # batch: starts analysed at a time (0: all), the search stopping once the goal is met;
       # probe, probe_cost: abandon a local run above probe_cost after probe trials (and
       # above 1e-2, 1e-4 of it after a third more, twice as many: local.probe_limits)
@@ -33,16 +40,17 @@ from ..diagnostics import Collector, Diagnostic, InputError, did_you_mean
 
 KEYS = ("free", "targets", "constraints", "search")
 TARGET_KINDS = ("path", "function", "motion")
-TARGET_KEYS = {"path": ("path", "points", "inputs", "weight"),
+TARGET_KEYS = {"path": ("path", "points", "inputs", "weight", "closed"),
                "function": ("function", "inputs", "outputs", "weight"),
-               "motion": ("motion", "point", "poses", "inputs", "weight")}
+               "motion": ("motion", "point", "poses", "inputs", "weight", "closed")}
 CONSTRAINT_KEYS = ("turns", "transmission", "order")
+TURNS_KEYS = ("body", "shortest")
 SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
           "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
           "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
           "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0),
           "batch": (int, 0, 100_000, 0), "probe": (int, 0, 10**6, 0),
-          "probe_cost": (float, 0.0, math.inf, 1e-2)}
+          "probe_cost": (float, 0.0, math.inf, 1e-2), "time": (float, 0.0, 1e7, 0.0)}
 QUANTITIES = ("x", "y", "phi")
 
 
@@ -59,6 +67,8 @@ class Target:
     inputs: tuple | None
     weight: float
     line: int
+    closed: bool = False    # free timing around one turn (the order is cyclic)
+    repeat: bool = False    # closed, the last point repeating the first (one turn after it)
 
     @property
     def label(self) -> str:
@@ -78,6 +88,7 @@ class DesignSpec:
     search: dict = field(default_factory=dict)
     line: int = 0
     lines: dict = field(default_factory=dict)     # free parameter -> line
+    shortest: bool = False      # turns: {body: B, shortest: true}: B the shortest link
 
 
 def _valid(keys) -> str:
@@ -140,7 +151,7 @@ def read_design(v, node, point_names, n_drivers: int):
             tg = _target(v, t, k, point_names, n_drivers)
             if tg is not None:
                 targets.append(tg)
-    turns, trans, order = None, None, True
+    turns, trans, order, shortest = None, None, True, False
     cn = node.value.get("constraints")
     if cn is not None:
         if cn.kind != "map":
@@ -152,12 +163,7 @@ def read_design(v, node, point_names, n_drivers: int):
                     v.err(cn.key_lines[key], f"design: constraints: unknown key '{key}'"
                           f"{did_you_mean(key, CONSTRAINT_KEYS) or _valid(CONSTRAINT_KEYS)}")
             if "turns" in cn.value:
-                b = cn.value["turns"]
-                if b.kind != "scalar" or b.value not in v.body_names:
-                    v.err(b, f"design: constraints: turns must name a moving body"
-                          f"{did_you_mean(str(b.value), v.body_names)}")
-                else:
-                    turns = b.value
+                turns, shortest = _turns(v, cn.value["turns"])
             if "transmission" in cn.value:
                 trans = _transmission(v, cn.value["transmission"], point_names)
             if "order" in cn.value:
@@ -188,7 +194,35 @@ def read_design(v, node, point_names, n_drivers: int):
                     continue
                 search[key] = typ(x)
     return DesignSpec(free=free, targets=tuple(targets), turns=turns, transmission=trans,
-                      order=order, search=search, line=node.line, lines=lines)
+                      order=order, search=search, line=node.line, lines=lines,
+                      shortest=shortest)
+
+
+def _turns(v, b):
+    """(body, shortest) of `turns: BODY` or `turns: {body: BODY, shortest: true|false}`;
+    (None, False) after an error."""
+    what = "design: constraints: turns"
+    shortest = False
+    if b.kind == "map":
+        for key in b.value:
+            if key not in TURNS_KEYS:
+                v.err(b.key_lines[key], f"{what}: unknown key '{key}'"
+                      f"{did_you_mean(key, TURNS_KEYS) or _valid(TURNS_KEYS)}")
+                return None, False
+        if "shortest" in b.value:
+            sn = b.value["shortest"]
+            if sn.kind != "scalar" or not isinstance(sn.value, bool):
+                v.err(sn, f"{what}: shortest must be true or false")
+                return None, False
+            shortest = sn.value
+        if "body" not in b.value:
+            v.err(b, f"{what} must be BODY or {{body: BODY, shortest: true}}: missing body")
+            return None, False
+        b = b.value["body"]
+    if b.kind != "scalar" or b.value not in v.body_names:
+        v.err(b, f"{what} must name a moving body{did_you_mean(str(b.value), v.body_names)}")
+        return None, False
+    return b.value, shortest
 
 
 def _transmission(v, node, point_names):
@@ -299,10 +333,28 @@ def _target(v, t, k, point_names, n_drivers):
             ok = False
         else:
             weight = w
+    closed = None
+    if "closed" in t.value:
+        cn = t.value["closed"]
+        if cn.kind != "scalar" or not isinstance(cn.value, bool):
+            v.err(cn, f"{what}: closed must be true or false")
+            ok = False
+        elif cn.value and inode is not None:
+            v.err(cn, f"{what}: closed: true is for free timing (the points in order around "
+                      f"one turn, their input values unknowns): remove inputs or closed")
+            ok = False
+        elif cn.value and len({tuple(x) for x in values if x is not None}) < 3:
+            v.err(cn, f"{what}: closed: true needs at least 3 distinct {vals_key}")
+            ok = False
+        else:
+            closed = cn.value
     if not ok:
         return None
+    # the last point equal to the first, with free timing: a closed curve traced once per turn
+    repeat = (closed is not False and inputs is None and len(values) >= 4 and
+              values[-1] == values[0])
     return Target(kind=kind, name=name, point=point, values=tuple(values), inputs=inputs,
-                  weight=weight, line=t.line)
+                  weight=weight, line=t.line, closed=bool(closed) or repeat, repeat=repeat)
 
 
 class _Reader:

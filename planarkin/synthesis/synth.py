@@ -25,7 +25,11 @@ The method:
    whole cycle (`evaluate(final=True)`: assembles everywhere, on its branch, every
    constraint), and if it fails, the last accepted iterate that passes (bisection over the
    run's trail), so every returned design is verified over its whole cycle;
-3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart).
+3. the best `keep` distinct designs are kept (distinct: 1e-3 of a bound's range apart);
+4. until the goal is met or a budget runs out (evaluations, counted; time, on `clock`), the
+   next `starts` are drawn from the same seeded generator (Synthesis.draw) and 1-3 repeated,
+   whatever became of the earlier draws; a local run leaves one evaluation of the budget for
+   its full check, so the count ends at the budget. SynthResult.ended says what ended it.
 
 With search batch: the starts are analysed a batch at a time, each batch's accepted run best
 first, and the search ends at the first `keep` designs below the goal; with probe: a local
@@ -57,6 +61,8 @@ DISTINCT = 1e-3       # designs closer than this (fraction of every bound range)
 PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
 STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
 PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
+IDLE_STARTS = 10_000  # starts in a row refused before any analysis end the search ('refused')
+clock = time.perf_counter     # the time budget's clock (a test may replace it)
 
 
 @dataclass
@@ -92,6 +98,7 @@ class SynthResult:
     analyses: int = 0           # of the evaluations, those analysing a design's whole cycle
     runs: int = 0               # local runs started
     interrupted: str | None = None      # the signal that stopped the search, if one did
+    ended: str | None = None    # what ended it: goal, evaluations, time, refused (see _search)
 
 
 class Synthesis:
@@ -113,6 +120,11 @@ class Synthesis:
         self.bodies = list(cm.body_names)
         self.unit = cm.spec.angle_unit
         self.lunit = cm.spec.length_unit
+        if self.design.shortest and turning_loop(cm, self.design.turns) is None:
+            from ..diagnostics import Diagnostic, InputError
+            raise InputError([Diagnostic(str(path), self.design.line, (
+                f"design: constraints: turns: shortest: true needs '{self.design.turns}' to be "
+                f"a link of a four-bar loop pinned to ground (it is not)"))])
         a = self.model.study.opts
         self.start, self.end = a.start, a.end
         # free times of a motion target without inputs: unknowns, one per pose; those of a path
@@ -134,6 +146,10 @@ class Synthesis:
         self.best = math.inf          # of the designs evaluated over their whole cycle
         self.local = None             # the Local of the search (its trials are evaluations)
         self.runs = 0                 # local runs started
+        self._draws = None            # [(n, seed), index, generator, starts] (see draw)
+        self.drawn = 0                # starts examined (over every draw)
+        self.refusals = set()         # the reasons of the starts refused (full text, a draw)
+        self.ended = None             # what ended the search: goal, evaluations, time, refused
 
     # -- layout ------------------------------------------------------------------------------
     def bounds(self):
@@ -264,7 +280,7 @@ class Synthesis:
         named by turns:, or no barrier wanted)."""
         if self.design.turns is None or not self.use_barrier:
             return None
-        loop = turning_loop(cm, self.design.turns)
+        loop = turning_loop(cm, self.design.turns, self.design.shortest)
         if loop is None:
             return None
         m = loop.margin()
@@ -327,11 +343,11 @@ class Synthesis:
         out = {}
         d = self.design
         if d.turns is not None:
-            loop = turning_loop(cm, d.turns)
+            loop = turning_loop(cm, d.turns, d.shortest)
             if loop is not None:
                 m = loop.margin()
-                out["turns"] = {"value": m, "needs": f"> 0 (Grashof, {d.turns} or the ground "
-                                                     f"the shortest link)",
+                who = d.turns if d.shortest else f"{d.turns} or the ground"
+                out["turns"] = {"value": m, "needs": f"> 0 (Grashof, {who} the shortest link)",
                                 "unit": self.lunit, "ok": m > 0}
             else:
                 turn = 360.0 if self.unit == "deg" else 2 * math.pi
@@ -355,6 +371,8 @@ class Synthesis:
                     idx = [self.free_t.index((i, j)) for j in range(len(tg))
                            if (i, j) in self.free_t]
                     tt = tfree[idx]
+                if tg.repeat:       # the repeated first point: one turn after it, by the wrap
+                    tt = tt[:-1]
                 if len(tt) >= 2:
                     worst = min(worst, max(self._in_order(tt), self._in_order(tt[::-1])))
             if worst < math.inf:
@@ -372,18 +390,22 @@ class Synthesis:
         return T - float(steps.sum()) if steps.sum() > T * (1 + 1e-9) else float(steps.min())
 
     # -- global start ------------------------------------------------------------------------
-    def candidates(self, n: int, seed: int, nominal: bool = False, part=None, limit=None):
+    def candidates(self, n: int, seed: int, nominal: bool = False, part=None, limit=None,
+                   draw: int = 0, halt=None):
         """A seeded Latin hypercube of n designs, each analysed: (score, x, Design) of the
         accepted in order of score, the rejection reasons counted, and every accepted start's
         score. nominal: the file's own values (with its --set overrides) are a start too, when
         inside the bounds (a known design to refine). part: (first, end) rows of the hypercube
         (with the nominal first) to analyse, so a search can take its starts in batches and
         stop early. limit: only the best `limit` accepted are returned whole (a Design holds
-        its grid: tens of kB each, gigabytes over 1e5 starts), the others by their score."""
+        its grid: tens of kB each, gigabytes over 1e5 starts), the others by their score.
+        draw: which draw of n from the seeded sequence (0 the first; draw d is the d-th call
+        of the same seeded generator, so a seed gives the same starts whatever came before;
+        the nominal only in draw 0). halt: called before each start; true ends the analysis
+        (a budget ran out)."""
         import heapq
-        from scipy.stats import qmc
-        X = qmc.scale(qmc.LatinHypercube(d=self.k, seed=seed).random(n), self.lo, self.hi)
-        if nominal:
+        X = self.draw(n, seed, draw)
+        if nominal and draw == 0:
             p = np.array([float(self.model.spec.parameters[k]) for k in self.model.free])
             if np.all((self.lo <= p) & (p <= self.hi)):
                 X = np.concatenate([p[None, :], X])
@@ -391,6 +413,8 @@ class Synthesis:
             X = X[part[0]:part[1]]
         heap, reasons, scores = [], {}, []      # heap: the best `limit`, worst on top
         for e, xp in enumerate(X):
+            if halt is not None and halt():
+                break
             self.tick()
             out = self.screen(self.model.values(xp))
             if out is None:
@@ -398,6 +422,8 @@ class Synthesis:
             if isinstance(out, Rejected):
                 key = _kind(out.reason)
                 reasons[key] = reasons.get(key, 0) + 1
+                if len(self.refusals) < 2:      # one reason or more
+                    self.refusals.add(out.reason)
                 continue
             cm, _, res = out
             x = np.concatenate([xp, self.free_times(res)])
@@ -405,6 +431,8 @@ class Synthesis:
             if r is None:
                 key = _kind(d.reason)
                 reasons[key] = reasons.get(key, 0) + 1
+                if len(self.refusals) < 2:      # one reason or more
+                    self.refusals.add(d.reason)
                 continue
             score = float(r @ r)
             scores.append(score)
@@ -414,6 +442,18 @@ class Synthesis:
                 heapq.heappop(heap)
         good = sorted(((-s, -e, x, d) for s, e, x, d in heap), key=lambda g: g[:2])
         return [(g[0], g[2], g[3]) for g in good], reasons, scores
+
+    def draw(self, n: int, seed: int, d: int) -> np.ndarray:
+        """(n, k) the d-th draw of n starts from the Latin hypercube seeded with seed (one
+        generator, drawn in order; the last draw is kept, so the batches of a draw share it)."""
+        from scipy.stats import qmc
+        key = (n, seed)
+        if self._draws is None or self._draws[0] != key or self._draws[1] > d:
+            self._draws = [key, -1, qmc.LatinHypercube(d=self.k, seed=seed), None]
+        while self._draws[1] < d:
+            self._draws[3] = qmc.scale(self._draws[2].random(n), self.lo, self.hi)
+            self._draws[1] += 1
+        return self._draws[3]
 
     def tick(self) -> None:
         """Before each evaluation: a signal lost in a finalizer is raised again here, and the
@@ -438,7 +478,7 @@ class Synthesis:
         except InputError as e:
             return Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
                                                      if d.severity == "error"))
-        loop = turning_loop(cm, self.design.turns)
+        loop = turning_loop(cm, self.design.turns, self.design.shortest)
         if loop is not None and not loop.margin() > 0:
             return Rejected(f"constraint turns: {loop.margin():.6g} (needs > 0)")
         return None
@@ -517,7 +557,8 @@ def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> 
                            evaluations=syn.model.evaluations + local.evaluations,
                            analyses=syn.model.evaluations, jacobians=syn.model.jacobians,
                            seconds=time.perf_counter() - t0, design=syn.design, model=syn,
-                           starts=sorted(scores), runs=syn.runs, interrupted=interrupted)
+                           starts=sorted(scores), runs=syn.runs, interrupted=interrupted,
+                           ended=syn.ended)
 
     try:
         _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons)
@@ -541,7 +582,17 @@ def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> 
     else:
         status, msg = 1, ("no acceptable design: " + (", ".join(f"{n} {k}" for k, n in
                           sorted(reasons.items(), key=lambda kv: -kv[1])) + " among the "
-                          f"{cfg['starts']} starts" if reasons else "the local searches failed"))
+                          f"{syn.drawn} starts" if reasons else "the local searches failed"))
+    spent = syn.model.evaluations + local.evaluations
+    msg += {"goal": "", "evaluations": f" (the evaluation budget ended the search: {spent:,} "
+                                       f"of {cfg['evaluations']:,})",
+            "time": f" (the time budget of {cfg['time']:g} s ended the search after {spent:,} "
+                    f"evaluations)",
+            "same": " (every start of a draw refused for the same reason: the file's, not "
+                    "the designs')",
+            "refused": f" (ended after {IDLE_STARTS:,} starts in a row refused before an "
+                       f"analysis, {spent:,} of {cfg['evaluations']:,} evaluations)"
+            }.get(syn.ended, "")
     return result(status, msg)
 
 
@@ -554,6 +605,14 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
         if not isinstance(first, Rejected):
             syn.wrap = syn.model.periodic(first[2])
+            closed = [tg for tg in syn.design.targets if tg.closed]
+            if closed and not syn.wrap:
+                from ..diagnostics import Diagnostic, InputError
+                raise InputError([Diagnostic(syn.model.path, closed[0].line, (
+                    "design: a closed target (closed: true, or its last point the first) is "
+                    "traced once per turn: the model must return to its start at the end of "
+                    "the analysis range (the driver turning once), and the design halfway "
+                    "between the bounds does not"))])
     lo, hi = syn.bounds()
     span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
@@ -562,45 +621,84 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
     def spent():
         return syn.model.evaluations + local.evaluations
 
-    def done():
-        return (syn.runs >= cfg["local"] or spent() >= cfg["evaluations"] or
-                (cfg["goal"] > 0 and sum(o.cost <= cfg["goal"] for o in designs) >= cfg["keep"]))
+    t0 = clock()
 
-    # the starts in batches (batch: 0, all at once): a batch's accepted starts are run best
-    # first, and the search stops as soon as the goal is met, so a hit in the first batches
-    # spares the analyses of the rest. Only the starts that can still be run are kept whole.
-    for first in range(0, total, size):
-        if done():
-            break
-        good, why, sc = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
-                                       (first, first + size), limit=cfg["local"] - syn.runs)
-        scores += sc
-        for key, n in why.items():
-            reasons[key] = reasons.get(key, 0) + n
-        for score, x0, d0 in good:
-            if done():
+    def ended():
+        """The budget that has run out ('evaluations', 'time') or the goal met ('goal'), or
+        None; recorded in syn.ended."""
+        if cfg["goal"] > 0 and sum(o.cost <= cfg["goal"] for o in designs) >= cfg["keep"]:
+            syn.ended = "goal"
+        elif spent() >= cfg["evaluations"]:
+            syn.ended = "evaluations"
+        elif cfg["time"] > 0 and clock() - t0 >= cfg["time"]:
+            syn.ended = "time"
+        return syn.ended
+
+    # draws of `starts` starts from one seeded generator, each in batches (batch: 0, all at
+    # once), until the goal is met or a budget (evaluations, time) runs out: a batch's
+    # accepted starts are run best first (at most `local` runs a draw), and the search stops
+    # as soon as the goal is met, so a hit in the first batches spares the analyses of the
+    # rest. Only the starts that can still be run are kept whole.
+    draw, idle = 0, 0
+    while not ended():
+        runs, before, accepted, examined = 0, spent(), len(scores), syn.drawn
+        syn.refusals = set()
+        n = cfg["starts"] + (1 if cfg["nominal"] and draw == 0 else 0)
+        for first in range(0, n, size):
+            if ended() or runs >= cfg["local"]:
                 break
-            syn.runs += 1
-            budget = max(1, cfg["evaluations"] - spent())
-            e0, j0 = spent(), syn.model.jacobians
-            xl, message, trail = local.run(d0, min(budget, cfg["per_local"]), stop, probe)
-            if message.startswith("abandoned") and len(designs) >= cfg["keep"] and \
-                    local.last_cost >= designs[-1].cost:
-                continue        # abandoned and no better than the designs kept: not checked
-            d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
-            if d is None:
-                continue
-            d.nfev = spent() - e0
-            d.njev = syn.model.jacobians - j0
-            d.message = d.message or message
-            norm = (d.x - 0) / np.where(span > 0, span, 1.0)
-            if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max() < DISTINCT
-                   for o in designs):
-                continue
-            syn.best = min(syn.best, d.cost)
-            designs.append(d)
-            designs.sort(key=lambda o: o.cost)
-            del designs[cfg["keep"]:]
+            good, why, sc = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
+                                           (first, first + size), limit=cfg["local"] - runs,
+                                           draw=draw, halt=ended)
+            syn.drawn += sum(why.values()) + len(sc)
+            scores += sc
+            for key, k in why.items():
+                reasons[key] = reasons.get(key, 0) + k
+            for score, x0, d0 in good:
+                if ended() or runs >= cfg["local"]:
+                    break
+                # the run leaves one evaluation of the budget for its full check (_verified)
+                budget = cfg["evaluations"] - spent() - 1
+                if budget < 1:
+                    syn.ended = "evaluations"
+                    break
+                syn.runs += 1
+                runs += 1
+                e0, j0 = spent(), syn.model.jacobians
+                xl, message, trail = local.run(
+                    d0, min(budget, cfg["per_local"]), stop, probe,
+                    halt=lambda: ended() or ("evaluations" if spent() >= cfg["evaluations"] - 1
+                                             else None))
+                if message.startswith(("abandoned", "halted")) and \
+                        len(designs) >= cfg["keep"] and local.last_cost >= designs[-1].cost:
+                    continue    # abandoned and no better than the designs kept: not checked
+                d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
+                if d is None:
+                    continue
+                d.nfev = spent() - e0
+                d.njev = syn.model.jacobians - j0
+                d.message = d.message or message
+                norm = (d.x - 0) / np.where(span > 0, span, 1.0)
+                if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max()
+                       < DISTINCT for o in designs):
+                    continue
+                syn.best = min(syn.best, d.cost)
+                designs.append(d)
+                designs.sort(key=lambda o: o.cost)
+                del designs[cfg["keep"]:]
+        draw += 1
+        # a draw whose every start was refused before an analysis spends nothing (no budget
+        # would end the loop): IDLE_STARTS such starts in a row end it
+        idle = idle + cfg["starts"] if spent() == before else 0
+        if idle >= IDLE_STARTS and not syn.ended:
+            syn.ended = "refused"
+        # every start of a whole draw refused for one and the same reason, word for word (no
+        # value in it that varies with the design, such as an input the driver never takes):
+        # a cause of the file's, not of the designs drawn, so more draws would not help
+        if (not syn.ended and len(scores) == accepted and len(syn.refusals) == 1 and
+                syn.drawn - examined >= 2):
+            syn.ended = "same"
+            syn.same = next(iter(syn.refusals))
 
 
 def check_cost(syn, cfg, total: int, size: int) -> None:
