@@ -223,7 +223,9 @@ def test_a_signal_to_the_group_of_a_busy_sweep(tmp_path, sig):
         end_group(p)
     assert left == [], left
     assert p.returncode == 128 + sig, (stdout, stderr)
-    assert stderr == "", stderr
+    # nothing but the line that says numba is missing (the suite's run without it)
+    assert [x for x in stderr.splitlines()
+            if not x.startswith("planarkin: numba cannot be imported")] == [], stderr
     assert stdout.startswith(f"interrupted {FB}: ") and stdout.count("\n") == 1, stdout
     assert not list((tmp_path / "out").rglob("sweep.csv"))
 
