@@ -249,6 +249,20 @@ def _first_crossing(theta, ends, start, end, steps):
     return limit, why, tb
 
 
+def _driven_past(el, theta0, sgn, af, ends, start, end, steps):
+    """Where the driver el takes the driven angle (theta0 at start, internal radians; sgn and af
+    from the driver's coordinate to it) past ends: ((limit, why, t), lim, span) with lim the
+    driver's coordinate at an angle and span the driver's range between the ends, or None."""
+    import numpy as np
+    f0 = float(el.f(start))
+    theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
+    hit = _first_crossing(theta, ends, start, end, steps)
+    if hit is None:
+        return None
+    lim = lambda v: f0 + sgn * (v - theta0) / af
+    return hit, lim, sorted(lim(v) for v, _ in ends)
+
+
 def _slider_crank_window(sc, q0):
     """The crank angles (from the guide direction u, internal radians, unwrapped around the
     assembled one) between which the slider-crank sc closes, reached from the pose q0:
@@ -292,8 +306,6 @@ def _slider_crank_window(sc, q0):
 def _slider_crank_lock_ups(cm, q0, start, end, steps) -> list:
     """lock_ups' warnings for slider-crank loops whose crank an angle driver turns past the
     angle where its rod stands perpendicular to the guide (b < a + |e|)."""
-    import numpy as np
-
     from ..diagnostics import Diagnostic
     spec = cm.spec
     af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
@@ -315,14 +327,10 @@ def _slider_crank_lock_ups(cm, q0, start, end, steps) -> list:
             if win is None:
                 continue
             theta0, ends = win
-            f0 = float(el.f(start))
-            theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
-            hit = _first_crossing(theta, ends, start, end, steps)
-            if hit is None:
+            crossed = _driven_past(el, theta0, sgn, af, ends, start, end, steps)
+            if crossed is None:
                 continue
-            limit, _, tb = hit
-            lim = lambda v: f0 + sgn * (v - theta0) / af
-            span = sorted(lim(v) for v, _ in ends)
+            (limit, _, tb), lim, span = crossed
             u, lu = spec.angle_unit, spec.length_unit
             L = cm.L
             e = sc.offset(q0)
@@ -356,8 +364,6 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
     The range of theta reached from the assembled pose without crossing either limit is
     compared with the driver's values on the run's grid (at most 200,000 samples); the first
     crossing is found by bisection of the driver function."""
-    import numpy as np
-
     from ..diagnostics import Diagnostic
     spec = cm.spec
     af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
@@ -400,14 +406,10 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
             if not ends[0][0] - 1e-9 <= abs(w) <= ends[1][0] + 1e-9:
                 continue                                 # assembled on no branch of this law
             ends = sorted((theta0 - w + sigma * u, why) for u, why in ends)
-            f0 = float(el.f(start))
-            theta = lambda tt: theta0 + sgn * (np.asarray(el.f(tt), float) - f0) * af
-            hit = _first_crossing(theta, ends, start, end, steps)
-            if hit is None:
+            crossed = _driven_past(el, theta0, sgn, af, ends, start, end, steps)
+            if crossed is None:
                 continue
-            limit, why, tb = hit
-            lim = lambda e: f0 + sgn * (e - theta0) / af
-            span = sorted(lim(e) for e, _ in ends)
+            (limit, why, tb), lim, span = crossed
             u, lu = spec.angle_unit, spec.length_unit
             link = cm.body_names[x]
             dist = (b + c if why == "stretched" else abs(b - c)) * cm.L
