@@ -17,6 +17,7 @@ import click
 from .report import Report
 
 _RUN_STOP = None    # a `run --jobs` worker's stop value (the parent's signal number, or 0)
+_RUN_SIGNALLED = False  # this worker's model was stopped by a signal: the batch is ending
 
 
 def run_models(models, dirs, report: Report, overrides: dict | None, analysis: dict, plots,
@@ -279,8 +280,11 @@ def _run_model(args):
     out, err = io.StringIO(), io.StringIO()
     rep = Report(quiet)
     stopped = None
-    if _RUN_STOP is not None and _RUN_STOP.value:
-        return "", "", rep.counts, None         # the batch was stopped before this model
+    global _RUN_SIGNALLED
+    # the batch was stopped before this model: by the parent, or by the signal that reached
+    # this worker first (the group's, which the parent may not have acted on yet)
+    if _RUN_SIGNALLED or (_RUN_STOP is not None and _RUN_STOP.value):
+        return "", "", rep.counts, None
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), interruptible():
         try:
             model = load_model(path, rep, overrides)
@@ -289,6 +293,7 @@ def _run_model(args):
                           table_format=table_format, stop=_RUN_STOP, html=html)
         except KeyboardInterrupt as e:          # the directory says so already
             stopped = signame(e)
+            _RUN_SIGNALLED = True
             if rep.signal is None:              # before its directory was staged
                 rep.interrupted(path, stopped, f"nothing was written, {outdir}/ is left as it "
                                                f"was")
