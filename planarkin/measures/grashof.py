@@ -249,6 +249,18 @@ def _first_crossing(theta, ends, start, end, steps):
     return limit, why, tb
 
 
+def _ground_angle_drivers(cm):
+    """(driver, sign, body index) of each angle driver between ground and one body: the body's
+    angle is sign * f(t) plus a constant (phi_j - phi_i = f(t))."""
+    for el in cm.spec.drivers:
+        if el.kind != "angle" or el.f is None or "ground" not in el.bodies[:2] or \
+                el.bodies[0] == el.bodies[1]:
+            continue
+        i, j = el.bodies[:2]
+        yield el, (1.0 if i == "ground" else -1.0), cm.body_names.index(j if i == "ground"
+                                                                         else i)
+
+
 def _driven_past(el, theta0, sgn, af, ends, start, end, steps):
     """Where the driver el takes the driven angle (theta0 at start, internal radians; sgn and af
     from the driver's coordinate to it) past ends: ((limit, why, t), lim, span) with lim the
@@ -313,13 +325,7 @@ def _slider_crank_lock_ups(cm, q0, start, end, steps) -> list:
     out = []
     if not loops:
         return out
-    for el in spec.drivers:
-        if el.kind != "angle" or el.f is None or "ground" not in el.bodies[:2] or \
-                el.bodies[0] == el.bodies[1]:
-            continue
-        i, j = el.bodies[:2]
-        sgn = 1.0 if i == "ground" else -1.0           # phi_j - phi_i = f(t)
-        x = cm.body_names.index(j if i == "ground" else i)
+    for el, sgn, x in _ground_angle_drivers(cm):
         for sc in loops:
             if x != sc.bodies[1]:
                 continue
@@ -369,13 +375,7 @@ def lock_ups(cm, q0, start: float, end: float, steps: int) -> list:
     af = math.pi / 180 if spec.angle_unit == "deg" else 1.0
     loops = [lp for lp in four_bar_loops(cm) if lp.bodies and lp.kind != "change point"]
     out = []
-    for el in spec.drivers:
-        if el.kind != "angle" or el.f is None or "ground" not in el.bodies[:2] or \
-                el.bodies[0] == el.bodies[1]:
-            continue
-        i, j = el.bodies[:2]
-        sgn = 1.0 if i == "ground" else -1.0           # phi_j - phi_i = f(t)
-        x = cm.body_names.index(j if i == "ground" else i)
+    for el, sgn, x in _ground_angle_drivers(cm):
         for lp in loops:
             if x not in (lp.bodies[1], lp.bodies[3]):
                 continue
