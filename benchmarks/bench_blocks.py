@@ -5,9 +5,9 @@
 For arches of N links (one irreducible block of 3 N - 2 unknowns, benchmarks/bigmodels.py) the
 block matrix at --points perturbed poses is factored both ways, on one BLAS thread:
 
-* dense: planarkin.linalg.inv_batched (Gauss-Jordan over the batch up to k = 5, else numpy's
+* dense: planarkin.solver.linalg.inv_batched (Gauss-Jordan over the batch up to k = 5, else numpy's
   stacked LAPACK inverse plus slogdet for the sign), then one solve (a matrix-vector product);
-* sparse: planarkin.linalg.SparseLU (SuperLU with the block's column order computed once, the
+* sparse: planarkin.solver.linalg.SparseLU (SuperLU with the block's column order computed once, the
   sign from the pivots, Hager's 1-norm estimate for sigma_min), then one solve.
 
 Printed: CPU microseconds per point of each (best of 3) and the dense / sparse ratio; the
@@ -38,8 +38,8 @@ import common  # noqa: E402
 import numpy as np  # noqa: E402
 
 import planarkin  # noqa: E402
-from planarkin import linalg  # noqa: E402
-from planarkin.assembly import assemble  # noqa: E402
+from planarkin.solver import linalg  # noqa: E402
+from planarkin.solver.assembly import assemble  # noqa: E402
 
 
 def best_cpu(fn, repeat=3):

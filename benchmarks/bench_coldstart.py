@@ -30,7 +30,7 @@ RUN = """
 import sys, time
 t0 = time.perf_counter()
 import planarkin
-from planarkin import kernel
+from planarkin.solver.compiled import kernel
 kernel.COMPILED_FROM_POINTS = 0
 r = planarkin.solve(planarkin.load(sys.argv[1]), steps=int(sys.argv[2]))
 assert r.status == 0, r.message

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from planarkin.expr import TimeFunction  # noqa: E402
-from planarkin.inputtable import table_function  # noqa: E402
-from planarkin.motion import Segment, profile  # noqa: E402
+from planarkin.functions.expr import TimeFunction  # noqa: E402
+from planarkin.functions.inputtable import table_function  # noqa: E402
+from planarkin.functions.motion import Segment, profile  # noqa: E402
 
 
 def main() -> None:

@@ -84,7 +84,7 @@ def cost(steps: int, repeats: int) -> None:
         derived.ROOMS = shipped
     ma, mb, mc = (min(x) for x in (a, b, c))
     pair = statistics.median(y / x for x, y in zip(a, b))
-    from planarkin.solver import Options
+    from planarkin.solver.grid import Options
     cm = planarkin.load("bench.yaml", text=plain)
     opts = Options.from_model(cm)
     t0 = time.perf_counter()

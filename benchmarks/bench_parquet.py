@@ -35,7 +35,7 @@ from clitools import PLAIN_SLIDER_CRANK  # noqa: E402
 import planarkin  # noqa: E402
 from planarkin.options import resolve  # noqa: E402
 from planarkin.output.directory import ParquetSink, TableSink  # noqa: E402
-from planarkin.layout import Layout  # noqa: E402
+from planarkin.solver.layout import Layout  # noqa: E402
 from planarkin.analysis import prepare, stream  # noqa: E402
 
 

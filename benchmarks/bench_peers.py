@@ -7,8 +7,8 @@ a grid of --steps intervals), positions + velocities + accelerations:
 
 * closed form: the vectorised numpy closed forms of models.py over the whole grid (the floor);
 * planarkin: `planarkin.solve(model, steps=S)` in process (model loaded once, one warm-up call),
-  by each grid-pass route of --routes: compiled (the numba route through planarkin/kernel.py,
-  taken whatever the job's size: the kernel generated for the structure, planarkin/compiled_gen.py;
+  by each grid-pass route of --routes: compiled (the numba route through planarkin/solver/compiled/kernel.py,
+  taken whatever the job's size: the kernel generated for the structure, planarkin/solver/compiled/gen.py;
   compiled or loaded from numba's cache by the warm-up call), numpy (PLANARKIN_KERNEL=0: the numpy
   reference, System._solve_batch, the only numpy solve since issue 17 folded the fused passes
   into it);
@@ -217,7 +217,7 @@ class _route:
     def __enter__(self):
         import os
 
-        from planarkin import kernel
+        from planarkin.solver.compiled import kernel
         self.saved = (os.environ.get("PLANARKIN_KERNEL"), kernel.COMPILED_FROM_POINTS)
         os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
         kernel.COMPILED_FROM_POINTS = 0
@@ -226,7 +226,7 @@ class _route:
     def __exit__(self, *exc):
         import os
 
-        from planarkin import kernel
+        from planarkin.solver.compiled import kernel
         env, kernel.COMPILED_FROM_POINTS = self.saved
         if env is None:
             os.environ.pop("PLANARKIN_KERNEL", None)

@@ -49,14 +49,14 @@ def profile(label, text, steps, top, sort, warm=True):
 
 
 PHASES = (  # (module, attribute, phase): the functions timed, CPU time
-    ("planarkin.solver.Analysis", "follow", "path following (fixed cost)"),
-    ("planarkin.solver", "hermite5", "prediction (numpy Hermite)"),
-    ("planarkin.solver.Analysis", "_driver_values", "driver values"),
-    ("planarkin.system.System", "_solve_batch", "P+V+A solve, reference pass"),
-    ("planarkin.kernel", "solve", "P+V+A solve, compiled route"),
-    ("planarkin.solver.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
+    ("planarkin.solver.grid.Analysis", "follow", "path following (fixed cost)"),
+    ("planarkin.solver.grid", "hermite5", "prediction (numpy Hermite)"),
+    ("planarkin.solver.grid.Analysis", "_driver_values", "driver values"),
+    ("planarkin.solver.system.System", "_solve_batch", "P+V+A solve, reference pass"),
+    ("planarkin.solver.compiled.kernel", "solve", "P+V+A solve, compiled route"),
+    ("planarkin.solver.grid.Analysis", "_chunk", "layout of outputs (residual, units, points)"),
     ("planarkin.analysis", "refuse", "refusal checks"),
-    ("planarkin.solver.Analysis", "_dense", "grid pass in all (the rows above but path)"),
+    ("planarkin.solver.grid.Analysis", "_dense", "grid pass in all (the rows above but path)"),
 )
 
 

@@ -29,7 +29,7 @@ RUN = """
 import sys, time
 t0 = time.perf_counter()
 import planarkin
-from planarkin import kernel
+from planarkin.solver.compiled import kernel
 if sys.argv[2] == "compiled":
     kernel.COMPILED_FROM_POINTS = 0
 m = planarkin.load("mechanisms/four-bar.yaml")
@@ -59,7 +59,7 @@ def micro():
     import numpy as np
 
     import planarkin
-    from planarkin import kernel
+    from planarkin.solver.compiled import kernel
     from planarkin.options import resolve
     from planarkin.analysis import prepare
     lib = kernel.library().need("points")

@@ -18,7 +18,7 @@ and accelerations.
   variants batched, studies/batch.py, grid pass with P, V, A, a max metric) on all V variants,
   or with `--planarkin N` on N of them spread evenly over the factorial (a sparser sweep, whose
   neighbours are farther apart); variants/s extrapolates. The batch solves through the
-  compiled route (planarkin/compiled_gen_each.py on numba) when the sweep has at least
+  compiled route (planarkin/solver/compiled/gen_each.py on numba) when the sweep has at least
   kernel.COMPILED_FROM_POINTS rows (variants x grid times: 10,000 x 361 does), else through the
   numpy reference; `--numpy` also times the numpy reference (System.solve_batch, PLANARKIN_KERNEL=0:
   the reference route) in the same rounds and compares the outcomes.

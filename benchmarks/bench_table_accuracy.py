@@ -1,4 +1,4 @@
-"""Accuracy of the table interpolant (planarkin.inputtable) on a smooth signal.
+"""Accuracy of the table interpolant (planarkin.functions.inputtable) on a smooth signal.
 
 sin(2*pi*t) is sampled at n points per period (uniform), once as a periodic table and once as
 an open one (not-a-knot ends) over one period, and the interpolant's value, velocity,
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from planarkin.inputtable import table_function  # noqa: E402
+from planarkin.functions.inputtable import table_function  # noqa: E402
 
 W = 2 * math.pi
 

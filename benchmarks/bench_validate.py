@@ -1,5 +1,5 @@
 """What validating a model again costs (a study's variant, a synthesis trial): Study.model
-(validate with overrides, then compile) per call, with planarkin.expr.evaluate_constant's
+(validate with overrides, then compile) per call, with planarkin.functions.expr.evaluate_constant's
 shortcut for numbers and parameter names and without it (the full parse of every text, as
 before 2026-12-06), alternating, medians of --rounds rounds of --calls calls (CPU time).
 
@@ -22,7 +22,7 @@ def main(argv=None):
     ap.add_argument("--calls", type=int, default=300)
     a = ap.parse_args(argv)
     import planarkin.model.validate as V
-    from planarkin.expr import parser
+    from planarkin.functions.expr import parser
     from planarkin.studies.variants import Study
     new = parser.evaluate_constant
 

@@ -14,12 +14,12 @@ import time
 
 import numpy as np
 
-from .chunks import take
-from .layout import Layout
+from planarkin.solver.chunks import take
+from planarkin.solver.layout import Layout
 from .model.compile import CompiledModel
 from .results import Result
-from .runinfo import RunInfo
-from .solver import Analysis, Chunk, Event, Options
+from planarkin.results.runinfo import RunInfo
+from planarkin.solver.grid import Analysis, Chunk, Event, Options
 
 
 def assemble_checked(cm: CompiledModel, opts: Options):
@@ -27,8 +27,8 @@ def assemble_checked(cm: CompiledModel, opts: Options):
     warnings): what `planarkin check` reports and `prepare` starts from. Invalid input (a
     driver outside this run's range, the budget, a model that cannot be assembled) raises
     InputError."""
-    from .assembly import assemble
-    from .budget import check_preflight
+    from planarkin.solver.assembly import assemble
+    from planarkin.solver.budget import check_preflight
     from .diagnostics import Diagnostic, InputError
     from .measures.grashof import lock_ups
     a = cm.spec.analysis

@@ -233,7 +233,7 @@ def check(models, quiet, derived, overrides):
             from .model.sketch import derived_yaml
             click.echo(derived_yaml(model.spec), nl=False)
         ndrv = len(model.driver_rows)
-        from .branches import describe_modes
+        from planarkin.solver.branches import describe_modes
         words = describe_modes(model, A) if A.modes else []
         modes = "; ".join(f"{'+'.join(md.bodies)}: {'+' if md.sign > 0 else '-'}"
                           + (f" ({w})" if w else "") for md, w in zip(A.modes, words))

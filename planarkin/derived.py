@@ -19,7 +19,7 @@ import numpy as np
 
 # modules with derived_tables(cm, opts); imported only when a model is run
 ROOMS: tuple[str, ...] = ("planarkin.elements.cam", "planarkin.forces", "planarkin.measures",
-                         "planarkin.centres")
+                         "planarkin.measures.centres")
 
 
 @dataclass
@@ -58,7 +58,7 @@ def row_checks(cm, opts) -> list:
 
 def path_figures(f) -> None:
     """The rooms' figures of a followed path (a room's optional ``path_figures(f)``, f the
-    planarkin.solver.PathFollower at the end of its run, called by planarkin.singular): figures
+    planarkin.solver.grid.PathFollower at the end of its run, called by planarkin.solver.singular): figures
     kept on f for the summary (the measures room's f.loops) and warnings added to f.warnings.
     Imported here by name, as the tables are, so that the solver reaches no room by import."""
     for name in ROOMS:

@@ -297,7 +297,7 @@ def jerk_problems(cm) -> list[Diagnostic]:
     only refuses what the symbolic differentiation itself refuses."""
     import numpy as np
 
-    from .expr import ExprError
+    from planarkin.functions.expr import ExprError
     out = []
     seen = set()
     for r, f in zip(cm.driver_rows, cm.driver_funcs):

@@ -64,7 +64,7 @@ analysis: {start: 0, end: 0.001, steps: 1}
 
 
 def test_assembles_to_the_published_angles():
-    from planarkin.assembly import assemble
+    from planarkin.solver.assembly import assemble
     model = planarkin.load("andrews.yaml", text=MODEL)
     A = assemble(model)
     phi = dict(zip(model.body_names, A.q[2::3]))

@@ -3,7 +3,7 @@
 import pytest
 
 import planarkin
-from planarkin import assembly
+from planarkin.solver import assembly
 from planarkin.diagnostics import InputError
 
 from clitools import ROOT

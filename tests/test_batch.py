@@ -97,7 +97,7 @@ def test_a_chain_steps_to_every_variant_at_once_rows_and_heads_included(study, m
 def test_path_errors_of_many_variants_are_the_followers_per_variant():
     # acceptance.path_errors over many variants at once: per variant the follower's own step
     # error (acceptance.taylor_error of each interval, the jerk from the interval before)
-    from planarkin.acceptance import path_errors, taylor_error
+    from planarkin.solver.acceptance import path_errors, taylor_error
     rng = np.random.default_rng(7)
     grid = np.sort(rng.uniform(0, 1, 9))
     Q, Qd, Qdd = (rng.normal(size=(3, 9, 12)) for _ in range(3))
@@ -120,12 +120,12 @@ def test_path_errors_of_many_variants_are_the_followers_per_variant():
             assert abs(many[v, k] - want) <= 1e-13 * want
 
 
-# -- the compiled route (planarkin.kernel, compiled_gen_each) against the numpy reference ------
+# -- the compiled route (planarkin.solver.compiled.kernel, compiled_gen_each) against the numpy reference ------
 
 def _kernel():
-    """planarkin.kernel with its Library ready for studies (skipped only where numba is not
+    """planarkin.solver.compiled.kernel with its Library ready for studies (skipped only where numba is not
     installed: routes.NO_NUMBA, which .ci/run does not allow in its run with numba)."""
-    from planarkin import kernel
+    from planarkin.solver.compiled import kernel
     skip_without_numba()
     lib = kernel.library()
     assert lib is not None, "numba is installed but cannot be imported"
@@ -140,7 +140,7 @@ def test_the_kernel_route_equals_the_numpy_route_failures_included(monkeypatch):
     # and place the event to ~1e-11)
     kernel, _ = _kernel()
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 1)     # a small study takes it too
-    from planarkin.system import System
+    from planarkin.solver.system import System
     s = Study(FB, analysis={"steps": STEPS},
               metrics=["max:rocker.phi", "stroke:rocker.phi", "max:P.x", "min:P.y", "dev:P",
                        "absmax:rocker.alpha", "max:P.vy", "min:coupler.omega"])
@@ -186,7 +186,7 @@ def solved(study):
     """Three variants solved by the kernel from the nominal's solution, with the predecessor
     signs of the nominal (variant 1's flipped at one grid time), and what accept needs."""
     kernel, _ = _kernel()
-    from planarkin.acceptance import COND_WARN, KAPPA
+    from planarkin.solver.acceptance import COND_WARN, KAPPA
     B = study.batch([{"a": 0.04, "b": 0.12}])
     Q0, _, _, sg0 = B.nominal
     vals = [{"a": 0.0401, "b": 0.12}, {"a": 0.04, "b": 0.1202}, {"a": 0.0399, "b": 0.1199}]
@@ -211,7 +211,7 @@ def test_the_kernels_acceptance_equals_the_numpy_tests(solved):
     assert ok_kernel.tolist() == ok_numpy.tolist() == [True, False, True]
     assert good.reshape(V, T)[1].tolist() == [t != 7 for t in range(T)]
     # the path errors: acceptance.path_errors' (h * h * h here, numpy's h ** 3 there)
-    from planarkin.acceptance import path_errors
+    from planarkin.solver.acceptance import path_errors
     ref = path_errors(B.grid, *(a.reshape(V, T, -1) for a in (Qr, Qdr, Qddr)), B.cm.n)
     got = perr.reshape(V, T)
     assert (got[:, 0] == 0).all() and np.allclose(got[:, 1:], ref, rtol=1e-9, atol=1e-18)
@@ -312,7 +312,7 @@ NOT_COMPILED = {"belt-drive", "curved-slot"}      # kinds the compiled route dec
 
 def test_every_example_with_parameters_is_listed_for_the_study_routes():
     from pathlib import Path
-    from planarkin import kernel
+    from planarkin.solver.compiled import kernel
     for path in sorted(Path("mechanisms").glob("*.yaml")):
         name = path.stem
         s = Study(str(path), analysis={"steps": STUDY_STEPS.get(name, 180)})

@@ -386,8 +386,8 @@ def test_branch_hint_in_a_large_model(monkeypatch):
     stays at rounding)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
     import models
-    from planarkin import assembly
-    from planarkin.assembly import assemble
+    from planarkin.solver import assembly
+    from planarkin.solver.assembly import assemble
     N = 60
     monkeypatch.setattr(assembly, "DENSE_LIMIT", 300)
     large = []

@@ -1,6 +1,6 @@
 """Drivers whose velocity or acceleration jumps: the path is followed piece by piece.
 
-The solver is tested against the interface of planarkin.expr.TimeFunction (breakpoints(start,
+The solver is tested against the interface of planarkin.functions.expr.TimeFunction (breakpoints(start,
 end) and derivatives(t, side)) through `Piecewise`, a small driver function written here: a
 polynomial per piece with exact derivatives, so these tests do not depend on the expression
 parser's piecewise support. The mechanism is an in-line slider-crank (crank r, rod l) whose crank
@@ -28,9 +28,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import planarkin  # noqa: E402
 from closedforms import slider_crank  # noqa: E402
-from planarkin.assembly import assemble  # noqa: E402
-from planarkin.expr import Breakpoint  # noqa: E402
-from planarkin.solver import Analysis, Options  # noqa: E402
+from planarkin.solver.assembly import assemble  # noqa: E402
+from planarkin.functions.expr import Breakpoint  # noqa: E402
+from planarkin.solver.grid import Analysis, Options  # noqa: E402
 
 R, L = 0.1, 0.3
 TWO_PI = 2 * math.pi

@@ -1,4 +1,4 @@
-"""Budgets, not hangs (planarkin/budget.py): a driver whose rate would make the path follower's
+"""Budgets, not hangs (planarkin/solver/budget.py): a driver whose rate would make the path follower's
 step count explode, or that has a pole, is refused in seconds before the analysis, naming the
 driver; and the node budget holds during the path too."""
 
@@ -29,9 +29,9 @@ def _model(tmp_path, f: str, name="m"):
 def test_fast_or_unbounded_drivers_are_refused_quickly(tmp_path, f, words, monkeypatch):
     """Refused by the preflight's bounded sampling (counted: the driver values it computes),
     before a single path step."""
-    from planarkin import budget
-    from planarkin.expr import TimeFunction
-    from planarkin.solver import PathFollower
+    from planarkin.solver import budget
+    from planarkin.functions.expr import TimeFunction
+    from planarkin.solver.grid import PathFollower
     sampled, followed = [0], []
     call = TimeFunction.__call__
 

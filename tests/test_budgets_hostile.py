@@ -89,7 +89,7 @@ def test_a_noisy_table_is_refused_before_the_path_with_the_figures_and_the_fix(t
 def test_the_estimate_is_a_lower_bound_of_the_steps_the_path_takes(tmp_path):
     """On a small noisy table the path's accepted steps are 1-3 times the estimate: the
     refusal above is made on a count the path would at least take."""
-    from planarkin.budget import table_steps
+    from planarkin.solver.budget import table_steps
     noisy_table(tmp_path / "small.csv", 150)
     m = planarkin.load(four_bar(tmp_path, "table: {file: small.csv, time: t, value: angle}"))
     steps, signs, rows = table_steps(m.driver_funcs[0], m.driver_scale[0], 0.0, 1.0, 1e-4)
@@ -103,7 +103,7 @@ def test_smooth_tables_are_not_refused_however_long_the_run(tmp_path):
     """A measured cycle without noise (the example's 25 rows), periodic, over 400 s: more
     estimated steps than NOISY_STEPS, but its rows do not alternate: it passes the preflight
     (it is not run here)."""
-    from planarkin.budget import NOISY_STEPS, preflight, table_steps
+    from planarkin.solver.budget import NOISY_STEPS, preflight, table_steps
     from planarkin.options import resolve
     (tmp_path / "in.csv").write_text((ROOT / "mechanisms" / "table-input.csv").read_text())
     p = four_bar(tmp_path, "table: {file: in.csv, time: t, value: angle, periodic: true}",
@@ -128,7 +128,7 @@ def test_a_table_past_the_node_budget_is_refused_whatever_its_signs(tmp_path):
 def test_vectorised_derivative_tables_equal_the_pieces_derivatives():
     """Piecewise._table of order k > 0 from order k - 1 at once: the same coefficients as each
     piece's np.polyder (which a 1e5-row table called for every piece and order)."""
-    from planarkin.inputtable import spline
+    from planarkin.functions.inputtable import spline
     rng = np.random.default_rng(3)
     t = np.sort(rng.uniform(0, 2, 40))
     pw = spline(t, rng.standard_normal(40))
@@ -194,9 +194,9 @@ def test_more_named_points_than_the_budget_are_refused_at_the_points(tmp_path):
 
 def test_points_times_rows_past_the_budget_are_refused_before_the_analysis(tmp_path,
                                                                            monkeypatch):
-    from planarkin.budget import MAX_POINT_ROWS, point_rows
+    from planarkin.solver.budget import MAX_POINT_ROWS, point_rows
     from planarkin.options import resolve
-    from planarkin.solver import PathFollower
+    from planarkin.solver.grid import PathFollower
     followed = []
     monkeypatch.setattr(PathFollower, "run", lambda self: followed.append(1))
     p = four_bar(tmp_path, points=_points(1000))
@@ -216,9 +216,9 @@ def test_grid_chunks_are_sized_with_the_points(tmp_path):
     """A model of 2,000 points at 3,000 steps was one chunk of 3,001 rows (a gigabyte of
     point kinematics); its chunks now hold CHUNK_BYTES of points at most."""
     from planarkin.analysis import prepare
-    from planarkin.budget import POINT_ROW_BYTES
+    from planarkin.solver.budget import POINT_ROW_BYTES
     from planarkin.options import resolve
-    from planarkin.solver import CHUNK_BYTES
+    from planarkin.solver.grid import CHUNK_BYTES
     m = planarkin.load(four_bar(tmp_path, points=_points(2000), steps=3000))
     an = prepare(m, resolve(m, {}, source="api"))
     sizes = [len(g) for g in an._grid_chunks()]
@@ -230,7 +230,7 @@ def test_the_plot_buffer_keeps_a_bounded_number_of_bytes():
     """The plots' rows (up to PLOT_ROWS) of every point: 4,000 rows of 2,000 points were 400 MB
     and as much again when joined; the stride now keeps PLOT_BYTES at most."""
     from planarkin.output.writer import PLOT_BYTES, PlotBuffer
-    from planarkin.solver import Chunk
+    from planarkin.solver.grid import Chunk
     buf = PlotBuffer(3001)
     N, P = 1000, 2000
     for a in range(0, 3001, N):
@@ -310,7 +310,7 @@ def test_thousands_of_parameters_are_read_in_one_pass(tmp_path, monkeypatch):
     """A chain of parameters (p1: p0 + 1, ...) within the YAML node budget was quadratic to
     read: every parameter copied the names known for its expression, and listed every
     parameter to find one defined later. Counted: the names copied, the passes over them."""
-    from planarkin.expr import parser
+    from planarkin.functions.expr import parser
     from planarkin.model import validate as V
     from planarkin.model.yamlread import read_yaml
     n = 3000

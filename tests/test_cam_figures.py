@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 import planarkin
 from planarkin.elements.cam import cam_joints, derived_tables
-from planarkin.expr import ExprError
+from planarkin.functions.expr import ExprError
 from planarkin.output import plots
 from planarkin.output.plots.cam import cam_data, cam_figure, cam_figures, law_derivatives
 

@@ -128,7 +128,7 @@ def test_centres_written_and_flag_documented(tmp_path):
 
 
 def test_centrodes_figure(tmp_path, fourbar):
-    from planarkin import centres
+    from planarkin.measures import centres
     res, _ = fourbar
     X = centres.compute(res.model, res._chunk)
     files = centres._plot(res.model, X, res._chunk, tmp_path, "png")

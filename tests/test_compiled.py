@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import planarkin
-from planarkin import jitcache, kernel
+from planarkin.solver.compiled import jitcache, kernel
 
 from routes import HAVE_NUMBA, needs_numba
 
@@ -39,7 +39,7 @@ def _python(code, env=None, timeout=300):
 # the largest difference relative to each column's largest value, and the route's name
 TINY = """
 import json, numpy as np, planarkin
-from planarkin import kernel
+from planarkin.solver.compiled import kernel
 from planarkin.options import resolve
 from planarkin.analysis import prepare
 m = planarkin.load("mechanisms/four-bar.yaml")
@@ -108,7 +108,7 @@ def test_each_entry_point_is_compiled_once(monkeypatch):
     """The wrappers give every entry point the types of its one signature (a read-only or
     int32 array would compile it again, silently, and its cache file would not be vouched
     for)."""
-    from planarkin import compiled_grid
+    from planarkin.solver.compiled import kernels as compiled_grid
     lib = kernel.library().need("points").need("study")
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 100)
     # (two structures: the signature is the entry point's, whatever the structure; each
@@ -225,7 +225,7 @@ def test_files_the_manifest_does_not_vouch_for_are_deleted(fresh):
 
 RUN = """
 import sys, numpy as np, planarkin
-from planarkin import kernel
+from planarkin.solver.compiled import kernel
 kernel.COMPILED_FROM_POINTS = 100
 r = planarkin.solve(planarkin.load("mechanisms/four-bar.yaml"), steps=400)
 assert r.status == 0
@@ -284,10 +284,10 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
 @needs_numba
 def test_each_compiled_kind_states_its_code_and_parameters():
     """The kinds the compiled route compiles say so themselves (Kind.compiled_code and
-    compiled_params, issue 17): each code once, a function of planarkin.compiled_kinds for it,
+    compiled_params, issue 17): each code once, a function of planarkin.solver.compiled.kinds for it,
     parameters the kind has, in the 2-vector slots kernel.pack fills; a subclass that does not
     state its own is not compiled."""
-    from planarkin import compiled_kinds
+    from planarkin.solver.compiled import kinds as compiled_kinds
     from planarkin.elements import KINDS
     coded = {name: kernel.compiled_kind(k) for name, k in KINDS.items()
              if kernel.compiled_kind(k) is not None}

@@ -1,5 +1,5 @@
-"""The grid kernels generated per mechanism structure (planarkin.compiled_gen, loaded and called
-by planarkin.compiled_grid; issue 17): the reference pass's results to 1e-15 of each column's
+"""The grid kernels generated per mechanism structure (planarkin.solver.compiled.gen, loaded and called
+by planarkin.solver.compiled.kernels; issue 17): the reference pass's results to 1e-15 of each column's
 largest value on every example they cover, the closed forms to 1e-12 / 1e-11 / 1e-10, one
 source run compiled or interpreted, a source file that is not the generated text never run,
 and a first compile of a few seconds."""
@@ -21,7 +21,7 @@ from routes import NO_NUMBA, REQUIRED  # noqa: E402
 
 if not REQUIRED:        # the generated kernels are numba's (required: the import below fails)
     pytest.importorskip("numba", reason=NO_NUMBA)
-from planarkin import compiled_gen, compiled_grid, jitcache, kernel  # noqa: E402
+from planarkin.solver.compiled import gen as compiled_gen, kernels as compiled_grid, jitcache, kernel  # noqa: E402
 
 import reference_models as R  # noqa: E402
 from test_reference import compare  # noqa: E402
@@ -122,7 +122,7 @@ BATCH = """
 import json, sys, time, numpy as np
 sys.path.insert(0, "tests")
 from test_compiled_gen import _batch, _rel
-from planarkin import compiled_grid, kernel
+from planarkin.solver.compiled import kernels as compiled_grid, kernel
 S, t, Q0 = _batch("mechanisms/four-bar.yaml", 50)
 P = kernel.pack(S)
 t0 = time.process_time()
@@ -291,7 +291,7 @@ def test_a_whole_run_on_the_compiled_route_is_the_numpy_routes(name, monkeypatch
     iteration counts."""
     from test_perstep import close_columns
 
-    from planarkin import solver
+    from planarkin.solver import grid as solver
     monkeypatch.setattr(solver, "CHUNK_BYTES", 1)      # chunks of 16 points, the last of 1
     m = planarkin.load(ROOT / "mechanisms" / f"{name}.yaml")
     monkeypatch.setenv("PLANARKIN_KERNEL", "0")

@@ -688,10 +688,10 @@ def test_a_model_directory_that_is_a_link_to_nowhere_is_left_alone(tmp_path, com
 
 @pytest.fixture
 def own_cache(monkeypatch, tmp_path):
-    """planarkin.jitcache as in a new process, its directory under tmp_path (this process's
+    """planarkin.solver.compiled.jitcache as in a new process, its directory under tmp_path (this process's
     state put back after)."""
     numba = pytest.importorskip("numba")
-    from planarkin import jitcache
+    from planarkin.solver.compiled import jitcache
     saved = dict(jitcache._held)
     jitcache.forget()
     monkeypatch.setattr(jitcache, "_said", set())
@@ -707,7 +707,7 @@ def _hold_cache_lock(cache: Path):
     """The cache entry's lock, held here as another process would (its pid in the file)."""
     import fcntl
 
-    from planarkin import jitcache
+    from planarkin.solver.compiled import jitcache
     entry = cache / jitcache.tag()
     entry.mkdir(parents=True, mode=0o700)
     cache.chmod(0o700)
@@ -723,7 +723,7 @@ def test_a_cache_held_by_another_process_is_given_up_in_one_line(own_cache, monk
     """A run suspended (Ctrl-Z) during its first compile held the lock, and every other run of
     300,000 points or more waited for it, silently, for as long. Now LOCK_WAIT s, then one
     line, and the process compiles without the cache."""
-    from planarkin import jitcache
+    from planarkin.solver.compiled import jitcache
     monkeypatch.setattr(jitcache, "LOCK_WAIT", 0.2)
     lock = _hold_cache_lock(own_cache)
     try:
@@ -742,7 +742,7 @@ def test_a_run_goes_on_while_another_holds_the_cache(tmp_path):
     """The real thing: a run of 300,000 points (the compiled route) while the test holds the
     lock; it says so and finishes. The timeout is a hang guard only."""
     pytest.importorskip("numba")
-    from planarkin import jitcache
+    from planarkin.solver.compiled import jitcache
     cache = tmp_path / "cache"
     lock = _hold_cache_lock(cache)
     try:
@@ -767,7 +767,7 @@ def test_a_cache_that_cannot_be_written_costs_only_the_caching(own_cache, monkey
     compiled code is used from memory, one line says so, and later compiles skip the cache."""
     from numba.core import caching
 
-    from planarkin import compiled_grid, jitcache
+    from planarkin.solver.compiled import kernels as compiled_grid, jitcache
     monkeypatch.setattr(caching.IndexDataCacheFile, "_save_data", _no_space)
     text = ("import numba\n\n\n@numba.njit(cache=CACHE)\ndef grid(x):\n    return x + 1\n")
     import numba

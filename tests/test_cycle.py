@@ -235,7 +235,7 @@ def test_the_turning_points_kept_stay_bounded(monkeypatch):
     """The noise of B.y turns at almost every row; kept, its turns grew with the run (1.1 GB of
     heap at 10,000,000 steps). Past MAX_TURNS a column keeps none: B.y still does not move, the
     moving B.x keeps its figures exactly."""
-    from planarkin.layout import Layout
+    from planarkin.solver.layout import Layout
     from planarkin.measures import cycle
     res = planarkin.solve(planarkin.load("mechanisms/slider-crank.yaml"), steps=20000)
     L = Layout(res.model, res.info.options.order)

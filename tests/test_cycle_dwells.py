@@ -250,7 +250,7 @@ analysis: {start: 0, end: 1, steps: 72}
 
 
 def test_the_refinement_is_the_same_whole_or_chunk_by_chunk():
-    from planarkin.layout import Layout
+    from planarkin.solver.layout import Layout
     from planarkin.measures.cycle import CoordinateFigures
     res = planarkin.solve(planarkin.load(FB), steps=90)
     L = Layout(res.model, res.info.options.order)

@@ -1,4 +1,4 @@
-"""Tests for planarkin.expr: parsing, evaluation, exact derivatives, and hostile input."""
+"""Tests for planarkin.functions.expr: parsing, evaluation, exact derivatives, and hostile input."""
 
 import math
 import pickle
@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planarkin import expr as E
-from planarkin.expr.core import CHUNK
-from planarkin.expr import Expr, ExprError, TimeFunction, evaluate_constant, parse
+from planarkin.functions import expr as E
+from planarkin.functions.expr.core import CHUNK
+from planarkin.functions.expr import Expr, ExprError, TimeFunction, evaluate_constant, parse
 
 
 def value(text, **env):
@@ -435,7 +435,7 @@ def test_limit_messages(monkeypatch):
     parse("-" * 63 + "1")
     with pytest.raises(ExprError, match="^expression contains a null byte$"):
         parse("1\x00")
-    from planarkin.expr import parser
+    from planarkin.functions.expr import parser
     monkeypatch.setattr(parser, "MAX_NODES", 10)
     with pytest.raises(ExprError) as info:
         parse("1+2+3+4+5+6")
@@ -513,7 +513,7 @@ def test_evaluate_constants_shortcuts_equal_the_parse(text):
     its value, or its error message, is parse_text's for every such text (large, signed zero,
     not finite, a name with spaces, a keyword, a name not among the parameters, a parameter
     that is not a finite number)."""
-    from planarkin.expr.parser import parse_text
+    from planarkin.functions.expr.parser import parse_text
     values = {"a": 0.1, "b_2": -0.0, "big": 1e308, "huge": 10**400, "nan_p": float("nan"),
               "inf_p": float("inf"), "pi": 3.0, "text_p": "x"}
 

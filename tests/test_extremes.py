@@ -780,7 +780,7 @@ def test_parallelogram_third_crank_off_line_full_turn():
     text = parallelogram_yaml(pivot3=(0.5, 0.6))
     model = load(text, "parallelogram-off-line")
     # the model really is regular there: the whole Jacobian at th = pi
-    from planarkin.system import System
+    from planarkin.solver.system import System
     th = math.pi
     q = np.array([0, 0, th, 1, 0, th, 0.5, 0.6, th, math.cos(th), math.sin(th), 0.0])
     J = System(model).jacobian(np.concatenate([q, np.zeros(3)])[None, :])[0]

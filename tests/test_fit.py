@@ -230,7 +230,7 @@ def test_data_file_budgets_bound_what_is_read(tmp_path, monkeypatch):
     MAX_LINE (a 140 kB field ended in a _csv.Error traceback); a quote left open, the rest of
     the file one field; more than MAX_ROWS rows refused at the row after the last allowed
     (a 2,000,000-row file grew past 6 GB)."""
-    from planarkin import inputtable
+    from planarkin.functions import inputtable
     big = tmp_path / "big.csv"
     with open(big, "wb") as f:
         f.truncate(inputtable.MAX_BYTES + 1)

@@ -738,7 +738,7 @@ def test_units_follow_the_length_unit():
                         ("cylinder.power", 1e6), ("shaking.torque", 1e6)):
         assert rel_err(b[key], factor * a[key]) <= 1e-12, key
     from planarkin.derived import derived_tables
-    from planarkin.solver import Options
+    from planarkin.solver.grid import Options
     cm = load(mm)
     d, loads = derived_tables(cm, Options.from_model(cm))
     assert "joint_1_revolute_ground-boom.boom.direction [deg]" in loads.header

@@ -104,7 +104,7 @@ def test_a_long_bad_cell_is_quoted_in_part(tmp_path):
 
 
 def test_a_table_over_the_row_budget_is_refused_while_it_is_read(tmp_path):
-    from planarkin.inputtable import MAX_ROWS
+    from planarkin.functions.inputtable import MAX_ROWS
     assert MAX_ROWS == 100_000      # 1e6 rows took 56 s before the analysis began
     # a bad cell after the budget: a reader that read on (or read the whole file first)
     # would name it; one that stops at the budget never reaches it

@@ -1,4 +1,4 @@
-"""Tabulated input motion (planarkin.inputtable and a driver's table:)."""
+"""Tabulated input motion (planarkin.functions.inputtable and a driver's table:)."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import planarkin
-from planarkin.inputtable import TableError, read_table, table_function
+from planarkin.functions.inputtable import TableError, read_table, table_function
 
 PI = math.pi
 

@@ -300,7 +300,7 @@ def test_block_solve_satisfies_the_whole_jerk_system():
     row (System.jacobian, System.jerk), here on the six-bar (two loops, several blocks)."""
     from planarkin.options import resolve
     from planarkin.analysis import prepare
-    from planarkin.system import System
+    from planarkin.solver.system import System
     cm = planarkin.load(ROOT / "mechanisms" / "six-bar.yaml")
     an = prepare(cm, resolve(cm, {"up_to": "jerk", "steps": 40}))
     ch = next(an.chunks())
@@ -337,7 +337,7 @@ def test_every_example_runs_with_jerk(path):
 def test_every_driver_form_has_an_exact_third_derivative(source):
     """f''' of every driver form (TimeFunction.third) against a central difference of its exact
     f'' at points away from the knots (the difference is the test's only approximation)."""
-    from planarkin.expr import TimeFunction
+    from planarkin.functions.expr import TimeFunction
     if source == "motion":
         f = planarkin.load(ROOT / "mechanisms" / "servo-press.yaml").driver_funcs[0]
     elif source == "table":

@@ -1,4 +1,4 @@
-"""Motion laws (planarkin.laws): peak coefficients against published values, boundary values,
+"""Motion laws (planarkin.functions.laws): peak coefficients against published values, boundary values,
 continuity, and the exact derivatives against closed forms written out independently here."""
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from planarkin.expr import TimeFunction
-from planarkin.laws import ALIASES, LAWS, law
+from planarkin.functions.expr import TimeFunction
+from planarkin.functions.laws import ALIASES, LAWS, law
 
 PI = math.pi
 

@@ -355,7 +355,7 @@ def test_the_header_names_every_column_with_its_unit(example_run):
     text = text.replace("a: 0.1, b: 0.32, c2: 0.13", "a: 100, b: 320, c2: 130")
     cm = load(text)
     from planarkin.derived import derived_tables
-    from planarkin.solver import Options
+    from planarkin.solver.grid import Options
     _, loads = derived_tables(cm, Options.from_model(cm))
     assert "A.rod.direction [deg]" in loads.header and "guide.torque [kg*mm^2/s^2]" in loads.header
     assert "O.magnitude [kg*mm/s^2]" in loads.header

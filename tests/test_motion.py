@@ -1,4 +1,4 @@
-"""Chained motion profiles (planarkin.motion and a driver's motion:), against closed forms."""
+"""Chained motion profiles (planarkin.functions.motion and a driver's motion:), against closed forms."""
 
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import planarkin
-from planarkin.laws import LAWS
-from planarkin.motion import Segment, profile
+from planarkin.functions.laws import LAWS
+from planarkin.functions.motion import Segment, profile
 
 PI = math.pi
 

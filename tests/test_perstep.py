@@ -1,7 +1,7 @@
 """The grid pass's fast routes against the reference pass (issue 12 item 3, issue 17).
 
 System._solve_batch is the numpy reference (the only numpy solve); the compiled route
-(planarkin.kernel, planarkin.compiled: numba) must give the same positions, velocities and
+(planarkin.solver.compiled.kernel, planarkin.compiled: numba) must give the same positions, velocities and
 accelerations to 1e-15 of each column's largest value, the same iteration counts, determinant
 signs and convergence flags, on every example model it applies to. numba is a dependency: these tests
 do not skip."""
@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import planarkin
-from planarkin import kernel, system
+from planarkin.solver.compiled import kernel
+from planarkin.solver import system
 from routes import skip_without_numba
 from pathlib import Path
 

@@ -1,5 +1,5 @@
 """Piecewise and periodic expressions: comparisons, where, min/max/clip/mod, one-sided
-derivatives, breakpoints (planarkin.expr), against closed forms written out here."""
+derivatives, breakpoints (planarkin.functions.expr), against closed forms written out here."""
 
 import math
 import pickle
@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from planarkin.expr import ExprError, TimeFunction, parse
+from planarkin.functions.expr import ExprError, TimeFunction, parse
 
 PI = math.pi
 

@@ -9,7 +9,7 @@ import pytest
 
 import planarkin
 from planarkin.output import plots
-from planarkin.solver import Event
+from planarkin.solver.grid import Event
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDER_CRANK = ROOT / "mechanisms" / "slider-crank.yaml"

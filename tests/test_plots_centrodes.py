@@ -71,7 +71,7 @@ def test_moving_centrode_rolls_on_the_fixed_one_without_slipping():
     m, r, scene = _moving_scene(1440)
     (j, local), = scene.moving
     assert scene.names[j] == "coupler"
-    from planarkin.centres import compute, pairs
+    from planarkin.measures.centres import compute, pairs
     k = [jj for ii, jj in pairs(m)].index(j)          # ground/coupler: i is ground
     I = compute(m, r._chunk)[:, 1 + 3 * k:3 + 3 * k]
     cx, cy = r.body("coupler")["x"], r.body("coupler")["y"]

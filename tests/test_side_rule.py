@@ -11,7 +11,7 @@ import pytest
 
 import planarkin
 from planarkin.elements.cam import Law
-from planarkin.expr import TimeFunction
+from planarkin.functions.expr import TimeFunction
 
 CRANK = """
 name: kinked
@@ -131,7 +131,7 @@ analysis: {start: 0, end: END, steps: 9}
 def test_the_pages_that_speak_of_knots_state_the_rule_the_code_follows(page):
     # cams.md once said a row at a jump of s'' takes the mean of the two sides, while the
     # code took the right-hand limit: each page states SIDE_RULE word for word, and no other
-    from planarkin.expr.core import SIDE_RULE
+    from planarkin.functions.expr.core import SIDE_RULE
     from clitools import ROOT
     text = " ".join((ROOT / page).read_text(encoding="utf-8").split())
     assert " ".join(SIDE_RULE.split()) in text

@@ -240,7 +240,7 @@ def test_rough_sketch_is_assembled_with_a_warning_per_moved_pin():
     # the driver asks for the crank at 10 deg, the sketch draws it at 0 deg: B moves on its
     # circle by the chord 2 a sin(5 deg)
     m = _load(FOUR_BAR.replace('f: "360*t"', 'f: "10 + 360*t"'))
-    from planarkin.assembly import assemble
+    from planarkin.solver.assembly import assemble
     w = [d.format() for d in assemble(m).warnings]
     assert len(w) == 3 and [x.split(":")[1] for x in w] == ["5", "6", "7"]
     chord = 2 * 0.04 * math.sin(math.radians(5))

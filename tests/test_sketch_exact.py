@@ -106,7 +106,7 @@ def test_sketch_from_coordinates_matches_the_body_joint_form(key):
 
 def test_jansen_holy_numbers_example_is_the_exact_leg():
     # a rough drawing (0.1 mm) with Jansen's lengths: the published linkage, not the drawing
-    from planarkin.assembly import assemble
+    from planarkin.solver.assembly import assemble
     m = planarkin.load(ROOT / "mechanisms" / "jansen-holy-numbers.yaml")
     assert not assemble(m).warnings                  # every pin within sketch_tolerance
     r = planarkin.solve(m, steps=STEPS)

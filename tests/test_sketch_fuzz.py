@@ -10,7 +10,7 @@ from pathlib import Path
 import yaml
 
 import planarkin
-from planarkin.assembly import assemble
+from planarkin.solver.assembly import assemble
 from planarkin.diagnostics import InputError
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,7 +13,7 @@ import pytest
 
 import planarkin
 from closedforms import four_bar_pose
-from planarkin.assembly import assemble
+from planarkin.solver.assembly import assemble
 from planarkin.diagnostics import InputError
 
 CX = 0.04 + (0.12 ** 2 - 0.1 ** 2 + 0.06 ** 2) / (2 * 0.06)
@@ -210,7 +210,7 @@ def test_a_very_rough_sketch_is_assembled_on_the_branches_it_draws(monkeypatch):
     # from there Levenberg-Marquardt closes two loops the other way; the sketch draws F below
     # the line B-A and the knee G on the published side of E-F, and that is what is kept
     import linkages as L
-    from planarkin import branches
+    from planarkin.solver import branches
     exact = L.jansen(math.radians(30))
     m = _jansen_rough()
     A = assemble(m)
@@ -238,7 +238,7 @@ def test_a_four_bar_drawn_crossed_is_assembled_crossed():
 def test_a_drawn_branch_that_cannot_be_reached_is_an_input_error_at_the_link(monkeypatch):
     # every dyad closes both ways when it closes at all, so the refusal is forced here: the
     # branch search reports no assembly with the drawn sign
-    from planarkin import branches
+    from planarkin.solver import branches
     from planarkin.diagnostics import Diagnostic
 
     def refuse(cm, A):

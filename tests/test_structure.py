@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from planarkin.structure import (StructurallySingular, block_triangular, maximum_matching,
+from planarkin.solver.structure import (StructurallySingular, block_triangular, maximum_matching,
                                  strongly_connected)
 
 
@@ -46,7 +46,7 @@ def test_block_triangular_is_triangular_and_fine(seed):
         for row in r:
             assert set(rows[row]) <= done, "a block uses a column of a later block"
     # number of fine blocks = number of strong components of the matched digraph
-    from planarkin.structure import maximum_matching as mm
+    from planarkin.solver.structure import maximum_matching as mm
     _, row_of_col = mm(rows, n)
     G = np.zeros((n, n))
     for c in range(n):

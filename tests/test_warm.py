@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from planarkin.solver import Options
+from planarkin.solver.grid import Options
 from planarkin.studies import warm
 from planarkin.studies.variants import Study
 
@@ -45,7 +45,7 @@ def test_the_warm_start_is_an_option_of_the_analysis():
     # planarkin.analysis.analyse(..., warm=Start): the analysis itself takes the neighbour's
     # path (nothing written into it from outside), and gives the cold run's results
     from planarkin.analysis import analyse, prepare
-    from planarkin.warmstart import Start
+    from planarkin.solver.warmstart import Start
     study = Study(FB, analysis={"steps": 90})
     near = study.model({"a": 0.0405, "b": 0.121})
     opts = Options.from_model(near, **study.analysis)
@@ -98,7 +98,7 @@ def test_a_variant_with_a_non_finite_row_is_refused_as_run_refuses_it(monkeypatc
     # a non-finite acceleration at the grid row t = 0.5 (as an overflow would give): `run`
     # refuses that row and the rows after (analysis.refuse: status 1, 'non-finite'); so does
     # the study's variant, cold or warm started
-    from planarkin import system
+    from planarkin.solver import system
     from planarkin.analysis import analyse
     real = system.System.solve_batch
 

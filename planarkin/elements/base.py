@@ -138,7 +138,7 @@ class Kind:
     A method left as here means "nothing to add" (parts 3-5: no checks, no estimates, the
     constraint force is the physical one); parts 1, 2 and, for joints, 5's reaction_columns and
     reaction_sign every kind states itself. The compiled route compiles a kind that states its
-    ``compiled_code`` (its function in planarkin.compiled_kinds.KINDS) and
+    ``compiled_code`` (its function in planarkin.solver.compiled.kinds.KINDS) and
     ``compiled_params`` (the parameters that function reads, each a body-frame 2-vector);
     the others (None) take the numpy route.
     """
@@ -164,7 +164,7 @@ class Kind:
     # and the fused pass would drop a coupling that exists elsewhere (System.pattern), and
     # their blocks are never taken as affine (_ClassifyState).
     sampled_zeros: bool = True
-    compiled_code: int | None = None       # planarkin.compiled_kinds.KINDS; None: numpy only
+    compiled_code: int | None = None       # planarkin.solver.compiled.kinds.KINDS; None: numpy only
     compiled_params: tuple = ()            # of si, sj, vi, vj: what its compiled function reads
 
     # Parameters the compiler derives from the body estimates (not YAML keys), e.g. the side of

@@ -18,7 +18,7 @@ translational joint to k keeps it on its axis at `offset` (along R u) from the c
 psi0 from the drawn rocker angle (the law's zero is psi0 + psi(theta0) = the estimate).
 
 The law is an expression of `theta` in the file's angle unit (s in its length unit, psi in its
-angle unit); its derivatives are the exact symbolic ones of `planarkin.expr`.
+angle unit); its derivatives are the exact symbolic ones of `planarkin.functions.expr`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..expr import parse
+from planarkin.functions.expr import parse
 from . import jerk as J
 from .base import Kind, Param, body_xy, check_positive, force_at, omega, relative_velocity, rotate
 
@@ -50,7 +50,7 @@ class Law:
         self.text = text if isinstance(text, str) else repr(text)
         self.values = {k: float(v) for k, v in values.items() if k != VAR}
         e = parse(text, list(self.values) + [VAR])          # messages speak of theta
-        # evaluated as a function of t, the name the switch rules of planarkin.expr resolve
+        # evaluated as a function of t, the name the switch rules of planarkin.functions.expr resolve
         # at rounding level (SIDE_RULE: a knot within 8 ulp of theta is at theta, right-hand)
         self.var = VAR
         if "t" not in self.values and isinstance(text, str):
@@ -86,7 +86,7 @@ class Law:
 
 class FunctionLaw(Law):
     """A law given as data: a ``motion:`` profile of segments over cam angle or a table of
-    (cam angle, value), held as the planarkin.expr TimeFunction of the driver forms with theta
+    (cam angle, value), held as the planarkin.functions.expr TimeFunction of the driver forms with theta
     (user angle units) in the place of t. Derivatives are the exact ones of that function (the
     laws' closed forms, the spline's polynomials), up to the third. Outside `domain` (a table
     that does not wrap: its angle range, user units) the law is NaN, so that a cam turned past

@@ -13,7 +13,7 @@ from .base import Frame, Group, Kind, Param, empty, omega, rotate
 
 class Revolute(Kind):
     name = "revolute"
-    compiled_code = 1                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 1                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")              # no moment about the pin
     neq = 2

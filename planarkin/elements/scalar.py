@@ -19,7 +19,7 @@ _POINTS = (
 
 class Angle(Kind):
     name = "angle"
-    compiled_code = 3                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 3                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ()
     reaction_columns = ("torque",)               # a pure moment
     driver = True
@@ -110,7 +110,7 @@ class _Component(Kind):
 
 class XDistance(_Component):
     name = "x"
-    compiled_code = 4                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 4                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 0
@@ -125,7 +125,7 @@ class XDistance(_Component):
 
 class YDistance(_Component):
     name = "y"
-    compiled_code = 5                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 5                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 1
@@ -142,7 +142,7 @@ class Distance(Kind):
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
-    compiled_code = 6                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 6                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "sj")
     at_points = 2
     target_from_at = True

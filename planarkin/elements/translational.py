@@ -71,7 +71,7 @@ def _normal_g(G: Group, F: Frame):
 
 class Translational(Kind):
     name = "translational"
-    compiled_code = 2                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 2                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "sj", "vi", "vj")
     at_axis = True
     reaction_columns = ("fx", "fy", "torque")
@@ -138,7 +138,7 @@ class Translational(Kind):
 
 class PinSlot(Kind):
     name = "pin-slot"
-    compiled_code = 7                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 7                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "vi", "sj")
     at_axis = True
     target_default = 0.0              # the pin on the slot's line
@@ -190,7 +190,7 @@ class Slide(Kind):
     point sj of j along the axis of i measured from si. Drives a slider or a linear actuator."""
 
     name = "slide"
-    compiled_code = 8                 # planarkin.compiled_kinds.KINDS
+    compiled_code = 8                 # planarkin.solver.compiled.kinds.KINDS
     compiled_params = ("si", "vi", "sj")
     joint = False
     driver = True

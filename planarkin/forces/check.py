@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import KINDS
-from ..solver import Event
+from planarkin.solver.grid import Event
 from .layout import CONTACT_KINDS
 from .output import APPLIED_MEMO, ROWS_MEMO, ForceRows
 from .solve import Kinetostatics

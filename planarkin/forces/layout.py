@@ -33,8 +33,8 @@ def redundancy(cm):
     """(active rows, indices of elements whose reaction is not unique, their labels)."""
     if cm.m <= cm.n:
         return np.arange(cm.m), set(), []
-    from ..assembly import assemble
-    from ..system import System
+    from planarkin.solver.assembly import assemble
+    from planarkin.solver.system import System
     A = assemble(cm)
     Sys = System(cm)
     J = Sys.jacobian(Sys.ext(A.q))[0]

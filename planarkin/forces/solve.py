@@ -36,7 +36,7 @@ import numpy as np
 
 from ..elements import JOINT_KINDS, KINDS
 from ..elements.base import Kind, make_frame, pivots
-from ..system import System
+from planarkin.solver.system import System
 from .model import ForceModel, force_model
 
 # what a joint of each kind transmits (the columns of forces.csv), as each kind states it
@@ -45,7 +45,7 @@ JOINT_OUTPUT = {name: k.reaction_columns for name, k in JOINT_KINDS.items()}
 # largest number of (point x coordinate^2) entries of a dense (N, n, n) stack solved at once
 SOLVE_ENTRIES = 1 << 21
 # up to this many coordinates one dense solve per point; beyond, the block-triangular form of
-# the Jacobian (planarkin.structure) is solved backwards, block by block: the transpose of a
+# the Jacobian (planarkin.solver.structure) is solved backwards, block by block: the transpose of a
 # block lower-triangular matrix is block upper-triangular
 DENSE_MAX = 60
 BLOCK_MERGE = 12        # solve blocks of up to this many unknowns (as the path follower's)

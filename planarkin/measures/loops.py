@@ -434,8 +434,8 @@ class LoopFigures:
         """Newton's method on the exact rate (a kink: on psi), safeguarded by bisection, for
         every task's interval at once: {(loop, figure, interval): (smallest value solved, its
         time)}."""
-        from ..acceptance import accepted
-        from ..path import NODE_TOL, hermite5
+        from planarkin.solver.acceptance import accepted
+        from planarkin.solver.path import NODE_TOL, hermite5
         f, N = self._f, self._f.nodes
         # the grid rows' Newton tolerance (the tables' rows pass it): near a toggle a tighter
         # one meets the rounding of the corrections (eps x condition) and is never reached
@@ -534,7 +534,7 @@ class LoopFigures:
     def warnings(self) -> list:
         """An Event ('toggle') for every loop whose path passes within the margins: screened
         on the nodes, decided on the located extremes."""
-        from ..path import Event
+        from planarkin.solver.path import Event
         m = math.radians(TOGGLE_MARGIN_DEG)
         watch = []
         for l, sp in enumerate(self.specs):
@@ -652,7 +652,7 @@ class LoopFigures:
 
 
 def follow(f) -> None:
-    """At the end of a path follower's run (planarkin.singular): its loop figures as f.loops
+    """At the end of a path follower's run (planarkin.solver.singular): its loop figures as f.loops
     (None without loops) and a 'toggle' warning for every near-toggle passage."""
     specs = loop_specs(f.cm)
     if not specs or not len(f.nodes):

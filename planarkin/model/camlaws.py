@@ -5,9 +5,9 @@
     s: {table: lift.csv}   or   {table: {file: lift.csv, angle: COLUMN, value: COLUMN,
                                          periodic: true}}
 
-The segment form is the driver's ``motion:`` (planarkin.motion) with cam angle in the place of
+The segment form is the driver's ``motion:`` (planarkin.functions.motion) with cam angle in the place of
 time (``in`` and ``dwell`` in the file's angle unit, ``t0`` the cam angle where the first segment
-starts); the table form is the driver's ``table:`` (planarkin.inputtable: the same reader, the
+starts); the table form is the driver's ``table:`` (planarkin.functions.inputtable: the same reader, the
 same quintic spline) with a cam-angle column. Both become an `elements.cam.FunctionLaw`.
 
 Without ``range`` a law describes every turn, so it must repeat each turn: a motion repeats
@@ -51,8 +51,8 @@ def cam_law_form(V, node, p, what: str):
 
 
 def _motion(V, node, what: str):
-    from ..expr import ExprError
-    from ..motion import profile
+    from planarkin.functions.expr import ExprError
+    from planarkin.functions.motion import profile
     unit = getattr(V, "angle_unit", "rad")
     res = V.motion(node, what, over=unit)
     if res is None:
@@ -75,7 +75,7 @@ def _motion(V, node, what: str):
 
 
 def _table(V, node, what: str):
-    from ..inputtable import TableError, read_columns, table_function
+    from planarkin.functions.inputtable import TableError, read_columns, table_function
     what = f"{what}: table"
     ref = V.table_ref(node, what, ("angle", "value"), ("periodic",),
                       " of cam angle and value")
@@ -127,7 +127,7 @@ def check_law(V, params: dict, v: dict, what: str) -> None:
     law of every turn: also at the joint of one turn with the next)."""
     import numpy as np
 
-    from ..expr import ExprError
+    from planarkin.functions.expr import ExprError
     for name in ("s", "psi"):
         law = params.get(name)
         if not isinstance(law, FunctionLaw):

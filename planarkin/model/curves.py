@@ -7,7 +7,7 @@
 
 Circles and segments become an exact `elements.path.PathCurve` (user lengths, radians); a table
 becomes the list of points of the spline form, read by the reader of driver tables
-(planarkin.inputtable), every problem of the file a FILE:LINE diagnostic.
+(planarkin.functions.inputtable), every problem of the file a FILE:LINE diagnostic.
 """
 
 from __future__ import annotations
@@ -150,7 +150,7 @@ def _segments(V, node, what: str):
 
 
 def _table(V, node, what: str):
-    from ..inputtable import MAX_CURVE_POINTS, TableError, read_columns
+    from planarkin.functions.inputtable import MAX_CURVE_POINTS, TableError, read_columns
     ref = V.table_ref(node, what, ("x", "y"), (), " of x, y points")
     if ref is None:
         return None

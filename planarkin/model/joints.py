@@ -16,7 +16,7 @@ from typing import Any
 
 from ..diagnostics import did_you_mean, one_of
 from ..elements import DRIVER_KINDS, JOINT_KINDS, KINDS
-from ..expr import ExprError, TimeFunction
+from planarkin.functions.expr import ExprError, TimeFunction
 from .spec import AnalysisSpec, ElementSpec
 from .yamlread import Node, raw_text, type_name
 
@@ -339,8 +339,8 @@ class ElementSections:
         """The TimeFunction of a motion: profile, or None. over: None for a driver (segments
         over time); for a cam's law the unit of its cam angles (then the result is
         (segments, initial, t0, repeat or None when not given), built by the cam's reader)."""
-        from ..laws import ALIASES, LAWS, law
-        from ..motion import Segment, profile, short_segment
+        from planarkin.functions.laws import ALIASES, LAWS, law
+        from planarkin.functions.motion import Segment, profile, short_segment
         what = f"{what}: motion"
         noun, unit = ("duration", "s") if over is None else ("cam angle", over)
         span, T_ = f"{noun} ({unit})", "T" if over is None else "ANGLE"
@@ -442,7 +442,7 @@ class ElementSections:
 
     def table(self, node: Node, what: str):
         from ..diagnostics import Diagnostic
-        from ..inputtable import TableError, read_table, table_function
+        from planarkin.functions.inputtable import TableError, read_table, table_function
         what = f"{what}: table"
         ref = self.table_ref(node, what, ("time", "value"), ("periodic",))
         if ref is None:

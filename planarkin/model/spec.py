@@ -34,7 +34,7 @@ class ElementSpec:
     line: int
     name: str | None = None
     target: float | None = None        # joints: c (None: derived at compile, e.g. from 'at')
-    f: Any = None                      # drivers: planarkin.expr.TimeFunction
+    f: Any = None                      # drivers: planarkin.functions.expr.TimeFunction
     at: Any = None
     axis: tuple[float, float] | None = None
     param_lines: dict[str, int] = field(default_factory=dict)
@@ -175,7 +175,7 @@ class MassSpec:
 
 @dataclass(frozen=True)
 class LoadSpec:
-    """One entry of loads: (user units; f are planarkin.expr.TimeFunction of t).
+    """One entry of loads: (user units; f are planarkin.functions.expr.TimeFunction of t).
 
     kind 'force': body, s (body frame) or at (global at the assembly pose), f = (fx, fy) global.
     kind 'torque': body, f = (tau,). kind 'spring': i, j, si, sj, k, length.

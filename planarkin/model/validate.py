@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ..diagnostics import Collector, did_you_mean, one_of
-from ..expr import ExprError, evaluate_constant, function_names
+from planarkin.functions.expr import ExprError, evaluate_constant, function_names
 from ..options import ANALYSIS_KEYS, OPTIONS, ORDERS, cross_check, override_word
 from .spec import (X_AXES, AnalysisSpec, BodySpec, ModelSpec, OutputSpec, PointSpec,
                    x_axis_problem)
@@ -593,7 +593,7 @@ def validate(root: Node, file: str, overrides: dict | None = None) -> ModelSpec:
 
     overrides: parameter name -> number or expression text, replacing the file's values (the
     parameters and numbers that depend on them are evaluated with the new values). Tables are
-    read from the model's folder only (planarkin.inputtable.confined)."""
-    from ..inputtable import confined
+    read from the model's folder only (planarkin.functions.inputtable.confined)."""
+    from planarkin.functions.inputtable import confined
     with confined(file):
         return _Validator(root, file, overrides).run()

@@ -49,7 +49,7 @@ OWN_KEYS = {"planarkin", "model", "file", "status", "exit_code", "message", "bod
 def thin(data, n: int):
     """data (a Chunk) with at most n rows, evenly spread, the first and the last among them;
     and the indices kept."""
-    from ..chunks import take
+    from planarkin.solver.chunks import take
     N = len(data.t)
     if N <= n:
         return data, np.arange(N)

@@ -1,4 +1,4 @@
-"""Result tables: streaming CSV writers (the columns themselves: planarkin.layout).
+"""Result tables: streaming CSV writers (the columns themselves: planarkin.solver.layout).
 
 Values are written in full double precision (shortest text that reads back to the same double),
 so identical input gives byte-identical files.

@@ -16,15 +16,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..chunks import concat, take
+from planarkin.solver.chunks import concat, take
 from ..derived import derived_tables
 from ..options import ORDERS
-from ..solver import Chunk, Options
+from planarkin.solver.grid import Chunk, Options
 from .directory import (DISK_ERRORS, SINKS, OutputError, ResultDirectory, WriteError,
                         checkpoint, critical, signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json
-from ..layout import Layout
-from ..runinfo import RunInfo
+from planarkin.solver.layout import Layout
+from planarkin.results.runinfo import RunInfo
 
 if TYPE_CHECKING:                     # annotations only
     from ..model.compile import CompiledModel
@@ -318,7 +318,7 @@ class DirectoryWriter:
         the figures as SVG (drawn into a folder of the staged directory, removed at once; none
         when the run draws no plots), the mechanism moving, key rows of bodies.csv."""
         from . import report_html as rh
-        from ..chunks import take
+        from planarkin.solver.chunks import take
         m = rh.Material()
         n = len(data.t)
         if not n:

@@ -14,7 +14,7 @@ repeated parameter step by the cubic (quadratic, secant) through the previous so
 exact sensitivities dq/dp (studies.sensitivity); a parameter step that fails is retried in
 equal substeps. For a study large enough (`job_points`: variants x grid times, at least
 kernel.COMPILED_FROM_POINTS) the solve is the compiled route's where it covers the
-system (planarkin.kernel, planarkin.compiled_gen_each: each row a point with its variant's
+system (planarkin.solver.compiled.kernel, planarkin.solver.compiled.gen_each: each row a point with its variant's
 element parameters, Newton to its own convergence block by block, the acceptance tests below and the
 cubic prediction in the same pass), else, and as the reference (PLANARKIN_KERNEL=0), the grid
 pass's own solve (System.solve_batch) over all variants x grid times at once, its element groups
@@ -45,8 +45,8 @@ import numpy as np
 
 from ..elements import KINDS
 from ..elements.base import Group
-from ..expr import parse
-from ..acceptance import COND_WARN, accepted, path_errors
+from planarkin.functions.expr import parse
+from planarkin.solver.acceptance import COND_WARN, accepted, path_errors
 from .outcome import Outcome
 
 GROUP = 16          # chains solved in lockstep (fixed: results do not depend on --jobs)
@@ -90,7 +90,7 @@ class Batch:
     """The batched form of a Study for a set of varied parameter names."""
 
     def __init__(self, study, varied):
-        from ..assembly import assemble
+        from planarkin.solver.assembly import assemble
         cm = self.cm = study.nominal
         self.study = study
         spec = cm.spec
@@ -246,7 +246,7 @@ class Batch:
         if not self.fvar:
             return ok
         from dataclasses import replace
-        from ..budget import preflight
+        from planarkin.solver.budget import preflight
         cm = self.cm
         where = {int(r): i for i, r in enumerate(cm.driver_rows)}
         for v in range(Vn):
@@ -342,11 +342,11 @@ class Batch:
         return self.accept(Qr, Qdr, Qddr, info, sign, ok, s)
 
     def kernel(self):
-        """(library, packed system) of the compiled route (planarkin.kernel) when the study is
+        """(library, packed system) of the compiled route (planarkin.solver.compiled.kernel) when the study is
         large enough (job_points, set by Study.units: variants x grid times; kernel.route) and the
         route covers the system, else None: the numpy reference, System.solve_batch
         (PLANARKIN_KERNEL read per call)."""
-        from .. import kernel
+        from planarkin.solver.compiled import kernel
         lib = kernel.route(getattr(self, "job_points", 0), "study")
         if lib is None:
             return None
@@ -355,7 +355,7 @@ class Batch:
             if self._kpack is not None:
                 # the solve this structure takes, compiled or loaded now (before any worker
                 # forks)
-                from .. import compiled_grid
+                from planarkin.solver.compiled import kernels as compiled_grid
                 compiled_grid.function_each(self._kpack, self.S.cm.n + 3, self.S.cm.m,
                                             self.S.nb)
         return None if self._kpack is None else (lib, self._kpack)
@@ -368,8 +368,8 @@ class Batch:
         errors. Returns (Q, Qd, Qdd) (Vn T, n + 3), the diagnostics, good (Vn T,) and the path
         errors (Vn T,) (each row's interval from the row before, 0 for a variant's first).
         hist, work, out: as for solve."""
-        from .. import kernel
-        from ..system import BatchInfo
+        from planarkin.solver.compiled import kernel
+        from planarkin.solver.system import BatchInfo
         Vn, T, n3 = Q.shape
         o = self.study.opts
         Qr = Q.reshape(Vn * T, n3)

@@ -5,7 +5,7 @@ to a parameter p gives Phi_q dq/dp = -Phi_p: a linear solve with the same Jacobi
 velocity solve. Phi_p is exact, by the chain rule, never by finite differences:
 
 * every number of the file is an expression of the parameters; its derivative with respect to p
-  is the symbolic derivative (planarkin.expr ``diff``) of the text as written, through the
+  is the symbolic derivative (planarkin.functions.expr ``diff``) of the text as written, through the
   parameters it uses, which are themselves differentiated in file order (``b: 3*a`` gives
   db/da = 3);
 * a body-frame point s'_i of body i enters every kind only through r_i + A_i s'_i (reference
@@ -29,7 +29,7 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 from ..elements import KINDS
 from ..elements.base import make_frame
-from ..expr import ExprError, parse
+from planarkin.functions.expr import ExprError, parse
 from ..measures.extremes import extreme, hermite
 
 

@@ -75,7 +75,7 @@ class Metric:
 def tables(cm, opts):
     """Every table a run of cm writes: file name -> (header, function(chunk) -> array)."""
     from ..derived import derived_tables
-    from ..layout import Layout
+    from planarkin.solver.layout import Layout
     lay = Layout(cm, opts.order)
     out = {"bodies.csv": (lay.body_header, lay.body_table),
            "points.csv": (lay.point_header, lay.point_table)}
@@ -185,7 +185,7 @@ class Study:
         from ..model.compile import compile_model
         from ..model.validate import validate
         from ..model.yamlread import read_file
-        from ..solver import Options
+        from planarkin.solver.grid import Options
         self.path = str(path)
         self.overrides = dict(overrides or {})
         self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
@@ -231,7 +231,7 @@ class Study:
         """(Outcome, Result or None) of one variant; with warm, (Outcome, Result, Start for the
         next variant) started from a neighbour's Start when one is given (studies.warm)."""
         from ..analysis import analyse
-        from ..solver import Options
+        from planarkin.solver.grid import Options
         from .warm import analyse as warm_analyse
         nan = float("nan")
         none = (nan,) * len(self.metrics)

@@ -1,5 +1,5 @@
 """Variants started from a neighbour's solution: chains of variants, each analysed with the
-warm start of its predecessor's path (planarkin.warmstart: `Analysis(..., warm=Start)`, whose
+warm start of its predecessor's path (planarkin.solver.warmstart: `Analysis(..., warm=Start)`, whose
 nodes are taken only when they pass every test the path follower applies to a step).
 
 A variant's results are those of `planarkin run` with its parameters to rounding (a warm start
@@ -10,7 +10,7 @@ distributed over processes: parallel runs equal the serial run bit for bit.
 
 from __future__ import annotations
 
-from ..warmstart import Start
+from planarkin.solver.warmstart import Start
 
 CHAIN = 32      # variants per chain: the first starts cold, each next from its predecessor
 

@@ -63,12 +63,12 @@ def read_data(path, cm) -> Data:
     """Read a tracked-data CSV against the compiled model; InputError (FILE:LINE) for a missing
     or wrong column, a unit that is not a length, a non-number or NaN, times out of order.
 
-    The file is read under the budgets of the tables a model reads (planarkin.inputtable): a
+    The file is read under the budgets of the tables a model reads (planarkin.functions.inputtable): a
     regular file only (a FIFO or a device is refused before it is opened for reading), at
     most MAX_BYTES, lines of at most MAX_LINE characters, MAX_LINES lines and MAX_ROWS rows
     of data, so that a wrong --data costs a message, not the machine's memory."""
-    from .. import inputtable
-    from ..inputtable import TableError, open_lines
+    from planarkin.functions import inputtable
+    from planarkin.functions.inputtable import TableError, open_lines
     file = str(path)
     rows = []
     try:

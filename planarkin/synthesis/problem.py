@@ -141,8 +141,8 @@ class Model:
         is a pose on the branch wanted (the grid's interpolant, or a first-order predictor
         from a nearby design), so a larger correction means another branch. The state's `Q`
         is the solution in internal units (the next guess of a continuation)."""
-        from ..kinematics import point_kinematics
-        from ..system import System
+        from planarkin.solver.kinematics import point_kinematics
+        from planarkin.solver.system import System
         t = np.asarray(t, dtype=float)
         L, af = cm.L, cm.angle_factor
         to_int = np.tile([1 / L, 1 / L, af], cm.nb)

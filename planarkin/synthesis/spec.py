@@ -361,7 +361,7 @@ class _Reader:
     """The validator's small interface over a validated model (for design_of)."""
 
     def __init__(self, spec):
-        from ..expr import evaluate_constant
+        from planarkin.functions.expr import evaluate_constant
         self.C = Collector(spec.file)
         self.params = dict(spec.parameters)
         self.body_names = [b.name for b in spec.bodies]

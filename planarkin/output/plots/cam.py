@@ -162,8 +162,8 @@ def law_derivatives(law, x, sides) -> tuple:
     per unit cam angle in the file's units: the law's own exact derivatives (as its constraint
     evaluates them: `Law`, `FunctionLaw`), each point's one-sided limit as sides says (+1: the
     right-hand one, the rule of the tables; -1: the left-hand one)."""
-    from ...expr import ExprError
-    from ...expr.core import evaluate_all
+    from planarkin.functions.expr import ExprError
+    from planarkin.functions.expr.core import evaluate_all
 
     x = np.asarray(x, float)
     out: list = [np.empty(len(x)) for _ in range(3)] + [np.empty(len(x))]
@@ -202,11 +202,11 @@ def law_derivatives(law, x, sides) -> tuple:
 
 def law_knots(law, lo: float, hi: float) -> list:
     """The law's knots strictly inside (lo, hi), cam angles in the file's unit: where its value
-    or one of its first four derivatives jumps (planarkin.expr's breakpoints of the law and of
+    or one of its first four derivatives jumps (planarkin.functions.expr's breakpoints of the law and of
     its second derivative, found from the exact one-sided values), the boundaries of a motion's
     segments; [] for a smooth expression, and when there are more than MAX_KNOTS (a table's
     points) or they cannot be found."""
-    from ...expr import ExprError, TimeFunction
+    from planarkin.functions.expr import ExprError, TimeFunction
 
     try:
         if hasattr(law, "fn"):

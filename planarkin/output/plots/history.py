@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ...layout import BODY_QUANTITIES, POINT_QUANTITIES, units
+from planarkin.solver.layout import BODY_QUANTITIES, POINT_QUANTITIES, units
 from .axes import add_axes
 from .style import (FONT, NAMED_POINTS, ROW_NAMES, body_palette, duration, entry_width, plot_title,
                     point_palette, pretty, styled, tick_label_width)

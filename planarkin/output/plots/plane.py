@@ -379,7 +379,7 @@ def mechanism_figure(cm, scene: Scene, instants: int | None = None):
                         label=f"fixed centrode\nof {scene.names[j]}")
         handles.append(line)
     if scene.moving:
-        from ...centres import draw_moving
+        from planarkin.measures.centres import draw_moving
         handles += draw_moving(ax, scene, rows[0])
     # later instants below the first, fainter the later they are; a cam's profile at the
     # first only (turned copies of it overlapped into a tangle: cam.png draws the profile)

@@ -60,8 +60,8 @@ class Scene:
         self._traces(data, joint_pts)
         self._bounds()
         self.centrodes = self._centrodes(cm, data) if cm.spec.output.centres else []
-        # output: {centres: moving}: planarkin.centres draws them at every instant
-        from ...centres import moving_centrodes
+        # output: {centres: moving}: planarkin.measures.centres draws them at every instant
+        from planarkin.measures.centres import moving_centrodes
         self.moving = moving_centrodes(cm, data, [j for j, _ in self.centrodes]) \
             if cm.spec.output.moving_centrodes else []
 
@@ -174,13 +174,13 @@ class Scene:
 
     def _centrodes(self, cm, data) -> list:
         """[(body, (N, 2) path)]: the fixed centrode (instant centre relative to ground, from the
-        exact velocities: planarkin.centres) of every body whose centre moves -- not a body
+        exact velocities: planarkin.measures.centres) of every body whose centre moves -- not a body
         pinned to ground (a fixed point) nor a slider (at infinity) -- cut where it leaves the
         drawing's bounds: near a parallel position it runs to infinity, and following it even
         part of the way would shrink the mechanism. nan breaks the line."""
         if getattr(data, "qd", None) is None or len(self.t) < 2:
             return []
-        from ...centres import compute, pairs
+        from planarkin.measures.centres import compute, pairs
         X = compute(cm, data)
         x0, x1, y0, y1 = self.bounds
         m = 0.0                # the drawing keeps the size it has without them

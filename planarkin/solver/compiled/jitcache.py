@@ -1,0 +1,269 @@
+"""Where numba caches the compiled route (planarkin.compiled), checked before numba reads it.
+
+numba's disk cache holds pickles that it loads and runs; planarkin gives it a directory only the
+user can write and vouches for every file in it:
+
+- the directory: PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin/numba, else
+  ~/.cache/planarkin/numba, created with mode 0700; it and its entry must be directories (not
+  links) owned by the current user and not writable by group or others, else the route
+  compiles in memory only (no disk cache: slower to start, the same results);
+- an entry per source version: a subdirectory named by the hash of the compiled route's
+  sources and the Python version (numba
+  keys its files on each source file's own contents only, a hash of that one file, and a change
+  in one module would leave the functions of another inlined stale);
+- in it, gen/: the kernels generated per mechanism structure (planarkin.solver.compiled.gen), Python
+  sources that planarkin.solver.compiled.kernels runs only while their bytes are the text it generates
+  (otherwise it writes them again, atomically), numba's files for them beside the others;
+- a manifest (manifest.json: file -> sha256) written, atomically, after every load or
+  compile; before numba is imported, every file in the entry that the manifest does not name
+  with its exact hash (truncated, garbled, foreign, or left by a process that died) is
+  deleted, so that numba compiles it again and never reads it.
+
+A lock (flock, where the platform has it) serialises processes from prepare() to record(), so
+that one process's manifest never names another's half-written files. A process waits for it
+LOCK_WAIT seconds at most (another run may hold it for as long as it is suspended, with Ctrl-Z
+during its first compile), then says so in one line and compiles without the cache. A cache
+that cannot be written (a full disk, a file size limit) costs only the caching: the compile
+goes on in memory, said in one line (compile_cached()). Either line once per process.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import stat
+import sys
+import time
+from pathlib import Path
+
+# the modules numba compiles and caches (the generated kernels' names hash their generator)
+SOURCES = ("points.py", "kinds.py")
+MANIFEST = "manifest.json"
+LOCK_WAIT = 5.0           # seconds to wait for another process's hold on the entry
+_held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
+_said: set = set()        # the lines said (once per process)
+
+
+def _say(key: str, line: str) -> None:
+    if key not in _said:
+        _said.add(key)
+        print(f"planarkin: {line}", file=sys.stderr, flush=True)
+
+
+def unwritable(entry, e: OSError) -> None:
+    """The cache cannot be written (e): said once, and not used again by this process."""
+    _say("unwritable", f"the compiled code's cache {entry} cannot be written "
+                       f"({e.strerror or e}): compiling without it (the results are the same)")
+    _held["dir"] = None
+
+
+def base_dir() -> Path:
+    env = os.environ.get("PLANARKIN_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "planarkin" / "numba"
+
+
+def tag() -> str:
+    """The entry's name: the hash of the compiled route's sources and the Python version."""
+    h = hashlib.sha256(sys.version.encode())
+    here = Path(__file__).parent
+    for name in SOURCES:
+        h.update((here / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+def private(path: Path) -> bool:
+    """path is a directory (not a link) owned by this user, not writable by group or others
+    (where the platform has owners: elsewhere a directory will do)."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    if not stat.S_ISDIR(st.st_mode):
+        return False
+    if hasattr(os, "getuid"):
+        return st.st_uid == os.getuid() and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+    return True
+
+
+def _make(path: Path) -> bool:
+    try:
+        os.makedirs(path, mode=0o700, exist_ok=True)
+    except OSError as e:
+        unwritable(path, e)
+        return False
+    return private(path)
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _stamp(path: Path) -> tuple:
+    st = os.stat(path)
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _known_digest(path: Path, rel: str) -> str:
+    """path's sha256, read again unless this process hashed it already (in prepare or a record)
+    and its inode, size and modification time are unchanged since: the entry holds hundreds of
+    files (numba's index and data for every kernel), and hashing them all at every record()
+    cost a sweep about 0.05 s, twice."""
+    seen = _held.setdefault("seen", {})
+    stamp = _stamp(path)
+    old = seen.get(rel)
+    if old is not None and old[0] == stamp:
+        return old[1]
+    d = _digest(path)
+    seen[rel] = (stamp, d)
+    return d
+
+
+def _files(entry: Path):
+    for p in sorted(entry.rglob("*")):
+        if p.is_file() and p.name not in (MANIFEST, ".lock"):
+            yield p
+
+
+def _manifest(entry: Path) -> dict:
+    try:
+        m = json.loads((entry / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return {}
+    return m if isinstance(m, dict) else {}
+
+
+def prepare() -> Path | None:
+    """The checked cache entry for numba (NUMBA_CACHE_DIR set to it), or None: no usable
+    directory (numba then compiles without a disk cache). Deletes every file of the entry the
+    manifest does not vouch for; holds the entry's lock until record()."""
+    if "dir" in _held:            # checked already: the lock again, for another compile
+        if _held["dir"] is not None and "lock" not in _held and not _lock(_held["dir"]):
+            _held["dir"] = None
+        return _held["dir"]
+    base = base_dir()
+    entry = base / tag()
+    if not (_make(base) and _make(entry) and _lock(entry)):
+        _held["dir"] = None
+        return None
+    try:
+        known = _manifest(entry)
+        for p in _files(entry):
+            rel = p.relative_to(entry).as_posix()
+            if known.get(rel) != _known_digest(p, rel):
+                p.unlink()
+    except OSError as e:
+        release()
+        unwritable(entry, e)
+        return None
+    os.environ["NUMBA_CACHE_DIR"] = str(entry)
+    _held["dir"] = entry
+    return entry
+
+
+def _lock(entry: Path) -> bool:
+    """Hold the entry's lock (False: not within LOCK_WAIT seconds, said once; or no lock file)."""
+    try:
+        lock = open(entry / ".lock", "a+")
+    except OSError as e:
+        unwritable(entry, e)
+        return False
+    try:
+        import fcntl
+    except ImportError:           # (no flock: Windows)
+        _held["lock"] = lock
+        return True
+    deadline = time.monotonic() + LOCK_WAIT
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:
+            if time.monotonic() < deadline:
+                time.sleep(0.05)
+                continue
+            holder = _holder(lock)
+            lock.close()
+            _say("locked", f"the compiled code's cache {entry} is held by another planarkin "
+                           f"process{holder} for more than {LOCK_WAIT:g} s (suspended?): "
+                           f"compiling without the cache")
+            return False
+        except OSError:
+            lock.close()
+            return False
+    try:                          # who holds it, for the line of a process that waits
+        lock.seek(0)
+        lock.truncate()
+        lock.write(str(os.getpid()))
+        lock.flush()
+    except OSError:
+        pass
+    _held["lock"] = lock
+    return True
+
+
+def _holder(lock) -> str:
+    try:
+        lock.seek(0)
+        pid = int(lock.read(20).strip())
+    except (OSError, ValueError):
+        return ""
+    return f" (pid {pid})"
+
+
+def compile_cached(fn, sig):
+    """fn.compile(sig) for a numba dispatcher made with cache=True: its disk cache only under
+    the entry's lock (without it, fn compiles in memory), and a cache that cannot be written
+    (numba raises OSError as it saves, the overload already compiled) costs only the caching,
+    said once."""
+    cache = getattr(fn, "_cache", None)       # numba's FunctionCache (NullCache: cache=False)
+    if "lock" not in _held and cache is not None:
+        cache.disable()
+    try:
+        return fn.compile(sig)
+    except OSError as e:
+        if cache is None:
+            raise
+        cache.disable()
+        unwritable(_held.get("dir") or base_dir(), e)
+        return fn.compile(sig)
+
+
+def record() -> None:
+    """After numba loaded or compiled the route: the manifest of the entry's files as they are
+    now (written atomically), then the lock released."""
+    entry = _held.get("dir")
+    try:
+        if entry is not None and "lock" in _held:
+            m = {}
+            for p in _files(entry):
+                rel = p.relative_to(entry).as_posix()
+                m[rel] = _known_digest(p, rel)
+            if m != _manifest(entry):
+                tmp = entry / f".{MANIFEST}.{os.getpid()}"
+                tmp.write_text(json.dumps(m, indent=0, sort_keys=True))
+                os.replace(tmp, entry / MANIFEST)
+    except OSError:
+        pass
+    finally:
+        release()
+
+
+def release() -> None:
+    lock = _held.pop("lock", None)
+    if lock is not None:
+        try:                      # no holder named once it is free (a waiter reads it)
+            lock.truncate(0)
+        except OSError:
+            pass
+        lock.close()
+
+
+def forget() -> None:
+    """Release the lock and forget the checked entry: the next prepare() checks again, as a new
+    process does."""
+    release()
+    _held.clear()
