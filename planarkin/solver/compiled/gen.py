@@ -496,7 +496,7 @@ class Writer:
         o(0, '"""planarkin.solver.compiled.gen: the grid pass of one mechanism structure (generated; '
              'the file is used only while its bytes are the generated text)."""')
         for line in ("import math", "", "import numba", "import numpy as np", "",
-                     "from planarkin import compiled_kinds as K", ""):
+                     "from planarkin.solver.compiled import kinds as K", ""):
             o(0, line)
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.solver.compiled.kernels")
         o(0, "# the kinds' equations (planarkin.solver.compiled.kinds), each compiled once, for one")

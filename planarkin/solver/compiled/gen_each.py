@@ -194,7 +194,7 @@ class EachWriter(Writer):
              'mechanism structure (generated; the file is used only while its bytes are the '
              'generated text)."""')
         for line in ("import math", "", "import numba", "import numpy as np", "",
-                     "from planarkin import compiled_kinds as K", ""):
+                     "from planarkin.solver.compiled import kinds as K", ""):
             o(0, line)
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.solver.compiled.kernels")
         o(0, "ROW = (numba.int64, numba.int64) + (numba.float64,) * 22")
