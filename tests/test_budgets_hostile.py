@@ -230,7 +230,7 @@ def test_the_plot_buffer_keeps_a_bounded_number_of_bytes():
     """The plots' rows (up to PLOT_ROWS) of every point: 4,000 rows of 2,000 points were 400 MB
     and as much again when joined; the stride now keeps PLOT_BYTES at most."""
     from planarkin.output.writer import PLOT_BYTES, PlotBuffer
-    from planarkin.solver.grid import Chunk
+    from planarkin.solver.chunks import Chunk
     buf = PlotBuffer(3001)
     N, P = 1000, 2000
     for a in range(0, 3001, N):

@@ -3,7 +3,11 @@ module-level ones:
 
 1. no import cycles between modules of the package;
 2. no private name (``_x``) of one module imported or used by another module;
-3. no module over 800 lines (a longer one holds more than one idea: split it).
+3. no module over 800 lines (a longer one holds more than one idea: split it);
+4. at most MAX_TOP modules at the package's top level (the stages live in packages: model/,
+   functions/, elements/, solver/, results/, output/, and the rooms fed by the Result);
+5. no chain of module-level imports longer than MAX_CHAIN modules (what `import planarkin.cli`
+   walks through before the first line of work runs).
 
 Imports under ``if TYPE_CHECKING:`` (annotations only) never run and are left out. The layers
 (model, elements, system, solver, results, output, cli) are import-linter's contract in
@@ -55,16 +59,17 @@ def _type_only(tree) -> set[int]:
     return out
 
 
-def imports(mods: dict[str, Path]):
+def imports(mods: dict[str, Path], top_level: bool = False):
     """Every import of a package module that runs, at any depth of the file (functions too;
     not those under ``if TYPE_CHECKING:``): a list of (importer, imported module, names taken
-    from it, line)."""
+    from it, line). top_level: only the statements of the module's own body (and of its
+    module-level if/try blocks)."""
     out = []
     for mod, path in mods.items():
         tree = ast.parse(path.read_text(), str(path))
         pkg = path.name == "__init__.py"
         skip = _type_only(tree)
-        for node in ast.walk(tree):
+        for node in (_body_level(tree) if top_level else ast.walk(tree)):
             if id(node) in skip:
                 continue
             if isinstance(node, ast.Import):
@@ -86,9 +91,46 @@ def imports(mods: dict[str, Path]):
     return out
 
 
-def graph(mods: dict[str, Path]) -> dict[str, set[str]]:
+def _body_level(tree):
+    """The statements a module runs when imported: its body, into if/try/with blocks, not into
+    functions or classes."""
+    todo = list(tree.body)
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, (ast.If, ast.Try, ast.With)):
+            for name in ("body", "orelse", "finalbody", "handlers"):
+                todo.extend(getattr(node, name, []))
+        elif isinstance(node, ast.ExceptHandler):
+            todo.extend(node.body)
+
+
+def longest_chain(g: dict[str, set[str]]) -> list[str]:
+    """The longest chain of imports a -> b -> ... without repeating a module."""
+    sys.setrecursionlimit(max(10000, sys.getrecursionlimit()))
+    memo: dict[str, list[str]] = {}
+
+    def walk(v, seen):
+        if v in memo:
+            return memo[v]
+        best = [v]
+        for w in sorted(g[v]):
+            if w not in seen:
+                c = walk(w, seen | {w})
+                if len(c) + 1 > len(best):
+                    best = [v] + c
+        if not (g[v] & seen):        # no cycle back through the path: the answer holds anywhere
+            memo[v] = best
+        return best
+
+    return max((walk(v, {v}) for v in sorted(g)), key=len, default=[])
+
+
+def graph(mods: dict[str, Path], top_level: bool = False) -> dict[str, set[str]]:
+    """importer -> imported modules; top_level: only the imports a module runs when it is
+    imported (its own body's statements, not those inside functions or classes)."""
     g: dict[str, set[str]] = {m: set() for m in mods}
-    for a, b, _, _ in imports(mods):
+    for a, b, _, _ in imports(mods, top_level):
         if b in mods and b != a:
             g[a].add(b)
     return g
@@ -180,6 +222,20 @@ def test_no_module_is_over_800_lines():
     assert long == {}, f"modules over {MAX_LINES} lines: {long}"
 
 
+MAX_TOP = 15
+MAX_CHAIN = 12
+
+
+def test_few_modules_at_the_top_level():
+    top = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert len(top) <= MAX_TOP, f"{len(top)} modules at the top level: {top}"
+
+
+def test_no_long_chain_of_module_level_imports():
+    chain = longest_chain(graph(modules(), top_level=True))
+    assert len(chain) <= MAX_CHAIN, f"{len(chain)} modules: {' -> '.join(chain)}"
+
+
 def test_no_private_names_across_modules():
     found = private_imports(modules())
     assert not found, "private names used across modules:\n" + "\n".join(found)
@@ -213,6 +269,16 @@ def _package(tmp_path, files: dict[str, str]) -> dict[str, Path]:
 ])
 def test_cycles_are_found(tmp_path, files, expected):
     assert cycles(graph(_package(tmp_path, files))) == expected
+
+
+def test_the_longest_chain_counts_module_level_imports_only(tmp_path):
+    mods = _package(tmp_path, {
+        "__init__.py": "", "a.py": "from . import b\n", "b.py": "def f():\n    from . import c\n",
+        "c.py": "if True:\n    from . import d\n", "d.py": "x = 1\n"})
+    assert longest_chain(graph(mods, top_level=True)) == ["planarkin.a", "planarkin.b"] or \
+        longest_chain(graph(mods, top_level=True)) == ["planarkin.c", "planarkin.d"]
+    assert longest_chain(graph(mods)) == ["planarkin.a", "planarkin.b", "planarkin.c",
+                                          "planarkin.d"]
 
 
 def test_private_names_are_found(tmp_path):

@@ -19,7 +19,8 @@ import numpy as np
 from planarkin.solver.chunks import concat, take
 from ..derived import derived_tables
 from ..options import ORDERS
-from planarkin.solver.grid import Chunk, Options
+from planarkin.solver.chunks import Chunk
+from planarkin.solver.grid import Options
 from .directory import (DISK_ERRORS, SINKS, OutputError, ResultDirectory, WriteError,
                         checkpoint, critical, signame)
 from .summary import ColumnStats, StepStats, error_estimates, write_json

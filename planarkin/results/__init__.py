@@ -7,14 +7,18 @@ file except through `Result.write` (the output contract's door, imported when ca
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from pathlib import Path
 
 import numpy as np
 
 from planarkin.derived import derived_tables
-from planarkin.model.compile import CompiledModel
 from .runinfo import RunInfo
-from planarkin.solver.grid import Chunk
+from planarkin.solver.chunks import Chunk
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 
 __all__ = ["Result", "RunInfo"]
 

@@ -14,6 +14,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import contextlib
 from dataclasses import dataclass, field
 
@@ -21,13 +23,15 @@ import numpy as np
 
 from planarkin.diagnostics import Diagnostic, InputError
 from planarkin.elements import KINDS
-from planarkin.model.compile import CompiledModel
 from .closure import short_loops
 from .linalg import one_blas_thread
 from .meshing import centre_distances
 from .system import PIN_BLAS_FROM, System
 from .branches import apply_branch_hints, block_modes, fmt_res, diag
 from .tolerances import ASSEMBLED
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 
 RANK_TOL = 1e-8          # relative singular value / R diagonal below which a direction is lost
 DENSE_LIMIT = 3000       # largest n for dense SVD / QR

@@ -5,6 +5,8 @@ branches a sketch draws, and the words `check` puts to each mode. Called by
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 from dataclasses import dataclass, replace
 
@@ -12,9 +14,11 @@ import numpy as np
 
 from planarkin.diagnostics import Diagnostic, InputError
 from .kinematics import point_kinematics
-from planarkin.model.compile import CompiledModel
 from .system import System
 from .tolerances import ASSEMBLED
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 
 
 

@@ -1,10 +1,36 @@
-"""Rows of a solver Chunk taken and joined: what the results, the writers and the studies share."""
+"""A solver Chunk (the results at a slice of the grid) and its rows taken and joined: what the
+results, the writers and the studies share."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from planarkin.solver.grid import Chunk
+
+@dataclass
+class Chunk:
+    """Results at a slice of the grid, user units.
+
+    t: (N,) seconds; q, qd, qdd: (N, n) body coordinates per body x, y, phi (length, angle units;
+    None above the requested order); p, pd, pdd: (N, P, 2) point positions, velocities and
+    accelerations; iterations: (N,) Newton iterations; cond: (N,) condition estimate;
+    residual: (N,) max |Phi| over all equations, internal units (relative to the model length L).
+    qddd (N, n), pddd (N, P, 2): jerks (length/s^3, angle/s^3), None unless up_to: jerk.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray | None
+    qdd: np.ndarray | None
+    p: np.ndarray
+    pd: np.ndarray | None
+    pdd: np.ndarray | None
+    iterations: np.ndarray
+    cond: np.ndarray
+    residual: np.ndarray
+    qddd: np.ndarray | None = None
+    pddd: np.ndarray | None = None
 
 
 def take(ch: Chunk, sel) -> Chunk:

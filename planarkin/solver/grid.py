@@ -34,8 +34,9 @@ Results are streamed in chunks of grid points, so memory does not grow with the 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -45,13 +46,16 @@ from planarkin.solver.compiled import kernel
 from .budget import node_limit, point_row_bytes
 from .kinematics import point_jerk, point_kinematics
 from .tolerances import NODE_TOL
-from planarkin.model.compile import CompiledModel
 from planarkin.options import Options
 from .path import (KINK_TOL, PATH_POLICY, ROWS_AT_BREAKPOINTS, Event, Kink, Nodes,
                    driver_breakpoints, hermite5, path_block)
 from .singular import classify, near_singular_warnings, reselect
+from .chunks import Chunk
 from .system import System
 from .warmstart import warm_nodes
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 
 # Bound of a grid chunk's estimated working set (Analysis.chunks), bytes. The CLI keeps freed
 # memory on its heap (cli._tune_malloc), so its peak is a few chunks above the interpreter,
@@ -384,31 +388,6 @@ class PathFollower:
 def _distinct(a: np.ndarray) -> np.ndarray:
     """Sorted distinct small non-negative integers (np.unique imports numpy.ma: 10 ms)."""
     return np.flatnonzero(np.bincount(a)) if len(a) else a
-
-
-@dataclass
-class Chunk:
-    """Results at a slice of the grid, user units.
-
-    t: (N,) seconds; q, qd, qdd: (N, n) body coordinates per body x, y, phi (length, angle units;
-    None above the requested order); p, pd, pdd: (N, P, 2) point positions, velocities and
-    accelerations; iterations: (N,) Newton iterations; cond: (N,) condition estimate;
-    residual: (N,) max |Phi| over all equations, internal units (relative to the model length L).
-    qddd (N, n), pddd (N, P, 2): jerks (length/s^3, angle/s^3), None unless up_to: jerk.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray | None
-    qdd: np.ndarray | None
-    p: np.ndarray
-    pd: np.ndarray | None
-    pdd: np.ndarray | None
-    iterations: np.ndarray
-    cond: np.ndarray
-    residual: np.ndarray
-    qddd: np.ndarray | None = None
-    pddd: np.ndarray | None = None
 
 
 class Analysis:

@@ -3,9 +3,13 @@ accelerations and jerks of the model's points, internal units, batched over time
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from planarkin.model.compile import CompiledModel
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
+
 
 
 def point_kinematics(cm: CompiledModel, Q, Qd=None, Qdd=None):

@@ -5,14 +5,18 @@ prediction and dense output). Internal units throughout (lengths / L, radians, s
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from planarkin.model.compile import CompiledModel
 
 from .tolerances import NODE_TOL  # noqa: F401  (the path's Newton tolerance, shared)
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and candidate
 
 

@@ -16,6 +16,8 @@ All arrays are in internal units (length / L, radians, seconds).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,8 +25,10 @@ import numpy as np
 from planarkin.elements.base import Frame, Group
 from .linalg import (SparseLU, inv_batched, matvec, noise, one_blas_thread, permutation_sign,
                      sigma_min_lower)
-from planarkin.model.compile import CompiledModel
 from .structure import Blocks, block_triangular
+
+if TYPE_CHECKING:          # annotations only: the model is compiled before the solver runs
+    from planarkin.model.compile import CompiledModel
 
 EPS = np.finfo(float).eps
 # Irreducible blocks of at least this many unknowns are factored by sparse LU, one per time
