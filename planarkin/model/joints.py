@@ -41,9 +41,9 @@ class ElementSections:
                 out.append(spec)
         return out
 
-    def element(self, node: Node, role: str, idx: int) -> ElementSpec | None:
+    def _kind_name(self, node: Node, role: str, what: str) -> str | None:
+        """The entry's type, checked against the role's kinds (a message and None if not)."""
         kinds = JOINT_KINDS if role == "joint" else DRIVER_KINDS
-        what = f"{role} {idx}"
         if node.kind != "map":
             self.err(node, f"{what} must be a mapping like {{type: revolute, i: ..., j: ...}}, "
                            f"not {type_name(node)}")
@@ -65,6 +65,60 @@ class ElementSections:
                 msg = f"{what}: unknown type '{kname}'{hint}"
             self.err(v["type"], msg)
             return None
+        return kname
+
+    def _element_bodies(self, node: Node, v: dict, role: str, what: str, between, use_body: bool,
+                        body_keys: list) -> list:
+        """The bodies an entry connects (names, None where a reference is wrong)."""
+        bodies: list[str | None] = []
+        if between is not None:
+            bodies = list(between[0])
+        elif use_body:
+            if "i" in v or "j" in v:
+                self.err(v["body"], f"{what}: give either body or i and j, not both")
+            bodies = ["ground", self.body_ref(v["body"], what, allow_ground=False)]
+        elif role == "driver" and "i" not in v and "j" not in v:
+            self.err(node, f"{what}: missing body: NAME (the driven body; or i and j for a "
+                           f"relative driver)")
+            bodies = [None, None]
+        else:
+            for key in body_keys:
+                if key in v:
+                    bodies.append(self.body_ref(v[key], what))
+                elif key == "k":
+                    bodies.append("ground")
+                else:
+                    self.err(node, f"{what}: missing '{key}' (a body name or ground)")
+                    bodies.append(None)
+        if None not in bodies and len(set(bodies)) < len(bodies):
+            self.err(node, f"{what}: connects a body to itself; i and j must differ")
+        return bodies
+
+    def _at_axis(self, v: dict, kind, what: str, has_at: bool, wants_axis: bool) -> tuple:
+        """A joint's placement at: (and the slide direction axis: where the kind takes one)."""
+        at = axis = None
+        pnames = [p.name for p in kind.params]
+        if has_at and "at" in v:
+            at = self.placement(v["at"], kind, what)
+            clash = [p for p in pnames if p in v and kind.params[pnames.index(p)].unit in
+                     ("point", "vector")]
+            if clash:
+                self.err(v["at"], f"{what}: give either at or {', '.join(clash)}, not both")
+            if wants_axis:
+                if "axis" not in v:
+                    self.err(v["at"], f"{what}: with at, give axis: [dx, dy] (the slide direction)")
+                else:
+                    axis = self.direction(v["axis"], f"{what}: axis")
+        elif "axis" in v and "at" not in v:
+            self.err(v["axis"], f"{what}: axis is used with at; give at: [x, y] too")
+        return at, axis
+
+    def element(self, node: Node, role: str, idx: int) -> ElementSpec | None:
+        what = f"{role} {idx}"
+        kname = self._kind_name(node, role, what)
+        if kname is None:
+            return None
+        v = node.value
         kind = KINDS[kname]
         ename = None
         if "name" in v:
@@ -102,28 +156,7 @@ class ElementSections:
             [raw_text(v[k]) if k in v else ("ground" if k == "k" else "?") for k in body_keys]
         shown = f" {'-'.join(raw)}" if any(r != "?" for r in raw) else ""
         what = (f"{role} '{ename}'" if ename else what) + f" ({kname}{shown})"
-        bodies: list[str | None] = []
-        if between is not None:
-            bodies = list(between[0])
-        elif use_body:
-            if "i" in v or "j" in v:
-                self.err(v["body"], f"{what}: give either body or i and j, not both")
-            bodies = ["ground", self.body_ref(v["body"], what, allow_ground=False)]
-        elif role == "driver" and "i" not in v and "j" not in v:
-            self.err(node, f"{what}: missing body: NAME (the driven body; or i and j for a "
-                           f"relative driver)")
-            bodies = [None, None]
-        else:
-            for key in body_keys:
-                if key in v:
-                    bodies.append(self.body_ref(v[key], what))
-                elif key == "k":
-                    bodies.append("ground")
-                else:
-                    self.err(node, f"{what}: missing '{key}' (a body name or ground)")
-                    bodies.append(None)
-        if None not in bodies and len(set(bodies)) < len(bodies):
-            self.err(node, f"{what}: connects a body to itself; i and j must differ")
+        bodies = self._element_bodies(node, v, role, what, between, use_body, body_keys)
         # parameters
         pnames = [p.name for p in kind.params]
         allowed += pnames
@@ -142,20 +175,7 @@ class ElementSections:
         self.cam_keys = v                 # a cam's data law reads whether range is given
         params: dict[str, Any] = {}
         lines: dict[str, int] = {}
-        at = axis = None
-        if has_at and "at" in v:
-            at = self.placement(v["at"], kind, what)
-            clash = [p for p in pnames if p in v and kind.params[pnames.index(p)].unit in
-                     ("point", "vector")]
-            if clash:
-                self.err(v["at"], f"{what}: give either at or {', '.join(clash)}, not both")
-            if "axis" in allowed:
-                if "axis" not in v:
-                    self.err(v["at"], f"{what}: with at, give axis: [dx, dy] (the slide direction)")
-                else:
-                    axis = self.direction(v["axis"], f"{what}: axis")
-        elif "axis" in v and "at" not in v:
-            self.err(v["axis"], f"{what}: axis is used with at; give at: [x, y] too")
+        at, axis = self._at_axis(v, kind, what, has_at, "axis" in allowed)
         if role == "driver" and "s" in v:
             if "sj" in v:
                 self.err(v["s"], f"{what}: give either s or sj, not both")

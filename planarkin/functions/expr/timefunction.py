@@ -333,22 +333,7 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
             if len(sel):
                 # a bracket split by a jump of g (at a known break) is no root: only the pieces
                 cands.append(_refine(g, dg, t0[sel], t1[sel], L))
-        # touching roots: g' changes sign and g reaches a level there
-        sel = np.flatnonzero(np.sign(d0) * np.sign(d1) < 0)
-        if len(sel) and d2g is not None:
-            x = _refine(dg, d2g, t0[sel], t1[sel], 0.0)
-            gx = evaluate_all((g,), {"t": x})[0]
-            if isinstance(levels, str):
-                near = np.round(gx) if levels == "int" else np.zeros_like(gx)
-            else:
-                j = np.clip(np.searchsorted(levels, gx), 1, max(len(levels) - 1, 1))
-                lvl = np.asarray(levels)
-                near = np.where(np.abs(gx - lvl[j - 1]) < np.abs(gx - lvl[np.minimum(j, len(lvl) - 1)]),
-                                lvl[j - 1], lvl[np.minimum(j, len(lvl) - 1)])
-            with np.errstate(invalid="ignore"):
-                fin = np.isfinite(g0)
-                scale = float(np.max(np.abs(g0[fin]))) if fin.any() else 1.0
-            cands.append(x[np.abs(gx - near) <= 1e-9 * max(1.0, scale)])
+        cands.append(_touching_roots(g, dg, d2g, levels, t0, t1, g0, d0, d1))
         new = np.concatenate(cands) if cands else np.empty(0)
         new = new[(new >= start) & (new <= end)]
         found.extend(new.tolist())
@@ -357,7 +342,33 @@ def find_breakpoints(f: TimeFunction, start: float, end: float) -> list:
                             f"between t = {start:g} and {end:g}")
     if not found:
         return []
-    T = np.sort(np.asarray(found))
+    return _real_jumps(trees, np.sort(np.asarray(found)), start, end)
+
+
+def _touching_roots(g, dg, d2g, levels, t0, t1, g0, d0, d1) -> np.ndarray:
+    """Touching roots: where g' changes sign between two samples and g reaches a level there
+    (abs((t-a)**2)), refined by Newton on g' with the exact g''."""
+    sel = np.flatnonzero(np.sign(d0) * np.sign(d1) < 0)
+    if not len(sel) or d2g is None:
+        return np.empty(0)
+    x = _refine(dg, d2g, t0[sel], t1[sel], 0.0)
+    gx = evaluate_all((g,), {"t": x})[0]
+    if isinstance(levels, str):
+        near = np.round(gx) if levels == "int" else np.zeros_like(gx)
+    else:
+        j = np.clip(np.searchsorted(levels, gx), 1, max(len(levels) - 1, 1))
+        lvl = np.asarray(levels)
+        near = np.where(np.abs(gx - lvl[j - 1]) < np.abs(gx - lvl[np.minimum(j, len(lvl) - 1)]),
+                        lvl[j - 1], lvl[np.minimum(j, len(lvl) - 1)])
+    with np.errstate(invalid="ignore"):
+        fin = np.isfinite(g0)
+        scale = float(np.max(np.abs(g0[fin]))) if fin.any() else 1.0
+    return x[np.abs(gx - near) <= 1e-9 * max(1.0, scale)]
+
+
+def _real_jumps(trees, T: np.ndarray, start: float, end: float) -> list:
+    """The candidates T (sorted) where f, f' or f'' really jumps: one-sided values compared,
+    a jump larger than _JUMP_REL times the largest |f^(k)| seen, or not finite."""
     keep = np.concatenate([[True], np.diff(T) > 16 * _ulp(T[1:])])
     T = T[keep]
     nice = np.array([float(f"{x:.12g}") for x in T])  # 0.25, not 0.24999999999999994
