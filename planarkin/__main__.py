@@ -40,8 +40,8 @@ def entry():
             print(code, file=sys.stderr)
         code = 0 if code is None else 1
     # the command is over: its files are closed and in place, its worker processes joined.
-    # The interpreter's teardown (0.1-0.6 s with matplotlib loaded, bench_plot_timeline.py)
-    # would only free memory the kernel frees anyway
+    # The interpreter's teardown (a large part of a small run with matplotlib loaded,
+    # benchmarks/bench_plot_timeline.py) would only free memory the kernel frees anyway
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)

@@ -30,15 +30,15 @@ from .piecewise import Piece, Piecewise
 __all__ = ["TableError", "confined", "open_lines", "read_columns", "read_table", "spline",
            "table_function"]
 
-# A driver or cam table of 1e5 rows is checked in 2.4 s and 180 MB; 1e6 rows took 56 s (the
-# piecewise polynomial keeps a Python object per interval). A curve's points cost more in the
-# run (curve-slot: 1e4 points 6 s and 180 MB, 1e5 points 28 s and 1 GB): MAX_CURVE_POINTS.
+# Budgets that keep a table's check within seconds and well under 1 GB (the piecewise
+# polynomial keeps a Python object per interval; a curve's points cost more in the run): the
+# figures behind each are in benchmarks/README.md, "Figures behind the code's limits".
 MAX_ROWS = 100_000
 MAX_CURVE_POINTS = 10_000
 MAX_BYTES = 16 * 2**20   # 16 MB: 1e5 rows of a few numbers fit many times over
 MAX_MAGNITUDE = 1e100    # as for numbers in the model file: their squares must not overflow
-MAX_LINE = 10_000        # characters of one line (a 60 MB header took 6 s and 1.1 GB)
-MAX_LINES = 4 * MAX_ROWS  # lines with comments and blanks (8e6 comment lines took 5 s)
+MAX_LINE = 10_000        # characters of one line (a huge header is refused, not parsed)
+MAX_LINES = 4 * MAX_ROWS  # lines with comments and blanks
 EXCERPT = 40             # characters of a file quoted in a message, at most
 TABLE_DIRS_VAR = "PLANARKIN_TABLE_DIRS"
 # (the model's folder as given, then the real paths of the folders tables may come from)

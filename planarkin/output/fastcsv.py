@@ -113,7 +113,7 @@ _POW10 = np.array([10**i for i in range(19)], dtype=np.int64)
 # ---------------------------------------------------------------------------
 
 # powers of ten up to the doubles' range (|K| <= 326 below), made once: raising 10 to each
-# power afresh was half of building the tables at import (13 -> 7 ms of every run's start-up)
+# power afresh was half of building the tables at import (every run's start-up)
 _P10 = [10**k for k in range(400)]
 
 

@@ -37,7 +37,7 @@ RANK_TOL = 1e-8          # relative singular value / R diagonal below which a di
 DENSE_LIMIT = 3000       # largest n for dense SVD / QR
 # From this many coordinates a square model is first assembled block by block (Newton on each
 # diagonal block, as above DENSE_LIMIT) and the dense checks (Levenberg-Marquardt, two SVDs,
-# least squares on the whole m x n Jacobian: 19.5 s of the 1,500-coordinate arch's 36 s) run
+# least squares on the whole m x n Jacobian: most of a large arch's assembly, bench_big.py) run
 # only when that does not settle the model clearly: every block regular with sigma_min at
 # least BLOCKS_CLEAR (a hundred times RANK_TOL), converged to ASSEMBLED. A square Jacobian with
 # regular diagonal blocks has full rank, so the dense rank analysis could only confirm it.
@@ -121,7 +121,7 @@ def _levenberg_marquardt(S: System, q: np.ndarray, t0: float, maxit: int = 300, 
         q, r, cost = q + step, r_new, r_new @ r_new
         it += 1
         # at rounding level the residual stops shrinking while the steps stay at cond * eps:
-        # further dense least-squares solves (27 ms each at 300 coordinates) change nothing
+        # further dense least-squares solves (each O(m n^2)) change nothing
         if stalled or np.abs(step).max() <= 4 * np.finfo(float).eps * (1 + np.abs(q).max()):
             break
     return q, it

@@ -18,8 +18,8 @@ import numpy as np
 
 # Below this batch size numpy's LAPACK loop is faster than our vectorised elimination.
 _SMALL_BATCH = 48
-# Above this size LAPACK's loop wins again (measured at 4096 matrices per call: k = 4 takes
-# 0.31 us per matrix here against 0.49 us, k = 6 about 1.0 us for both).
+# Above this size LAPACK's loop wins again (benchmarks/bench_blocks.py; the figures:
+# benchmarks/README.md, "Figures behind the code's limits").
 _GJ_MAX_K = 5
 
 
@@ -177,7 +177,7 @@ class SparseLU:
         finite = np.isfinite(values).all(axis=1)
         parity: dict[bytes, float] = {}
         # one matrix object, its entries replaced per point: building a csc_matrix checks its
-        # indices every time (30 us, as much as factoring a 28-unknown block)
+        # indices every time, which costs as much as factoring a mid-sized block
         A = csc_matrix((np.zeros(values.shape[1]), indices, indptr), shape=(k, k))
         for n in range(N):
             if not finite[n]:
