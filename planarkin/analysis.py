@@ -163,7 +163,9 @@ def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None, warm=Non
     return stream(prepare(cm, opts, warm), sink, progress)
 
 
-REFUSALS = ("non-finite", "residual", "range")   # range: a room's check (a cam past its law)
+# range: a room's check (a cam past its law); contact, limit: a pair of shapes closer than its
+# limit, a joint past its travel range, with clearance: {on_contact: error} (planarkin.clearance)
+REFUSALS = ("non-finite", "residual", "range", "contact", "limit")
 
 
 def residual_limit(opts: Options) -> float:

@@ -229,6 +229,9 @@ def check(models, quiet, derived, overrides):
                                                          f"report)")])
             continue
         report.diagnostics(A.warnings)
+        if model.shapes:
+            from .clearance.check import overlaps
+            report.diagnostics(overlaps(model, A.q))
         if derived:
             from .model.sketch import derived_yaml
             click.echo(derived_yaml(model.spec), nl=False)

@@ -19,7 +19,7 @@ import numpy as np
 
 # modules with derived_tables(cm, opts); imported only when a model is run
 ROOMS: tuple[str, ...] = ("planarkin.elements.cam", "planarkin.forces", "planarkin.measures",
-                         "planarkin.measures.centres")
+                         "planarkin.measures.centres", "planarkin.clearance")
 
 
 @dataclass

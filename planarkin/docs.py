@@ -271,11 +271,61 @@ KEYS = {
     "gravity": "`[gx, gy]`, length/s^2 (e.g. `[0, -9.81]` in m); default none",
     "loads": "list of loads, each with `type` and optional `name` (the load kinds below)",
     "design": "synthesis and fitting (`planarkin synth`, `planarkin fit`): `free: {NAME: [low, "
-              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`; a path "
+              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`; "
+              "`inputs` a list of driver values, or relative to an offset found by the search: "
+              "`{offset: free, step: S}`, `{offset: free, values: [...]}`, `step: free`; a path "
               "is `closed` when its last point repeats its first, or with `closed: true`), "
               "`constraints:` (`turns`, with `{body, shortest: true}` for a crank that must be "
               "the shortest link; `transmission`, `order`) and `search:` settings (`starts`, "
               "`local` per draw, `evaluations` and `time` budgets, `goal`, `seed`)",
+    "shapes": "`name: {OUTLINE: ..., layer: Z}`: the outlines measured for interference and "
+              "clearance (clearance.csv, summary.json's `clearance`); a shape named after a "
+              "body (or link) is on it, any other name says `body: NAME` (`ground` for a frame "
+              "obstacle: a wall, a housing); exactly one outline per shape (the keys below); "
+              "lengths in the model's unit",
+    "shapes.<s>.body": "the body (or link, or `ground`) the shape is on (default: the body "
+                       "named like the shape)",
+    "shapes.<s>.plate": "`W`: a plate of width W > 0 around the body's pins (its revolute "
+                        "joints, or `pins`): a capsule for two pins, the convex hull of the "
+                        "rounded pins for more, a disc for one",
+    "shapes.<s>.pins": "`[P, Q, ...]`: the points on the body a plate is drawn around "
+                       "(default: every revolute joint on it)",
+    "shapes.<s>.hole": "`D`: the diameter of a plate's pin holes, 0 < D < W (drawn; a pin in "
+                       "its hole is never a contact)",
+    "shapes.<s>.circle": "`D`: a disc of diameter D > 0 centred at `centre` (default the "
+                         "frame's origin)",
+    "shapes.<s>.profile": "`JOINT`: the part's outline from a named cam, gear, rack-pinion or "
+                          "rolling-disc joint on the body: a gear's or disc's pitch circle, a "
+                          "pinion's, a cam's working surface (a polygon through 360 points of "
+                          "the exact profile over the law's range), a follower's roller (a "
+                          "point for a knife edge)",
+    "shapes.<s>.centre": "`[x, y]`: a circle's centre (body frame, or global with `frame: "
+                         "global`)",
+    "shapes.<s>.polygon": "`[[x, y], ...]`: a filled simple polygon (three points or more, in "
+                          "order around it, not crossing itself), rounded by `radius`",
+    "shapes.<s>.polyline": "`[[x, y], ...]`: an open outline (two points or more: a wall, a "
+                           "housing's edge), rounded by `radius`",
+    "shapes.<s>.radius": "`R >= 0`: the rounding of a polygon or polyline (default 0)",
+    "shapes.<s>.layer": "`Z` or `[lo, hi]` (lo <= hi): the level or range of levels the shape "
+                        "occupies; only shapes whose layers overlap can touch (default 0)",
+    "shapes.<s>.frame": "`body` (default: coordinates in the body's frame) or `global` (at the "
+                        "start pose, as a point's `at`)",
+    "clearance": "what counts as a contact: the keys below. Checked: every two shapes on "
+                 "different bodies whose layers overlap, except a pair joined where they meet "
+                 "(a revolute whose pin lies in both, or another joint with the shapes touching "
+                 "at the start pose) and the pairs in `ignore`",
+    "clearance.min": "`D >= 0`: the least distance allowed between two shapes (default 0: "
+                     "touching or overlapping is a contact)",
+    "clearance.on_contact": "`warning` (default) or `error`: a pair closer than its limit, or a "
+                            "joint past its `limits` range, is a warning with the first instant, "
+                            "the bodies and the points; `error` stops the run there (exit 1)",
+    "clearance.pairs": "`[{between: [A, B], min: D}]`: pairs checked even where joined, each "
+                       "with its own least distance (default `min`)",
+    "clearance.ignore": "`[[A, B], ...]`: pairs of shapes never checked",
+    "limits": "`JOINT: [lo, hi]` (or `{range: [lo, hi]}`): the travel range of a named revolute "
+              "(relative angle phi_j - phi_i, angle unit) or translational joint (its slide, "
+              "length unit): a mechanical stop, reported as `clearance.on_contact` says; its "
+              "travel is a column of clearance.csv",
 }
 
 LOAD_DOCS = {
@@ -298,6 +348,7 @@ KEY_GROUPS = (
     ("Assembly", ("assembly",)),
     ("Forces", ("bodies.<b>.mass, .inertia, .cm", "gravity", "loads")),
     ("Synthesis", ("design",)),
+    ("Clearance", ("shapes", "clearance", "limits")),
 )
 
 

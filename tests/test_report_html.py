@@ -29,6 +29,7 @@ import time
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 from clitools import PLAIN_SLIDER_CRANK, run_cli
 
@@ -206,6 +207,26 @@ def test_a_large_model_gets_fewer_frames(tmp_path, monkeypatch):
     assert len(data["t"]) == 3000 // per_frame and len(data["pose"]) == 3 * 3 * len(data["t"])
     assert data["row"][0] == 0 and data["row"][-1] == 360
     assert f"The animation has {len(data['t'])} frames: rows evenly spread" in page
+
+
+def test_the_animation_draws_the_models_shapes(tmp_path):
+    """Bodies with shapes (issue 29) move as their plates, each hole with them; the frame's
+    obstacles stand still with the ground. The plate's outline is a rounded capsule around the
+    crank's two pins: every vertex lies half the plate's width from the segment A-B."""
+    model = Path(__file__).resolve().parent.parent / "mechanisms" / "crank-rocker-clearance.yaml"
+    r = run_cli("run", model, "--out", tmp_path / "o", "--no-plots", "--report", "html")
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "o" / "crank-rocker-clearance" / "report.html").read_text()
+    assert page.count('class="shape plate"') == 3           # crank, coupler, rocker
+    assert page.count('class="shape hole"') == 6            # two pins each
+    assert page.count('class="obstacle"') == 2              # the cover and the stop
+    data = json.loads(page.split('id="pk-data">', 1)[1].split("</script>", 1)[0])
+    crank = [V for b, V in data["shapes"] if b == 0]
+    V = np.asarray(max(crank, key=len)).reshape(-1, 2)      # the plate (holes have fewer)
+    # crank frame: A at the origin, B at (40, 0) mm; plate 12 mm wide
+    u = np.clip(V[:, 0] / 40.0, 0.0, 1.0)
+    d = np.hypot(V[:, 0] - 40.0 * u, V[:, 1])
+    assert np.allclose(d, 6.0, atol=1e-4)
 
 
 def test_a_failed_run_has_its_report(tmp_path):

@@ -32,6 +32,8 @@ class CompiledModel:
     driver_funcs (TimeFunction, user units) times driver_scale (internal per user unit).
     row_element: (m,) index into spec.elements; row_label: (m,) text for messages.
     point_body: (P,) body index; point_s: (P, 2) body-frame offset.
+    shapes: planarkin.clearance.shape.Shape per entry of the file's shapes: (outlines in the
+    body frame, internal units; () without shapes).
     """
 
     spec: ModelSpec
@@ -51,6 +53,7 @@ class CompiledModel:
     point_names: tuple
     point_body: np.ndarray
     point_s: np.ndarray
+    shapes: tuple = ()      # planarkin.clearance.shape.Shape per shape of the file's shapes:
 
     @property
     def nb(self) -> int:
@@ -209,13 +212,19 @@ def compile_model(spec: ModelSpec) -> CompiledModel:
 
     m_joint = sum(KINDS[el.kind].neq for el in spec.joints)
     ro = lambda a, dt=float: _frozen(np.asarray(a, dtype=dt))
-    return CompiledModel(
+    cm = CompiledModel(
         spec=spec, body_names=names, L=L, angle_factor=af, q0=ro(q0), groups=tuple(groups),
         m=row, m_joint=m_joint, targets=ro(targets), driver_rows=ro(driver_rows, np.intp),
         driver_funcs=tuple(driver_funcs), driver_scale=ro(driver_scale),
         row_element=ro(row_element, np.intp), row_label=tuple(row_label),
         point_names=tuple(pnames), point_body=ro(pbody, np.intp),
         point_s=ro(np.reshape(ps, (-1, 2))))
+    if spec.clearance is not None and spec.clearance.shapes:
+        from dataclasses import replace
+
+        from ..clearance.build import build_shapes     # only a file with shapes:
+        cm = replace(cm, shapes=build_shapes(cm))
+    return cm
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -152,6 +152,8 @@ class ModelSpec:
     warnings: tuple = ()               # Diagnostics of severity 'warning' found while validating
     forces: "ForcesSpec | None" = None     # masses, gravity, loads (None: none given)
     measures: tuple = ()               # planarkin.measures.MeasureSpec, file order
+    clearance: Any = None              # planarkin.clearance.keys.ClearanceSpec: shapes:,
+    #                                    clearance:, limits: (None: none of them)
     overrides: dict[str, float] = field(default_factory=dict)      # --set NAME=VALUE, evaluated
     sketch_tolerance: float | None = None  # assembly: warn of sketch pins moved by more
 

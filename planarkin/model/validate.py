@@ -25,7 +25,7 @@ from ..forces.keys import BODY_KEYS as FORCE_BODY_KEYS, validate_forces
 
 TOP_KEYS = ("name", "units", "parameters", "bodies", "joints", "drivers", "points", "analysis",
             "assembly", "output", "gravity", "loads", "links", "ground", "sliders", "slots",
-            "measures",
+            "measures", "shapes", "clearance", "limits",
             "lengths", "design")
 # \Z, not $: '$' also matches before a final newline, which would let "a\n" into CSV headers
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*\Z")
@@ -250,6 +250,11 @@ class _Validator(ElementSections):
         from ..measures import read_measures
         measures = read_measures(self, root.value.get("measures"), [p.name for p in points],
                                  {el.name: el for el in joints if el.name})
+        clearance = None
+        if any(k in root.value for k in ("shapes", "clearance", "limits")):
+            from ..clearance.keys import read_clearance     # only a file with these keys
+            clearance = read_clearance(self, root, points,
+                                       {el.name: el for el in joints if el.name})
         from ..synthesis.spec import read_design
         read_design(self, root.value.get("design"), [p.name for p in points], len(drivers))
         analysis = self.analysis(root.value.get("analysis"))
@@ -270,6 +275,7 @@ class _Validator(ElementSections):
                          output=output, branch=branch, branch_lines=branch_lines,
                          sketch_tolerance=self.sketch_tolerance,
                          section_lines=dict(root.key_lines or {}), forces=forces, measures=measures,
+                         clearance=clearance,
                          overrides={k: self.params[k] for k in self.overrides
                                     if k in self.params},
                          warnings=tuple(d for d in self.C.items if d.severity == "warning"))

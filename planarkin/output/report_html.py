@@ -354,12 +354,18 @@ def motion(cm, data, row_index, total_rows: int) -> tuple[str, int]:
         parts = [(sc.fills[b], "fill")] if sc.fills[b] is not None else []
         parts += [(sc.bars[b], "bar")] if sc.bars[b] is not None else []
         parts += [(V, "dash") for V in sc.dashed[b]] + [(V, "face") for V in sc.faces[b]]
+        for pl in sorted((p for p in sc.plates if p.body == b), key=lambda p: p.level):
+            parts += [(pl.outline, "plate" if pl.filled else "wall")]   # issue 29's shapes
+            parts += [(H, "hole") for H in pl.holes]
         for V, kind in parts:
             shapes.append([b, _rounded(V, digits + 2)])
-            tag = "polygon" if kind == "fill" else "polyline"
+            tag = "polygon" if kind in ("fill", "plate", "hole") else "polyline"
             els.append(f'<{tag} class="shape {kind}" style="--c:{c}" '
                        f'points="{_pts(sc.at(b, V, 0), digits)}"/>')
     ground = "".join(f'<polyline class="axis" points="{_pts(P, digits)}"/>' for P in sc.axes)
+    ground += "".join(f'<{"polygon" if p.filled else "polyline"} class="obstacle" '
+                      f'points="{_pts(p.outline, digits)}"/>'
+                      for p in sc.plates if p.body == sc.nb)       # frame obstacles
     wedge = np.array([[0, 0], [-1, -1.6], [1, -1.6]]) * 0.5 * sc.size     # a ground pivot
     ground += "".join(f'<polygon class="pivot" points="{_pts(np.asarray(p) + wedge, digits)}"/>'
                       for p in sc.pivots if np.isfinite(p).all())
@@ -474,6 +480,8 @@ svg.fig{max-width:100%;height:auto}svg.fig *{stroke-linejoin:round;stroke-lineca
 .shape.fill{fill:var(--c);fill-opacity:.25;stroke-width:2}.shape.bar{stroke-width:7}
 .shape.dash{stroke-width:1;stroke-dasharray:5 4}.shape.face{stroke-width:4}
 .axis{stroke:#888;stroke-width:1;stroke-dasharray:6 4;fill:none}
+.shape.plate{fill:var(--c);fill-opacity:.18;stroke-width:1.5}.shape.wall{stroke-width:2}
+.shape.hole{fill:#fff;stroke-width:.9}.obstacle{fill:#bbb;fill-opacity:.45;stroke:#555;stroke-width:1.2}
 .pivot{fill:#ccc;stroke:#555;stroke-width:1}
 .path{stroke:var(--c);stroke-opacity:.25;stroke-width:1;fill:none}
 .trail{stroke:var(--c);stroke-width:1.6;fill:none}.link{stroke:#333;stroke-width:1.2}

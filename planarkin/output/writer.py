@@ -296,12 +296,17 @@ class DirectoryWriter:
         else a note for the summary); returns their files in figure order."""
         from . import plots as plotting       # matplotlib only when plotting
         files = []
+        minima = ()          # the closest approaches, marked where the model gives shapes
+        if getattr(self.cm, "shapes", ()) and (fmt or animate) and len(data.t) > 1:
+            from planarkin.clearance.cycle import minima as closest
+            minima = closest(self.cm, data)
         if fmt:
-            files += plotting.write_plots(self.cm, data, info, out, fmt=fmt, x=self.x)
+            files += plotting.write_plots(self.cm, data, info, out, fmt=fmt, x=self.x,
+                                          minima=minima)
         if animate:
             from .plots.animation import write_animations
             opts = animate if isinstance(animate, dict) else {}
-            written, notes = write_animations(self.cm, data, out, **opts)
+            written, notes = write_animations(self.cm, data, out, minima=minima, **opts)
             files += written
             self.notes += notes
         if fmt:

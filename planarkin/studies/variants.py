@@ -12,7 +12,9 @@ measures.csv, ...), e.g. ``max:slider.ax``, ``stroke:slider.x``. A column's larg
 values are refined between the grid rows from its exact rate and acceleration by the function
 `planarkin run`'s cycle figures use (planarkin.measures.extremes.extreme), so a study's metric of
 the nominal model is run's figure; a column without a rate in its table (an acceleration, a
-force, a ratio measure), and dev, are taken at the grid.
+force, a ratio measure), and dev, are taken at the grid. ``min_clearance`` is short for
+``min:clearance`` (the least distance of any two shapes that can touch, clearance.csv) and
+``min_clearance:A|B`` for one pair's, ``min:A|B``.
 """
 
 from __future__ import annotations
@@ -108,6 +110,10 @@ def parse_metrics(texts, cm, opts, file: str) -> list[Metric]:
         problems.append(f"{flag}{twice[0]} is given twice; give each metric once")
         texts = list(dict.fromkeys(texts))
     for text in texts:
+        if text == "min_clearance" or text.startswith("min_clearance:"):
+            # the least clearance of every pair of shapes (clearance.csv's clearance column),
+            # or of one pair (min_clearance:A|B), refined between the rows
+            text = "min:" + (text.partition(":")[2] or "clearance")
         kind, sep, col = text.partition(":")
         if kind == "dev" and sep:
             if col not in cm.point_names:

@@ -14,14 +14,19 @@ Files (``<fmt>`` is png at 150 dpi, svg or pdf):
 - ``points.<fmt>`` and ``trajectories.<fmt>`` (models with points): the same for the points of
   interest, and their paths in the plane;
 - ``mechanism.<fmt>``: the mechanism at a few instants and the paths of its joints and points;
-- ``animation.gif`` (`write_animation`): the mechanism moving, paths growing.
+- ``animation.gif`` (`write_animation`): the mechanism moving, paths growing;
+- ``clearance.<fmt>`` (`clearance.draw`, models with shapes): the distance between each pair
+  of shapes against time, with the limit and each pair's minimum.
+
+A model with shapes (issue 29) has its bodies drawn as those shapes (`outline`: plates with
+their holes), its frame obstacles hatched, and its closest approaches marked.
 
 A failed run marks its stopping time in the time histories (red dashed line); near-singular
 passages are thin orange lines, bifurcations stepped over are purple.
 
 Modules: `style` (sizes, colours, labels), `axes` (fast ticks), `render` (saving), `history`
-(bodies, points), `scene` (the mechanism's geometry, from each kind's `draw` hook), `plane`
-(mechanism, trajectories), `animation`.
+(bodies, points), `scene` (the mechanism's geometry, from each kind's `draw` hook), `outline`
+(the shapes' boundaries), `plane` (mechanism, trajectories), `animation`, `clearance`.
 """
 
 from __future__ import annotations
@@ -45,13 +50,14 @@ def figure_names(cm) -> list[str]:
 
 @styled
 def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
-                x: str = "time") -> list[Path]:
+                x: str = "time", minima=()) -> list[Path]:
     """Write bodies, points, trajectories and mechanism plots into directory out.
 
     cm: CompiledModel; data: Chunk (user units; qd/qdd/pd/pdd may be None); info: RunInfo (status,
     event and warnings are marked on the time axes; None is allowed); only: a subset of
     figure_names(cm) to draw (default all);
-    x: abscissa of bodies and points, "time" or "driver" (model.spec.X_AXES).
+    x: abscissa of bodies and points, "time" or "driver" (model.spec.X_AXES); minima: the
+    shapes' closest approaches to mark in mechanism.<fmt> (`mechanism_figure`).
     Returns the files written (points and trajectories only when the model has points; nothing
     when data has no rows).
     """
@@ -64,7 +70,7 @@ def write_plots(cm, data, info, out: Path, fmt: str = "png", only=None,
     build = {"bodies": lambda: bodies_figure(cm, data, info, x),
              "points": lambda: points_figure(cm, data, info, x),
              "trajectories": lambda: trajectories_figure(cm, scene),
-             "mechanism": lambda: mechanism_figure(cm, scene)}
+             "mechanism": lambda: mechanism_figure(cm, scene, minima=minima)}
     return [save_figure(build[n](), out / f"{n}.{fmt}") for n in names]
 
 

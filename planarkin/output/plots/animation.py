@@ -8,26 +8,29 @@ from pathlib import Path
 
 import numpy as np
 
-from .plane import Drawing, fit_legend, plane_figure
+from .clearance import nearest_row, notable
+from .plane import Drawing, fit_legend, mark_approaches, plane_figure
 from .render import renderer_class
 from .scene import Scene
 from .style import ANIM_DPI, ANIM_FPS, ANIM_FRAMES, CROWD, FONT, styled, text_width
 
+HOLD = 1.0          # seconds the animation stays on a closest approach
+
 
 def write_animation(cm, data, out: Path, fps: int | None = None,
-                    width: int | None = None) -> Path:
+                    width: int | None = None, minima=()) -> Path:
     """Write out/animation.gif (see `_animate`); returns its path."""
-    return _animate(cm, data, out, fps, width, mp4=False)[0]
+    return _animate(cm, data, out, fps, width, mp4=False, minima=minima)[0]
 
 
 def write_animations(cm, data, out: Path, fps: int | None = None,
-                     width: int | None = None) -> tuple[list[Path], list[str]]:
+                     width: int | None = None, minima=()) -> tuple[list[Path], list[str]]:
     """Write out/animation.gif and, where ffmpeg is installed, out/animation.mp4 of the same
     frames (matplotlib's FFMpegWriter, H.264). Returns (the files written, notes): a note says
     why the MP4 was not written (no ffmpeg, or ffmpeg failed); that is not an error, the GIF
     is there."""
     why = mp4_missing()
-    gif, failed = _animate(cm, data, out, fps, width, mp4=why is None)
+    gif, failed = _animate(cm, data, out, fps, width, mp4=why is None, minima=minima)
     why = why or failed
     if why is None:
         return [gif, gif.with_suffix(".mp4")], []
@@ -46,7 +49,7 @@ def mp4_missing() -> str | None:
 
 @styled
 def _animate(cm, data, out: Path, fps: int | None, width: int | None,
-             mp4: bool) -> tuple[Path, str | None]:
+             mp4: bool, minima=()) -> tuple[Path, str | None]:
     """Write out/animation.gif: the mechanism moving over the run (bodies in their plot colours,
     joint and point paths growing), up to ANIM_FRAMES frames at fps frames per second (default
     ANIM_FPS), width pixels wide (default 640; the height follows the drawing, the legend
@@ -55,6 +58,11 @@ def _animate(cm, data, out: Path, fps: int | None, width: int | None,
     Frames are blitted: the axes, ground and legend are rendered once, each frame redraws only
     the moving artists on that background (a full matplotlib redraw per frame costs ten times
     more), and every frame is mapped onto one shared palette before Pillow writes the GIF.
+
+    minima: each pair of shapes' closest approach (a, b, t, d, pa, pb, user units; limit where
+    known: `planarkin.clearance.cycle.minima`): the frame nearest the least of them and those
+    closer than their limit (`clearance.notable`) is added, marked (`clearance.mark_closest`)
+    and held for HOLD seconds.
 
     mp4: also write out/animation.mp4 from the same frames (`_write_mp4`). Returns the GIF's
     path and why the MP4 is missing (None: written, or not asked for)."""
@@ -66,6 +74,8 @@ def _animate(cm, data, out: Path, fps: int | None, width: int | None,
     N = len(data.t)
     rows = np.unique(np.linspace(0, max(N - 1, 0), min(ANIM_FRAMES, max(N, 1))).round().astype(int))
     fps = int(fps or ANIM_FPS)
+    holds = _holds(data.t, minima) if N else {}
+    rows = np.unique(np.r_[rows, list(holds)]).astype(int)
     fig, ax, beside = plane_figure(cm, scene, (width or 640) / ANIM_DPI,
                                     0.7 + text_width(cm.body_names), dpi=ANIM_DPI)
     # the named points' and the joints' paths one line each, the crowd's one collection
@@ -94,15 +104,23 @@ def _animate(cm, data, out: Path, fps: int | None, width: int | None,
     renderer = renderer_class()(w, h, ANIM_DPI)
     fig.draw(renderer)                      # everything that does not move
     background = renderer.copy_from_bbox(fig.bbox)
+    # the marks of the closest approaches (the axes' limits are final now), shown at their
+    # frames only
+    marks = {r: mark_approaches(ax, scene, ms, animated=True) for r, ms in holds.items()}
+    moving += [a for v in marks.values() for a in v]
 
     def render(i) -> "Image.Image":
+        for r, artists in marks.items():
+            for a in artists:
+                a.set_visible(r == i)
         drawing.set_row(i)
         for line, k in zip(traces, own):
             xy = scene.traces[k]
             line.set_data(xy[: i + 1, 0], xy[: i + 1, 1])
         if crowd is not None:
             crowd.set_segments(scene.crowd(i))
-        stamp.set_text(f"t = {data.t[i]:.4g} s")
+        stamp.set_text(f"t = {data.t[i]:.4g} s" + ("   closest approach" if i in marks
+                                                     else ""))
         renderer.restore_region(background)
         for a in moving:
             a.draw(renderer)
@@ -111,27 +129,33 @@ def _animate(cm, data, out: Path, fps: int | None, width: int | None,
 
     class BlitWriter(PillowWriter):
         """PillowWriter whose frames come from render(); one palette for the whole GIF (taken
-        from the last frame, where every path is complete)."""
+        from the last frame, where every path is complete, and the held ones)."""
 
         def setup(self, fig, outfile, dpi=None):
             super().setup(fig, outfile, dpi=dpi)
             self.images = []
+            self.repeat = []            # each frame's length, in frames of 1/fps s
+            self.held = []
 
         def grab_frame(self, **savefig_kwargs):
             self.images.append(render(self.row))
+            self.held.append(self.row in holds)
+            self.repeat.append(max(1, round(HOLD * self.fps)) if self.held[-1] else 1)
 
         def finish(self):
             dither = Image.Dither.NONE
-            palette = self.images[-1].quantize(255, method=Image.Quantize.MEDIANCUT,
-                                               dither=dither)
+            palette = _palette_source(self.images, self.held).quantize(
+                255, method=Image.Quantize.MEDIANCUT, dither=dither)
             # Pillow maps colours to the palette through a cache of 4-level cells: white
             # would become a near-white neighbour, so those all become white
             colors = np.array(palette.getpalette(), dtype=np.uint8).reshape(-1, 3)
             colors[colors.min(axis=1) >= 248] = 255
             palette.putpalette(colors.ravel().tolist())
             frames = [im.quantize(palette=palette, dither=dither) for im in self.images]
+            ms = int(1000 / self.fps)
+            duration = ms if not holds else [ms * self.repeat[k] for k in range(len(frames))]
             frames[0].save(self.outfile, save_all=True, append_images=frames[1:],
-                           duration=int(1000 / self.fps), loop=0)
+                           duration=duration, loop=0)
 
     writer = BlitWriter(fps=fps)
     writer.setup(fig, path, ANIM_DPI)       # (not writer.saving(): it changes rcParams)
@@ -139,8 +163,33 @@ def _animate(cm, data, out: Path, fps: int | None, width: int | None,
         writer.row = i
         writer.grab_frame()
     writer.finish()
-    return path, (_write_mp4(writer.images, fig, path.with_suffix(".mp4"), fps) if mp4
-                  else None)
+    # the MP4 at a fixed rate: a held frame repeated
+    images = [im for im, k in zip(writer.images, writer.repeat) for _ in range(k)]
+    return path, (_write_mp4(images, fig, path.with_suffix(".mp4"), fps) if mp4 else None)
+
+
+def _palette_source(images, held):
+    """The image the GIF's palette is taken from: the last frame, where every path is complete,
+    and below it the held frames (held: a flag per frame; their marks' red is in no other
+    frame)."""
+    from PIL import Image
+
+    held = [images[-1]] + [im for im, h in zip(images, held) if h]
+    if len(held) == 1:
+        return held[0]
+    source = Image.new("RGB", (held[0].width, held[0].height * len(held)))
+    for k, im in enumerate(held):
+        source.paste(im, (0, k * im.height))
+    return source
+
+
+def _holds(t, minima) -> dict:
+    """{row: [minima]}: the row nearest each closest approach worth marking
+    (`clearance.notable`), to hold."""
+    out = {}
+    for m in notable(minima):
+        out.setdefault(nearest_row(t, m.t), []).append(m)
+    return out
 
 
 def _write_mp4(images, fig, path: Path, fps: int) -> str | None:

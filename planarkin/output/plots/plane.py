@@ -58,6 +58,7 @@ class Drawing:
                 self.parts.append((line(color=c, lw=0.75 * width, alpha=alpha,
                                         solid_capstyle="butt", zorder=zorder + 0.15), b, poly,
                                    "line"))
+        self._plates(col, alpha, fill, zorder)
         edge = color if color is not None else "0.15"
         self.links = [line(color=edge, lw=1.2, alpha=alpha, zorder=zorder + 0.2)
                       for _ in scene.links]
@@ -74,6 +75,31 @@ class Drawing:
         self.set_row(row)
         if labels:
             self._annotate(row)
+
+    def _plates(self, col, alpha, fill, zorder):
+        """The moving bodies' shapes (Scene.plates; ground's are drawn with the ground): a
+        light fill, translucent so that overlaps show, in the body's colour, the lower layers
+        first (and below), each hole a white circle with its outline."""
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Polygon
+
+        sc = self.scene
+        for p in sorted((p for p in sc.plates if p.body != sc.nb), key=lambda p: p.level):
+            c = col(p.body)
+            z = zorder + 0.02 * min(p.level, 4)
+            if p.filled:
+                patch = Polygon(p.outline, closed=True, fc=with_alpha(c, fill * alpha),
+                                ec=with_alpha(c, alpha), lw=1.5, zorder=z)
+                self.ax.add_artist(patch)
+                self.parts.append((patch, p.body, p.outline, "fill"))
+            else:
+                line = self.ax.add_line(Line2D([], [], color=c, lw=2.0, alpha=alpha, zorder=z))
+                self.parts.append((line, p.body, p.outline, "line"))
+            for H in p.holes:
+                hole = Polygon(H, closed=True, fc=with_alpha("white", alpha),
+                               ec=with_alpha(darker(c), alpha), lw=0.9, zorder=z + 0.01)
+                self.ax.add_artist(hole)
+                self.parts.append((hole, p.body, H, "fill"))
 
     def set_row(self, i: int) -> None:
         sc = self.scene
@@ -103,6 +129,8 @@ class Drawing:
         items, colors = [], []
         for b, name in enumerate(sc.names):
             V = sc.fills[b] if sc.fills[b] is not None else sc.bars[b]
+            if V is None:       # a body drawn as its shapes: the first one's centre
+                V = next((p.outline for p in sc.plates if p.body == b), None)
             if V is None:       # a cam or a gear (its frame at its pivot) or a lone point
                 V = sc.dashed[b][0] if sc.dashed[b] and b not in sc.shaped else np.zeros((1, 2))
             items.append((name, sc.at(b, V, i).mean(axis=0), True))
@@ -185,6 +213,26 @@ def _mechanism_axes(ax, cm, scene: Scene, ground_alpha=1.0):
     for seg in scene.axes:
         ax.plot(seg[:, 0], seg[:, 1], color="0.3", lw=1.0, ls=(0, (6, 3)), alpha=ground_alpha,
                 zorder=7)
+    _obstacles(ax, scene, ground_alpha)
+
+
+def _obstacles(ax, scene: Scene, alpha=1.0):
+    """The shapes on ground (frame obstacles: walls, housings), hatched as a section of the
+    frame, under the paths and the bodies; a polyline without radius as a thick line."""
+    from matplotlib.patches import Polygon
+
+    for p in scene.plates:
+        if p.body != scene.nb:
+            continue
+        if p.filled:
+            ax.add_patch(Polygon(p.outline, closed=True, fc="0.9", ec="0.3", lw=1.0,
+                                 hatch="////", alpha=alpha, zorder=3))
+        else:
+            ax.plot(p.outline[:, 0], p.outline[:, 1], color="0.3", lw=2.0, alpha=alpha,
+                    solid_capstyle="butt", zorder=3)
+        for H in p.holes:
+            ax.add_patch(Polygon(H, closed=True, fc="white", ec="0.3", lw=0.9, alpha=alpha,
+                                 zorder=3.1))
 
 
 @styled
@@ -279,13 +327,13 @@ def _quiet_corner(ax, scene, handles, ncol=1) -> str:
     pad = 0.5 * em
     # the paths, the ground pivots and the edges of the bodies at the first instant (drawn)
     edges = []
-    for b in range(scene.nb):
-        for V in (scene.fills[b], scene.bars[b]):
-            if V is not None:
-                G = scene.at(b, V, 0)
-                G = np.r_[G, G[:1]] if len(G) > 2 else G
-                f = np.linspace(0.0, 1.0, 16)[:, None, None]
-                edges.append((G[:-1] + f * (G[1:] - G[:-1])).reshape(-1, 2))
+    drawn = [(b, V) for b in range(scene.nb) for V in (scene.fills[b], scene.bars[b])
+             if V is not None] + [(p.body, p.outline) for p in scene.plates]
+    for b, V in drawn:
+        G = scene.at(b, V, 0)
+        G = np.r_[G, G[:1]] if len(G) > 2 else G
+        f = np.linspace(0.0, 1.0, 16)[:, None, None]
+        edges.append((G[:-1] + f * (G[1:] - G[:-1])).reshape(-1, 2))
     P = np.concatenate([np.asarray(xy, float).reshape(-1, 2) for xy in scene.traces]
                        + [np.asarray(scene.pivots, float).reshape(-1, 2)] + edges)
     P = P[np.isfinite(P).all(axis=1)]
@@ -334,30 +382,44 @@ def instant_count(cm) -> int:
 
 
 @styled
-def mechanism_figure(cm, scene: Scene, instants: int | None = None):
+def mechanism_figure(cm, scene: Scene, instants: int | None = None, minima=()):
     """The mechanism at a few instants and every path of the run.
 
     Every body in its own colour (as in bodies.<fmt>), named in that colour at the first
     instant, which is drawn solid; the later instants fade (the legend gives their times). A run
     that is not a full cycle always shows its final pose; instants with the same pose are drawn
-    once."""
+    once.
+
+    minima: each pair of shapes' closest approach (objects with a, b, t, d, pa, pb, user units;
+    limit where known: `planarkin.clearance.cycle.minima`): the instant nearest the least of
+    them is drawn too, and it and those closer than their limit are marked where their instant
+    is drawn (`clearance.notable`, `clearance.mark_closest`)."""
     from matplotlib.lines import Line2D
 
-    rows = scene.instants(instants or instant_count(cm))
+    from .clearance import MARK_COLOR
+
+    # plates cover more of the page than bars: one instant fewer
+    plated = any(p.body != scene.nb for p in scene.plates)
+    rows = scene.instants(instants or instant_count(cm) - plated)
+    rows, closest, marked = _closest_instant(scene, rows, minima)
     times = [f"t = {scene.t[i]:.4g} s" for i in rows]
     if len(rows) > 1:
         times[0] += " (named)"
     alphas = [1.0] + list(np.linspace(0.5, 0.22, len(rows) - 1))
+    if closest is not None:
+        times[closest] += " (closest approach)"
+        alphas[closest] = max(alphas[closest], 0.7)
     # a centrode's label on two lines: a long one would narrow the drawing
     npts = len(cm.point_names)
     crowd = f"{npts - scene.named} more points"
-    labels = times + [s[0] for k, (s, xy) in enumerate(zip(scene.trace_styles, scene.traces))
-                      if not scene.named <= k < npts
-                      and (not s[1] or np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span)] + \
+    entries = times + [s[0] for k, (s, xy) in enumerate(zip(scene.trace_styles, scene.traces))
+                       if not scene.named <= k < npts
+                       and (not s[1] or np.nanmax(np.ptp(xy, axis=0)) > 1e-6 * scene.span)] + \
         ([crowd] if npts > scene.named else []) + \
         [w for j, _ in scene.centrodes for w in ("fixed centrode", f"of {scene.names[j]}")] + \
-        [w for j, _ in scene.moving for w in ("moving centrode", f"of {scene.names[j]}")]
-    fig, ax, beside = plane_figure(cm, scene, 9.0, 0.65 + text_width(labels))
+        [w for j, _ in scene.moving for w in ("moving centrode", f"of {scene.names[j]}")] + \
+        (["closest approach"] if marked else [])
+    fig, ax, beside = plane_figure(cm, scene, 9.0, 0.65 + text_width(entries))
     handles, seen = [], set()
     tol = 1e-6 * scene.span
     for k, (xy, (label, is_point, c, w)) in enumerate(zip(scene.traces, scene.trace_styles)):
@@ -389,12 +451,45 @@ def mechanism_figure(cm, scene: Scene, instants: int | None = None):
                  width=4.5 if k == 0 else 3.0, surfaces=(k == 0))
     handles += [Line2D([], [], color="0.2", lw=4 if k == 0 else 3, alpha=a, label=tt)
                 for k, (tt, a) in enumerate(zip(times, alphas))]
+    if marked:
+        mark_approaches(ax, scene, marked)
+        handles.append(Line2D([], [], color=MARK_COLOR, lw=1.4, marker="o", ms=3.5,
+                              label="closest approach"))
     legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=beside,
                         fontsize=FONT, frameon=False, borderaxespad=0)
     fit_legend(fig, legend, ax, beside)
     ax.set_title(f"{cm.spec.name}: mechanism at {len(rows)} instant{'s' * (len(rows) > 1)}, "
                  f"paths over t = {scene.t[0]:.4g} to {scene.t[-1]:.4g} s", fontsize=12, y=1.0)
     return fig
+
+
+def mark_approaches(ax, scene: Scene, minima, animated=False) -> list:
+    """Mark the closest approaches (`clearance.mark_closest`), their labels clear of the pins
+    at their rows and of the ground pivots; returns the artists."""
+    from .clearance import mark_closest, nearest_row
+
+    rows = sorted({nearest_row(scene.t, m.t) for m in minima})
+    pins = [scene.at(b, s, r)[0] for r in rows for b, s in scene.pins] + list(scene.pivots)
+    pins = np.array([p for p in pins if np.isfinite(p).all()]).reshape(-1, 2)
+    return mark_closest(ax, minima, scene.cm.spec.length_unit, animated=animated,
+                        obstacles=labels.pin_boxes(ax, pins))
+
+
+def _closest_instant(scene: Scene, rows, minima):
+    """(rows, k, marked): the instants to draw with the row nearest the least of the minima
+    added (k: its index in rows; None without minima) and the minima whose nearest row is
+    drawn, to mark."""
+    from .clearance import nearest_row, notable
+
+    minima = notable(minima)
+    if not minima or not len(scene.t):
+        return rows, None, []
+    worst = min(minima, key=lambda m: m.d)
+    r = nearest_row(scene.t, worst.t)
+    rows = np.unique(np.r_[np.asarray(rows, int), r])
+    drawn = set(rows.tolist())
+    return rows, int(np.searchsorted(rows, r)), [m for m in minima
+                                                  if nearest_row(scene.t, m.t) in drawn]
 
 
 def fit_legend(fig, legend, ax, anchor):

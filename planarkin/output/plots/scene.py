@@ -7,6 +7,7 @@ import numpy as np
 
 from ...elements.base import pivots
 from ...elements.drawing import Parts
+from .outline import plates
 from .style import CROWD, CROWD_VERTICES, NAMED_POINTS, body_palette, point_palette
 
 
@@ -22,6 +23,8 @@ class Scene:
     body-fixed lines (slots, gear pitch circles). Ground carries pivots (revolute and distance
     points on ground) and slide axes (translational, pin-slot and slide lines on ground). The
     paths (traces) are those of the points of interest and of every moving joint point.
+    A body the model gives shapes to (issue 29: plates) is drawn as those instead of its hull
+    or bar; shapes on ground are frame obstacles.
     """
 
     def __init__(self, cm, data):
@@ -56,6 +59,11 @@ class Scene:
         self.closed = len(self.t) > 2 and np.nanmax(np.abs(first - last)) <= 1e-6 * self.span
 
         self._shapes(attach, slide_dir, discs)
+        # the shapes the model gives (issue 29): a body's plates replace its hull or bar
+        self.plates = plates(cm)
+        for p in self.plates:
+            if p.body != self.nb:
+                self.fills[p.body] = self.bars[p.body] = None
         self._slides(slides)
         self._traces(data, joint_pts)
         self._bounds()
@@ -168,6 +176,12 @@ class Scene:
                 if V is not None:
                     X, Y = self.to_global(b, V)
                     parts.append(np.c_[X.ravel(), Y.ravel()])
+        for p in self.plates:
+            if p.body == self.nb:
+                parts.append(p.outline)
+            else:
+                X, Y = self.to_global(p.body, p.outline)
+                parts.append(np.c_[X.ravel(), Y.ravel()])
         allp = np.concatenate(parts)
         lo, hi = np.nanmin(allp, axis=0) - 0.6 * size, np.nanmax(allp, axis=0) + 0.6 * size
         self.bounds = (lo[0], hi[0], lo[1], hi[1])
