@@ -282,7 +282,7 @@ KEYS = {
               "clearance (clearance.csv, summary.json's `clearance`); a shape named after a "
               "body (or link) is on it, any other name says `body: NAME` (`ground` for a frame "
               "obstacle: a wall, a housing); exactly one outline per shape (the keys below); "
-              "lengths in the model's unit",
+              "lengths in the model's unit (see [Will it hit?](../how-to/clearance.md))",
     "shapes.<s>.body": "the body (or link, or `ground`) the shape is on (default: the body "
                        "named like the shape)",
     "shapes.<s>.plate": "`W`: a plate of width W > 0 around the body's pins (its revolute "
@@ -298,7 +298,8 @@ KEYS = {
                           "rolling-disc joint on the body: a gear's or disc's pitch circle, a "
                           "pinion's, a cam's working surface (a polygon through 360 points of "
                           "the exact profile over the law's range), a follower's roller (a "
-                          "point for a knife edge)",
+                          "point for a knife edge); a ring gear or a rack has none: give a "
+                          "polyline",
     "shapes.<s>.centre": "`[x, y]`: a circle's centre (body frame, or global with `frame: "
                          "global`)",
     "shapes.<s>.polygon": "`[[x, y], ...]`: a filled simple polygon (three points or more, in "
@@ -309,18 +310,18 @@ KEYS = {
     "shapes.<s>.layer": "`Z` or `[lo, hi]` (lo <= hi): the level or range of levels the shape "
                         "occupies; only shapes whose layers overlap can touch (default 0)",
     "shapes.<s>.frame": "`body` (default: coordinates in the body's frame) or `global` (at the "
-                        "start pose, as a point's `at`)",
+                        "start pose, as a point's `at`) of a circle, polygon or polyline",
     "clearance": "what counts as a contact: the keys below. Checked: every two shapes on "
                  "different bodies whose layers overlap, except a pair joined where they meet "
                  "(a revolute whose pin lies in both, or another joint with the shapes touching "
                  "at the start pose) and the pairs in `ignore`",
-    "clearance.min": "`D >= 0`: the least distance allowed between two shapes (default 0: "
-                     "touching or overlapping is a contact)",
+    "clearance.min": "`D >= 0`: the least distance allowed between two shapes, length unit "
+                     "(default 0: touching or overlapping is a contact)",
     "clearance.on_contact": "`warning` (default) or `error`: a pair closer than its limit, or a "
                             "joint past its `limits` range, is a warning with the first instant, "
                             "the bodies and the points; `error` stops the run there (exit 1)",
-    "clearance.pairs": "`[{between: [A, B], min: D}]`: pairs checked even where joined, each "
-                       "with its own least distance (default `min`)",
+    "clearance.pairs": "`[{between: [A, B], min: D}]`: pairs checked even where joined (their "
+                       "layers must overlap), each with its own least distance (default `min`)",
     "clearance.ignore": "`[[A, B], ...]`: pairs of shapes never checked",
     "limits": "`JOINT: [lo, hi]` (or `{range: [lo, hi]}`): the travel range of a named revolute "
               "(relative angle phi_j - phi_i, angle unit) or translational joint (its slide, "

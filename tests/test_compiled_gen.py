@@ -32,7 +32,8 @@ EXAMPLES = sorted((ROOT / "mechanisms").glob("*.yaml"))
 # declines); the Klann leg's 4 x 4 block by Gauss-Jordan (compiled_gen.KDENSE)
 COVERED = {"boom", "crank-rocker-clearance", "four-bar", "four-bar-placed", "four-bar-sketch",
            "jansen-holy-numbers", "jansen-leg", "klann-leg", "peaucellier", "quick-return",
-           "servo-press", "six-bar", "six-bar-sketch", "slider-crank", "table-input", "trammel"}
+           "servo-press", "six-bar", "six-bar-sketch", "slider-crank", "slider-crank-clearance",
+           "table-input", "trammel"}
 # chains of 2 x 2 blocks carry rounding down six blocks (tests/test_perstep.py: ROUNDING)
 ROUNDING = {"jansen-holy-numbers": 3e-15, "jansen-leg": 2e-15, "peaucellier": 2e-15}
 

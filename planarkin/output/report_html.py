@@ -482,6 +482,7 @@ svg.fig{max-width:100%;height:auto}svg.fig *{stroke-linejoin:round;stroke-lineca
 .axis{stroke:#888;stroke-width:1;stroke-dasharray:6 4;fill:none}
 .shape.plate{fill:var(--c);fill-opacity:.18;stroke-width:1.5}.shape.wall{stroke-width:2}
 .shape.hole{fill:#fff;stroke-width:.9}.obstacle{fill:#bbb;fill-opacity:.45;stroke:#555;stroke-width:1.2}
+polyline.obstacle{fill:none;stroke-width:2}
 .pivot{fill:#ccc;stroke:#555;stroke-width:1}
 .path{stroke:var(--c);stroke-opacity:.25;stroke-width:1;fill:none}
 .trail{stroke:var(--c);stroke-width:1.6;fill:none}.link{stroke:#333;stroke-width:1.2}
