@@ -102,3 +102,32 @@ def test_cli_tolerance(tmp_path):
     assert lines[1].split()[:2] == ["max:slider.x", "[m]"] and lines[1].split()[5] == "0.0004"
     r = run_cli("tolerance", SC, "--sigma", "a=-1", "--out", tmp_path)
     assert r.returncode == 2 and "write NAME=SIGMA with SIGMA a number >= 0" in r.stderr
+
+
+SKETCH = """\
+name: sketch
+parameters: {a: 0.04}
+points:
+  A: {at: [0, 0], ground: true}
+  D: {at: [0.1, 0], ground: true}
+  B: {at: [a, 0]}
+  C: {at: [0.10666666666666667, 0.09977753031397177]}
+links:
+  crank: [A, B]
+  coupler: [B, C]
+  rocker: [D, C]
+drivers:
+  - {type: angle, link: crank, f: "360*t"}
+analysis: {start: 0, end: 1, steps: 12}
+"""
+
+
+def test_a_sketch_form_model_is_refused_at_its_links_line(tmp_path):
+    """The sensitivities differentiate points s:, constants and driver functions; in the
+    sketch form every point is a global placement (a traceback before)."""
+    (tmp_path / "m.yaml").write_text(SKETCH)
+    r = run_cli("tolerance", tmp_path / "m.yaml", "--sigma", "a=1e-3", "--samples", "4",
+                "--out", tmp_path / "o")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.startswith(f"{tmp_path / 'm.yaml'}:8: error: first-order sensitivities "
+                               f"need the body form"), r.stderr

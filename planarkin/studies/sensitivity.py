@@ -118,6 +118,15 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
     Raises InputError naming the element where a parameter enters in a way not differentiated.
     """
     spec = cm.spec
+    links = root.value.get("links")
+    if links is not None:
+        # the sketch form: every point is a global placement at:, which enters the compiled
+        # body frames nonlinearly (the same refusal as synth's and fit's)
+        raise InputError([Diagnostic(spec.file, root.key_lines.get("links", links.line), (
+            "first-order sensitivities need the body form (bodies:, joints:): in the sketch "
+            "form (links:) every point is a global placement at:, which the sensitivities do "
+            "not differentiate; write the model with bodies and joints (as "
+            "mechanisms/four-bar.yaml), or use planarkin sweep"))])
     D = ParameterDerivatives(root, spec.parameters, texts, wrt)
     k = len(wrt)
     N = len(t)
