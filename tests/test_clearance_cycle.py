@@ -243,3 +243,40 @@ def test_a_turning_edge_past_a_fixed_disc():
     assert m.t == pytest.approx(brentq(g, ts[k], ts[k + 1], xtol=1e-15), rel=REL)
     assert np.allclose(m.pb, 60 * np.array([math.cos(beta), math.sin(beta)])
                        + 5 * np.array([math.cos(beta), math.sin(beta)]), atol=REL * 100)
+
+
+# a press: crank 40, rod 120, a ram 40 long whose front reaches 40 cos(th) + sqrt(120^2 -
+# (40 sin th)^2) + 40, against a die 2 mm inside that reach, both sharp-cornered (radius 0)
+PRESS = """
+name: press
+units: {length: mm, angle: deg}
+bodies:
+  crank: {q: [0, 0, 180]}
+  rod:   {q: [-40, 0, 0]}
+  ram:   {q: [80, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: crank, at: [0, 0]}
+  - {type: revolute, i: crank, j: rod, si: [40, 0], sj: [0, 0]}
+  - {type: revolute, i: rod, j: ram, si: [120, 0], sj: [0, 0]}
+  - {type: translational, i: ground, j: ram, at: [80, 0], axis: [1, 0]}
+drivers:
+  - {type: angle, body: crank, f: "180 + 360*t"}
+shapes:
+  ram: {polygon: [[0, -15], [40, -15], [40, 15], [0, 15]]}
+  die: {body: ground, polygon: [[198, -25], [230, -25], [230, 25], [198, 25]]}
+clearance: {min: 0}
+analysis: {start: 0, end: 1, steps: 72}
+"""
+
+
+def test_a_contact_of_sharp_outlines_is_dated_between_the_rows():
+    """The row after the contact has the outlines crossing (no rate there): the instant comes
+    from the distance at poses interpolated between the rows, not from the row (0.4583 s)."""
+    from scipy.optimize import brentq
+    cm, res = solve(PRESS, steps=72)
+    (m,) = minima(cm, res)
+    th = lambda t: math.radians(180 + 360 * t)
+    front = lambda t: 40 * math.cos(th(t)) + math.sqrt(120**2 - (40 * math.sin(th(t)))**2) + 40
+    exact = brentq(lambda t: front(t) - 198, 0.3, 0.5, xtol=1e-15)
+    assert m.contact == pytest.approx(exact, rel=REL)
+    assert res.warnings[0].t == pytest.approx(exact, rel=REL)

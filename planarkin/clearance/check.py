@@ -54,7 +54,8 @@ class RowCheck:
             if ("pair", k) in self.done:
                 continue
             t, y, y1, y2 = self._with_carry(prev, ("pair", k), T, s.d, s.d1, s.d2)
-            tf = first_below(t, y, y1, y2, p.limit)
+            tf = first_below(t, y, y1, y2, p.limit,
+                             lambda tt, p=p: self.C.closest(self._rows(ch, prev, tt), p, tt)[0])
             if tf is not None:
                 self.done.add(("pair", k))
                 found.append((tf, "contact", self._contact(ch, prev, p, tf),
@@ -109,13 +110,19 @@ class RowCheck:
                      None if ch.qdd is None else ch.qdd[last])
         self.carry = (rows, vals)
 
+    @staticmethod
+    def _rows(ch, prev, tf):
+        """The chunk's rows, with the previous chunk's last row in front when tf lies before
+        the chunk's first row (across the seam)."""
+        if prev is None or tf >= ch.t[0]:
+            return ch
+        cat = (lambda a, b: None if a is None or b is None else np.concatenate([a, b]))
+        return Rows(np.r_[prev[0].t, ch.t], cat(prev[0].q, ch.q), cat(prev[0].qd, ch.qd),
+                    cat(prev[0].qdd, ch.qdd))
+
     def _contact(self, ch, prev, p, tf) -> str:
         cm, lu = self.cm, self.cm.spec.length_unit
-        rows = ch
-        if prev is not None and tf < ch.t[0]:
-            cat = (lambda a, b: None if a is None or b is None else np.concatenate([a, b]))
-            rows = Rows(np.r_[prev[0].t, ch.t], cat(prev[0].q, ch.q), cat(prev[0].qd, ch.qd),
-                         cat(prev[0].qdd, ch.qdd))
+        rows = self._rows(ch, prev, tf)
         d, pa, pb = self.C.closest(rows, p, tf)
         A, B = cm.shapes[p.a], cm.shapes[p.b]
         # at the instant found d is the limit, to the interpolation of the pose between rows

@@ -285,11 +285,14 @@ def refined_minimum(t, d, d1=None, d2=None):
     return float(tm), float(dm)
 
 
-def first_below(t, y, y1, y2, limit: float):
+def first_below(t, y, y1, y2, limit: float, value_at=None):
     """The first instant (s) column y (N,) at times t falls below limit, or None: the first row
     below it, or, before that, a dip between two rows (a refined local minimum below it), the
     instant found on the interval's quintic (bisection: y is above the limit at the interval's
-    start and below it at the instant sought)."""
+    start and below it at the instant sought). Where the interval's end has no rate (two
+    outlines overlap there: their distance has no derivative) the bisection evaluates
+    value_at(t), the column at the pose interpolated between the rows (the signed distance is
+    continuous), when given; else the instant is the row's."""
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     below = y < limit
@@ -331,10 +334,15 @@ def first_below(t, y, y1, y2, limit: float):
     h = t[j + 1] - t[j]
     a0 = np.nan if y2 is None else y2[j]
     a1 = np.nan if y2 is None else y2[j + 1]
+    smooth = np.isfinite(y1[j]) and np.isfinite(y1[j + 1])
+    if not smooth and value_at is None:
+        return t_end
     lo, hi = 0.0, (t_end - t[j]) / h
     for _ in range(BISECT):
         mid = 0.5 * (lo + hi)
-        if float(hermite(mid, h, y[j], y1[j], a0, y[j + 1], y1[j + 1], a1)) < limit:
+        v = hermite(mid, h, y[j], y1[j], a0, y[j + 1], y1[j + 1], a1) if smooth else \
+            value_at(float(t[j] + mid * h))
+        if float(v) < limit:
             hi = mid
         else:
             lo = mid
@@ -354,7 +362,8 @@ def minima(cm, result) -> list[Minimum]:
     for p, s in zip(C.pairs, C.separations(result)):
         t, d = refined_minimum(result.t, s.d, s.d1, s.d2)
         d_at, pa, pb = C.closest(result, p, t)
-        contact = first_below(result.t, s.d, s.d1, s.d2, p.limit)
+        contact = first_below(result.t, s.d, s.d1, s.d2, p.limit,
+                              lambda tt, p=p: C.closest(result, p, tt)[0])
         out.append(Minimum(shapes[p.a].name, shapes[p.b].name, t, d, pa, pb, p.limit,
                            s.d.copy(), contact))
     return out
