@@ -170,7 +170,10 @@ def fresh(monkeypatch, tmp_path):
     yield tmp_path / "cache"
     jitcache.forget()
     monkeypatch.undo()
-    assert jitcache.prepare() == saved          # (this process's numba keeps its directory)
+    again = jitcache.prepare()
+    # this process's numba keeps its directory; where the setup found the cache's lock held
+    # longer than jitcache.LOCK_WAIT (another worker compiling) it had none, and may now
+    assert saved is None or again == saved
     jitcache.record()
 
 
