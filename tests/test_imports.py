@@ -7,7 +7,8 @@ module-level ones:
 4. at most MAX_TOP modules at the package's top level (the stages live in packages: model/,
    functions/, elements/, solver/, results/, output/, and the rooms fed by the Result);
 5. no chain of module-level imports longer than MAX_CHAIN modules (what `import planarkin.cli`
-   walks through before the first line of work runs).
+   walks through before the first line of work runs);
+6. no function over MAX_FUNCTION lines (one that long holds more than one step: name them).
 
 Imports under ``if TYPE_CHECKING:`` (annotations only) never run and are left out. The layers
 (model, elements, system, solver, results, output, cli) are import-linter's contract in
@@ -234,6 +235,20 @@ def test_few_modules_at_the_top_level():
 def test_no_long_chain_of_module_level_imports():
     chain = longest_chain(graph(modules(), top_level=True))
     assert len(chain) <= MAX_CHAIN, f"{len(chain)} modules: {' -> '.join(chain)}"
+
+
+MAX_FUNCTION = 120
+
+
+def test_no_function_is_over_120_lines():
+    long = {}
+    for mod, path in modules().items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION:
+                    long[f"{mod}.{node.name}"] = n
+    assert long == {}, f"functions over {MAX_FUNCTION} lines: {long}"
 
 
 def test_no_private_names_across_modules():
