@@ -15,7 +15,8 @@
    with the true value within 2 standard errors (target >= 90 % of 100 trials); exact data:
    the largest parameter error (target 1e-9).
 
-    /tmp/venv/bin/python benchmarks/bench_synth.py [--seeds 20] [--trials 100]
+    python benchmarks/bench_synth.py [--seeds 20] [--first 0] [--trials 100] [--only line|fit]
+        [--model FILE]
 """
 
 from __future__ import annotations
@@ -31,32 +32,42 @@ import numpy as np
 from common import ROOT  # noqa: F401 (puts the checkout first on sys.path)
 
 
-def straight_line(seeds: int, first: int = 0) -> None:
+def straight_line(seeds: int, first: int = 0, model=None) -> None:
+    """Per seed: best SSE, evaluations (of them analyses over the cycle), Jacobians, local
+    runs, what ended the search, wall and CPU seconds (time.process_time) and the 1-min load
+    average before and after (os.getloadavg: other work on the machine shows in the wall
+    time, less in the CPU time)."""
     from planarkin.synthesis.synth import synthesize
-    model = ROOT / "mechanisms" / "synthesis" / "straight-line.yaml"
+    model = model or ROOT / "mechanisms" / "synthesis" / "straight-line.yaml"
     ok = 0
-    print("seed  best SSE [mm^2]  evaluations  analyses  jacobians  projections  local runs  "
-          "seconds")
-    ev, an, jac, sec, best_all, runs = [], [], [], [], [], []
+    print("| seed | best SSE [mm^2] | evaluations (analyses) | Jacobians | local runs | ended | "
+          "wall [s] | CPU [s] | load before / after |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    ev, an, jac, sec, cpu, best_all, runs = [], [], [], [], [], [], []
     for seed in range(first, first + seeds):
+        l0, c0 = os.getloadavg()[0], time.process_time()
         r = synthesize(model, seed=seed)
+        c, l1 = time.process_time() - c0, os.getloadavg()[0]
         best = r.designs[0].cost if r.designs else float("nan")
         ok += best < 1e-12
         ev.append(r.evaluations)
         an.append(r.analyses)
         jac.append(r.jacobians)
         sec.append(r.seconds)
+        cpu.append(c)
         best_all.append(best)
         runs.append(r.runs)
-        print(f"{seed:4d}  {best:15.3e}  {r.evaluations:11d}  {r.analyses:8d}  {r.jacobians:9d}  "
-              f"{r.model.project_solves:11d}  {r.runs:10d}  {r.seconds:7.1f}", flush=True)
+        print(f"| {seed} | {best:.3e} | {r.evaluations:,} ({r.analyses:,}) | {r.jacobians:,} | "
+              f"{r.runs:,} | {r.ended} | {r.seconds:.1f} | {c:.1f} | {l0:.1f} / {l1:.1f} |",
+              flush=True)
     print(f"straight line: SSE < 1e-12 in {ok} of {seeds} seeds (target >= 95 %); best SSE "
           f"median {np.nanmedian(best_all):.2e} (range {np.nanmin(best_all):.2e} .. "
           f"{np.nanmax(best_all):.2e}); evaluations median {np.median(ev):.0f} (range "
           f"{min(ev)}-{max(ev)}), of them analyses over the cycle {np.median(an):.0f} "
           f"({min(an)}-{max(an)}); local runs {np.median(runs):.0f} ({min(runs)}-{max(runs)}); "
           f"Jacobians {np.median(jac):.0f} ({min(jac)}-{max(jac)}); "
-          f"seconds median {np.median(sec):.1f} (range {min(sec):.1f}-{max(sec):.1f})")
+          f"wall median {np.median(sec):.1f} s (range {min(sec):.1f}-{max(sec):.1f}); "
+          f"CPU median {np.median(cpu):.1f} s (range {min(cpu):.1f}-{max(cpu):.1f})")
 
 
 def fitting(trials: int) -> None:
@@ -96,10 +107,12 @@ if __name__ == "__main__":
     ap.add_argument("--first", type=int, default=0, help="first seed")
     ap.add_argument("--trials", type=int, default=100)
     ap.add_argument("--only", choices=("line", "fit"))
+    ap.add_argument("--model", help="another straight-line model file (default: "
+                                    "mechanisms/synthesis/straight-line.yaml)")
     a = ap.parse_args()
     print("load:", os.getloadavg())
     if a.only != "fit":
-        straight_line(a.seeds, a.first)
+        straight_line(a.seeds, a.first, a.model)
     if a.only != "line":
         fitting(a.trials)
     print("load:", os.getloadavg())

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..diagnostics import InputError
+from . import timing
 from .margins import turning_loop
 from .problem import Rejected
 
@@ -68,7 +69,7 @@ class Local:
         self.syn = syn
         tgs = syn.design.targets
         self.free_t = [(i, j) for i, tg in enumerate(tgs)
-                       if tg.kind in ("path", "motion") and tg.inputs is None
+                       if tg.kind in ("path", "motion") and tg.free_timing
                        for j in range(len(tg))]
         self.nt = len(self.free_t)
         self.k = syn.k
@@ -78,13 +79,17 @@ class Local:
 
     # -- layout ------------------------------------------------------------------------------
     def unknowns(self, d) -> np.ndarray:
-        """The local unknowns (free parameters, then every free time) of a full Design."""
-        return np.concatenate([d.x[:self.k], [d.times[i][j] for i, j in self.free_t]])
+        """The local unknowns (free parameters, every free time, then the offsets and steps
+        of synthesis.timing) of a full Design."""
+        return np.concatenate([d.x[:self.k], [d.times[i][j] for i, j in self.free_t],
+                               d.x[self.k + self.syn.nt:]])
 
     def full(self, x) -> np.ndarray:
-        """The full evaluation's unknowns (free parameters, then the motion targets' times)."""
-        t = x[self.k:]
-        return np.concatenate([x[:self.k], [t[self.free_t.index(ij)] for ij in self.syn.free_t]])
+        """The full evaluation's unknowns (free parameters, the motion targets' times, the
+        offsets and steps)."""
+        t = x[self.k:self.k + self.nt]
+        return np.concatenate([x[:self.k], [t[self.free_t.index(ij)] for ij in self.syn.free_t],
+                               x[self.k + self.nt:]])
 
     def anchor(self, d) -> None:
         """Start a continuation from a fully evaluated design d (its state on the branch)."""
@@ -109,11 +114,12 @@ class Local:
             if loop is not None and not loop.margin() > 0:
                 return None, Rejected("constraint turns"), None
         times, where = [], []
-        tfree = x[self.k:]
+        tfree = x[self.k:self.k + self.nt]
         grid = _Grid(np.linspace(syn.start, syn.end, 1 + int(model.study.opts.steps)))
         for i, tg in enumerate(syn.design.targets):
-            if tg.inputs is not None:
-                tt = model.times_of(cm, grid, tg.inputs)
+            if tg.inputs is not None or tg.timing is not None:
+                tt = model.times_of(cm, grid, tg.inputs) if tg.timing is None else \
+                    timing.times(syn, cm, grid, i, x[self.k + self.nt:])
                 if isinstance(tt, Rejected):
                     return None, tt, None
             else:
@@ -146,11 +152,11 @@ class Local:
         J = []
         for i, tg in enumerate(syn.design.targets):
             sl = st.where[i]
-            dtdp = syn.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
-            J.append(syn.target_residuals(tg, i, st, sl, dtdp, True, self.free_t)[1] * tg.weight)
+            dtdx = syn.input_dtdx(st.cm, tg, i, st.t[sl], self.free_t)
+            J.append(syn.target_residuals(tg, i, st, sl, dtdx, True, self.free_t)[1] * tg.weight)
         if bar:
             J.append(np.concatenate([syn.barrier_gradient(st.cm, bar),
-                                     np.zeros(self.nt)])[None, :])
+                                     np.zeros(self.nt + syn.nu)])[None, :])
         return np.concatenate(J)
 
     # -- one local run -----------------------------------------------------------------------
@@ -174,11 +180,13 @@ class Local:
         # trial solves at any time, the final evaluation wraps them). least_squares' own
         # bounds (reflective) did no better on the straight line: from seed 0's 12 best starts
         # both ended at 1e-4 .. 1 mm^2 in the same valley (measured 2026-12-02)
-        lo = np.concatenate([syn.lo, np.full(self.nt, syn.start)])
-        hi = np.concatenate([syn.hi, np.full(self.nt, syn.end)])
+        ulo, uhi = timing.bounds(syn)
+        lo = np.concatenate([syn.lo, np.full(self.nt, syn.start), ulo])
+        hi = np.concatenate([syn.hi, np.full(self.nt, syn.end), uhi])
         boxed = np.ones(len(xa), dtype=bool)
-        if syn.wrap:
-            boxed[self.k:] = False
+        if syn.wrap:        # times and offsets around a full cycle: unbounded (they wrap)
+            boxed[self.k:self.k + self.nt] = False
+            boxed[self.k + self.nt:] = [name != "offset" for _, name in syn.timing]
         mid, half = (lo + hi) / 2, (hi - lo) / 2
 
         def X(z):
@@ -248,6 +256,30 @@ class Local:
                                f"{self.evaluations - e0} trials")
         self.last_cost = best[1]
         return x, msg, trail
+
+
+def verified(syn, local, x, trail, lo, hi, rejected, first):
+    """The fully evaluated design at the end x of a local run, or, when it fails the full
+    check (the whole cycle, on the branch, every constraint: the guarantee of a returned
+    design; a local trial checks only the target inputs), the last accepted iterate of the
+    run that passes it, found by bisection over the trail (its first entry is the run's start,
+    the fully evaluated design `first`); the reason of the failure appended to rejected."""
+    r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
+    if r is not None:
+        return d
+    rejected.append(d.reason)
+    good, bad, best = 0, len(trail), None
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        r, _, dm = syn.evaluate(np.clip(local.full(trail[mid]), lo, hi), jac=False, final=True)
+        if r is None:
+            bad = mid
+        else:
+            good, best = mid, dm
+    best = best or first
+    best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
+                    f"accepted iterate that passes it")
+    return best
 
 
 class _Grid:

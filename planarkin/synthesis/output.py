@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..version import __version__
+from . import timing
 
 
 def model_yaml(path, values: dict, q0=None, header: str = "") -> str:
@@ -138,14 +139,20 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
     try:
         names = list(syn.design.free)
         # the free times: of every target without inputs (unknowns or projected)
-        free = [i for i, tg in enumerate(syn.design.targets) if tg.inputs is None
+        free = [i for i, tg in enumerate(syn.design.targets) if tg.free_timing
                 and tg.kind != "function"]
         nfree = sum(len(syn.design.targets[i]) for i in free)
+        # the offsets (and steps) found of targets with inputs relative to one (timing.py)
+        found = [timing.report(syn, d.x) for d in res.designs]
+        ucols = [(e, key) for e, r in enumerate(found[0] if found else []) for key in
+                 ("offset", "step") if key in r["found"]]
         _write_csv(rd, "designs.csv",
                    ["design", "cost"] + names + [f"t{j + 1} [s]" for j in range(nfree)]
-                   + ["evaluations", "jacobians"],
+                   + [f"target {found[0][e]['target']} {key} [{found[0][e]['unit']}]"
+                      for e, key in ucols] + ["evaluations", "jacobians"],
                    [[k + 1, d.cost] + [d.values[n] for n in names]
                     + [t for i in free for t in d.times[i]]
+                    + [found[k][e][key] for e, key in ucols]
                     + [d.nfev, d.njev] for k, d in enumerate(res.designs)])
         rows = []
         for k, d in enumerate(res.designs):
@@ -168,6 +175,9 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
             header = (f"design {k + 1} of planarkin synth {syn.model.path}: sum of squared "
                       f"residuals {d.cost:.6g}\nparameters: " +
                       ", ".join(f"{n} = {v:.10g}" for n, v in d.values.items()) +
+                      "".join(f"\ntarget {r['target']}: inputs from offset {r['offset']:.10g}"
+                              + (f" in steps of {r['step']:.10g}" if r["step"] is not None
+                                 else "") + f" {r['unit']}" for r in found[k]) +
                       _set_line(fixed))
             with _writing(fn):      # the model file is read again (it may be gone by now)
                 text = model_yaml(syn.model.path, {**fixed, **d.values},
@@ -186,8 +196,11 @@ def write_synth(res, outdir: Path, plots: str | None = "png") -> Path:
                    "set": fixed_values(syn.model.nominal, names),
                    "designs": [{"file": f, "cost": d.cost, "parameters": d.values,
                                 "times": d.times, "margins": d.margins,
+                                "inputs": [{key: r[key] for key in ("target", "offset",
+                                                                    "step", "unit")}
+                                           for r in found[k]],
                                 "evaluations": d.nfev, "jacobians": d.njev}
-                               for f, d in zip(files, res.designs)]}
+                               for k, (f, d) in enumerate(zip(files, res.designs))]}
         _write_text(rd, "summary.json", json.dumps(_json(summary), indent=2))
     except BaseException as e:
         rd.abandon()
@@ -226,7 +239,10 @@ def _plot_synth(res, path):
                             label="achieved")
         v = np.array(tg.values, dtype=float)
         if tg.kind == "function":
-            ax.plot(tg.inputs, v, "o", mfc="none", color="k", label="targets")
+            best = res.designs[0]
+            u = tg.inputs if tg.timing is None else \
+                timing.inputs(syn, best.state.cm, i, best.x[syn.k + syn.nt:])
+            ax.plot(u, v, "o", mfc="none", color="k", label="targets")
             ax.set_xlabel(f"input [{syn.unit}]")
             ax.set_ylabel(f"{tg.name} [{syn.unit if tg.name.endswith('.phi') else syn.lunit}]")
         else:

@@ -8,6 +8,9 @@
         - {motion: coupler, point: P, poses: [[x, y, phi], ...], inputs: [...]}
         - {path: P, points: [[20, 20], ..., [20, 20]]}   # closed: the first point again last
           # (or closed: true): free timing in order around one turn (Target.closed)
+        - {path: P, points: [...], inputs: {offset: free, step: 60}}   # inputs offset + 60 k,
+          # the offset found (Timing; values: [...] relative to it instead of step; offset and
+          # step each a number, free or [low, high]; offset free when left out)
       constraints:
         turns: crank                          # the driven link turns fully over the range
                                               # ({body: crank, shortest: true}: a four-bar
@@ -44,6 +47,7 @@ TARGET_KEYS = {"path": ("path", "points", "inputs", "weight", "closed"),
                "function": ("function", "inputs", "outputs", "weight"),
                "motion": ("motion", "point", "poses", "inputs", "weight", "closed")}
 CONSTRAINT_KEYS = ("turns", "transmission", "order")
+INPUT_KEYS = ("offset", "step", "values")      # inputs: {...}, relative to an unknown offset
 TURNS_KEYS = ("body", "shortest")
 SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
           "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
@@ -58,7 +62,8 @@ QUANTITIES = ("x", "y", "phi")
 class Target:
     """One target. kind 'path' | 'function' | 'motion'; name: the point (path), BODY.QUANTITY
     (function) or body (motion); point: the motion's point; values: (N, 2) points, (N,) outputs
-    or (N, 3) poses in user units; inputs: (N,) driver values or None (free timing)."""
+    or (N, 3) poses in user units; inputs: (N,) driver values or None (free timing, or timing
+    relative to an unknown offset: Timing)."""
 
     kind: str
     name: str
@@ -69,6 +74,12 @@ class Target:
     line: int
     closed: bool = False    # free timing around one turn (the order is cyclic)
     repeat: bool = False    # closed, the last point repeating the first (one turn after it)
+    timing: Timing | None = None    # inputs relative to an unknown offset (inputs: {...})
+
+    @property
+    def free_timing(self) -> bool:
+        """No inputs given: each input value is an unknown (or a projection)."""
+        return self.inputs is None and self.timing is None
 
     @property
     def label(self) -> str:
@@ -76,6 +87,34 @@ class Target:
 
     def __len__(self) -> int:
         return len(self.values)
+
+
+@dataclass(frozen=True)
+class Timing:
+    """A target's inputs relative to one offset: input e is offset + values[e] (values:) or
+    offset + e step (step:), in the driver's unit. offset, step: the value given, or None for
+    an unknown of the search, found within its bounds (offset_bounds, step_bounds: (low,
+    high) given, or None: planarkin.synthesis.timing's default)."""
+
+    n: int
+    values: tuple | None = None
+    offset: float | None = None
+    step: float | None = None
+    offset_bounds: tuple | None = None
+    step_bounds: tuple | None = None
+    line: int = 0
+
+    @property
+    def unknowns(self) -> tuple:
+        """The names of the unknowns, in the order of the search's layout."""
+        return tuple(n for n, given in (("offset", self.offset), ("step", self.step))
+                     if given is None and (n == "offset" or self.values is None))
+
+    def relative(self, step=None) -> list:
+        """(n,) each input less the offset (step: the step's value when it is an unknown)."""
+        if self.values is not None:
+            return [float(u) for u in self.values]
+        return [e * (self.step if self.step is not None else step) for e in range(self.n)]
 
 
 @dataclass(frozen=True)
@@ -306,24 +345,12 @@ def _target(v, t, k, point_names, n_drivers):
             v.number(r, f"{what}: {vals_key}")
         ok = ok and x is not None
         values.append(x)
-    inputs = None
     inode = t.value.get("inputs")
     if kind == "function" and inode is None:
         v.err(t, f"{what}: function generation needs inputs: the driver values, one per output")
         ok = False
-    if inode is not None:
-        inputs = _numbers(v, inode, f"{what}: inputs", None) if inode.kind == "seq" else None
-        if inode.kind != "seq":
-            v.err(inode, f"{what}: inputs must be a list of driver values")
-        if inputs is not None and len(inputs) != len(rows):
-            v.err(inode, f"{what}: {len(inputs)} inputs for {len(rows)} {vals_key}: give one "
-                         f"input value per target")
-            ok = False
-        if n_drivers != 1:
-            v.err(inode, f"{what}: inputs are values of the model's driver, and it has "
-                         f"{n_drivers} drivers (exactly one is needed)")
-            ok = False
-        ok = ok and inputs is not None
+    inputs, timing, good = _inputs(v, inode, what, len(rows), vals_key, n_drivers)
+    ok = ok and good
     weight = 1.0
     if "weight" in t.value:
         w = v.number(t.value["weight"], f"{what}: weight")
@@ -351,10 +378,114 @@ def _target(v, t, k, point_names, n_drivers):
     if not ok:
         return None
     # the last point equal to the first, with free timing: a closed curve traced once per turn
-    repeat = (closed is not False and inputs is None and len(values) >= 4 and
+    repeat = (closed is not False and inputs is None and timing is None and len(values) >= 4 and
               values[-1] == values[0])
     return Target(kind=kind, name=name, point=point, values=tuple(values), inputs=inputs,
-                  weight=weight, line=t.line, closed=bool(closed) or repeat, repeat=repeat)
+                  weight=weight, line=t.line, closed=bool(closed) or repeat, repeat=repeat,
+                  timing=timing)
+
+
+def _inputs(v, inode, what, n, vals_key, n_drivers):
+    """(inputs, timing, ok) of a target's inputs: node (None: free timing): a list of driver
+    values, or a mapping relative to an unknown offset (_relative)."""
+    if inode is None:
+        return None, None, True
+    inputs, timing = None, None
+    if inode.kind == "map":
+        inputs, timing = _relative(v, inode, f"{what}: inputs", n, vals_key)
+        ok = inputs is not None or timing is not None
+    else:
+        inputs = _numbers(v, inode, f"{what}: inputs", None) if inode.kind == "seq" else None
+        if inode.kind != "seq":
+            v.err(inode, f"{what}: inputs must be a list of driver values, or "
+                         f"{{offset: free, step: STEP}} (offset + k STEP, the offset found) "
+                         f"or {{offset: free, values: [...]}}")
+        ok = inputs is not None
+        if inputs is not None and len(inputs) != n:
+            v.err(inode, f"{what}: {len(inputs)} inputs for {n} {vals_key}: give one input "
+                         f"value per target")
+            ok = False
+    if n_drivers != 1:
+        v.err(inode, f"{what}: inputs are values of the model's driver, and it has "
+                     f"{n_drivers} drivers (exactly one is needed)")
+        ok = False
+    return inputs, timing, ok
+
+
+def _relative(v, node, what, n, vals_key):
+    """(inputs, None) of an inputs mapping with nothing unknown (offset and step given), (None,
+    Timing) of one with an unknown offset or step, (None, None) after an error."""
+    for key in node.value:
+        if key not in INPUT_KEYS:
+            v.err(node.key_lines[key], f"{what}: unknown key '{key}'"
+                  f"{did_you_mean(key, INPUT_KEYS) or _valid(INPUT_KEYS)}")
+            return None, None
+    if ("step" in node.value) == ("values" in node.value):
+        both = "step" in node.value
+        v.err(node, f"{what}: " + ("give step: or values:, not both" if both else
+                                   "needs step: or values:") +
+              " (step: STEP for the inputs offset, offset + STEP, offset + 2 STEP, ...; "
+              "values: [...] for offset + each value)")
+        return None, None
+    offset, obounds = _free_or_number(v, node.value.get("offset"), f"{what}: offset")
+    if offset is False:
+        return None, None
+    step, sbounds, values = None, None, None
+    if "step" in node.value:
+        step, sbounds = _free_or_number(v, node.value["step"], f"{what}: step")
+        if step is False:
+            return None, None
+        if step == 0:
+            v.err(node.value["step"], f"{what}: step must not be 0 (every input would be the "
+                                      f"offset): give the step between consecutive {vals_key}, "
+                                      f"or free")
+            return None, None
+    else:
+        vn = node.value["values"]
+        values = _numbers(v, vn, f"{what}: values", None) if vn.kind == "seq" else None
+        if vn.kind != "seq":
+            v.err(vn, f"{what}: values must be a list of driver values relative to the offset")
+        if values is None:
+            return None, None
+        if len(values) != n:
+            v.err(vn, f"{what}: values has {len(values)} entries for {n} {vals_key}: give one "
+                      f"value per {vals_key[:-1]}")
+            return None, None
+    tm = Timing(n=n, values=values, offset=offset, step=step, offset_bounds=obounds,
+                step_bounds=sbounds, line=node.line)
+    if not tm.unknowns:         # nothing to find: the inputs are given
+        return tuple(float(tm.offset + u) for u in tm.relative()), None
+    return None, tm
+
+
+def _free_or_number(v, node, what):
+    """(value, None) of a number, (None, bounds) of `free` (bounds None) or [low, high], (False,
+    None) after an error. No node: free."""
+    if node is None or (node.kind == "scalar" and node.value == "free"):
+        return None, None
+    hint = f"{what} must be free, a number or [low, high] (the driver's unit)"
+    if node.kind == "seq" and len(node.value) != 2:
+        v.err(node, f"{hint}, not a list of {len(node.value)}")
+        return False, None
+    if node.kind == "seq":
+        lohi = _numbers(v, node, what, 2)
+        if lohi is None:
+            return False, None
+        if not lohi[0] < lohi[1]:
+            v.err(node, f"{what}: the bounds [{lohi[0]:g}, {lohi[1]:g}] must be [low, high] "
+                        f"with low < high")
+            return False, None
+        return None, lohi
+    if node.kind == "scalar" and isinstance(node.value, str) and node.value not in v.params:
+        near = did_you_mean(node.value, ["free"])
+        if near:
+            v.err(node, hint + near)
+            return False, None
+    if node.kind != "scalar":
+        v.err(node, hint)
+        return False, None
+    x = v.number(node, what)
+    return (False, None) if x is None else (x, None)
 
 
 class _Reader:

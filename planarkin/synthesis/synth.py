@@ -1,9 +1,11 @@
 """Synthesis: the design that makes a model do what its `design:` block asks.
 
 In a full evaluation (`Synthesis.evaluate`: the design analysed over its whole cycle) the
-unknowns x are the free parameters (in their units) and, for every motion target without
-prescribed inputs, one time per pose (s): the input values are the driver's values at those
-times. A path target without inputs has no time unknowns there: its times are projected
+unknowns x are the free parameters (in their units), for every motion target without
+prescribed inputs one time per pose (s): the input values are the driver's values at those
+times, and last the offsets (and steps) of targets whose inputs are relative to an unknown
+offset (planarkin.synthesis.timing, in the driver's unit). A path target without inputs has
+no time unknowns there: its times are projected
 (`Synthesis.project`: the nearest points of the path, in order), its residuals are
 the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
 projected time is stationary (variable projection). Other residuals are weighted differences in
@@ -18,7 +20,8 @@ The method:
    assembled, lock up or violate a constraint are rejected with their reason; the free times
    of the others are chosen on their grid (the nearest points, in order along the path, in
    either direction);
-2. from the best `local` of them, a local run (planarkin.synthesis.local): scipy's
+2. from the best `local` of them, a local run (planarkin.synthesis.local; `_run`: one cut
+   by its per_local budget while it leads the search goes on from its end): scipy's
    least_squares (trust region, the exact Jacobian, the bounds by a change of variables) on
    trials solved at the target inputs only, every free time an unknown, the branch kept by
    continuation from the last accepted iterate; the run's result is then checked over its
@@ -38,8 +41,9 @@ abandoned run is checked over its cycle only when it would be kept. The six coll
 (straight-line.yaml) need that: about one local run in 650 from the Latin-hypercube starts
 lands in the basin of an exact solution (the others slide down a valley, the linkage growing
 until a bound stops it, SSE 1e-6 .. 1e-4 mm^2), and it shows by converging superlinearly, so
-hundreds to a few thousand probed runs of ~30 trials (benchmarks/bench_synth.py: 41-2,207 a
-seed, median 396, 20 of 20 seeds below 1e-12) replace 20 long ones.
+hundreds to a few thousand probed runs of ~30 trials (benchmarks/bench_synth.py: 5-2,260 a
+seed, median 481, 20 of 20 seeds below 1e-12; benchmarks/README.md, 2026-12-07) replace 20
+long ones.
 """
 
 from __future__ import annotations
@@ -51,10 +55,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..output.directory import checkpoint
-from .local import Local, probe_limits
+from . import timing
+from .local import Local, probe_limits, verified
 from .margins import (angle_span, barrier, length_gradients, turning_loop,
                       worst_transmission)
-from .problem import Model, Rejected, State, memory_problem, wrap
+from .problem import Model, Rejected, State, wrap
+from .settings import check_cost, search_options
 from .spec import design_of
 
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
@@ -62,6 +68,8 @@ PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.pr
 STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
 PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 IDLE_STARTS = 10_000  # starts in a row refused before any analysis end the search ('refused')
+FALL = 1e-3           # a leading run cut by per_local goes on while it falls by this fraction
+                      # over per_local trials (see _run)
 clock = time.perf_counter     # the time budget's clock (a test may replace it)
 
 
@@ -132,11 +140,14 @@ class Synthesis:
         self.free_t = []                      # (target index, entry index)
         self.projected = []                   # target indices
         for i, tg in enumerate(self.design.targets):
-            if tg.kind == "motion" and tg.inputs is None:
+            if tg.kind == "motion" and tg.free_timing:
                 self.free_t += [(i, j) for j in range(len(tg))]
-            elif tg.kind == "path" and tg.inputs is None:
+            elif tg.kind == "path" and tg.free_timing:
                 self.projected.append(i)
         self.nt = len(self.free_t)
+        # inputs relative to an unknown offset (and step): unknowns after the free times
+        self.timing = timing.layout(self.design.targets)
+        self.nu = len(self.timing)
         self.project_solves = 0               # solves at target times of the projections
         self.wrap = False
         self.use_barrier = True
@@ -155,8 +166,20 @@ class Synthesis:
     def bounds(self):
         T = self.end - self.start
         tlo, thi = (self.start - T, self.end + T) if self.wrap else (self.start, self.end)
-        return (np.concatenate([self.lo, np.full(self.nt, tlo)]),
-                np.concatenate([self.hi, np.full(self.nt, thi)]))
+        ulo, uhi = self.timing_bounds()
+        return (np.concatenate([self.lo, np.full(self.nt, tlo), ulo]),
+                np.concatenate([self.hi, np.full(self.nt, thi), uhi]))
+
+    def timing_bounds(self):
+        """(lo, hi) of the offsets and steps (timing.bounds); in a model that returns to its
+        start an offset may go a travel beyond them either side (its inputs wrap)."""
+        lo, hi = timing.bounds(self)
+        if self.wrap:
+            for c, (_, name) in enumerate(self.timing):
+                if name == "offset":
+                    u0, u1 = timing.travel(self, self.model.nominal)
+                    lo[c], hi[c] = lo[c] - abs(u1 - u0), hi[c] + abs(u1 - u0)
+        return lo, hi
 
     def wrapped(self, t):
         if not self.wrap:
@@ -174,15 +197,15 @@ class Synthesis:
         if isinstance(out, Rejected):
             return None, None, out
         cm, opts, res = out
-        tfree = self.wrapped(x[self.k:])
+        tfree = self.wrapped(x[self.k:self.k + self.nt])
         grid = self._grid_times(res) if self.projected else {}
-        times, where, inputs = [], [], []
+        times, where = [], []
         for i, tg in enumerate(self.design.targets):
-            if tg.inputs is not None:
-                tt = self.model.times_of(cm, res, tg.inputs)
+            if tg.inputs is not None or tg.timing is not None:
+                tt = self.model.times_of(cm, res, tg.inputs) if tg.timing is None else \
+                    timing.times(self, cm, res, i, x[self.k + self.nt:])
                 if isinstance(tt, Rejected):
                     return None, None, tt
-                inputs.append(i)
             elif i in grid:
                 tt = self.project(cm, res, tg, grid[i])
                 if isinstance(tt, Rejected):
@@ -262,8 +285,8 @@ class Synthesis:
         J = []
         for i, tg in enumerate(self.design.targets):
             sl = d.where[i]
-            dtdp = self.model.input_dtdp(st.cm, st.t[sl]) if tg.inputs is not None else None
-            Jt = self.target_residuals(tg, i, st, sl, dtdp, True)[1]
+            dtdx = self.input_dtdx(st.cm, tg, i, st.t[sl], self.free_t)
+            Jt = self.target_residuals(tg, i, st, sl, dtdx, True)[1]
             if i in self.projected:          # n . dP/dp (see _normal)
                 V = st.pd[sl, self.points.index(tg.name)]
                 n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
@@ -271,7 +294,7 @@ class Synthesis:
             J.append(Jt * tg.weight)
         if d.barrier:
             J.append(np.concatenate([self.barrier_gradient(st.cm, d.barrier),
-                                     np.zeros(self.nt)])[None, :])
+                                     np.zeros(self.nt + self.nu)])[None, :])
         return np.concatenate(J)
 
     # -- the turns constraint's barrier row (planarkin.synthesis.margins) --------------------
@@ -298,10 +321,19 @@ class Synthesis:
         m = loop.margin()
         return barrier(m, loop.gradient(dl), sum(loop.lengths), dl.sum(axis=0))[1]
 
-    def target_residuals(self, tg, i, st, sl, dtdp, jac, free_t=None):
-        """Residuals (N, c) of one target and their Jacobian rows (N c, k + len(free_t)).
+    def input_dtdx(self, cm, tg, i, t, free_t):
+        """(N, k + len(free_t) + nu) dt/dx of a target's inputs at their times t (prescribed:
+        -f_p / f_t; relative to an unknown offset: timing.dtdx), None for free timing."""
+        ncol = self.k + len(free_t) + self.nu
+        if tg.timing is not None:
+            return timing.dtdx(self, cm, i, t, ncol, self.k + len(free_t))
+        return timing.prescribed_dtdx(self, cm, t, ncol) if tg.inputs is not None else None
+
+    def target_residuals(self, tg, i, st, sl, dtdx, jac, free_t=None):
+        """Residuals (N, c) of one target and their Jacobian rows (N c, k + len(free_t) + nu).
         free_t: the (target, entry) pairs whose times are unknowns (default: self.free_t;
-        planarkin.synthesis.local makes a path target's times unknowns too)."""
+        planarkin.synthesis.local makes a path target's times unknowns too); dtdx: the
+        inputs' dt/dx (input_dtdx) or None (free times)."""
         free_t = self.free_t if free_t is None else free_t
         n = sl.stop - sl.start
         cols = []                  # per component: value (N,), d/dp (N, k), d/dt (N,)
@@ -327,11 +359,11 @@ class Synthesis:
         R = np.stack([c[0] for c in cols], axis=1)
         if not jac:
             return R, None
-        J = np.zeros((n, len(cols), self.k + len(free_t)))
+        J = np.zeros((n, len(cols), self.k + len(free_t) + self.nu))
         for c, (_, dp, dt) in enumerate(cols):
             J[:, c, :self.k] = dp
-            if dtdp is not None:              # prescribed inputs: the time moves with p
-                J[:, c, :self.k] += dt[:, None] * dtdp
+            if dtdx is not None:        # prescribed or relative inputs: the time moves with x
+                J[:, c] += dt[:, None] * dtdx
             elif (i, 0) in free_t:              # free times: their own unknowns
                 for e in range(n):
                     J[e, c, self.k + free_t.index((i, e))] = dt[e]
@@ -360,6 +392,15 @@ class Synthesis:
             worst = worst_transmission(res, ib, ic, idd, self.unit == "deg")
             out["transmission"] = {"value": worst - mn, "needs": f">= 0 (min {mn:g})",
                                    "unit": self.unit, "ok": worst >= mn}
+        if getattr(cm, "shapes", ()):
+            # the model's own clearance keys are a constraint of every design: no pair of
+            # shapes closer than its limit over the whole cycle (planarkin.clearance)
+            from ..clearance.cycle import least_margin
+            least = least_margin(cm, res)
+            if least is not None:
+                value, pair = least
+                out["clearance"] = {"value": value, "needs": f">= 0 (no contact; {pair} the "
+                                    f"nearest its limit)", "unit": self.lunit, "ok": value >= 0}
         if d.order and (self.nt or self.projected):
             # in order along the path, in either direction (the same linkage with its input
             # driven the other way): the smaller margin of the two directions' best
@@ -426,7 +467,7 @@ class Synthesis:
                     self.refusals.add(out.reason)
                 continue
             cm, _, res = out
-            x = np.concatenate([xp, self.free_times(res)])
+            x = np.concatenate([xp, self.free_times(res), timing.start(self, cm, res)])
             r, _, d = self.evaluate(x, jac=False, final=True, analysed=out)
             if r is None:
                 key = _kind(d.reason)
@@ -491,7 +532,7 @@ class Synthesis:
         out = {}
         tg_grid = res.t[:-1] if self.wrap else res.t
         for i, tg in enumerate(self.design.targets):
-            if tg.kind == "function" or tg.inputs is not None:
+            if tg.kind == "function" or not tg.free_timing:
                 continue
             j = self.points.index(tg.point if tg.kind == "motion" else tg.name)
             path = res.p[:len(tg_grid), j]
@@ -544,7 +585,7 @@ def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> 
     designs verified so far as its `partial` SynthResult (`interrupted` set)."""
     t0 = time.perf_counter()
     syn = Synthesis(path, overrides, analysis)
-    cfg = {**syn.design.search, **_search_options(path, search)}
+    cfg = {**syn.design.search, **search_options(path, search)}
     total = cfg["starts"] + (1 if cfg["nominal"] else 0)
     size = cfg["batch"] or total
     check_cost(syn, cfg, total, size)
@@ -600,7 +641,7 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
     """The global start and the local runs (see the module docstring), filling designs (best
     first, in place, so that an interruption finds those verified so far), scores (of the
     accepted starts) and reasons (of the rejected); syn.runs counts the local runs."""
-    if syn.nt or syn.projected:     # free times may wrap around a full cycle
+    if syn.nt or syn.projected or syn.nu:   # free times and offsets may wrap around a cycle
         syn.tick()
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
         if not isinstance(first, Rejected):
@@ -614,7 +655,8 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
                     "the analysis range (the driver turning once), and the design halfway "
                     "between the bounds does not"))])
     lo, hi = syn.bounds()
-    span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start)])
+    span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start),
+                           np.subtract(*syn.timing_bounds()[::-1])])
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
     probe = probe_limits(cfg["probe"], cfg["probe_cost"]) if cfg["probe"] else ()
 
@@ -657,27 +699,17 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
             for score, x0, d0 in good:
                 if ended() or runs >= cfg["local"]:
                     break
-                # the run leaves one evaluation of the budget for its full check (_verified)
-                budget = cfg["evaluations"] - spent() - 1
-                if budget < 1:
+                # the run leaves one evaluation of the budget for its full check (local.verified)
+                if cfg["evaluations"] - spent() - 1 < 1:
                     syn.ended = "evaluations"
                     break
                 syn.runs += 1
                 runs += 1
-                e0, j0 = spent(), syn.model.jacobians
-                xl, message, trail = local.run(
-                    d0, min(budget, cfg["per_local"]), stop, probe,
-                    halt=lambda: ended() or ("evaluations" if spent() >= cfg["evaluations"] - 1
-                                             else None))
-                if message.startswith(("abandoned", "halted")) and \
-                        len(designs) >= cfg["keep"] and local.last_cost >= designs[-1].cost:
-                    continue    # abandoned and no better than the designs kept: not checked
-                d = _verified(syn, local, xl, trail, lo, hi, rejected_local, d0)
+                d = _run(syn, local, cfg, d0, stop, probe, (lo, hi), designs, rejected_local,
+                         halt=lambda: ended() or ("evaluations" if spent() >= cfg["evaluations"]
+                                                  - 1 else None))
                 if d is None:
                     continue
-                d.nfev = spent() - e0
-                d.njev = syn.model.jacobians - j0
-                d.message = d.message or message
                 norm = (d.x - 0) / np.where(span > 0, span, 1.0)
                 if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max()
                        < DISTINCT for o in designs):
@@ -701,77 +733,41 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
             syn.same = next(iter(syn.refusals))
 
 
-def check_cost(syn, cfg, total: int, size: int) -> None:
-    """InputError, before the first analysis, when the search would pass the study budget
-    (planarkin.studies.budget, whose figures per grid row and per analysis it uses): the grids
-    held at once (the starts of a batch kept for the local runs, the designs kept, the one
-    being analysed) against STUDY_BYTES, the analyses of the starts against STUDY_SECONDS."""
-    from ..diagnostics import Diagnostic, InputError
-    from ..studies.budget import STUDY_SECONDS, study_cost
-    m = syn.model
-    starts = min(size, cfg["local"])
-    errors = [memory_problem(m, starts + cfg["keep"] + 1, (
-        f"{starts} start(s) for the local runs, {cfg['keep']} design(s) kept, the one being "
-        f"analysed"), " (or fewer --local runs, or a smaller design: search: batch)"
-        if starts > 1 else "", k=syn.k)]
-    seconds = study_cost(m.nominal, m.study.opts, 1, syn.k)[1]
-    if total * seconds > STUDY_SECONDS:
-        errors.append(
-            f"the search would analyse {total} starts of {m.study.opts.rows} grid rows: about "
-            f"{total * seconds / 3600:.3g} h, more than the budget of "
-            f"{STUDY_SECONDS / 3600:.3g} h: use fewer --starts (or fewer --steps)")
-    errors = [e for e in errors if e]
-    if errors:
-        raise InputError([Diagnostic(m.path, None, "synth: " + e) for e in errors])
-
-
-def _verified(syn, local, x, trail, lo, hi, rejected, first):
-    """The fully evaluated design at the end x of a local run, or, when it fails the full
-    check (the whole cycle, on the branch, every constraint: the guarantee of a returned
-    design; a local trial checks only the target inputs), the last accepted iterate of the
-    run that passes it, found by bisection over the trail (its first entry is the run's start,
-    the fully evaluated design `first`); the reason of the failure appended to rejected."""
-    r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
-    if r is not None:
-        return d
-    rejected.append(d.reason)
-    good, bad, best = 0, len(trail), None
-    while bad - good > 1:
-        mid = (good + bad) // 2
-        r, _, dm = syn.evaluate(np.clip(local.full(trail[mid]), lo, hi), jac=False, final=True)
-        if r is None:
-            bad = mid
-        else:
-            good, best = mid, dm
-    best = best or first
-    best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
-                    f"accepted iterate that passes it")
-    return best
-
-
-def _search_options(path, search: dict) -> dict:
-    """The search settings given by the caller (None: the design block's), checked as the
-    design block's are (spec.SEARCH); InputError naming the option otherwise."""
-    from ..diagnostics import Diagnostic, InputError, did_you_mean
-    from .spec import SEARCH
-    out, errs = {}, []
-    for key, val in search.items():
-        if val is None:
-            continue
-        if key not in SEARCH:
-            errs.append(f"synthesize: unknown option '{key}'"
-                        f"{did_you_mean(key, SEARCH) or ' (valid: ' + ', '.join(SEARCH) + ')'}")
-            continue
-        typ, lo, hi, _ = SEARCH[key]
-        ok = isinstance(val, (int, float)) and not isinstance(val, bool) and math.isfinite(val)
-        if not ok or (typ is int and val != int(val)) or not lo <= val <= hi:
-            what = "a whole number" if typ is int else "a number"
-            errs.append(f"synthesize: {key} must be {what} from {lo:g} to {hi:g}, not {val!r}")
-            continue
-        out[key] = typ(val)
-    if errs:
-        raise InputError([Diagnostic(str(path), None, e) for e in errs])
-    return out
+def _run(syn, local, cfg, start, stop, probe, bounds, designs, rejected, halt):
+    """One local run from the fully evaluated design `start` and the design verified at its
+    end (local.verified), or None when an abandoned or halted run is no better than the
+    designs kept (not checked). A run cut by its own budget (per_local) whose verified end
+    leads the search (below every design kept) goes on from there, per_local trials at a
+    time, until it converges, falls by less than FALL of its sum of squares over per_local
+    trials, falls behind or a budget of the search runs out: a run in a flat, curved valley
+    converges linearly (five-point-curve.yaml: 200-800 trials from the best starts to the
+    least sum of squares), and cut at per_local it would stop well above the valley's floor,
+    however many runs the budget then pays for; one crawling (0.04 % per 100 trials, seed 6
+    of the same file) gives the budget back to other starts. Measured 2026-12-07,
+    benchmarks/README.md."""
+    e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
+    d, first = None, start
+    while True:
+        budget = cfg["evaluations"] - syn.model.evaluations - local.evaluations - 1
+        if budget < 1:
+            break
+        xl, message, trail = local.run(first, min(budget, cfg["per_local"]), stop, probe,
+                                       halt=halt)
+        if message.startswith(("abandoned", "halted")) and len(designs) >= cfg["keep"] and \
+                local.last_cost >= designs[-1].cost:
+            break
+        d = verified(syn, local, xl, trail, *bounds, rejected, first)
+        cut = message.startswith("The maximum number of function evaluations") and \
+            not d.message
+        d.message = d.message or message
+        if not (cut and d.cost < (1 - FALL) * first.cost and
+                all(d.cost < o.cost for o in designs)):
+            break
+        first = d
+    if d is not None:
+        d.nfev = syn.model.evaluations + local.evaluations - e0
+        d.njev = syn.model.jacobians - j0
+    return d
 
 
 def _kind(reason: str) -> str:
