@@ -106,6 +106,7 @@ def test_cli_tolerance(tmp_path):
 
 SKETCH = """\
 name: sketch
+units: {length: m, angle: deg}
 parameters: {a: 0.04}
 points:
   A: {at: [0, 0], ground: true}
@@ -129,5 +130,5 @@ def test_a_sketch_form_model_is_refused_at_its_links_line(tmp_path):
     r = run_cli("tolerance", tmp_path / "m.yaml", "--sigma", "a=1e-3", "--samples", "4",
                 "--out", tmp_path / "o")
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert r.stderr.startswith(f"{tmp_path / 'm.yaml'}:8: error: first-order sensitivities "
+    assert r.stderr.startswith(f"{tmp_path / 'm.yaml'}:9: error: first-order sensitivities "
                                f"need the body form"), r.stderr
