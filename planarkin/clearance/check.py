@@ -50,12 +50,18 @@ class RowCheck:
         seps = C.separations(ch) if C.pairs else []
         travel = C.travel(ch)
         prev = self.carry
+        joined: list = []       # the chunk's rows after the carried one, joined when first asked
+
+        def distance_at(tt, p):
+            if not joined:
+                joined.append(self._rows(ch, prev, -np.inf))
+            return C.closest(joined[0], p, tt)[0]
+
         for k, (p, s) in enumerate(zip(C.pairs, seps)):
             if ("pair", k) in self.done:
                 continue
             t, y, y1, y2 = self._with_carry(prev, ("pair", k), T, s.d, s.d1, s.d2)
-            tf = first_below(t, y, y1, y2, p.limit,
-                             lambda tt, p=p: self.C.closest(self._rows(ch, prev, tt), p, tt)[0])
+            tf = first_below(t, y, y1, y2, p.limit, lambda tt, p=p: distance_at(tt, p))
             if tf is not None:
                 self.done.add(("pair", k))
                 found.append((tf, "contact", self._contact(ch, prev, p, tf),

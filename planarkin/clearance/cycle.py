@@ -349,12 +349,12 @@ def first_below(t, y, y1, y2, limit: float, value_at=None):
     return float(t[j] + hi * h)
 
 
-def minima(cm, result) -> list[Minimum]:
+def minima(cm, result, C: Clearance | None = None) -> list[Minimum]:
     """The closest approach of every pair of shapes that can touch, over a result (a
     planarkin.results.Result, or a chunk: t, q, qd, qdd in user units): one Minimum per pair
     (see Minimum), in pair order (planarkin.clearance.build.pairs). [] for a model without
-    pairs or a result without rows."""
-    C = Clearance(cm)
+    pairs or a result without rows. C: the model's Clearance when the caller has it."""
+    C = Clearance(cm) if C is None else C
     if not C.pairs or not len(result.t):
         return []
     out = []
@@ -373,9 +373,9 @@ def least_margin(cm, result):
     """(margin, pair) of the pair nearest its limit over a result: the smallest refined
     distance less the pair's limit (user length unit; negative: a contact), and the pair's
     name; None without pairs or rows. The synthesis' `clearance` constraint."""
-    found = minima(cm, result)
+    C = Clearance(cm)
+    found = minima(cm, result, C)
     if not found:
         return None
-    C = Clearance(cm)
     worst = min(zip(found, C.pairs), key=lambda mp: mp[0].d - mp[1].limit)
     return worst[0].d - worst[1].limit, worst[1].name
