@@ -109,6 +109,19 @@ class ParameterDerivatives:
         return bool(self.number(node).any())
 
 
+def body_form_only(root, file: str, who: str, instead: str = "") -> None:
+    """Refuse a model in the sketch form (links:) at its links: line: every point there is a
+    global placement at:, which enters the compiled body frames nonlinearly and which the
+    sensitivities do not differentiate. who: what needs the body form; instead: the message's
+    end (another command that serves)."""
+    links = root.value.get("links")
+    if links is not None:
+        raise InputError([Diagnostic(str(file), root.key_lines.get("links", links.line), (
+            f"{who} need the body form (bodies:, joints:): in the sketch form (links:) every "
+            f"point is a global placement at:, which the sensitivities do not differentiate; "
+            f"write the model with bodies and joints (as mechanisms/four-bar.yaml){instead}"))])
+
+
 def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.ndarray):
     """Exact dq/dp of the body coordinates and dP/dp of the points at the grid times.
 
@@ -118,15 +131,7 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
     Raises InputError naming the element where a parameter enters in a way not differentiated.
     """
     spec = cm.spec
-    links = root.value.get("links")
-    if links is not None:
-        # the sketch form: every point is a global placement at:, which enters the compiled
-        # body frames nonlinearly (the same refusal as synth's and fit's)
-        raise InputError([Diagnostic(spec.file, root.key_lines.get("links", links.line), (
-            "first-order sensitivities need the body form (bodies:, joints:): in the sketch "
-            "form (links:) every point is a global placement at:, which the sensitivities do "
-            "not differentiate; write the model with bodies and joints (as "
-            "mechanisms/four-bar.yaml), or use planarkin sweep"))])
+    body_form_only(root, spec.file, "first-order sensitivities", ", or use planarkin sweep")
     D = ParameterDerivatives(root, spec.parameters, texts, wrt)
     k = len(wrt)
     N = len(t)

@@ -62,14 +62,8 @@ class Model:
     def __init__(self, path, free, overrides=None, analysis=None):
         from ..studies.variants import Study
         self.study = Study(path, overrides, analysis)
-        links = self.study.root.value.get("links")
-        if links is not None:
-            line = self.study.root.key_lines.get("links", links.line)
-            raise InputError([Diagnostic(str(path), line, (
-                "synth and fit need the body form (bodies:, joints:): in the sketch form "
-                "(links:) every point is a global placement at:, which the sensitivities do "
-                "not differentiate; write the model with bodies and joints (as "
-                "mechanisms/four-bar.yaml)"))])
+        from ..studies.sensitivity import body_form_only
+        body_form_only(self.study.root, path, "synth and fit")
         self.path = str(path)
         self.free = list(free)
         self.analysis = {k: v for k, v in (analysis or {}).items() if v is not None}
