@@ -1,7 +1,10 @@
 """What validating a model again costs (a study's variant, a synthesis trial): Study.model
-(validate with overrides, then compile) per call, with planarkin.functions.expr.evaluate_constant's
-shortcut for numbers and parameter names and without it (the full parse of every text, as
-before 2026-12-06), alternating, medians of --rounds rounds of --calls calls (CPU time).
+(validate with overrides, then compile) per call, alternating three ways of evaluating the
+file's texts (planarkin.functions.expr.evaluate_constant): `parse`, the full parse of every text
+(as before 2026-12-06); `names`, the shortcut for numbers and parameter names, every other text
+parsed (2026-12-06); `plans`, the shortcut and every other text from its plan
+(planarkin.functions.expr.plan, 2026-12-07: the default). Medians of --rounds rounds of --calls
+calls (CPU time), with the range.
 
     python benchmarks/bench_validate.py [--rounds 7] [--calls 300]
 """
@@ -25,28 +28,37 @@ def main(argv=None):
     from planarkin.functions.expr import parser
     from planarkin.studies.variants import Study
     new = parser.evaluate_constant
+    plans = parser._PLANS
+
+    class NoPlans(dict):                # never holds a plan: every other text is parsed
+        def __len__(self):
+            return 1 << 30
 
     def old(text, values):
         return parser.parse_text(text, values.keys(), False, values).value
 
+    ways = (("parse", old, plans), ("names", new, NoPlans()), ("plans", new, plans))
     print(f"load average {os.getloadavg()[0]:.2f} at the start")
-    for path in ("mechanisms/synthesis/straight-line.yaml", "mechanisms/four-bar.yaml"):
+    for path in ("mechanisms/synthesis/five-point-curve.yaml",
+                 "mechanisms/synthesis/straight-line.yaml", "mechanisms/four-bar.yaml"):
         s = Study(ROOT / path)
         key = next(iter(s.parameters))
         base = float(s.parameters[key])
-        res = {"without": [], "with": []}
+        res = {name: [] for name, _, _ in ways}
         for _ in range(a.rounds):
-            for name, fn in (("without", old), ("with", new)):
+            for name, fn, table in ways:
                 V.evaluate_constant = fn          # the validator's calls (not synthesis.spec's)
+                parser._PLANS = table
                 t0 = time.process_time()
                 for i in range(a.calls):
                     s.model({key: base * (1 + 1e-6 * i)})
                 res[name].append((time.process_time() - t0) / a.calls * 1e3)
-        V.evaluate_constant = new
-        o, n = statistics.median(res["without"]), statistics.median(res["with"])
-        print(f"{path}: Study.model CPU per call without the shortcut {o:.3f} ms "
-              f"({min(res['without']):.3f}-{max(res['without']):.3f}), with it {n:.3f} ms "
-              f"({min(res['with']):.3f}-{max(res['with']):.3f}): {n / o:.2f}x")
+        V.evaluate_constant, parser._PLANS = new, plans
+        med = {name: statistics.median(v) for name, v in res.items()}
+        print(f"{path}: Study.model CPU per call, " + ", ".join(
+            f"{name} {med[name]:.3f} ms ({min(v):.3f}-{max(v):.3f})" for name, v in res.items())
+            + f"; plans / parse {med['plans'] / med['parse']:.2f}x, plans / names "
+              f"{med['plans'] / med['names']:.2f}x")
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
 

@@ -17,6 +17,7 @@ from ..laws import LAWS  # plain data: the laws do not import expr
 from .core import (CONSTANTS, FUNCS, MAX_CHARS, MAX_DEPTH, MAX_NODES, SUGAR, BuildError, Expr,
                    ExprError, bin_node, call_node, cmp_node, logic_node, neg_node, num_node,
                    pw_node, quote, sugar_node, where_node)
+from .plan import Unplanned, plan
 
 PW_FUNCS: dict = dict(LAWS)   # name -> Piecewise callable in expressions (the motion laws)
 
@@ -261,4 +262,21 @@ def evaluate_constant(text: str | int | float, values: Mapping[str, float]) -> f
                 v = math.nan
             if math.isfinite(v):
                 return v
-    return parse_text(text, values.keys(), False, values).value  # all names substituted, folded
+        planned = _PLANS.get(src)
+        if planned is not None:
+            try:
+                with np.errstate(all="ignore"):
+                    return planned(values)
+            except Unplanned:       # not finite, or a name that is not a parameter here
+                pass
+        value = parse_text(text, values.keys(), False, values).value  # names substituted, folded
+        if src not in _PLANS and len(_PLANS) < 4096:
+            _PLANS[src] = plan(src)
+        return value
+    return parse_text(text, values.keys(), False, values).value
+
+
+# text -> its plan (planarkin.functions.expr.plan), or None: a text is parsed in full once, then
+# evaluated from its plan for every other design. Bounded: --set texts are few, a study's values
+# are numbers (the fast path above)
+_PLANS: dict = {}
