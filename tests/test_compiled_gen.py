@@ -116,7 +116,8 @@ def test_generated_route_meets_the_closed_forms(which, monkeypatch):
     compare(res, cf)
 
 
-# a batch by the generated kernel, printed as json: the largest difference to the reference
+# a batch by the generated kernel of the smallest structure (tests/data/crank.yaml: the cache's
+# behaviour is the same for every structure, its compile the shortest), printed as json: the largest difference to the reference
 # pass relative to each column's largest value, whether it ran compiled, the CPU time of its
 # compile or load (CPU, not wall: the tests share two cores with other work)
 BATCH = """
@@ -124,7 +125,7 @@ import json, sys, time, numpy as np
 sys.path.insert(0, "tests")
 from test_compiled_gen import _batch, _rel
 from planarkin.solver.compiled import kernels as compiled_grid, kernel
-S, t, Q0 = _batch("mechanisms/four-bar.yaml", 50)
+S, t, Q0 = _batch("tests/data/crank.yaml", 50)
 P = kernel.pack(S)
 t0 = time.process_time()
 fn = compiled_grid.function(P, S.n + 3, S.cm.m, S.nb)
@@ -159,7 +160,7 @@ def test_every_structure_pack_accepts_is_written_out():
 
 
 def test_the_first_run_compiles_into_the_cache_and_the_second_loads_it(tmp_path):
-    """An empty cache: the four-bar's kernel compiles and lands, with its source, in the
+    """An empty cache: the crank's kernel compiles and lands, with its source, in the
     checked private cache; a second process loads it (numba's cache hits) instead of compiling.
     How long a compile takes is measured in benchmarks/bench_coldstart.py, not here."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
@@ -199,7 +200,7 @@ def test_a_source_file_that_is_not_the_generated_text_is_replaced(tmp_path, dama
 
 def test_a_doctored_cached_kernel_is_rebuilt_with_the_same_results(tmp_path):
     """A process after another one left its kernel in the cache. The source doctored (the
-    four-bar's x shifted) is detected and written again, with the reference pass's results
+    crank's x shifted) is detected and written again, with the reference pass's results
     (numba's own files, keyed on the hash of the source's bytes, fit the restored text and
     load); numba's compiled data doctored is deleted (jitcache's manifest) and compiled again."""
     env = {"PLANARKIN_CACHE": str(tmp_path / "c")}
