@@ -356,3 +356,59 @@ def test_the_study_routes_agree_to_1e15_of_each_columns_largest_value(name):
     # the metrics the study reports from them: the points' kinematics, the same to 1e-15
     for a, b in zip(B.points(*fast[:3], fast[5]), B.points(*ref[:3], ref[5])):
         close_columns(b.reshape(V * T, -1), a.reshape(V * T, -1), "points")
+
+
+ROD = """name: rod-as-distance
+parameters:
+  a: 0.1
+  l: 0.3          # the rod, a distance joint between the crank pin and the slider's pin
+  th: 0           # the guide's angle (a joint's constant)
+bodies:
+  crank:  {q: [0, 0, 0]}
+  slider: {q: [0.4, 0, 0]}
+joints:
+  - {type: revolute, i: ground, j: crank, si: [0, 0], sj: [0, 0]}
+  - {type: distance, i: crank, j: slider, si: [a, 0], sj: [0, 0], c: l}
+  - {type: y, i: ground, j: slider, si: [0, 0], sj: [0, 0], c: 0}
+  - {type: angle, i: ground, j: slider, c: th}
+drivers:
+  - {type: angle, body: crank, f: "2*pi*t"}
+analysis: {start: 0, end: 1, steps: 180}
+"""
+
+
+def test_parameters_that_reach_joint_constants_are_varied_in_the_batch(tmp_path, monkeypatch):
+    """A joint's constant c (a distance's length, an angle) is the kind's target, not one of
+    its params: the batch missed it and solved every variant with the nominal's constant (a
+    guide's angle varied by 0.039 rad gave the nominal's angle, silently). Now each variant has
+    its own: the closed forms max slider.x = a + l and slider.phi = th, every variant batched;
+    a length that turns negative is left to the ordinary path, which refuses it."""
+    path = tmp_path / "rod.yaml"
+    path.write_text(ROD)
+    s = Study(str(path), metrics=["max:slider.x", "max:slider.phi"])
+    s.chain, s.group = 4, 2
+    variants = [{"l": 0.3 + 0.002 * i, "th": 0.003 * i} for i in range(8)]
+    assert s.batch(variants) is not None
+    fallbacks = []
+    orig = s.solve
+    monkeypatch.setattr(s, "solve", lambda v, *a, **k: fallbacks.append(v) or orig(v, *a, **k))
+    out = s.run(variants)
+    assert fallbacks == []
+    for v, o in zip(variants, out):
+        assert o.status == "ok"
+        assert o.metrics[0] == pytest.approx(0.1 + v["l"], rel=1e-12)
+        assert o.metrics[1] == pytest.approx(v["th"], abs=1e-15)
+    bad = s.run([{"l": 0.3, "th": 0.0}, {"l": -0.3, "th": 0.0}])
+    assert bad[1].status == "invalid" and fallbacks == [{"l": -0.3, "th": 0.0}]
+
+
+def test_a_guides_angle_of_the_five_point_problem_is_the_closed_form():
+    """max crank.phi over t in [0, 0.3] is th0 + 0.6 pi (the crank turns 2 pi t from the
+    ground line at th0, an angle joint's constant)."""
+    s = Study("mechanisms/synthesis/five-point-curve.yaml", metrics=["max:crank.phi"],
+              analysis={"end": 0.3})
+    variants = [{"th0": 1e-3 * i} for i in range(12)]
+    out = s.run(variants)
+    assert s.batch(variants) is not None
+    for v, o in zip(variants, out):
+        assert o.metrics[0] == pytest.approx(v["th0"] + 0.6 * np.pi, abs=1e-13)

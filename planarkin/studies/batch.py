@@ -124,7 +124,7 @@ class Batch:
         sections = {"joint": root.value.get("joints"), "driver": root.value.get("drivers")}
         # per group, per parameter: the (instance, component, Expr, scale) that vary
         self.gvar = []
-        self.tvar = []          # (row, Expr, scale): joint constants
+        self.tvar = []          # (row, Expr, scale, must be positive): joint constants
         self.fvar = []          # (row, Expr f, scale): driver functions
         for gi, G in enumerate(cm.groups):
             entries = []
@@ -134,15 +134,17 @@ class Batch:
                 keys = sections[el.role].value[el.index - 1].value
                 if uses(keys.get("at")) or uses(keys.get("axis")):
                     raise Unsupported(f"{el.label}: a varied parameter reaches 'at'")
+                # a joint's constant (c of angle, distance, x, y, pin-slot, slide) is the
+                # kind's target, not one of its params: its equation's first row is g - c
+                if el.role == "joint" and kind.target and uses(keys.get(kind.target)):
+                    scale = {"length": 1 / self.L, "angle": self.af, None: 1.0}[kind.target_unit]
+                    self.tvar.append((int(G.rows[k, 0]), self._expr(keys[kind.target]), scale,
+                                      kind.positive_target))
                 for p in kind.params:
                     node = keys.get(p.name)
                     if not uses(node):
                         continue
-                    if el.role == "joint" and p.name == kind.target:
-                        scale = {"length": 1 / self.L, "angle": self.af, None: 1.0}[
-                            kind.target_unit]
-                        self.tvar.append((int(G.rows[k, 0]), self._expr(node), scale))
-                    elif p.unit == "point":
+                    if p.unit == "point":
                         for c in range(2):
                             entries.append((p.name, k, c, self._expr(node.value[c]),
                                             1 / self.L))
@@ -223,14 +225,17 @@ class Batch:
                     params[name][:, k, c] = v
             groups.append(params)
         targets = np.repeat(self.cm.targets[None], Vn, axis=0)
-        for r, e, scale in self.tvar:
+        positive = np.ones(Vn, dtype=bool)
+        for r, e, scale, must_be_positive in self.tvar:
             targets[:, r] = np.broadcast_to(e.evaluate(env), (Vn,)) * scale
+            if must_be_positive:        # the validator refuses such a variant: run's path
+                positive &= targets[:, r] > 0
         s = np.repeat(self.cm.point_s[None], Vn, axis=0)
         for j, ex, ey in self.svar:
             s[:, j, 0] = np.broadcast_to(ex.evaluate(env), (Vn,)) / self.L
             s[:, j, 1] = np.broadcast_to(ey.evaluate(env), (Vn,)) / self.L
         ok = self.preflight(env, Vn) & np.isfinite(s.reshape(Vn, -1)).all(axis=1) \
-            & np.isfinite(targets).all(axis=1)
+            & np.isfinite(targets).all(axis=1) & positive
         for params in groups:
             for a in params.values():
                 ok &= np.isfinite(a.reshape(Vn, -1)).all(axis=1)
