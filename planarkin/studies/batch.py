@@ -89,7 +89,10 @@ def _text(node):
 class Batch:
     """The batched form of a Study for a set of varied parameter names."""
 
-    def __init__(self, study, varied):
+    def __init__(self, study, varied, nominal: bool = True):
+        """nominal: solve the nominal model on the grid (the chains' first predictions,
+        Lockstep); False for a caller that starts every variant from its own pose
+        (planarkin.synthesis.starts)."""
         from planarkin.solver.assembly import assemble
         cm = self.cm = study.nominal
         self.study = study
@@ -176,7 +179,8 @@ class Batch:
                            np.array([first[int(r)][1] for r in p.group.rows[:, 0]]))
                           for p in B.parts] for B in self.S.blocks]
         self.grid = study.opts.grid
-        self.nominal_solution()
+        if nominal:
+            self.nominal_solution()
 
     def _depends_t(self, node) -> bool:
         """_depends for a driver's f, a function of t: whether a varied parameter reaches it."""
@@ -262,13 +266,16 @@ class Batch:
             ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), self.study.opts) is None
         return ok
 
-    def drivers(self, targets, env):
-        """(Vn, T, m) targets, nu and f'' on the grid."""
-        t = self.grid
+    def drivers(self, targets, env, t=None):
+        """(Vn, T, m) targets, nu and f'' on the grid (or at times t, (T,))."""
         Vn = targets.shape[0]
-        if not hasattr(self, "_base"):
-            self._base = self.S.driver_values(t)
-        base = self._base
+        if t is not None:
+            base = self.S.driver_values(t)
+        else:
+            t = self.grid
+            if not hasattr(self, "_base"):
+                self._base = self.S.driver_values(t)
+            base = self._base
         T = targets[:, None, :] + (base[0] - self.cm.targets)[None]
         NU = np.repeat(base[1][None], Vn, axis=0)
         FDD = np.repeat(base[2][None], Vn, axis=0)

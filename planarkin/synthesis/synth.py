@@ -16,7 +16,9 @@ The method:
 1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds (and the
    file's own values with search nominal: 1); a design whose four-bar loop cannot turn is
    refused from its compiled model alone (`screen`), the others are analysed over the whole
-   range through the Study (validate with overrides, compile, solve); designs that cannot be
+   range, starts.AHEAD at a time as the rows of one grid pass (planarkin.synthesis.starts), and
+   those that pass not every step test there by the path follower (`Model.analyse`: validate
+   with overrides, compile, solve), with the same results to rounding; designs that cannot be
    assembled, lock up or violate a constraint are rejected with their reason; the free times
    of the others are chosen on their grid (the nearest points, in order along the path, in
    either direction);
@@ -55,7 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..output.directory import checkpoint
-from . import timing
+from . import starts, timing
 from .local import Local, probe_limits, verified
 from .margins import (angle_span, barrier, length_gradients, turning_loop,
                       worst_transmission)
@@ -158,6 +160,7 @@ class Synthesis:
         self.local = None             # the Local of the search (its trials are evaluations)
         self.runs = 0                 # local runs started
         self._draws = None            # [(n, seed), index, generator, starts] (see draw)
+        self.starts_batch = False     # starts.batch_for's, built at the first starts analysed
         self.drawn = 0                # starts examined (over every draw)
         self.refusals = set()         # the reasons of the starts refused (full text, a draw)
         self.ended = None             # what ended the search: goal, evaluations, time, refused
@@ -453,13 +456,18 @@ class Synthesis:
         if part is not None:
             X = X[part[0]:part[1]]
         heap, reasons, scores = [], {}, []      # heap: the best `limit`, worst on top
+        ahead: dict = {}
         for e, xp in enumerate(X):
             if halt is not None and halt():
                 break
             self.tick()
-            out = self.screen(self.model.values(xp))
+            if e not in ahead:
+                ahead = starts.ahead(self, X, e)
+            out = ahead[e]
             if out is None:
                 out = self.model.analyse(self.model.values(xp))
+            elif not isinstance(out, Rejected):
+                self.model.evaluations += 1         # an analysis over the whole cycle
             if isinstance(out, Rejected):
                 key = _kind(out.reason)
                 reasons[key] = reasons.get(key, 0) + 1
@@ -508,21 +516,23 @@ class Synthesis:
 
     def screen(self, values):
         """Rejected when the design is invalid or its four-bar loop cannot turn (the turns
-        margin, from the compiled model alone), else None: an analysis over the cycle would
-        refuse such a design anyway (lock-up, or the turns constraint), at ~30 times the
-        cost. Not an evaluation."""
+        margin, from the compiled model alone), else its compiled model, or None when that is
+        left to the analysis (no turns constraint and an invalid design: the analysis refuses
+        it, as an evaluation): an analysis over the cycle would refuse such a design anyway
+        (lock-up, or the turns constraint), at ~30 times the cost. Not an evaluation."""
         from ..diagnostics import InputError
-        if self.design.turns is None:
-            return None
         try:
             cm = self.model.study.model(values)
         except InputError as e:
+            if self.design.turns is None:
+                return None
             return Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
                                                      if d.severity == "error"))
-        loop = turning_loop(cm, self.design.turns, self.design.shortest)
-        if loop is not None and not loop.margin() > 0:
-            return Rejected(f"constraint turns: {loop.margin():.6g} (needs > 0)")
-        return None
+        if self.design.turns is not None:
+            loop = turning_loop(cm, self.design.turns, self.design.shortest)
+            if loop is not None and not loop.margin() > 0:
+                return Rejected(f"constraint turns: {loop.margin():.6g} (needs > 0)")
+        return cm
 
     def _grid_times(self, res) -> dict:
         """Free times on the grid: per target without inputs (index -> (N,) s), the grid

@@ -1,0 +1,199 @@
+"""The starts of a search analysed together: designs as the rows of one grid pass.
+
+Every start of a search is analysed over its whole cycle before it is refined
+(`Synthesis.candidates`). One at a time that is the path follower's analysis (`analyse`), tens of
+milliseconds a design, most of it the same numpy calls on a few numbers. Here a batch of designs
+is marched over the grid together:
+
+* the numbers the free parameters reach are evaluated for every design at once from the file's
+  expressions (`studies.batch.Batch.numbers`, in the nominal model's internal units), and the
+  grid pass's System reads them as per-row parameters (`Batch.system`);
+* each design starts from its own compiled pose estimate at the first grid time; every grid time
+  is then solved for all designs in one call of the grid pass's Newton (`System.solve_batch`,
+  full Newton) from each design's Taylor prediction (position, velocity, acceleration and the
+  jerk of the step before);
+* every step is held to the tests the path follower applies to a step
+  (`planarkin.solver.acceptance`): converged, the first correction within KAPPA of the smallest
+  singular value, finite velocities and accelerations, the condition under COND_WARN, every fine
+  block's determinant sign the one at the start (the same assembly branch), and the Taylor
+  predictor's error forwards and backwards within path_tol between consecutive grid times.
+
+A design that fails any test is left to the path follower (None in its place), which accepts it
+or refuses it with its reason; so a start is never refused here. An accepted design's Result has
+the path follower's rows (the grid times) in user units, to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..results import Result
+from ..results.runinfo import RunInfo
+from ..solver.acceptance import COND_WARN, accepted, condition, taylor_error
+from ..solver.chunks import Chunk
+from ..solver.kinematics import point_kinematics
+from .problem import Rejected
+
+AHEAD = 64           # starts analysed together
+MIN_BATCH = 4        # fewer designs than this: the path follower, one by one
+SUBSTEPS = (1, 2, 4, 8, 16)  # steps per grid interval, tried in turn by a design's path test
+
+
+def ahead(syn, X, first: int) -> dict:
+    """Starts X[first:] of a Synthesis screened until AHEAD pass (Synthesis.screen), and those
+    analysed together: start index -> Rejected (the screen's), (cm, opts, Result) (an analysis
+    over the whole cycle, not yet counted), or None (the path follower's, one by one:
+    Model.analyse)."""
+    from ..options import Options
+    out, designs, where = {}, [], []
+    for e in range(first, len(X)):
+        if len(designs) >= AHEAD:
+            break
+        values = syn.model.values(X[e])
+        got = syn.screen(values)
+        out[e] = got if isinstance(got, Rejected) else None
+        if got is not None and not isinstance(got, Rejected):
+            designs.append((values, got))
+            where.append(e)
+    if syn.starts_batch is False:                       # not built yet
+        syn.starts_batch = batch_for(syn.model.study, syn.model.free)
+    if syn.starts_batch is None or not designs:
+        return out
+    opts_of = lambda cm: Options.from_model(cm, **syn.model.analysis)  # noqa: E731
+    for e, (_, cm), res in zip(where, designs, march(syn.starts_batch, designs, opts_of)):
+        if res is not None:
+            out[e] = (cm, res.info.options, res)
+    return out
+
+
+def batch_for(study, free):
+    """The batched form of the study for the free parameters (studies.batch.Batch), or None
+    when the model does not take it (the starts are then analysed one by one)."""
+    from ..diagnostics import InputError
+    from ..studies.batch import Batch, Unsupported
+    try:
+        return Batch(study, list(free), nominal=False)
+    except (Unsupported, InputError):
+        return None
+
+
+def march(B, designs, opts_of) -> list:
+    """Results of designs analysed together, None where the path follower must decide.
+
+    B: batch_for's Batch; designs: (values dict, compiled model) per design; opts_of: cm ->
+    the Options its analysis would use. Returns a list of Result or None, in order."""
+    out = [None] * len(designs)
+    if len(designs) < MIN_BATCH:
+        return out
+    num = B.numbers([v for v, _ in designs])
+    nominal = B.cm
+    n, L, af = nominal.n, nominal.L, nominal.angle_factor
+    unit = np.tile([L, L, 1.0 / af], nominal.nb)            # nominal internal -> user
+    Q0 = np.zeros((len(designs), n + 3))
+    for i, (_, cm) in enumerate(designs):
+        own = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+        Q0[i, :n] = cm.q0 * own / unit
+    go = np.nonzero(num[4] & np.isfinite(Q0).all(axis=1))[0]
+    if len(go) < MIN_BATCH:
+        return out
+    M = _Marcher(B, B.take(num, go), Q0[go])
+    for k in range(1, len(B.grid)):
+        if not M.interval(B.grid[k - 1], B.grid[k], k):
+            break
+    for j in M.live:
+        i = go[j]
+        out[i] = _result(designs[i][1], opts_of(designs[i][1]), B.grid, M.Q[j], M.Qd[j],
+                         M.Qdd[j], unit, M.iters[j], M.cond[j])
+    return out
+
+
+class _Marcher:
+    """Designs marched over the grid, each interval in one step or, for the designs whose step
+    fails a test there, in SUBSTEPS equal steps (as the path follower shortens its step)."""
+
+    def __init__(self, B, num, Q0):
+        self.B, self.num = B, num
+        o = B.study.opts
+        self.tol, self.maxit, self.path_tol = o.tol, max(o.iterations, 8), o.path_tol
+        V, K = len(Q0), len(B.grid)
+        self.Q, self.Qd, self.Qdd = (np.zeros((V, K, Q0.shape[1])) for _ in range(3))
+        self.iters = np.zeros((V, K), dtype=int)
+        self.cond = np.zeros((V, K))
+        rows = np.arange(V)
+        got = self.solve(rows, np.full(V, B.grid[0]), Q0.copy(), np.zeros_like(Q0),
+                         np.zeros_like(Q0), None)
+        good, (q, qd, qdd), info = got
+        self.sign = info.sign.copy()                # each design's branch at the start
+        self.live = rows[good]
+        self.sign = self.sign[good]
+        self.Q[self.live, 0], self.Qd[self.live, 0], self.Qdd[self.live, 0] = \
+            q[good], qd[good], qdd[good]
+        self.iters[self.live, 0] = info.iterations[good]
+        self.cond[self.live, 0] = condition(info)[good]
+        self.j3 = np.zeros((V, Q0.shape[1]))        # the jerk of each design's last step
+
+    def solve(self, rows, t, P, Pd, Pdd, sign):
+        """Solve designs rows (indices into num) at one time (t: (len(rows),), all equal)
+        from the predictions P, Pd, Pdd (solved in place): (accepted, (P, Pd, Pdd), info)."""
+        B = self.B
+        groups, targets, _, env, _ = self.num
+        S = B.system([{name: a[rows] for name, a in g.items()} for g in groups])
+        T, NU, FDD = B.drivers(targets[rows], {k: v[rows] for k, v in env.items()}, t[:1])
+        drivers = (T[:, 0], NU[:, 0], FDD[:, 0])
+        with np.errstate(all="ignore"):
+            info = S.solve_batch(t, P, Pd, Pdd, policy="full", tol=self.tol, maxit=self.maxit,
+                                 order=2, drivers=drivers, fused=False)
+        return accepted(info, sign, (Pd, Pdd), cond_max=COND_WARN), (P, Pd, Pdd), info
+
+    def interval(self, a: float, b: float, k: int) -> bool:
+        """Advance every live design from grid time a (row k - 1) to b (row k); False when
+        none is left."""
+        todo = np.arange(len(self.live))            # positions in self.live
+        done = np.zeros(len(self.live), dtype=bool)
+        n = self.B.cm.n
+        for sub in SUBSTEPS:
+            if len(todo) == 0:
+                break
+            rows = self.live[todo]
+            q, qd, qdd = (A[rows, k - 1].copy() for A in (self.Q, self.Qd, self.Qdd))
+            j3 = self.j3[rows].copy()
+            ok = np.ones(len(rows), dtype=bool)
+            h = (b - a) / sub
+            for s in range(sub):
+                ts = b if s == sub - 1 else a + (s + 1) * h
+                pred = q + h * qd + 0.5 * h * h * qdd + h ** 3 / 6.0 * j3
+                P, Pd, Pdd = pred.copy(), qd + h * qdd, qdd.copy()
+                good, _, info = self.solve(rows, np.full(len(rows), ts), P, Pd, Pdd,
+                                           self.sign[todo])
+                with np.errstate(all="ignore"):
+                    err = taylor_error(np.full((len(rows), 1), h), q[:, :n], qd[:, :n],
+                                       qdd[:, :n], j3[:, :n], P[:, :n], Pd[:, :n], Pdd[:, :n],
+                                       pred[:, :n])
+                ok &= good & (err <= self.path_tol)
+                j3 = (Pdd - qdd) / h
+                q, qd, qdd = P, Pd, Pdd
+            for A, v in ((self.Q, q), (self.Qd, qd), (self.Qdd, qdd)):
+                A[rows[ok], k] = v[ok]
+            self.iters[rows[ok], k] = info.iterations[ok]
+            self.cond[rows[ok], k] = condition(info)[ok]
+            self.j3[rows[ok]] = j3[ok]
+            done[todo[ok]] = True
+            todo = todo[~ok]
+        self.live, self.sign = self.live[done], self.sign[done]
+        return len(self.live) > 0
+
+
+def _result(cm, opts, grid, Q, Qd, Qdd, unit, iterations, cond) -> Result:
+    """The Result of one marched design in its own model's units (the path follower's rows)."""
+    n = cm.n
+    own = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+    q, qd, qdd = (a[:, :n] * unit for a in (Q, Qd, Qdd))
+    ext = lambda a: np.concatenate([a / own, np.zeros((len(a), 3))], axis=1)  # noqa: E731
+    order = opts.order
+    P, Pd, Pdd = point_kinematics(cm, ext(q), ext(qd), ext(qdd) if order >= 2 else None)
+    chunk = Chunk(grid.copy(), q, qd, qdd if order >= 2 else None, P * cm.L, Pd * cm.L,
+                  Pdd * cm.L if order >= 2 else None, iterations, cond,
+                  np.zeros(len(grid)))
+    info = RunInfo(status=0, message="", options=opts, event=None, warnings=[], assembly={},
+                   internal_steps=0, rejected_steps=0, fallbacks=0)
+    return Result(cm, chunk, info)
