@@ -109,6 +109,20 @@ class ParameterDerivatives:
         return bool(self.number(node).any())
 
 
+_LAST: list = [None, None, None]       # root, key, ParameterDerivatives (see derivatives)
+
+
+def derivatives(root, values: dict, texts: dict, wrt: list[str]) -> ParameterDerivatives:
+    """ParameterDerivatives(root, values, texts, wrt), the last one again for the same file
+    tree and arguments: a synthesis Jacobian asks for the same design's up to three times (the
+    sensitivities, the times of prescribed inputs, the turns barrier). It is not changed
+    after it is built."""
+    key = (tuple(values.items()), tuple(texts.items()), tuple(wrt))
+    if _LAST[0] is not root or _LAST[1] != key:
+        _LAST[:] = [root, key, ParameterDerivatives(root, values, texts, wrt)]
+    return _LAST[2]
+
+
 def body_form_only(root, file: str, who: str, instead: str = "") -> None:
     """Refuse a model in the sketch form (links:) at its links: line: every point there is a
     global placement at:, which enters the compiled body frames nonlinearly and which the
@@ -132,7 +146,7 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
     """
     spec = cm.spec
     body_form_only(root, spec.file, "first-order sensitivities", ", or use planarkin sweep")
-    D = ParameterDerivatives(root, spec.parameters, texts, wrt)
+    D = derivatives(root, spec.parameters, texts, wrt)
     k = len(wrt)
     N = len(t)
     L, af = cm.L, cm.angle_factor

@@ -224,11 +224,11 @@ class Model:
 
     def input_dtdp(self, cm, t) -> np.ndarray:
         """(N, k) dt*/dp = -f_p / f_t at prescribed input values (f: the driver's function)."""
-        from ..studies.sensitivity import ParameterDerivatives
+        from ..studies.sensitivity import derivatives
         el = self.driver(cm)
         texts = self.study.texts()
         texts.update({k: float(v) for k, v in cm.spec.parameters.items() if k in self.free})
-        D = ParameterDerivatives(self.study.root, cm.spec.parameters, texts, self.free)
+        D = derivatives(self.study.root, cm.spec.parameters, texts, self.free)
         node = self.study.root.value["drivers"].value[el.index - 1].value["f"]
         fp = D.function(node, np.asarray(t, dtype=float))
         _, ft, _ = el.f.derivatives(np.asarray(t, dtype=float))

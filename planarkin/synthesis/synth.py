@@ -314,12 +314,11 @@ class Synthesis:
                 else 0.0), loop
 
     def barrier_gradient(self, cm, bar) -> np.ndarray:
-        from ..studies.sensitivity import ParameterDerivatives
+        from ..studies.sensitivity import derivatives
         loop = bar[1]
         texts = self.model.study.texts()
         texts.update({k: float(v) for k, v in cm.spec.parameters.items() if k in self.model.free})
-        D = ParameterDerivatives(self.model.study.root, cm.spec.parameters, texts,
-                                 self.model.free)
+        D = derivatives(self.model.study.root, cm.spec.parameters, texts, self.model.free)
         dl = length_gradients(loop, cm, self.model.study.root, D)
         m = loop.margin()
         return barrier(m, loop.gradient(dl), sum(loop.lengths), dl.sum(axis=0))[1]
