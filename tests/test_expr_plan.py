@@ -73,3 +73,22 @@ def test_a_planned_text_that_fails_gets_the_parsers_message(text, values, messag
     with pytest.raises(ExprError) as planned:
         evaluate_constant(text, values)
     assert str(planned.value) == str(direct.value)
+
+
+def test_a_driver_the_design_does_not_reach_is_shared_between_designs():
+    """TimeFunction.shared: the same object for the same text and values of the parameters it
+    uses (whatever the others), a new one when one of those changes, the constructor's
+    errors as they were."""
+    from planarkin.functions.expr import TimeFunction
+    a = TimeFunction.shared("w*t + c", {"w": 2.0, "c": 0.5, "x": 1.0})
+    assert TimeFunction.shared("w*t + c", {"w": 2.0, "c": 0.5, "x": 7.0}) is a
+    b = TimeFunction.shared("w*t + c", {"w": 3.0, "c": 0.5, "x": 1.0})
+    assert b is not a
+    t = np.linspace(0, 1, 5)
+    assert np.array_equal(b.derivatives(t)[0], TimeFunction("w*t + c", {"w": 3.0, "c": 0.5})
+                          .derivatives(t)[0])
+    with pytest.raises(ExprError) as shared:
+        TimeFunction.shared("sqrt(c - 1)*t", {"c": 0.5})
+    with pytest.raises(ExprError) as direct:
+        TimeFunction("sqrt(c - 1)*t", {"c": 0.5})
+    assert str(shared.value) == str(direct.value)

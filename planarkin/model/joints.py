@@ -328,7 +328,7 @@ class ElementSections:
             return None
         v = node.value
         try:
-            return TimeFunction(v if isinstance(v, str) else float(v), self.params)
+            return TimeFunction.shared(v if isinstance(v, str) else float(v), self.params)
         except ExprError as e:
             if not self.of_broken(v):
                 self.err(node, f"{what}: f: {e}")

@@ -13,6 +13,11 @@ from .core import (CMPS, SWITCH_OPS, ZERO, BuildError, Expr, ExprError, bin_node
 from .parser import parse_text
 
 
+_SHARED_MAX = 1024
+_NAMES: dict = {}       # (text, the model's parameter names) -> the names the text uses
+_SHARED: dict = {}      # (text, the values of those names) -> TimeFunction (TimeFunction.shared)
+
+
 class TimeFunction:
     """A driver function f(t) with exact first, second (and third) derivatives.
 
@@ -24,6 +29,32 @@ class TimeFunction:
     def __init__(self, text: str | int | float, values: Mapping[str, float]):
         self._setup(parse_text(text, values.keys(), True, values),
                     text if isinstance(text, str) else str(text))
+
+    @classmethod
+    def shared(cls, text: str | int | float, values: Mapping[str, float]) -> "TimeFunction":
+        """TimeFunction(text, values), the same object again for the same text and the same
+        values of the parameters it uses: a model is validated again for every design of a
+        study or a synthesis, and a driver the design does not reach is then not parsed and
+        differentiated again. What it keeps later (the third derivative, breakpoints) depends
+        on its expression alone."""
+        nk = (text, tuple(values))
+        names = _NAMES.get(nk)
+        if names is None:
+            tf = cls(text, values)                   # raises as before
+            names = tuple(sorted(parse_text(text, values.keys(), True, None).names - {"t"}))
+            if len(_NAMES) >= _SHARED_MAX:
+                _NAMES.clear()
+            _NAMES[nk] = names
+        else:
+            tf = None
+        key = (text, tuple(float(values[n]) for n in names))
+        got = _SHARED.get(key)
+        if got is None:
+            got = tf if tf is not None else cls(text, values)
+            if len(_SHARED) >= _SHARED_MAX:
+                _SHARED.clear()
+            _SHARED[key] = got
+        return got
 
     @classmethod
     def from_expr(cls, expr: Expr, text: str, domain: tuple | None = None) -> "TimeFunction":
