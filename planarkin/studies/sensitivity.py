@@ -61,6 +61,7 @@ class ParameterDerivatives:
     def __init__(self, root, values: dict, texts: dict, wrt: list[str]):
         self.values = dict(values)
         self.wrt = list(wrt)
+        self._numbers: dict = {}        # id(node) -> number(node) (the nodes live in root)
         self.order = tuple(values)
         # dparam[k][p]: derivative of parameter k with respect to p, in file order
         self.dparam: dict[str, np.ndarray] = {}
@@ -82,8 +83,13 @@ class ParameterDerivatives:
         return g
 
     def number(self, node) -> np.ndarray:
-        """(len(wrt),) derivative of one scalar node of the file."""
-        return self._chain(_text(node), self.order)
+        """(len(wrt),) derivative of one scalar node of the file (kept: asked again by
+        `depends` and by each user of the same design's derivatives)."""
+        got = self._numbers.get(id(node))
+        if got is None:
+            got = self._numbers[id(node)] = self._chain(_text(node), self.order)
+            got.setflags(write=False)
+        return got
 
     def function(self, node, t: np.ndarray) -> np.ndarray:
         """(N, len(wrt)) derivative of a driver function f(t) with respect to wrt."""
