@@ -157,7 +157,7 @@ def test_cli_synth_none_acceptable_exits_1(tmp_path):
     # a small evaluation budget: the search spends the whole budget when the goal is out of
     # reach (the default's 2,000 evaluations took 20 s here)
     p = _variant(tmp_path, EX / "four-bar-function.yaml", "goal: 1e-12",
-                 "goal: 1e-30, evaluations: 200")
+                 "goal: 1e-30, evaluations: 60")
     p = _variant(tmp_path, p, "outputs: [86.1774462707", "outputs: [96.1774462707",
                  "far.yaml")
     r = CliRunner().invoke(main, ["synth", str(p), "--out", str(tmp_path), "--starts", "4",

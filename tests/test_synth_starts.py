@@ -61,7 +61,7 @@ def test_designs_the_follower_refuses_are_never_accepted(tmp_path):
     path = tmp_path / "free.yaml"
     path.write_text(text)
     syn = Synthesis(path)
-    designs = _designs(syn, 60, seed=3)
+    designs = _designs(syn, 40, seed=3)
     marched = _march(syn, designs)
     verdicts = [syn.model.analyse(v) for v, _ in designs]
     refused = [isinstance(r, Rejected) for r in verdicts]
