@@ -740,13 +740,15 @@ def test_a_cache_held_by_another_process_is_given_up_in_one_line(own_cache, monk
 
 def test_a_run_goes_on_while_another_holds_the_cache(tmp_path):
     """The real thing: a run of 300,000 points (the compiled route) while the test holds the
-    lock; it says so and finishes. The timeout is a hang guard only."""
+    lock; it says so and finishes. The timeout is a hang guard only. (The one-body crank of the
+    cache's tests: the lock is the subject, and its kernel compiles in half the time.)"""
     pytest.importorskip("numba")
     from planarkin.solver.compiled import jitcache
     cache = tmp_path / "cache"
     lock = _hold_cache_lock(cache)
     try:
-        r = subprocess.run(ENTRY + ["run", str(SLIDER), "--steps", "300000", "--no-plots",
+        r = subprocess.run(ENTRY + ["run", str(ROOT / "tests" / "data" / "crank.yaml"),
+                                    "--steps", "300000", "--no-plots",
                                     "--out", str(tmp_path / "out"), "-q"],
                            capture_output=True, text=True, timeout=300,
                            env=dict(_env(), PLANARKIN_CACHE=str(cache)))
@@ -756,7 +758,7 @@ def test_a_run_goes_on_while_another_holds_the_cache(tmp_path):
     assert r.stderr == (f"planarkin: the compiled code's cache {cache / jitcache.tag()} is held "
                         f"by another planarkin process (pid 4242) for more than 5 s "
                         f"(suspended?): compiling without the cache\n"), r.stderr
-    s = assert_contract(tmp_path / "out" / "slider-crank")
+    s = assert_contract(tmp_path / "out" / "crank")
     assert s["time"]["rows_written"] == 300001
     assert sorted(p.name for p in (cache / jitcache.tag()).iterdir()) == [".lock"]
 
