@@ -20,12 +20,24 @@ pyproject.toml, which .ci/run checks.
 from __future__ import annotations
 
 import ast
+import functools
 import sys
 from pathlib import Path
 
 import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "planarkin"
+
+@functools.lru_cache(maxsize=None)
+def _parsed(path: Path, mtime: int):
+    return ast.parse(path.read_text(), str(path))
+
+
+def parsed(path: Path):
+    """The file's syntax tree, parsed once per test process (the tests below each walk every
+    module of the package)."""
+    return _parsed(path, path.stat().st_mtime_ns)
+
 
 def module_name(path: Path, root: Path = PACKAGE) -> str:
     parts = list(path.relative_to(root.parent).with_suffix("").parts)
@@ -67,7 +79,7 @@ def imports(mods: dict[str, Path], top_level: bool = False):
     module-level if/try blocks)."""
     out = []
     for mod, path in mods.items():
-        tree = ast.parse(path.read_text(), str(path))
+        tree = parsed(path)
         pkg = path.name == "__init__.py"
         skip = _type_only(tree)
         for node in (_body_level(tree) if top_level else ast.walk(tree)):
@@ -185,7 +197,7 @@ def private_imports(mods: dict[str, Path]) -> list[str]:
             if _private(n) and b != a:
                 found.append(f"{a}:{line}: {n} from {b}")
     for mod, path in mods.items():
-        tree = ast.parse(path.read_text(), str(path))
+        tree = parsed(path)
         pkg = path.name == "__init__.py"
         aliases: dict[str, str] = {}
         for node in ast.walk(tree):
@@ -243,7 +255,7 @@ MAX_FUNCTION = 120
 def test_no_function_is_over_120_lines():
     long = {}
     for mod, path in modules().items():
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        for node in ast.walk(parsed(path)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 n = node.end_lineno - node.lineno + 1
                 if n > MAX_FUNCTION:
