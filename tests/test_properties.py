@@ -183,7 +183,7 @@ def run(text, steps, turns):
 
 # == properties ===================================================================================
 
-@settings(max_examples=30, **SETTINGS)
+@settings(max_examples=22, **SETTINGS)
 @given(m=crank_rockers(), grid=grids)
 def test_random_crank_rocker(m, grid):
     n, turns, k = grid
@@ -210,7 +210,7 @@ def test_random_crank_rocker(m, grid):
     check_grid_independence(res, run(text, k * n, turns), k)
 
 
-@settings(max_examples=30, **SETTINGS)
+@settings(max_examples=22, **SETTINGS)
 @given(m=slider_cranks(), grid=grids)
 def test_random_slider_crank(m, grid):
     n, turns, k = grid
