@@ -31,7 +31,9 @@ over processes: parallel runs equal the serial run bit for bit.
 
 Applies when the varied parameters reach only body-frame points (si, sj), joint constants, other
 scalar keys of the kinds except gear radii, driver functions and the points' s; not through
-directions, gear radii or global placements (at); not with redundant constraints, derived
+directions, gear radii or global placements (at), nor through the parameters or the bodies'
+poses of an element whose kind prepares constants from them at compile time (a slide's
+parallel constant, a mesh's phase, a belt's, a cam's rest); not with redundant constraints, derived
 tables among the metrics, or rows a room checks (forces, a cam's range: those variants take
 `run`'s refusal of rows, analysis.refuse, one by one). Variants follow the nominal's assembly
 branch. Every variant's drivers pass `run`'s check before a run (budget.preflight) or the
@@ -44,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import KINDS
-from ..elements.base import Group
+from ..elements.base import Group, Kind
 from planarkin.functions.expr import parse
 from planarkin.solver.acceptance import COND_WARN, accepted, path_errors
 from .lockstep import Lockstep
@@ -129,6 +131,9 @@ class Batch:
         self.gvar = []
         self.tvar = []          # (row, Expr, scale, must be positive): joint constants
         self.fvar = []          # (row, Expr f, scale): driver functions
+        bodies = root.value.get("bodies")
+        body_q = {name: node.value.get("q") for name, node in bodies.value.items()} \
+            if bodies is not None and bodies.kind == "map" else {}
         for gi, G in enumerate(cm.groups):
             entries = []
             for k in range(len(G)):
@@ -137,6 +142,14 @@ class Batch:
                 keys = sections[el.role].value[el.index - 1].value
                 if uses(keys.get("at")) or uses(keys.get("axis")):
                     raise Unsupported(f"{el.label}: a varied parameter reaches 'at'")
+                if type(kind).prepare is not Kind.prepare and (
+                        any(uses(keys.get(p.name)) for p in kind.params)
+                        or any(uses(body_q.get(b)) for b in el.bodies)):
+                    # the kind's constants are prepared at compile time from its parameters
+                    # and its bodies' poses (a mesh's phase, a slide's parallel constant, a
+                    # cam's rest): the nominal's would be kept for every variant
+                    raise Unsupported(f"{el.label}: a varied parameter reaches what its "
+                                      f"constants are prepared from")
                 # a joint's constant (c of angle, distance, x, y, pin-slot, slide) is the
                 # kind's target, not one of its params: its equation's first row is g - c
                 if el.role == "joint" and kind.target and uses(keys.get(kind.target)):
