@@ -108,3 +108,15 @@ def test_the_starts_ahead_do_not_change_the_search(monkeypatch):
     monkeypatch.setattr(starts, "batch_for", lambda study, free: None)
     ref = Synthesis(FIVE).candidates(40, 2)
     assert why == ref[1] and np.allclose(scores, ref[2], rtol=1e-9, atol=1e-18)
+
+
+def test_a_driver_with_a_breakpoint_is_left_to_the_follower(tmp_path):
+    """The follower splits its path at a driver's breakpoint and takes one-sided rates there
+    (SIDE_RULE); the march does not, so such designs go to the follower."""
+    text = FIVE.read_text().replace('f: "2*pi*t"', 'f: "2*pi*t + 0.1*abs(t - 0.5)"')
+    path = tmp_path / "kink.yaml"
+    path.write_text(text)
+    syn = Synthesis(path)
+    designs = _designs(syn, 40)
+    assert len(designs) >= starts.MIN_BATCH
+    assert _march(syn, designs) == [None] * len(designs)

@@ -23,7 +23,8 @@ is marched over the grid together:
   interpolant of its nodes and held to the same step tests, as the path follower fills the
   grid between its own nodes.
 
-A design that fails any test is left to the path follower (None in its place), which accepts it
+A design that fails any test, or whose driver has a breakpoint in the range (where the follower
+splits its path and takes one-sided rates), is left to the path follower (None in its place), which accepts it
 or refuses it with its reason; so a start is never refused here. An accepted design's Result has
 the path follower's rows (the grid times) in user units, to rounding.
 """
@@ -37,7 +38,7 @@ from ..results.runinfo import RunInfo
 from ..solver.acceptance import COND_WARN, accepted, condition, taylor_error
 from ..solver.chunks import Chunk
 from ..solver.kinematics import point_kinematics
-from ..solver.path import hermite5
+from ..solver.path import driver_breakpoints, hermite5
 from .problem import Rejected
 
 AHEAD = 64           # starts analysed together
@@ -100,10 +101,13 @@ def march(B, designs, opts_of) -> list:
     for i, (_, cm) in enumerate(designs):
         own = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
         Q0[i, :n] = cm.q0 * own / unit
-    go = np.nonzero(num[4] & np.isfinite(Q0).all(axis=1))[0]
+    grid = B.grid
+    # a driver's breakpoint splits the follower's path there and sets its rows' one-sided
+    # rates (SIDE_RULE): such a design is left to the follower
+    smooth = np.array([not driver_breakpoints(cm, grid[0], grid[-1]) for _, cm in designs])
+    go = np.nonzero(num[4] & np.isfinite(Q0).all(axis=1) & smooth)[0]
     if len(go) < MIN_BATCH:
         return out
-    grid = B.grid
     stride = max(1, (len(grid) - 1) // NODES)
     at = np.unique(np.append(np.arange(0, len(grid), stride), len(grid) - 1))
     M = _Marcher(B, B.take(num, go), Q0[go], grid[at])
