@@ -16,8 +16,8 @@ The method:
 1. a Latin hypercube (scipy.stats.qmc, seeded) of `starts` designs over the bounds (and the
    file's own values with search nominal: 1); a design whose four-bar loop cannot turn is
    refused from its compiled model alone (`screen`), the others are analysed over the whole
-   range, starts.AHEAD at a time as the rows of one grid pass (planarkin.synthesis.starts), and
-   those that pass not every step test there by the path follower (`Model.analyse`: validate
+   range, starts.AHEAD at a time as the rows of one grid pass (planarkin.synthesis.starts),
+   and a design that fails a step test there by the path follower (`Model.analyse`: validate
    with overrides, compile, solve), with the same results to rounding; designs that cannot be
    assembled, lock up or violate a constraint are rejected with their reason; the free times
    of the others are chosen on their grid (the nearest points, in order along the path, in
