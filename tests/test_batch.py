@@ -358,6 +358,17 @@ def test_the_study_routes_agree_to_1e15_of_each_columns_largest_value(name):
         close_columns(b.reshape(V * T, -1), a.reshape(V * T, -1), "points")
 
 
+def _all_batched(s, variants, monkeypatch, fallbacks):
+    """The study's outcomes of variants, every one batched (fallbacks: the variants that took
+    the ordinary path, kept in the list given)."""
+    assert s.batch(variants) is not None
+    orig = s.solve
+    monkeypatch.setattr(s, "solve", lambda v, *a, **k: fallbacks.append(v) or orig(v, *a, **k))
+    out = s.run(variants)
+    assert fallbacks == []
+    return out
+
+
 ROD = """name: rod-as-distance
 parameters:
   a: 0.1
@@ -388,13 +399,8 @@ def test_parameters_that_reach_joint_constants_are_varied_in_the_batch(tmp_path,
     s = Study(str(path), metrics=["max:slider.x", "max:slider.phi"])
     s.chain, s.group = 4, 2
     variants = [{"l": 0.3 + 0.002 * i, "th": 0.003 * i} for i in range(8)]
-    assert s.batch(variants) is not None
     fallbacks = []
-    orig = s.solve
-    monkeypatch.setattr(s, "solve", lambda v, *a, **k: fallbacks.append(v) or orig(v, *a, **k))
-    out = s.run(variants)
-    assert fallbacks == []
-    for v, o in zip(variants, out):
+    for v, o in zip(variants, _all_batched(s, variants, monkeypatch, fallbacks)):
         assert o.status == "ok"
         assert o.metrics[0] == pytest.approx(0.1 + v["l"], rel=1e-12)
         assert o.metrics[1] == pytest.approx(v["th"], abs=1e-15)
@@ -432,13 +438,7 @@ def test_a_constant_prepared_from_the_poses_is_each_variants_own(tmp_path, monke
     s.chain, s.group = 3, 2
     variants = [{"r1": 0.05 + 0.0005 * i} if vary == "r1" else {"m0": 30.0 + 2 * i}
                 for i in range(6)]
-    assert s.batch(variants) is not None
-    fallbacks = []
-    orig = s.solve
-    monkeypatch.setattr(s, "solve", lambda v, *a, **k: fallbacks.append(v) or orig(v, *a, **k))
-    out = s.run(variants)
-    assert fallbacks == []
-    for v, o in zip(variants, out):
+    for v, o in zip(variants, _all_batched(s, variants, monkeypatch, [])):
         r1, m0 = v.get("r1", 0.05), v.get("m0", 30.0)
         ratio = r1 / 0.125
         assert o.metrics == pytest.approx(((270 - m0) * ratio, -m0 * ratio), rel=1e-12)
