@@ -120,3 +120,15 @@ def test_a_driver_with_a_breakpoint_is_left_to_the_follower(tmp_path):
     designs = _designs(syn, 40)
     assert len(designs) >= starts.MIN_BATCH
     assert _march(syn, designs) == [None] * len(designs)
+
+
+def test_a_file_that_asks_for_a_branch_is_left_to_the_follower(tmp_path):
+    """The follower's assembly switches to the branch `assembly: branch:` asks for; a march
+    from the drawn pose kept the other one (rocker.phi +87.5 deg where the follower gives
+    -87.5 on four-bar-function with {rocker: '+'}). Such a file's starts go one by one."""
+    text = (ROOT / "mechanisms" / "synthesis" / "four-bar-function.yaml").read_text().replace(
+        "analysis: {start: 0", "assembly: {branch: {rocker: '+'}}\nanalysis: {start: 0")
+    path = tmp_path / "branch.yaml"
+    path.write_text(text)
+    syn = Synthesis(path)
+    assert starts.batch_for(syn.model.study, syn.model.free) is None

@@ -31,9 +31,10 @@ over processes: parallel runs equal the serial run bit for bit.
 
 Applies when the varied parameters reach only body-frame points (si, sj), joint constants, other
 scalar keys of the kinds except gear radii, driver functions and the points' s; not through
-directions, gear radii or global placements (at) (the constants a kind prepares at compile
-time from its parameters and its bodies' poses, a slide's parallel constant, a mesh's phase, a
-belt's, a cam's rest, are prepared again for each variant); not with redundant constraints, derived
+directions, gear radii or global placements (at), nor through the parameters or the bodies'
+poses of an element whose kind prepares constants from them at compile time (a slide's
+parallel constant, a mesh's phase, a belt's, a cam's rest) or checks them at validation or
+assembly (radii, pulleys that overlap); not with redundant constraints, derived
 tables among the metrics, or rows a room checks (forces, a cam's range: those variants take
 `run`'s refusal of rows, analysis.refuse, one by one). Variants follow the nominal's assembly
 branch. Every variant's drivers pass `run`'s check before a run (budget.preflight) or the
@@ -88,6 +89,18 @@ def _text(node):
     return v if isinstance(v, str) else float(v)
 
 
+def _checked(kind, reached: list, posed: bool) -> bool:
+    """Whether varied parameters that reach the kind's params `reached` (and its bodies' poses
+    when posed) reach numbers it prepares constants from at compile time (Kind.prepare) or
+    checks at assembly (Kind.check_pose), or numbers other than its points that it checks at
+    validation (a distance's positive constant is checked by numbers())."""
+    own = type(kind)
+    if own.prepare is not Kind.prepare or own.check_pose is not Kind.check_pose:
+        return bool(reached) or posed
+    return own.validate is not Kind.validate and not kind.positive_target and \
+        any(p.unit != "point" for p in reached)
+
+
 class Batch:
     """The batched form of a Study for a set of varied parameter names."""
 
@@ -131,7 +144,6 @@ class Batch:
         self.gvar = []
         self.tvar = []          # (row, Expr, scale, must be positive): joint constants
         self.fvar = []          # (row, Expr f, scale): driver functions
-        self.pvar = []          # (group, instance, element, kind, rows, poses): prepared
         bodies = root.value.get("bodies")
         body_q = {name: node.value.get("q") for name, node in bodies.value.items()} \
             if bodies is not None and bodies.kind == "map" else {}
@@ -143,14 +155,14 @@ class Batch:
                 keys = sections[el.role].value[el.index - 1].value
                 if uses(keys.get("at")) or uses(keys.get("axis")):
                     raise Unsupported(f"{el.label}: a varied parameter reaches 'at'")
-                if type(kind).prepare is not Kind.prepare and (
-                        any(uses(keys.get(p.name)) for p in kind.params)
-                        or any(uses(body_q.get(b)) for b in el.bodies)):
-                    # the kind's constants are prepared at compile time from its parameters
-                    # and its bodies' poses (a mesh's phase, a slide's parallel constant, a
-                    # belt's, a cam's rest): prepared again for each variant (numbers)
-                    self.pvar.append((gi, k, el, kind, [int(r) for r in G.rows[k]],
-                                      [self._pose(body_q.get(b)) for b in el.bodies]))
+                if _checked(kind, [p for p in kind.params if uses(keys.get(p.name))],
+                            any(uses(body_q.get(b)) for b in el.bodies)):
+                    # the kind prepares constants at compile time from its parameters and its
+                    # bodies' poses (a mesh's phase, a belt's, a cam's rest), or checks them
+                    # at validation or assembly (radii, pulleys that overlap): the batch would
+                    # keep the nominal's constants and skip the checks
+                    raise Unsupported(f"{el.label}: a varied parameter reaches numbers its "
+                                      f"kind prepares or checks at compile time")
                 # a joint's constant (c of angle, distance, x, y, pin-slot, slide) is the
                 # kind's target, not one of its params: its equation's first row is g - c
                 if el.role == "joint" and kind.target and uses(keys.get(kind.target)):
@@ -208,12 +220,6 @@ class Batch:
     def _expr(self, node):
         return parse(_text(node), self.order)
 
-    def _pose(self, node):
-        """A body's q estimate as three Exprs (x, y, phi in user units); None: the ground."""
-        if node is None:
-            return None
-        return tuple(self._expr(n) for n in node.value)
-
     def _depends(self, node) -> bool:
         if node.kind == "seq":
             return any(self._depends(n) for n in node.value)
@@ -259,44 +265,11 @@ class Batch:
             s[:, j, 0] = np.broadcast_to(ex.evaluate(env), (Vn,)) / self.L
             s[:, j, 1] = np.broadcast_to(ey.evaluate(env), (Vn,)) / self.L
         ok = self.preflight(env, Vn) & np.isfinite(s.reshape(Vn, -1)).all(axis=1) \
-            & positive & self.prepare(groups, targets, env, Vn) \
-            & np.isfinite(targets).all(axis=1)
+            & np.isfinite(targets).all(axis=1) & positive
         for params in groups:
             for a in params.values():
                 ok &= np.isfinite(a.reshape(Vn, -1)).all(axis=1)
         return groups, targets, s, env, ok
-
-    def prepare(self, groups, targets, env, Vn: int) -> np.ndarray:
-        """The constants each variant's kinds prepare from its own parameters and poses, as
-        compile does (derived parameters into groups, the rows' constants into targets, in
-        place). Returns (Vn,) the variants whose elements pass the kinds' checks of their
-        numbers (kind.diagnose); the others are left to the ordinary path, which refuses
-        them as `run` does."""
-        ok = np.ones(Vn, dtype=bool)
-        if not self.pvar:
-            return ok
-        cm, L, af = self.cm, self.L, self.af
-        spec = cm.spec
-        for gi, k, el, kind, rows, poses in self.pvar:
-            params = groups[gi]
-            where = [None if p is None else tuple(np.broadcast_to(e.evaluate(env), (Vn,))
-                                                  for e in p) for p in poses]
-            for v in range(Vn):
-                arrays = {p.name: params[p.name][v, k] for p in kind.params}
-                at = [(0.0, 0.0, 0.0) if w is None else
-                      (w[0][v] / L, w[1][v] / L, w[2][v] * af) for w in where]
-                with np.errstate(all="ignore"):
-                    got = kind.prepare(arrays, at)
-                if got is not None:
-                    derived, consts = got
-                    arrays.update(derived)
-                    for name, value in derived.items():
-                        params[name][v, k] = value
-                    targets[v, rows] = consts
-                if any(True for _ in kind.diagnose(arrays, L, af, spec.length_unit,
-                                                   spec.angle_unit)):
-                    ok[v] = False
-        return ok
 
     def preflight(self, env, Vn: int) -> np.ndarray:
         """(Vn,) the variants (parameters env) whose drivers pass `run`'s check before a run
@@ -449,7 +422,7 @@ class Batch:
             cache[Vn] = (np.repeat(np.arange(Vn, dtype=np.int32), T),
                          np.tile(np.arange(T, dtype=np.int32), Vn), np.tile(self.grid, Vn))
         rows, trow, tg = cache[Vn]
-        if self.tvar or self.fvar or self.pvar:
+        if self.tvar or self.fvar:
             drv, trow = [a.reshape(Vn * T, -1) for a in self.drivers(targets, env)], None
         else:       # drivers() of one variant: the same for all (computed once)
             if "_drv1" not in self.__dict__:

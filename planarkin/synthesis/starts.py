@@ -76,9 +76,13 @@ def ahead(syn, X, first: int) -> dict:
 
 def batch_for(study, free):
     """The batched form of the study for the free parameters (studies.batch.Batch), or None
-    when the model does not take it (the starts are then analysed one by one)."""
+    when the model does not take it (the starts are then analysed one by one): also when the
+    file asks for an assembly branch (`assembly: branch:`), which the follower's assembly
+    switches to and a march from the drawn pose would not."""
     from ..diagnostics import InputError
     from ..studies.batch import Batch, Unsupported
+    if study.nominal.spec.branch:
+        return None
     try:
         return Batch(study, list(free), nominal=False)
     except (Unsupported, InputError):
