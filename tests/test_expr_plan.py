@@ -87,6 +87,9 @@ def test_a_driver_the_design_does_not_reach_is_shared_between_designs():
     t = np.linspace(0, 1, 5)
     assert np.array_equal(b.derivatives(t)[0], TimeFunction("w*t + c", {"w": 3.0, "c": 0.5})
                           .derivatives(t)[0])
+    TimeFunction.shared("a/a*t", {"a": 1.0})     # simplified to t, but a is still read
+    with pytest.raises(ExprError, match="division by zero"):
+        TimeFunction.shared("a/a*t", {"a": 0.0})
     with pytest.raises(ExprError) as shared:
         TimeFunction.shared("sqrt(c - 1)*t", {"c": 0.5})
     with pytest.raises(ExprError) as direct:

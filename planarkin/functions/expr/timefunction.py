@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import ast
 import math
 from typing import Mapping
 
@@ -41,7 +42,11 @@ class TimeFunction:
         names = _NAMES.get(nk)
         if names is None:
             tf = cls(text, values)                   # raises as before
-            names = tuple(sorted(parse_text(text, values.keys(), True, None).names - {"t"}))
+            # every name written in the text, also those its simplification drops (a/a,
+            # 0*sqrt(a)): another value of one may make the text invalid
+            written = {n.id for n in ast.walk(ast.parse(str(text).strip(), mode="eval"))
+                       if isinstance(n, ast.Name)}
+            names = tuple(sorted(written & set(values)))
             if len(_NAMES) >= _SHARED_MAX:
                 _NAMES.clear()
             _NAMES[nk] = names
