@@ -31,7 +31,7 @@ def _rel(a, b):
 
 
 def _march(syn, designs):
-    B = starts.batch_for(syn.model.study, syn.model.free)
+    B = starts.batch_for(syn.model)
     assert B is not None
     return starts.march(B, designs, lambda cm: Options.from_model(cm, **syn.model.analysis))
 
@@ -78,7 +78,7 @@ def test_a_search_scores_its_starts_as_one_by_one(monkeypatch):
     for batched in (True, False):
         syn = Synthesis(FIVE)
         if not batched:
-            monkeypatch.setattr(starts, "batch_for", lambda study, free: None)
+            monkeypatch.setattr(starts, "batch_for", lambda model: None)
         good, why, scores = syn.candidates(60, 7)
         runs.append((good, why, scores, syn.model.evaluations))
         monkeypatch.undo()
@@ -94,7 +94,7 @@ def test_few_designs_or_a_model_the_batch_cannot_take_go_one_by_one(monkeypatch)
     assert _march(syn, designs) == [None] * len(designs)
     called = []
     real = syn.model.analyse
-    monkeypatch.setattr(starts, "batch_for", lambda study, free: None)
+    monkeypatch.setattr(starts, "batch_for", lambda model: None)
     monkeypatch.setattr(syn.model, "analyse", lambda v: called.append(v) or real(v))
     good, why, scores = syn.candidates(30, 1)
     assert len(called) == syn.model.evaluations >= len(scores) > 0
@@ -105,7 +105,7 @@ def test_the_starts_ahead_do_not_change_the_search(monkeypatch):
     monkeypatch.setattr(starts, "AHEAD", starts.MIN_BATCH)
     syn = Synthesis(FIVE)
     good, why, scores = syn.candidates(40, 2)
-    monkeypatch.setattr(starts, "batch_for", lambda study, free: None)
+    monkeypatch.setattr(starts, "batch_for", lambda model: None)
     ref = Synthesis(FIVE).candidates(40, 2)
     assert why == ref[1] and np.allclose(scores, ref[2], rtol=1e-9, atol=1e-18)
 
@@ -131,4 +131,4 @@ def test_a_file_that_asks_for_a_branch_is_left_to_the_follower(tmp_path):
     path = tmp_path / "branch.yaml"
     path.write_text(text)
     syn = Synthesis(path)
-    assert starts.batch_for(syn.model.study, syn.model.free) is None
+    assert starts.batch_for(syn.model) is None

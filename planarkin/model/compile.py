@@ -88,29 +88,35 @@ def placed_params(el: ElementSpec, poses: dict) -> tuple[dict, float | None]:
     return params, c
 
 
-def _characteristic_length(spec: ModelSpec) -> float:
-    """Largest length in the model, rounded to a power of two (exact scaling)."""
-    sizes = [0.0]
-    for b in spec.bodies:
-        sizes += [abs(b.q[0]), abs(b.q[1])]
-    for el in spec.elements:
+def length_sizes(spec: ModelSpec):
+    """(source, size) of every length the model's scale is taken from, user units: ("body",
+    index) its |x| and |y| (the larger), ("param", element index, name) a point's norm or a
+    length, ("target", element index) a length constant, ("at", element index) a global
+    placement's points (the largest norm), ("point", index) a point's s or at."""
+    for k, b in enumerate(spec.bodies):
+        yield ("body", k), max(abs(b.q[0]), abs(b.q[1]))
+    for e, el in enumerate(spec.elements):
         kind = KINDS[el.kind]
         for p in kind.params:
             v = el.params.get(p.name)
             if v is None:
                 continue
             if p.unit == "point":
-                sizes.append(math.hypot(*v))
+                yield ("param", e, p.name), math.hypot(*v)
             elif p.unit == "length":
-                sizes.append(abs(v))
+                yield ("param", e, p.name), abs(v)
         if el.target is not None and kind.target_unit == "length":
-            sizes.append(abs(el.target))
+            yield ("target", e), abs(el.target)
         if el.at is not None:
             pts = el.at if kind.at_points == 2 else (el.at,)
-            sizes += [math.hypot(*p) for p in pts]
-    for p in spec.points:
-        sizes.append(math.hypot(*(p.s if p.s is not None else p.at)))
-    big = max(sizes)
+            yield ("at", e), max(math.hypot(*p) for p in pts)
+    for j, p in enumerate(spec.points):
+        yield ("point", j), math.hypot(*(p.s if p.s is not None else p.at))
+
+
+def length_scale(big: float) -> float:
+    """The internal unit of length for a model whose largest length is big: a power of two
+    (exact scaling), 1 for a model without lengths."""
     if not big > 0 or not math.isfinite(big):
         return 1.0
     mant, exp = math.frexp(big)            # big = mant * 2**exp, 0.5 <= mant < 1
@@ -118,7 +124,7 @@ def _characteristic_length(spec: ModelSpec) -> float:
 
 
 def compile_model(spec: ModelSpec) -> CompiledModel:
-    L = _characteristic_length(spec)
+    L = length_scale(max((size for _, size in length_sizes(spec)), default=0.0))
     af = math.pi / 180.0 if spec.angle_unit == "deg" else 1.0
     names = tuple(b.name for b in spec.bodies)
     index = {name: k for k, name in enumerate(names)}

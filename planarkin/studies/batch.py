@@ -44,11 +44,16 @@ variant is solved by the per-variant path, which refuses it as `run` does.
 from __future__ import annotations
 
 
+import math
+from dataclasses import replace
+
 import numpy as np
 
 from ..elements import KINDS
 from ..elements.base import Group, Kind
-from planarkin.functions.expr import parse
+from ..model.compile import length_scale, length_sizes
+from ..model.validate import MAX_MAGNITUDE
+from planarkin.functions.expr import TimeFunction, evaluate_constant, parse
 from planarkin.solver.acceptance import COND_WARN, accepted, path_errors
 from .lockstep import Lockstep
 from .outcome import Outcome
@@ -89,15 +94,31 @@ def _text(node):
     return v if isinstance(v, str) else float(v)
 
 
+def _valid(v) -> np.ndarray:
+    """Where numbers v pass the validator's test of every number of a file: finite and at most
+    MAX_MAGNITUDE in magnitude."""
+    with np.errstate(invalid="ignore"):
+        return np.abs(v) <= MAX_MAGNITUDE
+
+
+def _number(v: float) -> float:
+    """v where the validator accepts it as a number of the file, else ValueError."""
+    if not abs(v) <= MAX_MAGNITUDE:
+        raise ValueError(f"{v!r} is not a number the file accepts")
+    return v
+
+
 def _checked(kind, reached: list, posed: bool) -> bool:
     """Whether varied parameters that reach the kind's params `reached` (and its bodies' poses
     when posed) reach numbers it prepares constants from at compile time (Kind.prepare) or
     checks at assembly (Kind.check_pose), or numbers other than its points that it checks at
-    validation (a distance's positive constant is checked by numbers())."""
+    validation or compile time (Kind.validate, Kind.diagnose; a distance's positive constant is
+    checked by numbers())."""
     own = type(kind)
     if own.prepare is not Kind.prepare or own.check_pose is not Kind.check_pose:
         return bool(reached) or posed
-    return own.validate is not Kind.validate and not kind.positive_target and \
+    return (own.validate is not Kind.validate or own.diagnose is not Kind.diagnose) and \
+        not kind.positive_target and \
         any(p.unit != "point" for p in reached)
 
 
@@ -144,6 +165,15 @@ class Batch:
         self.gvar = []
         self.tvar = []          # (row, Expr, scale, must be positive): joint constants
         self.fvar = []          # (row, Expr f, scale): driver functions
+        # for design(): the texts of what the varied parameters reach, and what else they reach
+        self.texts = texts
+        self.ttext = []         # (row, text, unit, must be positive): joint constants
+        self.ftext = []         # (row, element index, text): driver functions
+        self.sized = set()      # length_sizes' sources the varied parameters reach
+        self.elsewhere = [k for k, node in root.value.items()
+                          if k not in ("name", "units", "output", "parameters", "bodies",
+                                       "joints", "drivers", "points", "design")
+                          and self._reaches(node)]
         bodies = root.value.get("bodies")
         body_q = {name: node.value.get("q") for name, node in bodies.value.items()} \
             if bodies is not None and bodies.kind == "map" else {}
@@ -151,8 +181,12 @@ class Batch:
             entries = []
             for k in range(len(G)):
                 el = cm.element_of_row(int(G.rows[k, 0]))
+                e_idx = int(cm.row_element[int(G.rows[k, 0])])
                 kind = KINDS[el.kind]
                 keys = sections[el.role].value[el.index - 1].value
+                known = {p.name for p in kind.params} | {kind.target, "f", "type", "i", "j"}
+                self.elsewhere += [f"{el.label}: {key}" for key, node in keys.items()
+                                   if key not in known and self._reaches(node)]
                 if uses(keys.get("at")) or uses(keys.get("axis")):
                     raise Unsupported(f"{el.label}: a varied parameter reaches 'at'")
                 if _checked(kind, [p for p in kind.params if uses(keys.get(p.name))],
@@ -169,17 +203,22 @@ class Batch:
                     scale = {"length": 1 / self.L, "angle": self.af, None: 1.0}[kind.target_unit]
                     self.tvar.append((int(G.rows[k, 0]), self._expr(keys[kind.target]), scale,
                                       kind.positive_target))
+                    self.ttext.append((int(G.rows[k, 0]), _text(keys[kind.target]),
+                                       kind.target_unit, kind.positive_target))
+                    self.sized.add(("target", e_idx))
                 for p in kind.params:
                     node = keys.get(p.name)
                     if not uses(node):
                         continue
+                    if p.unit in ("point", "length"):
+                        self.sized.add(("param", e_idx, p.name))
                     if p.unit == "point":
                         for c in range(2):
                             entries.append((p.name, k, c, self._expr(node.value[c]),
-                                            1 / self.L))
+                                            1 / self.L, _text(node.value[c])))
                     elif p.unit in ("length", "angle", "real") and el.kind != "gear":
                         scale = {"length": 1 / self.L, "angle": self.af, "real": 1.0}[p.unit]
-                        entries.append((p.name, k, None, self._expr(node), scale))
+                        entries.append((p.name, k, None, self._expr(node), scale, _text(node)))
                     else:
                         raise Unsupported(f"{el.label}: a varied parameter reaches {p.name}")
                 if el.role == "driver" and self._depends_t(keys.get("f")):
@@ -187,15 +226,9 @@ class Batch:
                     f = parse(_text(keys["f"]), self.order, allow_t=True)
                     self.fvar.append((int(G.rows[k, 0]), (f, f.diff("t"), f.diff("t").diff("t")),
                                       scale))
+                    self.ftext.append((int(G.rows[k, 0]), e_idx, _text(keys["f"])))
             self.gvar.append(entries)
-        self.svar = []
-        pts = root.value.get("points")
-        for j, ps in enumerate(spec.points):
-            pn = pts.value[ps.name].value
-            if uses(pn.get("at")):
-                raise Unsupported(f"point '{ps.name}': a varied parameter reaches 'at'")
-            if uses(pn.get("s")):
-                self.svar.append((j, self._expr(pn["s"].value[0]), self._expr(pn["s"].value[1])))
+        self._points_and_bodies(root, spec, uses, bodies, body_q)
         # where each part of each solve block comes from: (group, instance indices)
         first = {}
         for gi, G in enumerate(cm.groups):
@@ -208,6 +241,34 @@ class Batch:
         if nominal:
             self.nominal_solution()
 
+    def _points_and_bodies(self, root, spec, uses, bodies, body_q) -> None:
+        """The points' offsets (svar, stext) and the bodies' pose estimates (qvar) the varied
+        parameters reach, and what else of theirs they reach (elsewhere)."""
+        cm = self.cm
+        self.svar = []
+        self.stext = []         # (point, text of x, text of y)
+        pts = root.value.get("points")
+        for j, ps in enumerate(spec.points):
+            pn = pts.value[ps.name].value
+            if uses(pn.get("at")):
+                raise Unsupported(f"point '{ps.name}': a varied parameter reaches 'at'")
+            if uses(pn.get("s")):
+                self.svar.append((j, self._expr(pn["s"].value[0]), self._expr(pn["s"].value[1])))
+                self.stext.append((j, _text(pn["s"].value[0]), _text(pn["s"].value[1])))
+                self.sized.add(("point", j))
+            self.elsewhere += [f"point '{ps.name}': {key}" for key, node in pn.items()
+                               if key not in ("s", "body") and self._reaches(node)]
+        # the bodies' pose estimates the varied parameters reach: (body, coordinate, Expr, text)
+        self.qvar = []
+        for b, name in enumerate(cm.body_names):
+            bn = bodies.value[name].value if name in body_q else {}
+            self.elsewhere += [f"body '{name}': {key}" for key, node in bn.items()
+                               if key != "q" and self._reaches(node)]
+            qn = body_q.get(name)
+            if qn is not None and qn.kind == "seq" and uses(qn):
+                self.qvar += [(b, c, self._expr(qn.value[c]), _text(qn.value[c]))
+                              for c in range(3) if uses(qn.value[c])]
+
     def _depends_t(self, node) -> bool:
         """_depends for a driver's f, a function of t: whether a varied parameter reaches it."""
         if node is not None and node.kind not in ("seq", "map") and isinstance(node.value, str):
@@ -216,6 +277,20 @@ class Batch:
             except Exception:  # noqa: BLE001 - the validator has reported it for the nominal
                 return True
         return node is not None and self._depends(node)
+
+    def _reaches(self, node) -> bool:
+        """Whether a varied parameter reaches a number under node (a text that is not an
+        expression of the parameters, a name or a label, reaches none)."""
+        if node.kind == "seq":
+            return any(self._reaches(n) for n in node.value)
+        if node.kind == "map":
+            return any(self._reaches(n) for n in node.value.values())
+        if isinstance(node.value, str):
+            try:
+                return bool(parse(node.value, self.order).names & self.dep)
+            except Exception:  # noqa: BLE001 - not an expression of the parameters
+                return False
+        return False
 
     def _expr(self, node):
         return parse(_text(node), self.order)
@@ -235,7 +310,11 @@ class Batch:
 
     # -- numbers of many variants at once ------------------------------------------------------
     def numbers(self, values: list[dict]):
-        """Per-variant arrays (internal units) of everything the varied parameters reach."""
+        """Per-variant arrays (internal units) of everything the varied parameters reach, and
+        ok (Vn,): the variants whose numbers pass the validator's checks (every number finite
+        and at most MAX_MAGNITUDE, a distance's constant positive) and whose drivers pass
+        preflight; a variant that fails is left to the per-variant path, which refuses it with
+        the validator's message."""
         Vn = len(values)
         env = {}
         for k in self.order:
@@ -244,31 +323,33 @@ class Batch:
             else:
                 env[k] = np.broadcast_to(np.asarray(self.pexpr[k].evaluate(env), float),
                                          (Vn,)).copy()
+        ok = self.preflight(env, Vn)
+        for k in self.dep:
+            ok &= _valid(env[k])
         groups = []
         for G, entries in zip(self.cm.groups, self.gvar):
             params = {name: np.repeat(arr[None], Vn, axis=0) for name, arr in G.params.items()}
-            for name, k, c, e, scale in entries:
-                v = np.broadcast_to(e.evaluate(env), (Vn,)) * scale
+            for name, k, c, e, scale, _ in entries:
+                v = np.broadcast_to(e.evaluate(env), (Vn,))
+                ok &= _valid(v)
                 if c is None:
-                    params[name][:, k] = v
+                    params[name][:, k] = v * scale
                 else:
-                    params[name][:, k, c] = v
+                    params[name][:, k, c] = v * scale
             groups.append(params)
         targets = np.repeat(self.cm.targets[None], Vn, axis=0)
-        positive = np.ones(Vn, dtype=bool)
         for r, e, scale, must_be_positive in self.tvar:
-            targets[:, r] = np.broadcast_to(e.evaluate(env), (Vn,)) * scale
-            if must_be_positive:        # the validator refuses such a variant: run's path
-                positive &= targets[:, r] > 0
+            v = np.broadcast_to(e.evaluate(env), (Vn,))
+            ok &= _valid(v) & ((v > 0) if must_be_positive else True)
+            targets[:, r] = v * scale
         s = np.repeat(self.cm.point_s[None], Vn, axis=0)
         for j, ex, ey in self.svar:
-            s[:, j, 0] = np.broadcast_to(ex.evaluate(env), (Vn,)) / self.L
-            s[:, j, 1] = np.broadcast_to(ey.evaluate(env), (Vn,)) / self.L
-        ok = self.preflight(env, Vn) & np.isfinite(s.reshape(Vn, -1)).all(axis=1) \
-            & np.isfinite(targets).all(axis=1) & positive
-        for params in groups:
-            for a in params.values():
-                ok &= np.isfinite(a.reshape(Vn, -1)).all(axis=1)
+            for c, e in enumerate((ex, ey)):
+                v = np.broadcast_to(e.evaluate(env), (Vn,))
+                ok &= _valid(v)
+                s[:, j, c] = v / self.L
+        for _, _, e, _ in self.qvar:            # pose estimates: checked, not used here
+            ok &= _valid(np.broadcast_to(e.evaluate(env), (Vn,)))
         return groups, targets, s, env, ok
 
     def preflight(self, env, Vn: int) -> np.ndarray:
@@ -280,7 +361,6 @@ class Batch:
         ok = np.ones(Vn, dtype=bool)
         if not self.fvar:
             return ok
-        from dataclasses import replace
         from planarkin.solver.budget import preflight
         cm = self.cm
         where = {int(r): i for i, r in enumerate(cm.driver_rows)}
@@ -291,6 +371,127 @@ class Batch:
                 funcs[where[r]] = VariantDriver(f, values)
             ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), self.study.opts) is None
         return ok
+
+    # -- one design from the arrays ------------------------------------------------------------
+    def design(self, values: dict):
+        """The compiled model of one design (values: the varied parameters') from the nominal's
+        arrays: the numbers compile_model gives for the file validated with these values (each
+        reached number from its text by the validator's own evaluate_constant, the length scale
+        from the same sizes), without reading, validating or compiling the file again; its
+        spec is the nominal's with the design's parameters, overrides and driver functions
+        (its elements, bodies, points and warnings keep the nominal's: read the arrays). None
+        where it cannot be made so:
+        any number the validator would refuse (the caller's Study.model then gives the
+        message), a varied parameter that reaches a key the batch does not map (a driver's
+        motion or table), a file with masses, loads or shapes (built from the bodies' poses),
+        or a length scale other than the nominal's in a model whose kinds prepare numbers at
+        compile time."""
+        cm, spec = self.cm, self.cm.spec
+        if self.elsewhere or spec.forces is not None or spec.clearance is not None:
+            return None     # (masses, loads and shapes are built from the bodies' poses)
+        try:
+            return self._design(values, cm, spec)
+        except Exception:  # noqa: BLE001 - any refusal is the validator's to word (Study.model)
+            return None
+
+    def _design(self, values, cm, spec):
+        ps = {}
+        for k in self.order:
+            v = float(values[k]) if k in self.varied else evaluate_constant(
+                self.texts[k], ps) if k in self.dep else spec.parameters[k]
+            ps[k] = _number(v)
+        num = lambda text: _number(evaluate_constant(text, ps))    # noqa: E731
+        if not hasattr(self, "_fixed"):
+            self._prepare_design()
+        q = self._q_user.copy()
+        for b, c, _, text in self.qvar:
+            q[b, c] = num(text)
+        sizes = [self._fixed, float(np.abs(q[:, :2]).max(initial=0.0))]
+        reached = {}
+        for gi, entries in enumerate(self.gvar):
+            for name, k, c, _, _, text in entries:
+                # a point's other coordinate: the nominal's, in user units (exact: L is a
+                # power of two)
+                v = reached.setdefault((gi, name, k), list(
+                    np.atleast_1d(cm.groups[gi].params[name][k]) * cm.L))
+                v[c or 0] = num(text)
+        for (gi, name, k), v in reached.items():
+            unit = self._units[gi][name]
+            if unit == "point":
+                sizes.append(math.hypot(*v))
+            elif unit == "length":
+                sizes.append(abs(v[0]))
+        consts = []
+        for r, text, unit, positive in self.ttext:
+            c = num(text)
+            if positive and not c > 0:
+                return None
+            consts.append(c)
+            if unit == "length":
+                sizes.append(abs(c))
+        pts = [(j, num(tx), num(ty)) for j, tx, ty in self.stext]
+        sizes += [math.hypot(x, y) for _, x, y in pts]
+        L = length_scale(max(sizes))
+        ratio = cm.L / L                    # a power of two: exact
+        if ratio != 1.0 and not self._rescalable:
+            return None
+        af = cm.angle_factor
+        groups = []
+        for gi, G in enumerate(cm.groups):
+            params = dict(G.params)
+            for name, unit in self._units[gi].items():
+                if ratio != 1.0 and unit in ("point", "length"):
+                    params[name] = params[name] * ratio
+            mine = [(name, k, v) for (g, name, k), v in reached.items() if g == gi]
+            for name, k, v in mine:
+                if params[name] is G.params[name]:
+                    params[name] = params[name].copy()
+                unit = self._units[gi][name]
+                # as compile_model: a point's [x, y] / L, a length / L, an angle * af
+                params[name][k] = np.asarray(v, dtype=float) / L if unit == "point" else \
+                    v[0] * {"length": 1.0 / L, "angle": af, "real": 1.0}[unit]
+            groups.append(Group(G.kind, G.bodies, G.cols, params, G.rows)
+                          if mine or ratio != 1.0 else G)
+        targets = cm.targets * np.where(self._length_rows, ratio, 1.0)
+        for (r, _, unit, _), c in zip(self.ttext, consts):
+            targets[r] = c * {"length": 1.0 / L, "angle": af, None: 1.0}[unit]
+        point_s = cm.point_s * ratio
+        for j, x, y in pts:
+            point_s[j] = np.array([x, y]) / L
+        q0 = np.array([v for b in q for v in (b[0] / L, b[1] / L, b[2] * af)])
+        driver_scale = np.where(self._length_rows[cm.driver_rows], 1.0 / L, cm.driver_scale)
+        for a in (targets, point_s, q0, driver_scale):
+            a.setflags(write=False)
+        funcs, drivers = list(cm.driver_funcs), list(spec.drivers)
+        for r, e_idx, text in self.ftext:       # as the validator: the shared TimeFunction
+            f = TimeFunction.shared(text, ps)
+            funcs[list(cm.driver_rows).index(r)] = f
+            drivers[e_idx - len(spec.joints)] = replace(drivers[e_idx - len(spec.joints)], f=f)
+        overrides = {**spec.overrides, **{k: ps[k] for k in self.varied}}
+        spec = replace(spec, parameters=ps, drivers=tuple(drivers), overrides=overrides)
+        return replace(cm, spec=spec, L=L,
+                       q0=q0, groups=tuple(groups), targets=targets, driver_scale=driver_scale,
+                       point_s=point_s, driver_funcs=tuple(funcs))
+
+    def _prepare_design(self) -> None:
+        """What design() reads of the nominal once: the largest of the sizes the varied
+        parameters do not reach, the bodies' pose estimates (user units), each group's
+        parameter units, the rows whose constant is a length, and whether the arrays may be
+        rescaled to another length scale (kinds that prepare nothing, no shapes)."""
+        cm, spec = self.cm, self.cm.spec
+        self._fixed = max((size for src, size in length_sizes(spec)
+                           if src[0] != "body" and src not in self.sized), default=0.0)
+        self._q_user = np.array([b.q for b in spec.bodies], dtype=float).reshape(-1, 3)
+        self._units = [{p.name: p.unit for p in G.kind.params} for G in cm.groups]
+        rows = np.zeros(cm.m, dtype=bool)
+        for G in cm.groups:
+            if G.kind.target_unit == "length":
+                rows[G.rows[:, 0]] = True
+        self._length_rows = rows
+        plain = {"point", "length", "angle", "vector", "real", "flag"}
+        self._rescalable = not cm.shapes and all(
+            type(G.kind).prepare is Kind.prepare and not G.kind.derived
+            and all(p.unit in plain for p in G.kind.params) for G in cm.groups)
 
     def drivers(self, targets, env, t=None):
         """(Vn, T, m) targets, nu and f'' on the grid (or at times t, (T,))."""
@@ -319,7 +520,6 @@ class Batch:
     def system(self, groups):
         """A copy of the nominal System whose element groups read per-row parameters."""
         import copy
-        from dataclasses import replace
         S = copy.copy(self.S)
         blocks = []
         for B, src in zip(self.S.blocks, self.part_src):

@@ -40,7 +40,8 @@ BAND = 0.01        # the barrier acts below this fraction of the loop's length s
 class TurnLoop:
     links: tuple        # (ground, p, c, r) body names
     lengths: tuple      # user length unit
-    pins: tuple         # per length: ((body, element, 'si'|'sj'), (body, element, key))
+    pins: tuple         # per length: ((element, 'si'|'sj', point), (element, key, point)): the
+    #                     ends' points in their bodies' frames, user units (from the arrays)
     driven: int         # index of the driven link in links (1 or 3)
     shortest: bool = False      # the driven link must be the shortest (not the ground)
 
@@ -77,8 +78,9 @@ def turning_loop(cm, body: str, shortest: bool = False):
             a, b = int(g.bodies[k, 0]), int(g.bodies[k, 1])
             el = cm.element_of_row(int(g.rows[k][0]))
             sa, sb = tuple(g.params["si"][k]), tuple(g.params["sj"][k])
-            pins.setdefault((a, b), (sa, sb, (el, "si"), (el, "sj")))
-            pins.setdefault((b, a), (sb, sa, (el, "sj"), (el, "si")))
+            ua, ub = g.params["si"][k] * cm.L, g.params["sj"][k] * cm.L
+            pins.setdefault((a, b), (sa, sb, (el, "si", ua), (el, "sj", ub)))
+            pins.setdefault((b, a), (sb, sa, (el, "sj", ub), (el, "si", ua)))
     G = cm.nb
     if body not in cm.body_names:
         return None
@@ -107,8 +109,7 @@ def length_gradients(loop: TurnLoop, cm, root, D) -> np.ndarray:
     studies.sensitivity.ParameterDerivatives for the free parameters."""
     joints = root.value["joints"].value
     out = np.zeros((4, len(D.wrt)))
-    for i, ((e1, k1), (e2, k2)) in enumerate(loop.pins):
-        v1, v2 = np.array(e1.params[k1], dtype=float), np.array(e2.params[k2], dtype=float)
+    for i, ((e1, k1, v1), (e2, k2, v2)) in enumerate(loop.pins):
         g1 = _point_gradient(D, joints[e1.index - 1].value.get(k1))
         g2 = _point_gradient(D, joints[e2.index - 1].value.get(k2))
         d = v1 - v2

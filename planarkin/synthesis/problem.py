@@ -72,9 +72,30 @@ class Model:
         self.spec = self.nominal.spec
         self.evaluations = 0
         self.jacobians = 0
+        self._batch = False           # batch()'s, built when first asked for
 
     def values(self, x) -> dict:
         return {name: float(v) for name, v in zip(self.free, x)}
+
+    def batch(self):
+        """The study's batched form for the free parameters (studies.batch.Batch), or None
+        where the model does not take it."""
+        if self._batch is False:
+            from ..studies.batch import Batch
+            try:
+                self._batch = Batch(self.study, self.free, nominal=False)
+            except Exception:  # noqa: BLE001 - a model the batch cannot take: Study.model
+                self._batch = None
+        return self._batch
+
+    def compiled(self, values: dict):
+        """The compiled model of a design: made from the nominal's arrays (Batch.design, the
+        same numbers, without validating and compiling the file again) where the file allows
+        it, else the file validated and compiled with the design's values (Study.model:
+        raises InputError with the validator's message for an invalid design)."""
+        B = self.batch()
+        cm = None if B is None else B.design(values)
+        return cm if cm is not None else self.study.model(values)
 
     def analyse(self, values: dict):
         """(cm, opts, result) of the design over its whole range, or Rejected."""

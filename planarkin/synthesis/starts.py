@@ -64,7 +64,7 @@ def ahead(syn, X, first: int) -> dict:
             designs.append((values, got))
             where.append(e)
     if syn.starts_batch is False:                       # not built yet
-        syn.starts_batch = batch_for(syn.model.study, syn.model.free)
+        syn.starts_batch = batch_for(syn.model)
     if syn.starts_batch is None or not designs:
         return out
     opts_of = lambda cm: Options.from_model(cm, **syn.model.analysis)  # noqa: E731
@@ -74,19 +74,12 @@ def ahead(syn, X, first: int) -> dict:
     return out
 
 
-def batch_for(study, free):
-    """The batched form of the study for the free parameters (studies.batch.Batch), or None
-    when the model does not take it (the starts are then analysed one by one): also when the
-    file asks for an assembly branch (`assembly: branch:`), which the follower's assembly
-    switches to and a march from the drawn pose would not."""
-    from ..diagnostics import InputError
-    from ..studies.batch import Batch, Unsupported
-    if study.nominal.spec.branch:
-        return None
-    try:
-        return Batch(study, list(free), nominal=False)
-    except (Unsupported, InputError):
-        return None
+def batch_for(model):
+    """The batched form of the synthesis Model's study for its free parameters
+    (Model.batch), or None when the model does not take it (the starts are then analysed one
+    by one): also when the file asks for an assembly branch (`assembly: branch:`), which the
+    follower's assembly switches to and a march from the drawn pose would not."""
+    return None if model.study.nominal.spec.branch else model.batch()
 
 
 def march(B, designs, opts_of) -> list:

@@ -521,7 +521,7 @@ class Synthesis:
         (lock-up, or the turns constraint), at ~30 times the cost. Not an evaluation."""
         from ..diagnostics import InputError
         try:
-            cm = self.model.study.model(values)
+            cm = self.model.compiled(values)
         except InputError as e:
             if self.design.turns is None:
                 return None
