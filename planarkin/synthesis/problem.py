@@ -1,10 +1,11 @@
 """A synthesis or fitting problem: design parameters in, residuals and their exact Jacobian out.
 
-A design is evaluated through the ordinary pipeline: the model file validated with the design's
-values as overrides and compiled (`Study.model`), analysed over its whole range (`analyse`: the
-assembly branch tracked over the cycle, refusal at lock-up and bifurcation), then solved exactly
-at the times the targets need by Newton from the grid's cubic Hermite interpolant, and the
-velocities there from Phi_q qdot = nu. Derivatives are exact:
+A design is evaluated through the ordinary pipeline: its compiled model (`Model.compiled`: made
+from the nominal's arrays where the file allows, bit for bit what the model file validated with
+the design's values as overrides and compiled gives, else that), analysed over its whole range
+(`analyse`: the assembly branch tracked over the cycle, refusal at lock-up and bifurcation),
+then solved exactly at the times the targets need by Newton from the grid's cubic Hermite
+interpolant, and the velocities there from Phi_q qdot = nu. Derivatives are exact:
 
 * with respect to the parameters, dq/dp from Phi_q dq/dp = -Phi_p (studies.sensitivity) at the
   target times;
@@ -103,7 +104,7 @@ class Model:
         from ..analysis import analyse
         self.evaluations += 1
         try:
-            cm = self.study.model(values)
+            cm = self.compiled(values)
             opts = Options.from_model(cm, **self.analysis)
             info, res = analyse(cm, opts)
         except InputError as e:
