@@ -164,8 +164,9 @@ class Model:
         to_int = np.tile([1 / L, 1 / L, af], cm.nb)
         S = System(cm)
         Q = np.array(Q0, dtype=float)
+        T, NU, _ = S.driver_values(t)        # the drivers at t, once for every iteration
         for _ in range(20):
-            R = S.residual(S.ext(Q), t)
+            R = S.residual(S.ext(Q), t, T)
             J = S.jacobian(S.ext(Q))
             dQ = _solve(J, -R)
             Q += dQ
@@ -179,7 +180,6 @@ class Model:
             return Rejected("Newton did not converge at a target time")
         if np.any(np.abs(Q - Q0).max(axis=1) > jump):
             return Rejected("a target pose moved off its branch")
-        _, NU, _ = S.driver_values(t)
         J = S.jacobian(S.ext(Q))
         Qd = _solve(J, NU)
         Qdd = _solve(J, S.gamma(S.ext(Q), S.ext(Qd), t)) if accel else None
