@@ -51,9 +51,8 @@ import numpy as np
 
 from ..elements import KINDS
 from ..elements.base import Group, Kind
-from ..model.compile import length_scale, length_sizes
 from ..model.validate import MAX_MAGNITUDE
-from planarkin.functions.expr import TimeFunction, evaluate_constant, parse
+from planarkin.functions.expr import TimeFunction, parse
 from planarkin.solver.acceptance import COND_WARN, accepted, path_errors
 from .lockstep import Lockstep
 from .outcome import Outcome
@@ -94,18 +93,24 @@ def _text(node):
     return v if isinstance(v, str) else float(v)
 
 
+def _written(text) -> set:
+    """Every name written in an expression's text (also those its simplification drops); none
+    in a text that does not parse as Python (a label)."""
+    import ast
+    if not isinstance(text, str):
+        return set()
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except Exception:  # noqa: BLE001 - not an expression
+        return set()
+    return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+
+
 def _valid(v) -> np.ndarray:
     """Where numbers v pass the validator's test of every number of a file: finite and at most
     MAX_MAGNITUDE in magnitude."""
     with np.errstate(invalid="ignore"):
         return np.abs(v) <= MAX_MAGNITUDE
-
-
-def _number(v: float) -> float:
-    """v where the validator accepts it as a number of the file, else ValueError."""
-    if not abs(v) <= MAX_MAGNITUDE:
-        raise ValueError(f"{v!r} is not a number the file accepts")
-    return v
 
 
 def _checked(kind, reached: list, posed: bool) -> bool:
@@ -147,11 +152,10 @@ class Batch:
         texts = study.texts()
         self.order = list(spec.parameters)
         self.pexpr = {k: parse(texts[k], self.order[:i]) for i, k in enumerate(self.order)}
-        dep = set(self.varied)
+        dep = self.dep = set(self.varied)
         for k in self.order:
-            if k not in dep and self.pexpr[k].names & dep:
+            if k not in dep and self._uses(texts[k], self.pexpr[k]):
                 dep.add(k)
-        self.dep = dep
         self.L, self.af = cm.L, cm.angle_factor
         uses = lambda node: node is not None and self._depends(node)
         A = assemble(cm)
@@ -172,7 +176,7 @@ class Batch:
         self.sized = set()      # length_sizes' sources the varied parameters reach
         self.elsewhere = [k for k, node in root.value.items()
                           if k not in ("name", "units", "output", "parameters", "bodies",
-                                       "joints", "drivers", "points", "design")
+                                       "joints", "drivers", "points")
                           and self._reaches(node)]
         bodies = root.value.get("bodies")
         body_q = {name: node.value.get("q") for name, node in bodies.value.items()} \
@@ -189,6 +193,11 @@ class Batch:
                                    if key not in known and self._reaches(node)]
                 if uses(keys.get("at")) or uses(keys.get("axis")):
                     raise Unsupported(f"{el.label}: a varied parameter reaches 'at'")
+                if el.at is not None and any(uses(body_q.get(b)) for b in el.bodies):
+                    # a global placement is turned into body-frame points (and a distance's
+                    # constant) at the bodies' drawn poses
+                    raise Unsupported(f"{el.label}: a varied parameter reaches the pose of a "
+                                      f"body it is placed on with 'at'")
                 if _checked(kind, [p for p in kind.params if uses(keys.get(p.name))],
                             any(uses(body_q.get(b)) for b in el.bodies)):
                     # the kind prepares constants at compile time from its parameters and its
@@ -250,8 +259,9 @@ class Batch:
         pts = root.value.get("points")
         for j, ps in enumerate(spec.points):
             pn = pts.value[ps.name].value
-            if uses(pn.get("at")):
-                raise Unsupported(f"point '{ps.name}': a varied parameter reaches 'at'")
+            if uses(pn.get("at")) or (ps.at is not None and uses(body_q.get(ps.body))):
+                raise Unsupported(f"point '{ps.name}': a varied parameter reaches 'at' or the "
+                                  f"pose of the body it is placed on")
             if uses(pn.get("s")):
                 self.svar.append((j, self._expr(pn["s"].value[0]), self._expr(pn["s"].value[1])))
                 self.stext.append((j, _text(pn["s"].value[0]), _text(pn["s"].value[1])))
@@ -269,13 +279,24 @@ class Batch:
                 self.qvar += [(b, c, self._expr(qn.value[c]), _text(qn.value[c]))
                               for c in range(3) if uses(qn.value[c])]
 
+    def _uses(self, text, expr) -> bool:
+        """Whether a varied parameter is written in text (parsed as expr). Unsupported when its
+        simplification drops one (0*sqrt(a), a/a): the validator evaluates the text as
+        written, and a varied value can make it invalid that the simplified expression would
+        not show."""
+        written = _written(text) & self.dep
+        if written - expr.names:
+            raise Unsupported(f"{text!r}: a varied parameter that its simplification drops")
+        return bool(written)
+
     def _depends_t(self, node) -> bool:
         """_depends for a driver's f, a function of t: whether a varied parameter reaches it."""
         if node is not None and node.kind not in ("seq", "map") and isinstance(node.value, str):
             try:
-                return bool(parse(node.value, self.order, allow_t=True).names & self.dep)
+                expr = parse(node.value, self.order, allow_t=True)
             except Exception:  # noqa: BLE001 - the validator has reported it for the nominal
                 return True
+            return self._uses(node.value, expr)
         return node is not None and self._depends(node)
 
     def _reaches(self, node) -> bool:
@@ -285,12 +306,7 @@ class Batch:
             return any(self._reaches(n) for n in node.value)
         if node.kind == "map":
             return any(self._reaches(n) for n in node.value.values())
-        if isinstance(node.value, str):
-            try:
-                return bool(parse(node.value, self.order).names & self.dep)
-            except Exception:  # noqa: BLE001 - not an expression of the parameters
-                return False
-        return False
+        return isinstance(node.value, str) and bool(_written(node.value) & self.dep)
 
     def _expr(self, node):
         return parse(_text(node), self.order)
@@ -304,9 +320,10 @@ class Batch:
                 node.value, (str, int, float)):
             return False
         try:
-            return bool(parse(_text(node), self.order).names & self.dep)
+            expr = parse(_text(node), self.order)
         except Exception:  # noqa: BLE001 - the validator has reported it for the nominal
             return True
+        return self._uses(_text(node), expr)
 
     # -- numbers of many variants at once ------------------------------------------------------
     def numbers(self, values: list[dict]):
@@ -364,134 +381,34 @@ class Batch:
         from planarkin.solver.budget import preflight
         cm = self.cm
         where = {int(r): i for i, r in enumerate(cm.driver_rows)}
+        o, a = self.study.opts, cm.spec.analysis
         for v in range(Vn):
             funcs = list(cm.driver_funcs)
-            values = {k: a[v] for k, a in env.items()}
+            values = {k: float(x[v]) for k, x in env.items()}
             for r, (f, _, _), _ in self.fvar:
                 funcs[where[r]] = VariantDriver(f, values)
-            ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), self.study.opts) is None
+            ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), o) is None and \
+                not any(self._driver_problems(text, values, ((a.start, a.end), (o.start, o.end)))
+                        for _, _, text in self.ftext)
         return ok
+
+    @staticmethod
+    def _driver_problems(text, values, ranges) -> bool:
+        """Whether the validator (check_drivers), or the assembly for another time range,
+        refuses a variant's driver function f over one of the ranges."""
+        try:
+            f = TimeFunction.shared(text, values)
+        except Exception:  # noqa: BLE001 - refused: the per-variant path words it
+            return True
+        return any(list(f.problems(lo, hi)) for lo, hi in ranges
+                   if math.isfinite(lo) and math.isfinite(hi) and hi > lo)
 
     # -- one design from the arrays ------------------------------------------------------------
     def design(self, values: dict):
-        """The compiled model of one design (values: the varied parameters') from the nominal's
-        arrays: the numbers compile_model gives for the file validated with these values (each
-        reached number from its text by the validator's own evaluate_constant, the length scale
-        from the same sizes), without reading, validating or compiling the file again; its
-        spec is the nominal's with the design's parameters, overrides and driver functions
-        (its elements, bodies, points and warnings keep the nominal's: read the arrays). None
-        where it cannot be made so:
-        any number the validator would refuse (the caller's Study.model then gives the
-        message), a varied parameter that reaches a key the batch does not map (a driver's
-        motion or table), a file with masses, loads or shapes (built from the bodies' poses),
-        or a length scale other than the nominal's in a model whose kinds prepare numbers at
-        compile time."""
-        cm, spec = self.cm, self.cm.spec
-        if self.elsewhere or spec.forces is not None or spec.clearance is not None:
-            return None     # (masses, loads and shapes are built from the bodies' poses)
-        try:
-            return self._design(values, cm, spec)
-        except Exception:  # noqa: BLE001 - any refusal is the validator's to word (Study.model)
-            return None
-
-    def _design(self, values, cm, spec):
-        ps = {}
-        for k in self.order:
-            v = float(values[k]) if k in self.varied else evaluate_constant(
-                self.texts[k], ps) if k in self.dep else spec.parameters[k]
-            ps[k] = _number(v)
-        num = lambda text: _number(evaluate_constant(text, ps))    # noqa: E731
-        if not hasattr(self, "_fixed"):
-            self._prepare_design()
-        q = self._q_user.copy()
-        for b, c, _, text in self.qvar:
-            q[b, c] = num(text)
-        sizes = [self._fixed, float(np.abs(q[:, :2]).max(initial=0.0))]
-        reached = {}
-        for gi, entries in enumerate(self.gvar):
-            for name, k, c, _, _, text in entries:
-                # a point's other coordinate: the nominal's, in user units (exact: L is a
-                # power of two)
-                v = reached.setdefault((gi, name, k), list(
-                    np.atleast_1d(cm.groups[gi].params[name][k]) * cm.L))
-                v[c or 0] = num(text)
-        for (gi, name, k), v in reached.items():
-            unit = self._units[gi][name]
-            if unit == "point":
-                sizes.append(math.hypot(*v))
-            elif unit == "length":
-                sizes.append(abs(v[0]))
-        consts = []
-        for r, text, unit, positive in self.ttext:
-            c = num(text)
-            if positive and not c > 0:
-                return None
-            consts.append(c)
-            if unit == "length":
-                sizes.append(abs(c))
-        pts = [(j, num(tx), num(ty)) for j, tx, ty in self.stext]
-        sizes += [math.hypot(x, y) for _, x, y in pts]
-        L = length_scale(max(sizes))
-        ratio = cm.L / L                    # a power of two: exact
-        if ratio != 1.0 and not self._rescalable:
-            return None
-        af = cm.angle_factor
-        groups = []
-        for gi, G in enumerate(cm.groups):
-            params = dict(G.params)
-            for name, unit in self._units[gi].items():
-                if ratio != 1.0 and unit in ("point", "length"):
-                    params[name] = params[name] * ratio
-            mine = [(name, k, v) for (g, name, k), v in reached.items() if g == gi]
-            for name, k, v in mine:
-                if params[name] is G.params[name]:
-                    params[name] = params[name].copy()
-                unit = self._units[gi][name]
-                # as compile_model: a point's [x, y] / L, a length / L, an angle * af
-                params[name][k] = np.asarray(v, dtype=float) / L if unit == "point" else \
-                    v[0] * {"length": 1.0 / L, "angle": af, "real": 1.0}[unit]
-            groups.append(Group(G.kind, G.bodies, G.cols, params, G.rows)
-                          if mine or ratio != 1.0 else G)
-        targets = cm.targets * np.where(self._length_rows, ratio, 1.0)
-        for (r, _, unit, _), c in zip(self.ttext, consts):
-            targets[r] = c * {"length": 1.0 / L, "angle": af, None: 1.0}[unit]
-        point_s = cm.point_s * ratio
-        for j, x, y in pts:
-            point_s[j] = np.array([x, y]) / L
-        q0 = np.array([v for b in q for v in (b[0] / L, b[1] / L, b[2] * af)])
-        driver_scale = np.where(self._length_rows[cm.driver_rows], 1.0 / L, cm.driver_scale)
-        for a in (targets, point_s, q0, driver_scale):
-            a.setflags(write=False)
-        funcs, drivers = list(cm.driver_funcs), list(spec.drivers)
-        for r, e_idx, text in self.ftext:       # as the validator: the shared TimeFunction
-            f = TimeFunction.shared(text, ps)
-            funcs[list(cm.driver_rows).index(r)] = f
-            drivers[e_idx - len(spec.joints)] = replace(drivers[e_idx - len(spec.joints)], f=f)
-        overrides = {**spec.overrides, **{k: ps[k] for k in self.varied}}
-        spec = replace(spec, parameters=ps, drivers=tuple(drivers), overrides=overrides)
-        return replace(cm, spec=spec, L=L,
-                       q0=q0, groups=tuple(groups), targets=targets, driver_scale=driver_scale,
-                       point_s=point_s, driver_funcs=tuple(funcs))
-
-    def _prepare_design(self) -> None:
-        """What design() reads of the nominal once: the largest of the sizes the varied
-        parameters do not reach, the bodies' pose estimates (user units), each group's
-        parameter units, the rows whose constant is a length, and whether the arrays may be
-        rescaled to another length scale (kinds that prepare nothing, no shapes)."""
-        cm, spec = self.cm, self.cm.spec
-        self._fixed = max((size for src, size in length_sizes(spec)
-                           if src[0] != "body" and src not in self.sized), default=0.0)
-        self._q_user = np.array([b.q for b in spec.bodies], dtype=float).reshape(-1, 3)
-        self._units = [{p.name: p.unit for p in G.kind.params} for G in cm.groups]
-        rows = np.zeros(cm.m, dtype=bool)
-        for G in cm.groups:
-            if G.kind.target_unit == "length":
-                rows[G.rows[:, 0]] = True
-        self._length_rows = rows
-        plain = {"point", "length", "angle", "vector", "real", "flag"}
-        self._rescalable = not cm.shapes and all(
-            type(G.kind).prepare is Kind.prepare and not G.kind.derived
-            and all(p.unit in plain for p in G.kind.params) for G in cm.groups)
+        """The compiled model of one design from the nominal's arrays, or None
+        (planarkin.studies.design.design)."""
+        from .design import design
+        return design(self, values)
 
     def drivers(self, targets, env, t=None):
         """(Vn, T, m) targets, nu and f'' on the grid (or at times t, (T,))."""
