@@ -55,7 +55,8 @@ def solve(model, **options):
 
 def synthesize(path, overrides=None, **options):
     """Synthesis of the model file's design: block (planarkin.synthesis.synth): options steps,
-    starts, local, keep, seed, goal, evaluations, time (seconds). Returns a SynthResult (status 0 designs found,
+    starts, local, keep, seed, goal, evaluations, time (seconds), jobs (processes for the
+    local runs: the same designs as with 1). Returns a SynthResult (status 0 designs found,
     1 none acceptable; designs best first, each with values, cost, residuals, margins); invalid
     input raises InputError."""
     from .synthesis.synth import synthesize as run

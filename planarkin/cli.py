@@ -669,11 +669,13 @@ def _synthesis_errors(model_path, report, call, outdir=None, plots=None, progres
 @click.option("--time", "seconds", type=click.FloatRange(0, 1e7, min_open=True),
               help="Time budget (s): the best designs when it runs out.")
 @click.option("--steps", type=_OptionType(OPTIONS["steps"]), help="Grid intervals per design.")
+@click.option("--jobs", "-j", type=click.IntRange(1, 1024), default=1, show_default=True,
+              help="Processes for the local runs (the same designs as with 1).")
 @click.option("--no-plots", is_flag=True, help="Skip synth.png.")
 @click.option("--quiet", "-q", is_flag=True, help="Only errors and the summary line.")
 @_set_option
-def synth(model_path, out, starts, local, keep, seed, goal, seconds, steps, no_plots, quiet,
-          overrides):
+def synth(model_path, out, starts, local, keep, seed, goal, seconds, steps, jobs, no_plots,
+          quiet, overrides):
     """Find the free parameters of MODEL's design: block that meet its targets (path, function
     or motion generation) under its constraints. Writes the best designs as ready-to-run models.
     Exit status: 0 designs found, 1 none acceptable, 2 invalid input."""
@@ -687,7 +689,7 @@ def synth(model_path, out, starts, local, keep, seed, goal, seconds, steps, no_p
     progress = SearchProgress("synth", quiet)
     with interruptible():       # a signal stops the search in order (what is kept: said)
         res = _synthesis_errors(model_path, report, lambda: synthesize(
-            model_path, overrides, {"steps": steps}, progress=progress, starts=starts,
+            model_path, overrides, {"steps": steps}, progress=progress, jobs=jobs, starts=starts,
             local=local, keep=keep, seed=seed, goal=goal, time=seconds), outdir, plots, progress)
         if res is None:
             sys.exit(report.exit_code)

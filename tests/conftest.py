@@ -15,6 +15,7 @@ import pytest
 SLOW_MODULES = {
     "test_batch", "test_compiled", "test_compiled_gen", "test_perstep",    # numba compiles
     "test_contract", "test_execute", "test_plotworker", "test_interrupts",  # real processes
+    "test_synth_jobs",
     "test_dask_errors",                                                     # servers, clusters
     "test_fuzz", "test_properties", "test_extremes", "test_sketch_fuzz",    # generated inputs
     "test_docs",                                                            # the docs' commands

@@ -320,8 +320,8 @@ def test_interrupted_search_writes_the_designs_verified_so_far(tmp_path, monkeyp
     """SIGTERM after the first local run's design was verified, as the second is checked: the
     verified design is written, summary.json says interrupted and how far the search got,
     exit 143, the report line says what is on disk."""
-    from planarkin.synthesis import synth
-    _interrupt_at(monkeypatch, synth, "verified", 1)
+    from planarkin.synthesis import runs
+    _interrupt_at(monkeypatch, runs, "verified", 1)
     r = run_cli("synth", FUNCTION, "--out", tmp_path, "--starts", "4", "--local", "2",
                 "--keep", "2", "--goal", "0")
     assert r.returncode == 143, r.stdout + r.stderr

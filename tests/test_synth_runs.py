@@ -1,4 +1,4 @@
-"""A local run's allocation (planarkin.synthesis.synth._run): a run cut by its own budget
+"""A local run's allocation (planarkin.synthesis.runs.run_from): a run cut by its own budget
 (per_local) goes on from its verified end while it leads the search, until it converges, falls
 by less than 0.1 % over per_local trials, falls behind the designs kept or the search's budget
 runs out. Fakes stand for the local runs, so the rule is checked by counts, not by a search."""
@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from planarkin.synthesis import synth
+from planarkin.synthesis import runs as synth
 
 CUT = "The maximum number of function evaluations is exceeded."
 DONE = "`xtol` termination condition is satisfied."
@@ -47,7 +47,7 @@ def verified(monkeypatch):
 def _run(local, designs=(), evaluations=10_000):
     syn = SimpleNamespace(model=SimpleNamespace(evaluations=0, jacobians=0))
     cfg = {"evaluations": evaluations, "per_local": 100, "keep": 1}
-    return synth._run(syn, local, cfg, _Design(1.0), 0.0, (), (None, None), list(designs), [],
+    return synth.run_from(syn, local, cfg, _Design(1.0), 0.0, (), (None, None), list(designs), [],
                       halt=None)
 
 

@@ -58,10 +58,11 @@ import numpy as np
 
 from ..output.directory import checkpoint
 from . import starts, timing
-from .local import Local, probe_limits, verified
+from .local import Local, probe_limits
 from .margins import (angle_span, barrier, length_gradients, turning_loop,
                       worst_transmission)
 from .problem import Model, Rejected, State, wrap
+from .runs import Ahead, run_from
 from .settings import check_cost, search_options
 from .spec import design_of
 
@@ -70,8 +71,6 @@ PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.pr
 STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
 PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 IDLE_STARTS = 10_000  # starts in a row refused before any analysis end the search ('refused')
-FALL = 1e-3           # a leading run cut by per_local goes on while it falls by this fraction
-                      # over per_local trials (see _run)
 clock = time.perf_counter     # the time budget's clock (a test may replace it)
 
 
@@ -584,15 +583,21 @@ class Synthesis:
         return np.array([grid[i][e] for i, e in self.free_t])
 
 
-def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> SynthResult:
+def synthesize(path, overrides=None, analysis=None, progress=None, jobs: int = 1,
+               **search) -> SynthResult:
     """Synthesis of a model's design block (see the module docstring). search: overrides of
     design: search: (starts, local, keep, seed, goal, evaluations). progress: called as
-    progress(evaluations, best sum of squares so far) before each evaluation. Raises
+    progress(evaluations, best sum of squares so far) before each evaluation. jobs: processes
+    for the local runs (planarkin.synthesis.runs.Ahead: the same result as 1). Raises
     InputError for invalid input, or for a search that would pass the study budget
     (planarkin.studies.budget: memory, time); returns a SynthResult (status 0 with designs,
     1 none acceptable). An interruption (KeyboardInterrupt) is raised again with the
     designs verified so far as its `partial` SynthResult (`interrupted` set)."""
     t0 = time.perf_counter()
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 1024:
+        from ..diagnostics import Diagnostic, InputError
+        raise InputError([Diagnostic(str(path), None, f"synthesize: jobs must be a whole "
+                                                      f"number from 1 to 1024, not {jobs!r}")])
     syn = Synthesis(path, overrides, analysis)
     cfg = {**syn.design.search, **search_options(path, search)}
     total = cfg["starts"] + (1 if cfg["nominal"] else 0)
@@ -611,7 +616,7 @@ def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> 
                            ended=syn.ended)
 
     try:
-        _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons)
+        _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons, jobs)
     except KeyboardInterrupt as e:
         designs.sort(key=lambda o: o.cost)
         del designs[cfg["keep"]:]
@@ -646,10 +651,22 @@ def synthesize(path, overrides=None, analysis=None, progress=None, **search) -> 
     return result(status, msg)
 
 
-def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons) -> None:
+def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reasons,
+            jobs: int = 1) -> None:
     """The global start and the local runs (see the module docstring), filling designs (best
     first, in place, so that an interruption finds those verified so far), scores (of the
-    accepted starts) and reasons (of the rejected); syn.runs counts the local runs."""
+    accepted starts) and reasons (of the rejected); syn.runs counts the local runs. jobs > 1:
+    the next runs' first legs computed in jobs - 1 worker processes (runs.Ahead)."""
+    ahead = Ahead(syn, cfg, jobs) if jobs > 1 else None
+    try:
+        _draws(syn, local, cfg, size, designs, rejected_local, scores, reasons, ahead)
+    finally:
+        if ahead is not None:
+            ahead.close()
+
+
+def _draws(syn, local, cfg, size, designs, rejected_local, scores, reasons, ahead) -> None:
+    """_search's draws of starts and their local runs (ahead: runs.Ahead, or None)."""
     if syn.nt or syn.projected or syn.nu:   # free times and offsets may wrap around a cycle
         syn.tick()
         first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
@@ -705,7 +722,7 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
             scores += sc
             for key, k in why.items():
                 reasons[key] = reasons.get(key, 0) + k
-            for score, x0, d0 in good:
+            for i, (score, x0, d0) in enumerate(good):
                 if ended() or runs >= cfg["local"]:
                     break
                 # the run leaves one evaluation of the budget for its full check (local.verified)
@@ -714,9 +731,17 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
                     break
                 syn.runs += 1
                 runs += 1
-                d = _run(syn, local, cfg, d0, stop, probe, (lo, hi), designs, rejected_local,
-                         halt=lambda: ended() or ("evaluations" if spent() >= cfg["evaluations"]
-                                                  - 1 else None))
+                leg = None
+                if ahead is not None:
+                    deadline = None if not cfg["time"] else \
+                        time.perf_counter() + cfg["time"] - (clock() - t0)
+                    ahead.plan([g[2] for g in good[i + 1:i + 1 + cfg["local"] - runs]], stop,
+                               probe, (lo, hi), spent(), deadline, designs)
+                    leg = ahead.take(d0, spent(), designs)
+                d = run_from(syn, local, cfg, d0, stop, probe, (lo, hi), designs,
+                             rejected_local, halt=lambda: ended() or (
+                                 "evaluations" if spent() >= cfg["evaluations"] - 1 else None),
+                             leg=leg)
                 if d is None:
                     continue
                 norm = (d.x - 0) / np.where(span > 0, span, 1.0)
@@ -727,6 +752,8 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
                 designs.append(d)
                 designs.sort(key=lambda o: o.cost)
                 del designs[cfg["keep"]:]
+            if ahead is not None:
+                ahead.drop()            # legs of starts this batch will not run
         draw += 1
         # a draw whose every start was refused before an analysis spends nothing (no budget
         # would end the loop): IDLE_STARTS such starts in a row end it
@@ -740,43 +767,6 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
                 syn.drawn - examined >= 2):
             syn.ended = "same"
             syn.same = next(iter(syn.refusals))
-
-
-def _run(syn, local, cfg, start, stop, probe, bounds, designs, rejected, halt):
-    """One local run from the fully evaluated design `start` and the design verified at its
-    end (local.verified), or None when an abandoned or halted run is no better than the
-    designs kept (not checked). A run cut by its own budget (per_local) whose verified end
-    leads the search (below every design kept) goes on from there, per_local trials at a
-    time, until it converges, falls by less than FALL of its sum of squares over per_local
-    trials, falls behind or a budget of the search runs out: a run in a flat, curved valley
-    converges linearly (five-point-curve.yaml: 200-800 trials from the best starts to the
-    least sum of squares), and cut at per_local it would stop well above the valley's floor,
-    however many runs the budget then pays for; one crawling (0.04 % per 100 trials, seed 6
-    of the same file) gives the budget back to other starts. Measured 2026-12-07,
-    benchmarks/README.md."""
-    e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
-    d, first = None, start
-    while True:
-        budget = cfg["evaluations"] - syn.model.evaluations - local.evaluations - 1
-        if budget < 1:
-            break
-        xl, message, trail = local.run(first, min(budget, cfg["per_local"]), stop, probe,
-                                       halt=halt)
-        if message.startswith(("abandoned", "halted")) and len(designs) >= cfg["keep"] and \
-                local.last_cost >= designs[-1].cost:
-            break
-        d = verified(syn, local, xl, trail, *bounds, rejected, first)
-        cut = message.startswith("The maximum number of function evaluations") and \
-            not d.message
-        d.message = d.message or message
-        if not (cut and d.cost < (1 - FALL) * first.cost and
-                all(d.cost < o.cost for o in designs)):
-            break
-        first = d
-    if d is not None:
-        d.nfev = syn.model.evaluations + local.evaluations - e0
-        d.njev = syn.model.jacobians - j0
-    return d
 
 
 def _kind(reason: str) -> str:
