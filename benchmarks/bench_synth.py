@@ -16,7 +16,10 @@
    the largest parameter error (target 1e-9).
 
     python benchmarks/bench_synth.py [--seeds 20] [--first 0] [--trials 100] [--only line|fit]
-        [--model FILE]
+        [--model FILE] [--jobs N]
+
+--jobs N: the straight line with synthesize(jobs=N) (local runs in N - 1 worker processes and
+this one, the same results as --jobs 1); its CPU column is then this process's only.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import numpy as np
 from common import ROOT  # noqa: F401 (puts the checkout first on sys.path)
 
 
-def straight_line(seeds: int, first: int = 0, model=None) -> None:
+def straight_line(seeds: int, first: int = 0, model=None, jobs: int = 1) -> None:
     """Per seed: best SSE, evaluations (of them analyses over the cycle), Jacobians, local
     runs, what ended the search, wall and CPU seconds (time.process_time) and the 1-min load
     average before and after (os.getloadavg: other work on the machine shows in the wall
@@ -46,7 +49,7 @@ def straight_line(seeds: int, first: int = 0, model=None) -> None:
     ev, an, jac, sec, cpu, best_all, runs = [], [], [], [], [], [], []
     for seed in range(first, first + seeds):
         l0, c0 = os.getloadavg()[0], time.process_time()
-        r = synthesize(model, seed=seed)
+        r = synthesize(model, seed=seed, jobs=jobs)
         c, l1 = time.process_time() - c0, os.getloadavg()[0]
         best = r.designs[0].cost if r.designs else float("nan")
         ok += best < 1e-12
@@ -109,10 +112,11 @@ if __name__ == "__main__":
     ap.add_argument("--only", choices=("line", "fit"))
     ap.add_argument("--model", help="another straight-line model file (default: "
                                     "mechanisms/synthesis/straight-line.yaml)")
+    ap.add_argument("--jobs", type=int, default=1, help="processes for the local runs")
     a = ap.parse_args()
     print("load:", os.getloadavg())
     if a.only != "fit":
-        straight_line(a.seeds, a.first, a.model)
+        straight_line(a.seeds, a.first, a.model, a.jobs)
     if a.only != "line":
         fitting(a.trials)
     print("load:", os.getloadavg())

@@ -26,6 +26,7 @@ FALL = 1e-3           # a leading run cut by per_local goes on while it falls by
 #                       over per_local trials (see run_from)
 LEG_MARGIN = 64       # evaluations a leg may spend beyond per_local (its first trial, the
 #                       check over the cycle and its bisection over the run's trail)
+QUEUED = 3            # legs queued per worker (a worker never waits for this process to ask)
 
 
 def run_from(syn, local, cfg, start, stop, probe, bounds, designs, rejected, halt, leg=None):
@@ -112,7 +113,7 @@ class Ahead:
         """The runs after the one the search is at (starts: fully evaluated designs, in
         order), as far as the budget left covers their legs and that run (spent: the
         evaluations so far; deadline: the time budget's end on time.perf_counter, or None;
-        designs: those kept): each worker kept busy with the first of them not yet computed.
+        designs: those kept): each worker given the first QUEUED of them not yet computed.
         A leg abandoned no better than the worst design kept now is not checked over the
         cycle: the serial search would not check it then either (the worst design kept only
         improves)."""
@@ -123,7 +124,7 @@ class Ahead:
                      for d in starts[:max(0, room)]]
         busy = sum(not isinstance(v, Leg) and not v.done() for v in self.legs.values())
         for args in self.next:
-            if busy >= self.jobs - 1:
+            if busy >= QUEUED * (self.jobs - 1):
                 break
             if id(args[0]) not in self.legs:
                 if self.pool is None:
