@@ -1,5 +1,6 @@
-"""Local runs computed ahead in worker processes (synthesize(jobs=N), planarkin.synthesis.runs):
-the serial search's result, design for design and count for count, whatever the budget."""
+"""Local runs and later draws' starts computed ahead in worker processes (synthesize(jobs=N),
+planarkin.synthesis.runs): the serial search's result, design for design and count for count,
+whatever the budget."""
 
 import numpy as np
 import pytest
@@ -20,10 +21,16 @@ def _same(a, b):
 
 
 @pytest.mark.parametrize("path, search", [
-    # runs cut by per_local that go on while they lead, a budget that ends the search
-    ("mechanisms/synthesis/five-point-curve.yaml", {"evaluations": 700, "seed": 1}),
+    # runs cut by per_local that go on while they lead, legs the budget then left makes
+    # another run's (run here again), a budget that ends the search
+    ("mechanisms/synthesis/five-point-curve.yaml",
+     {"evaluations": 700, "seed": 1, "per_local": 60, "starts": 60}),
     # probed runs abandoned behind the design kept (not checked over the cycle), the goal met
     ("mechanisms/synthesis/straight-line.yaml", {"seed": 7}),
+    # one run a draw: the next draws' starts analysed in the worker meanwhile, the last one
+    # past the budget analysed here
+    ("mechanisms/synthesis/four-bar-function.yaml",
+     {"seed": 1, "starts": 8, "local": 1, "goal": 0, "evaluations": 200}),
 ])
 def test_runs_in_worker_processes_give_the_serial_search(path, search):
     serial = synthesize(path, **search)

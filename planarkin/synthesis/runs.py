@@ -17,6 +17,7 @@ evaluations and messages of `--jobs N` are the serial search's for the same seed
 
 from __future__ import annotations
 
+import copy
 import pickle
 import time
 
@@ -108,6 +109,7 @@ class Ahead:
         self.pool = None
         self.legs: dict = {}        # id of a start -> its Leg, or the Future of its Leg
         self.next: list = []        # the legs' arguments of the runs after the one at hand
+        self.draws: dict = {}       # a later draw -> Future of its candidates (plan_draw)
 
     def plan(self, starts, stop, probe, bounds, spent: int, deadline, designs) -> None:
         """The runs after the one the search is at (starts: fully evaluated designs, in
@@ -159,13 +161,42 @@ class Ahead:
                 continue
             syn = self.syn
             saved = _spent(syn, syn.local), syn.local.last_cost
-            try:
-                self.legs[id(args[0])] = _leg(*args, syn=syn)
+            try:        # on a copy of the start, as a worker has (a run fills in its state)
+                self.legs[id(args[0])] = _leg(copy.deepcopy(args[0]), *args[1:], syn=syn)
             finally:        # this process's counts as they were: taken with the leg
                 (syn.model.evaluations, syn.local.evaluations, syn.model.jacobians), \
                     syn.local.last_cost = saved
             return True
         return False
+
+    def plan_draw(self, draw: int, part) -> None:
+        """Analyse the starts of a later draw in a worker (Synthesis.candidates of the whole
+        draw, part: its rows) while the search runs this draw's local runs."""
+        if draw in self.draws:
+            return
+        if self.pool is None:
+            self._start()
+        cfg = self.cfg
+        self.draws[draw] = self.pool.submit(_draw, cfg["starts"], cfg["seed"],
+                                            bool(cfg["nominal"]), part, cfg["local"], draw)
+
+    def take_draw(self, draw: int, spent: int):
+        """The candidates of a draw analysed ahead, taken into the search's counts, when its
+        analyses end before the budget left (spent: the evaluations so far) as the serial
+        search's would; else None (analysed here)."""
+        fut = self.draws.pop(draw, None)
+        if fut is None:
+            return None
+        got, counted, refusals, best = fut.result()
+        if self.cfg["evaluations"] - spent - 1 < counted[0]:
+            return None
+        syn = self.syn
+        syn.model.evaluations += counted[0]
+        syn.model.jacobians += counted[1]
+        syn.project_solves += counted[2]
+        syn.refusals |= refusals
+        syn.best = min(syn.best, best)
+        return got
 
     def drop(self) -> None:
         """Forget the legs not taken (the search ended, or the draw's runs are used up)."""
@@ -224,6 +255,17 @@ def _leg(start, per_local, stop, probe, bounds, deadline, worst, syn=None) -> Le
     after = _spent(syn, local)
     return Leg(message, local.last_cost, tuple(b - a for a, b in zip(before, mid)), end,
                tuple(b - a for a, b in zip(mid, after)), rejected)
+
+
+def _draw(starts, seed, nominal, part, limit, draw) -> tuple:
+    """A draw's candidates in a worker: (candidates' result, (analyses, Jacobians,
+    projection solves) it counted, the refusals it saw, the best cost)."""
+    syn = _SYN
+    before = (syn.model.evaluations, syn.model.jacobians, syn.project_solves)
+    syn.refusals, syn.best = set(), float("inf")
+    got = syn.candidates(starts, seed, nominal, part, limit=limit, draw=draw)
+    after = (syn.model.evaluations, syn.model.jacobians, syn.project_solves)
+    return got, tuple(b - a for a, b in zip(before, after)), syn.refusals, syn.best
 
 
 def _spent(syn, local) -> tuple:

@@ -715,9 +715,12 @@ def _draws(syn, local, cfg, size, designs, rejected_local, scores, reasons, ahea
         for first in range(0, n, size):
             if ended() or runs >= cfg["local"]:
                 break
-            good, why, sc = syn.candidates(cfg["starts"], cfg["seed"], bool(cfg["nominal"]),
-                                           (first, first + size), limit=cfg["local"] - runs,
-                                           draw=draw, halt=ended)
+            got = ahead.take_draw(draw, spent()) if ahead is not None and first == 0 else None
+            good, why, sc = got or syn.candidates(
+                cfg["starts"], cfg["seed"], bool(cfg["nominal"]), (first, first + size),
+                limit=cfg["local"] - runs, draw=draw, halt=ended)
+            if ahead is not None and size >= cfg["starts"]:
+                ahead.plan_draw(draw + 1, (0, size))    # the next draw's starts, meanwhile
             syn.drawn += sum(why.values()) + len(sc)
             scores += sc
             for key, k in why.items():
