@@ -30,7 +30,7 @@ def _same(a, b):
     # one run a draw: the next draws' starts analysed in the worker meanwhile, the last one
     # past the budget analysed here
     ("mechanisms/synthesis/four-bar-function.yaml",
-     {"seed": 1, "starts": 8, "local": 1, "goal": 0, "evaluations": 200}),
+     {"seed": 1, "starts": 6, "local": 1, "goal": 0, "evaluations": 100}),
 ])
 def test_runs_in_worker_processes_give_the_serial_search(path, search):
     serial = synthesize(path, **search)

@@ -10,9 +10,13 @@ leg computed in a worker from the search's state before the batch is the leg the
 computes after the runs before it. The search takes the legs in order as it would have run
 them: a leg the serial search would not have started (the goal met, the draw's runs used up)
 is dropped with its evaluations; of a leg abandoned behind the designs kept, only the run's
-evaluations count (the serial search does not check it over the cycle). The designs,
-evaluations and messages of `--jobs N` are the serial search's for the same seed
-(tests/test_synth_jobs.py); a time budget ends a leg in a worker at the same deadline.
+evaluations count (the serial search does not check it over the cycle); and at the moment
+the search takes a leg, the budget then left must have given the serial run the same trials,
+or the run is run here. The same holds for a later draw's starts (Synthesis.candidates of the
+whole draw): analysed in a worker while this draw's runs go on, and taken, with their counts,
+when those analyses end before the budget left. The designs, evaluations and messages of
+`--jobs N` are the serial search's for the same seed (tests/test_synth_jobs.py); a time budget
+ends a leg in a worker at the same deadline.
 """
 
 from __future__ import annotations
@@ -110,6 +114,11 @@ class Ahead:
         self.legs: dict = {}        # id of a start -> its Leg, or the Future of its Leg
         self.next: list = []        # the legs' arguments of the runs after the one at hand
         self.draws: dict = {}       # a later draw -> Future of its candidates (plan_draw)
+        # a later draw's designs are held twice more (in a worker, and here once sent): only
+        # where the memory budget has room for them (synthesis.settings.check_cost)
+        from .problem import memory_problem
+        held = 3 * min(cfg["starts"], cfg["local"]) + cfg["keep"] + 1
+        self.draws_fit = memory_problem(syn.model, held, "", k=syn.k) is None
 
     def plan(self, starts, stop, probe, bounds, spent: int, deadline, designs) -> None:
         """The runs after the one the search is at (starts: fully evaluated designs, in
@@ -172,7 +181,7 @@ class Ahead:
     def plan_draw(self, draw: int, part) -> None:
         """Analyse the starts of a later draw in a worker (Synthesis.candidates of the whole
         draw, part: its rows) while the search runs this draw's local runs."""
-        if draw in self.draws:
+        if draw in self.draws or not self.draws_fit:
             return
         if self.pool is None:
             self._start()
