@@ -44,7 +44,6 @@ variant is solved by the per-variant path, which refuses it as `run` does.
 from __future__ import annotations
 
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -388,20 +387,11 @@ class Batch:
             for r, (f, _, _), _ in self.fvar:
                 funcs[where[r]] = VariantDriver(f, values)
             ok[v] = preflight(replace(cm, driver_funcs=tuple(funcs)), o) is None and \
-                not any(self._driver_problems(text, values, ((a.start, a.end), (o.start, o.end)))
-                        for _, _, text in self.ftext)
+                all(TimeFunction.checked(text, values, ((a.start, a.end), (o.start, o.end)))
+                    is not None for _, _, text in self.ftext)
         return ok
 
-    @staticmethod
-    def _driver_problems(text, values, ranges) -> bool:
-        """Whether the validator (check_drivers), or the assembly for another time range,
-        refuses a variant's driver function f over one of the ranges."""
-        try:
-            f = TimeFunction.shared(text, values)
-        except Exception:  # noqa: BLE001 - refused: the per-variant path words it
-            return True
-        return any(list(f.problems(lo, hi)) for lo, hi in ranges
-                   if math.isfinite(lo) and math.isfinite(hi) and hi > lo)
+
 
     # -- one design from the arrays ------------------------------------------------------------
     def design(self, values: dict):

@@ -118,9 +118,9 @@ def _design(B, values, cm, spec):
     funcs, drivers = list(cm.driver_funcs), list(spec.drivers)
     a = spec.analysis
     for r, e_idx, text in B.ftext:       # as the validator: the shared TimeFunction
-        if B._driver_problems(text, ps, ((a.start, a.end),)):
+        f = TimeFunction.checked(text, ps, ((a.start, a.end),))
+        if f is None:
             return None
-        f = TimeFunction.shared(text, ps)
         funcs[list(cm.driver_rows).index(r)] = f
         drivers[e_idx - len(spec.joints)] = replace(drivers[e_idx - len(spec.joints)], f=f)
     overrides = {k: ps[k] for k in {**spec.overrides, **dict.fromkeys(B.varied)}}

@@ -62,6 +62,20 @@ class TimeFunction:
         return got
 
     @classmethod
+    def checked(cls, text, values: Mapping[str, float], ranges):
+        """shared(text, values), or None where it cannot be made or where it has problems
+        (jumps, derivatives that are not finite, see `problems`) over one of the (start, end)
+        ranges: what the validator's check of a driver refuses, for a design or a study's
+        variant made without validating the file (planarkin.studies.design, .batch)."""
+        try:
+            f = cls.shared(text, values)
+        except Exception:  # noqa: BLE001 - refused: the validator words it
+            return None
+        bad = any(list(f.problems(lo, hi)) for lo, hi in ranges
+                  if math.isfinite(lo) and math.isfinite(hi) and hi > lo)
+        return None if bad else f
+
+    @classmethod
     def from_expr(cls, expr: Expr, text: str, domain: tuple | None = None) -> "TimeFunction":
         """A TimeFunction of an expression tree built in code (motion profiles, tables)."""
         self = cls.__new__(cls)
