@@ -329,6 +329,30 @@ def test_api_options_are_checked(options, message):
     assert message in str(e.value)
 
 
+def test_local_follows_probe_unless_given():
+    """local's default: 10 runs a draw, or with probe every start of the draw (the probed runs
+    are short); a value given stays. keep's default is 1."""
+    from planarkin.synthesis.settings import settled
+    from planarkin.synthesis.spec import SEARCH
+    cfg = {k: d for k, (_, _, _, d) in SEARCH.items()}
+    assert cfg["keep"] == 1 and cfg["local"] is None
+    assert settled(cfg)["local"] == 10
+    assert settled({**cfg, "probe": 30, "starts": 150})["local"] == 150
+    assert settled({**cfg, "probe": 30, "local": 7})["local"] == 7
+
+
+def test_the_straight_line_needs_three_search_settings():
+    """The six collinear points (free timing): the file's search block says what the problem
+    needs (goal, budget, probe) and nothing the defaults give."""
+    import yaml
+    doc = yaml.safe_load((EX / "straight-line.yaml").read_text())
+    assert sorted(doc["design"]["search"]) == ["evaluations", "goal", "probe"]
+    syn = Synthesis(EX / "straight-line.yaml")
+    from planarkin.synthesis.settings import settled
+    cfg = settled(dict(syn.design.search))
+    assert (cfg["local"], cfg["keep"], cfg["starts"]) == (200, 1, 200)
+
+
 def test_jacobian_angle_joint_constant_and_relative_driver():
     """The five-point problem: th0 reaches an angle joint's constant c (dPhi/dc = -1) and the
     crank is driven relative to that frame; prescribed inputs, the barrier row off."""

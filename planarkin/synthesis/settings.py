@@ -34,6 +34,18 @@ def search_options(path, search: dict) -> dict:
     return out
 
 
+LOCAL = 10     # local runs a draw unless given, or with probe: every accepted start of the draw
+
+
+def settled(cfg: dict) -> dict:
+    """The search settings with the defaults that follow from others: local, when not given,
+    is LOCAL, or with probe (short runs, abandoned when they fall too slowly) every start of
+    a draw, so that the many cheap runs that find a narrow basin are all made."""
+    if cfg["local"] is None:
+        cfg = {**cfg, "local": cfg["starts"] if cfg["probe"] else LOCAL}
+    return cfg
+
+
 def check_cost(syn, cfg, total: int, size: int) -> None:
     """InputError, before the first analysis, when the search would pass the study budget
     (planarkin.studies.budget, whose figures per grid row and per analysis it uses): the grids

@@ -18,8 +18,10 @@
         transmission: {points: [B, C, D], min: 30}
         order: true                           # free-timing targets in order along the path
                                               # (either direction: the input may turn back)
-      search: {starts: 200, local: 10, keep: 3, seed: 0, goal: 1e-12, evaluations: 2000,
+      search: {starts: 200, local: 10, keep: 1, seed: 0, goal: 1e-12, evaluations: 2000,
                per_local: 300}       # per_local: evaluations of one local run
+      # local: runs a draw, from its best starts (default 10; with probe, every accepted start
+      # of the draw: probed runs are short); keep: distinct designs written
       # evaluations, time (s, 0: none): the budgets; the search draws `starts` starts at a
       # time from one seeded sequence (at most `local` runs a draw) until the goal is met or a
       # budget runs out, and ends with the best designs so far
@@ -49,8 +51,8 @@ TARGET_KEYS = {"path": ("path", "points", "inputs", "weight", "closed"),
 CONSTRAINT_KEYS = ("turns", "transmission", "order")
 INPUT_KEYS = ("offset", "step", "values")      # inputs: {...}, relative to an unknown offset
 TURNS_KEYS = ("body", "shortest")
-SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, 10),
-          "keep": (int, 1, 1000, 3), "seed": (int, 0, 2**32 - 1, 0),
+SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, None),
+          "keep": (int, 1, 1000, 1), "seed": (int, 0, 2**32 - 1, 0),
           "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
           "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0),
           "batch": (int, 0, 100_000, 0), "probe": (int, 0, 10**6, 0),

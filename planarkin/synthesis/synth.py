@@ -63,7 +63,7 @@ from .margins import (angle_span, barrier, length_gradients, turning_loop,
                       worst_transmission)
 from .problem import Model, Rejected, State, wrap
 from .runs import Ahead, run_from
-from .settings import check_cost, search_options
+from .settings import check_cost, search_options, settled
 from .spec import design_of
 
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
@@ -599,7 +599,7 @@ def synthesize(path, overrides=None, analysis=None, progress=None, jobs: int = 1
         raise InputError([Diagnostic(str(path), None, f"synthesize: jobs must be a whole "
                                                       f"number from 1 to 1024, not {jobs!r}")])
     syn = Synthesis(path, overrides, analysis)
-    cfg = {**syn.design.search, **search_options(path, search)}
+    cfg = settled({**syn.design.search, **search_options(path, search)})
     total = cfg["starts"] + (1 if cfg["nominal"] else 0)
     size = cfg["batch"] or total
     check_cost(syn, cfg, total, size)
