@@ -270,14 +270,46 @@ KEYS = {
                                  "pin (default 1e-9 of the model's size)",
     "gravity": "`[gx, gy]`, length/s^2 (e.g. `[0, -9.81]` in m); default none",
     "loads": "list of loads, each with `type` and optional `name` (the load kinds below)",
-    "design": "synthesis and fitting (`planarkin synth`, `planarkin fit`): `free: {NAME: [low, "
-              "high]}` parameters with bounds, `targets:` (`path`, `function` or `motion`; "
-              "`inputs` a list of driver values, or relative to an offset found by the search: "
-              "`{offset: free, step: S}`, `{offset: free, values: [...]}`, `step: free`; a path "
-              "is `closed` when its last point repeats its first, or with `closed: true`), "
-              "`constraints:` (`turns`, with `{body, shortest: true}` for a crank that must be "
-              "the shortest link; `transmission`, `order`) and `search:` settings (`starts`, "
-              "`local` per draw, `evaluations` and `time` budgets, `goal`, `seed`)",
+    "design": "synthesis and fitting (`planarkin synth`, `planarkin fit`; see [Synthesis and "
+              "fitting](../how-to/synthesis.md)): the keys below",
+    "design.free": "`{NAME: [low, high]}`: the parameters of `parameters:` the search varies, "
+                   "with their bounds",
+    "design.targets": "list of targets, each `path: POINT` (`points: [[x, y], ...]`), "
+                      "`function: BODY.QUANTITY` (`outputs: [...]`) or `motion: BODY` (`point`, "
+                      "`poses: [[x, y, phi], ...]`), with `inputs` (the driver's values; left "
+                      "out: free timing, found by the search in order), `weight` (default 1) "
+                      "and for a path or motion `closed` (a curve traced once per turn: the "
+                      "default when its last point repeats its first)",
+    "design.targets[].inputs": "a list of driver values, or `{offset: free, step: S}` / "
+                               "`{offset: free, values: [...]}`: inputs relative to an offset "
+                               "the search finds (`offset` and `step` each a number, `free` "
+                               "or `[low, high]`; `values` relative to the offset)",
+    "design.constraints": "`turns: BODY` (it turns fully; `{body: BODY, shortest: true}`: a "
+                          "four-bar loop with BODY its shortest link), `transmission: {points: "
+                          "[B, C, D], min: ANGLE}`, `order: true | false` (free-timing targets "
+                          "in order along the path, the default)",
+    "design.search": "the search's settings: the keys below (`--starts`, `--local`, `--keep`, "
+                     "`--seed`, `--goal`, `--time` override them)",
+    "design.search.starts": "Latin-hypercube designs drawn at a time (default 200)",
+    "design.search.local": "local least-squares runs from each draw's best starts (default 10; "
+                           "with `probe`, every accepted start of the draw)",
+    "design.search.keep": "distinct designs written (default 1)",
+    "design.search.seed": "the seed of the draws (default 0): the same seed, the same result",
+    "design.search.goal": "sum of squares a design must reach; the search ends at the first "
+                          "`keep` designs below it (default 0: none)",
+    "design.search.evaluations": "budget: analyses over the cycle and local trials together "
+                                 "(default 2000)",
+    "design.search.time": "budget in seconds (default 0: none)",
+    "design.search.per_local": "trials of one local run, renewed while the run leads the "
+                               "search and still falls (default 300)",
+    "design.search.nominal": "`1`: the file's own parameter values are a start too (default 0)",
+    "design.search.batch": "starts analysed at a time, each batch's runs made before the next "
+                           "batch is analysed (default 0: a whole draw)",
+    "design.search.probe": "trials after which a local run above `probe_cost` is abandoned "
+                           "(above a hundredth of it after a third more, a ten-thousandth "
+                           "after twice as many; default 0: never)",
+    "design.search.probe_cost": "the sum of squares a probed run must be below after `probe` "
+                                "trials (default 0.01)",
     "shapes": "`name: {OUTLINE: ..., layer: Z}`: the outlines measured for interference and "
               "clearance (clearance.csv, summary.json's `clearance`); a shape named after a "
               "body (or link) is on it, any other name says `body: NAME` (`ground` for a frame "

@@ -158,6 +158,25 @@ def test_keys_reference_lists_exactly_the_keys_the_validator_accepts(section):
     assert documented == valid
 
 
+def test_keys_reference_lists_every_design_key_with_its_default():
+    """design: its sections, the search's settings (each with the default spec.SEARCH gives:
+    local's follows probe), targets' and constraints' keys: what synthesis/spec.py accepts."""
+    from planarkin.synthesis.spec import CONSTRAINT_KEYS, INPUT_KEYS, KEYS as DESIGN, SEARCH
+    from planarkin.synthesis.spec import TARGET_KEYS, TURNS_KEYS
+    assert {k.split(".")[1].removesuffix("[]") for k in KEYS if k.startswith("design.")} == \
+        set(DESIGN)
+    search = {k.split(".")[2]: doc for k, doc in KEYS.items() if k.startswith("design.search.")}
+    assert set(search) == set(SEARCH)
+    for key, (_, _, _, default) in SEARCH.items():
+        if default is not None:
+            assert f"default {default:g}" in search[key], key
+    targets = KEYS["design.targets"] + KEYS["design.targets[].inputs"]
+    for key in {k for keys in TARGET_KEYS.values() for k in keys} | set(INPUT_KEYS):
+        assert key in targets, key
+    for key in (*CONSTRAINT_KEYS, *TURNS_KEYS):
+        assert key in KEYS["design.constraints"], key
+
+
 def test_keys_reference_names_the_body_and_load_keys():
     from planarkin.forces.keys import BODY_KEYS, LOAD_KEYS
     table = keys_table()
