@@ -42,7 +42,7 @@ from ..solver.path import driver_breakpoints, hermite5
 from .problem import Rejected
 
 AHEAD = 64           # starts analysed together
-MIN_BATCH = 4        # fewer designs than this: the path follower, one by one
+MIN_BATCH = 10       # fewer designs than this: the path follower, one by one (as quick)
 NODES = 32           # grid intervals marched over (every grid row is then solved at once)
 MAX_SUBSTEPS = 64    # steps between two nodes, at most (then the path follower decides)
 
@@ -108,6 +108,17 @@ def march(B, designs, opts_of) -> list:
     stride = max(1, (len(grid) - 1) // NODES)
     at = np.unique(np.append(np.arange(0, len(grid), stride), len(grid) - 1))
     M = _Marcher(B, B.take(num, go), Q0[go], grid[at])
+    # a design whose pose estimate is rough (the file's q, not an exact pose) fails the first
+    # solve's tests, which hold it to a step's; it starts from the follower's own assembly
+    # there (planarkin.solver.assembly.assemble), as the follower does
+    rough = np.setdiff1d(np.arange(len(go)), M.live)
+    if len(rough):
+        for j in rough:
+            cm = designs[go[j]][1]
+            q = _assembled(cm, grid[0])
+            if q is not None:
+                Q0[go[j], :n] = q * np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb) / unit
+        M = _Marcher(B, B.take(num, go), Q0[go], grid[at])
     for k in range(1, len(at)):
         if not M.interval(k):
             break
@@ -237,6 +248,17 @@ class _Marcher:
             return None
         return (live[ok], tuple(a[ok] for a in arrays),
                 info.iterations.reshape(V, K)[ok], condition(info).reshape(V, K)[ok])
+
+
+def _assembled(cm, t0):
+    """The pose the path follower starts from (internal units of cm), or None when the
+    assembly refuses the design (the follower then says why)."""
+    from ..diagnostics import InputError
+    from ..solver.assembly import assemble
+    try:
+        return assemble(cm, t0).q
+    except InputError:
+        return None
 
 
 def _result(cm, opts, grid, Q, Qd, Qdd, unit, iterations, cond) -> Result:
