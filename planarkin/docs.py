@@ -310,6 +310,11 @@ KEYS = {
                            "after twice as many; default 0: never)",
     "design.search.probe_cost": "the sum of squares a probed run must be below after `probe` "
                                 "trials (default 0.01)",
+    "design.search.band": "with a `turns:` constraint on a four-bar loop, how near the Grashof "
+                          "wall (a change point) the local runs go: a barrier acts within this "
+                          "fraction of the loop's length sum (default 0.01: well off it, as "
+                          "the probed runs of exact problems need; 1e-4 lets them reach "
+                          "designs that lie near the wall)",
     "shapes": "`name: {OUTLINE: ..., layer: Z}`: the outlines measured for interference and "
               "clearance (clearance.csv, summary.json's `clearance`); a shape named after a "
               "body (or link) is on it, any other name says `body: NAME` (`ground` for a frame "

@@ -57,22 +57,21 @@ def test_jacobian_revolute_path_free_timing():
     _check(syn, [0, 0, 0.3, 10, 40, 30, 40, 20, 20])
 
 
-def test_turns_barrier_row_and_its_gradient(monkeypatch):
+def test_turns_barrier_row_and_its_gradient():
     """Near a change point (crank 10, coupler 50, rocker 40.6, ground 20: margin
-    50 + 40.6 + 20 - 2 * 50 - 10 = 0.6 mm) the barrier row (m0 - m)^2 / m is on below
-    m0 = BAND of the length sum, and its exact gradient (through the lengths' expressions)
-    matches central differences with the rest of the Jacobian (BAND 1 % here: with the
-    search's 1e-4 the row acts within 0.012 mm of the wall, where differences lose their
-    digits); with the search's BAND the row is off at this margin."""
-    from planarkin.synthesis import margins
+    50 + 40.6 + 20 - 2 * 50 - 10 = 0.6 mm, below 1 % of the length sum, the default band) the
+    barrier row (m0 - m)^2 / m is on, and its exact gradient (through the lengths' expressions)
+    matches central differences with the rest of the Jacobian; with search: band 1e-4 the row
+    acts only within 0.012 mm of the wall, so here it is off."""
     x = [0, 0, 0.3, 10, 50, 40.6, 20, 20, 20]
     syn = Synthesis(LINE)
     syn.wrap = True
+    syn.band = 1e-4
     r, _, d = syn.evaluate(np.array(x, dtype=float))
-    assert margins.BAND * 120.6 < 0.6 and r[-1] == 0
-    monkeypatch.setattr(margins, "BAND", 0.01)
+    assert r[-1] == 0
     syn = Synthesis(LINE)
     syn.wrap = True
+    assert syn.band == 0.01
     r, _, d = syn.evaluate(np.array(x, dtype=float))
     assert d.margins["turns"]["value"] == pytest.approx(0.6, abs=1e-9)
     m0 = 0.01 * (10 + 50 + 40.6 + 20)

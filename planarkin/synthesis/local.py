@@ -263,7 +263,8 @@ def verified(syn, local, x, trail, lo, hi, rejected, first):
     check (the whole cycle, on the branch, every constraint: the guarantee of a returned
     design; a local trial checks only the target inputs), the last accepted iterate of the
     run that passes it, found by bisection over the trail (its first entry is the run's start,
-    the fully evaluated design `first`); the reason of the failure appended to rejected."""
+    the fully evaluated design `first`), or Rejected when none does; the reason of the failure
+    appended to rejected."""
     r, _, d = syn.evaluate(np.clip(local.full(x), lo, hi), jac=False, final=True)
     if r is not None:
         return d
@@ -276,7 +277,13 @@ def verified(syn, local, x, trail, lo, hi, rejected, first):
             bad = mid
         else:
             good, best = mid, dm
-    best = best or first
+    if best is None:
+        # the start itself, when it passes: a start is not held to the order of free times
+        # (Synthesis.candidates), which its run may not have reached
+        if not all(m["ok"] for m in first.margins.values()):
+            return Rejected(f"the local run did not reach a design that passes the full check "
+                            f"({d.reason})")
+        best = first
     best.message = (f"the end of the local run failed the full check ({d.reason}); the last "
                     f"accepted iterate that passes it")
     return best

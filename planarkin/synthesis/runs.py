@@ -26,6 +26,7 @@ import pickle
 import time
 
 from .local import verified
+from .problem import Rejected
 
 FALL = 1e-3           # a leading run cut by per_local goes on while it falls by this fraction
 #                       over per_local trials (see run_from)
@@ -63,6 +64,9 @@ def run_from(syn, local, cfg, start, stop, probe, bounds, designs, rejected, hal
         d = checked(rejected) if leg is not None else \
             verified(syn, local, xl, trail, *bounds, rejected, first)
         leg = None
+        if isinstance(d, Rejected):         # nothing of the run passes the full check
+            d = None
+            break
         cut = message.startswith("The maximum number of function evaluations") and \
             not d.message
         d.message = d.message or message

@@ -28,6 +28,8 @@
       # batch: starts analysed at a time (0: all), the search stopping once the goal is met;
       # probe, probe_cost: abandon a local run above probe_cost after probe trials (and
       # above 1e-2, 1e-4 of it after a third more, twice as many: local.probe_limits)
+      # band: how near the Grashof wall of a turns: constraint the local runs may go, a
+      # fraction of the loop's length sum (margins.barrier)
 
 Targets are in the model's units (length unit for points, angle unit for angles); `inputs` are
 values of the model's one driver (its f, in its unit); without them the timing is free (the
@@ -56,7 +58,8 @@ SEARCH = {"starts": (int, 1, 100_000, 200), "local": (int, 1, 10_000, None),
           "goal": (float, 0.0, math.inf, 0.0), "evaluations": (int, 1, 10**7, 2000),
           "per_local": (int, 1, 10**6, 300), "nominal": (int, 0, 1, 0),
           "batch": (int, 0, 100_000, 0), "probe": (int, 0, 10**6, 0),
-          "probe_cost": (float, 0.0, math.inf, 1e-2), "time": (float, 0.0, 1e7, 0.0)}
+          "probe_cost": (float, 0.0, math.inf, 1e-2), "time": (float, 0.0, 1e7, 0.0),
+          "band": (float, 0.0, 1.0, 0.01)}
 QUANTITIES = ("x", "y", "phi")
 
 
