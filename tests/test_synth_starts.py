@@ -40,10 +40,11 @@ def _march(syn, designs):
     return starts.march(B, designs, lambda cm: Options.from_model(cm, **syn.model.analysis))
 
 
-@pytest.mark.parametrize("path", [FIVE, FUNCTION], ids=["exact-estimates", "rough-estimates"])
-def test_a_marched_design_has_the_followers_rows_to_rounding(path):
+@pytest.mark.parametrize("path,n", [(FIVE, 48), (FUNCTION, 16)],
+                         ids=["exact-estimates", "rough-estimates"])
+def test_a_marched_design_has_the_followers_rows_to_rounding(path, n):
     syn = Synthesis(path)
-    designs = _designs(syn, 48)
+    designs = _designs(syn, n)
     assert len(designs) >= 8
     marched = _march(syn, designs)
     assert sum(r is not None for r in marched) >= 0.9 * len(designs)
@@ -76,8 +77,9 @@ def test_designs_the_follower_refuses_are_never_accepted(tmp_path):
     assert any(res is not None for res in marched)
 
 
-@pytest.mark.parametrize("path", [FIVE, FUNCTION], ids=["exact-estimates", "rough-estimates"])
-def test_a_search_scores_its_starts_as_one_by_one(monkeypatch, path):
+@pytest.mark.parametrize("path,n", [(FIVE, 60), (FUNCTION, 16)],
+                         ids=["exact-estimates", "rough-estimates"])
+def test_a_search_scores_its_starts_as_one_by_one(monkeypatch, path, n):
     """candidates with the march and without it (every start through Model.analyse): the same
     accepted starts, scores to 1e-9, rejections and evaluations counted alike."""
     runs = []
@@ -85,7 +87,7 @@ def test_a_search_scores_its_starts_as_one_by_one(monkeypatch, path):
         syn = Synthesis(path)
         if not batched:
             monkeypatch.setattr(starts, "batch_for", lambda model: None)
-        good, why, scores = syn.candidates(60, 7)
+        good, why, scores = syn.candidates(n, 7)
         runs.append((good, why, scores, syn.model.evaluations))
         monkeypatch.undo()
     (g1, w1, s1, e1), (g2, w2, s2, e2) = runs
