@@ -85,13 +85,9 @@ def published_scores(name) -> None:
     """The published designs' SSE by planarkin's evaluation of the file (or why it refuses)."""
     from planarkin.synthesis.synth import Synthesis
     for label, v in PROBLEMS[name][2].items():
-        syn = Synthesis(path_of(name))
         d, a, b, c, px, py, x0, y0, th0 = v[:9]
-        val = dict(x0=x0, y0=y0, th0=th0, a=a, b=b, c=c, d=d, px=px, py=py)
-        got = syn.model.analyse(val)       # free times wrap over a cycle (as in the search)
-        syn.wrap = not hasattr(got, "reason") and syn.model.periodic(got[2])
-        x = np.array([val[n] for n in syn.design.free] + list(v[9:]), float)
-        _, _, des = syn.evaluate(x, jac=False, final=True)
+        des = Synthesis(path_of(name)).score(
+            dict(x0=x0, y0=y0, th0=th0, a=a, b=b, c=c, d=d, px=px, py=py), v[9:])
         said = f"{des.cost:.6g}" if hasattr(des, "cost") else f"refused: {des.reason}"
         print(f"  published design of {label}: SSE by planarkin {said}")
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from planarkin.synthesis.synth import Synthesis
@@ -21,13 +20,9 @@ EX = Path(__file__).resolve().parents[1] / "mechanisms" / "synthesis"
 def _score(name, v):
     """The SSE of the published design v = [d, a, b, c, px, py, x0, y0, th0, (th1)], or the
     reason planarkin refuses it."""
-    syn = Synthesis(EX / f"{name}.yaml")
     d, a, b, c, px, py, x0, y0, th0 = v[:9]
-    val = dict(x0=x0, y0=y0, th0=th0, a=a, b=b, c=c, d=d, px=px, py=py)
-    got = syn.model.analyse(val)
-    syn.wrap = not hasattr(got, "reason") and syn.model.periodic(got[2])
-    x = np.array([val[n] for n in syn.design.free] + list(v[9:]), float)
-    _, _, des = syn.evaluate(x, jac=False, final=True)
+    des = Synthesis(EX / f"{name}.yaml").score(
+        dict(x0=x0, y0=y0, th0=th0, a=a, b=b, c=c, d=d, px=px, py=py), v[9:])
     return des.cost if hasattr(des, "cost") else des.reason
 
 

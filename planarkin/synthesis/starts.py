@@ -92,12 +92,11 @@ def march(B, designs, opts_of) -> list:
         return out
     num = B.numbers([v for v, _ in designs])
     nominal = B.cm
-    n, L, af = nominal.n, nominal.L, nominal.angle_factor
-    unit = np.tile([L, L, 1.0 / af], nominal.nb)            # nominal internal -> user
+    n = nominal.n
+    unit = _user(nominal)                                   # nominal internal -> user
     Q0 = np.zeros((len(designs), n + 3))
     for i, (_, cm) in enumerate(designs):
-        own = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
-        Q0[i, :n] = cm.q0 * own / unit
+        Q0[i, :n] = cm.q0 * _user(cm) / unit
     grid = B.grid
     # a driver's breakpoint splits the follower's path there and sets its rows' one-sided
     # rates (SIDE_RULE): such a design is left to the follower
@@ -117,7 +116,7 @@ def march(B, designs, opts_of) -> list:
             cm = designs[go[j]][1]
             q = _assembled(cm, grid[0])
             if q is not None:
-                Q0[go[j], :n] = q * np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb) / unit
+                Q0[go[j], :n] = q * _user(cm) / unit
         M = _Marcher(B, B.take(num, go), Q0[go], grid[at])
     for k in range(1, len(at)):
         if not M.interval(k):
@@ -250,6 +249,11 @@ class _Marcher:
                 info.iterations.reshape(V, K)[ok], condition(info).reshape(V, K)[ok])
 
 
+def _user(cm) -> np.ndarray:
+    """(n,) the factors from cm's internal units to its user units (x, y, phi per body)."""
+    return np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+
+
 def _assembled(cm, t0):
     """The pose the path follower starts from (internal units of cm), or None when the
     assembly refuses the design (the follower then says why)."""
@@ -264,7 +268,7 @@ def _assembled(cm, t0):
 def _result(cm, opts, grid, Q, Qd, Qdd, unit, iterations, cond) -> Result:
     """The Result of one marched design in its own model's units (the path follower's rows)."""
     n = cm.n
-    own = np.tile([cm.L, cm.L, 1.0 / cm.angle_factor], cm.nb)
+    own = _user(cm)
     q, qd, qdd = (a[:, :n] * unit for a in (Q, Qd, Qdd))
     ext = lambda a: np.concatenate([a / own, np.zeros((len(a), 3))], axis=1)  # noqa: E731
     order = opts.order

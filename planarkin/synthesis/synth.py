@@ -245,6 +245,18 @@ class Synthesis:
         d.barrier = barrier
         return r, (self.jacobian(d) if jac else None), d
 
+    def score(self, values: dict, rest=()):
+        """A given design checked as a returned one is (its whole cycle, on its branch, every
+        constraint): its Design, or Rejected. values: the free parameters by name; rest: the
+        unknowns after them (free times, offsets and steps). Free times wrap around the cycle
+        when the motion returns to its start, as in a search."""
+        got = self.model.analyse(values)
+        if isinstance(got, Rejected):
+            return got
+        self.wrap = self.model.periodic(got[2])
+        x = np.array([values[n] for n in self.design.free] + list(rest), dtype=float)
+        return self.evaluate(x, jac=False, final=True, analysed=got)[2]
+
     # -- projected free times ----------------------------------------------------------------
     def project(self, cm, res, tg, t0):
         """The times of a path target's points without inputs: from the grid's nearest points
