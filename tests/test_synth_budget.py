@@ -153,9 +153,10 @@ def _closed(tmp_path, extra="", repeat=True, name="c.yaml", more=()) -> Path:
 
 def test_a_closed_curve_is_in_order_around_one_turn(tmp_path):
     """The last point the first: a closed curve, its free times in one sweep around the turn
-    (the repeat one turn after the first). Read as an open path (closed: false) the repeat's
-    time has to fall after the first's: the result passes the order by 4e-15 s (the repeat at
-    the first's own time); closed, the order's margin is the smallest real step."""
+    (the repeat one turn after the first); closed, the order's margin is the smallest real
+    step. Read as an open path (closed: false) the times are in order within the analysis
+    range, which an open path does not wrap around: the first point at its start, the
+    repeat at its end."""
     from planarkin.model.yamlread import read_file
     from planarkin.synthesis.spec import design_of
     closed = _closed(tmp_path)
@@ -170,7 +171,10 @@ def test_a_closed_curve_is_in_order_around_one_turn(tmp_path):
     opened = _closed(tmp_path, "      closed: false\n", name="o.yaml")
     assert not design_of(read_file(opened), Synthesis(opened).model.spec).targets[0].closed
     r = synthesize(opened, seed=0, starts=10, local=1, evaluations=60)
-    assert 0 <= r.designs[0].margins["order"]["value"] < 1e-9
+    t = np.array(r.designs[0].times[0])
+    assert r.designs[0].margins["order"]["value"] == pytest.approx(np.diff(t).min(), abs=1e-15)
+    assert np.diff(t).min() > 0.1                       # the repeat a turn after the first,
+    assert t[0] == pytest.approx(0, abs=1e-3) and t[-1] == pytest.approx(1, abs=1e-3)  # in range
 
 
 def test_closed_true_without_the_repeat(tmp_path):
@@ -188,6 +192,26 @@ def test_a_closed_curve_needs_a_motion_that_returns_to_its_start(tmp_path):
     assert r.returncode == 2, r.stdout + r.stderr
     line = next(i for i, s in enumerate(p.read_text().splitlines(), 1) if "- path: P" in s)
     assert f"c.yaml:{line}: error: design: a closed target" in r.stderr
+
+
+ELLIPSE = ROOT / "mechanisms" / "synthesis" / "ellipse.yaml"
+
+
+def test_a_closed_curve_wraps_when_the_bounds_midpoint_is_no_linkage():
+    """ellipse.yaml's midpoint has every length 40 (a change point: refused), its own values
+    return to their start: the free times wrap around the turn (decided on the midpoint
+    alone they did not, and the search missed the published best). Own values outside the
+    bounds: the first start that analyses decides."""
+    from planarkin.synthesis import timing
+    syn = Synthesis(ELLIPSE)
+    timing.probe_wrap(syn)
+    assert syn.wrap is True and syn.model.evaluations == 2
+    assert syn.wrapped(1.25) == 0.25                # a time a turn on is the same pose
+    syn = Synthesis(ELLIPSE, overrides={"d": 90})
+    timing.probe_wrap(syn)
+    assert syn.wrap is None and syn.model.evaluations == 1
+    good, _, _ = syn.candidates(30, 0)
+    assert good and syn.wrap is True
 
 
 # -- turns: {body: crank, shortest: true} -------------------------------------------------------

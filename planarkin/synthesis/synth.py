@@ -488,6 +488,8 @@ class Synthesis:
                     self.refusals.add(out.reason)
                 continue
             cm, _, res = out
+            if self.wrap is None:
+                timing.settle_wrap(self, res)
             x = np.concatenate([xp, self.free_times(res), timing.start(self, cm, res)])
             # a start of a closed curve is not held to the order of its free times: its run
             # puts them in order, and its result is checked on it; held to it, nearly every
@@ -689,21 +691,14 @@ def _search(syn, local, cfg, total, size, designs, rejected_local, scores, reaso
 def _draws(syn, local, cfg, size, designs, rejected_local, scores, reasons, ahead) -> None:
     """_search's draws of starts and their local runs (ahead: runs.Ahead, or None)."""
     if syn.nt or syn.projected or syn.nu:   # free times and offsets may wrap around a cycle
-        syn.tick()
-        first = syn.model.analyse(syn.model.values((syn.lo + syn.hi) / 2))
-        if not isinstance(first, Rejected):
-            syn.wrap = syn.model.periodic(first[2])
-            closed = [tg for tg in syn.design.targets if tg.closed]
-            if closed and not syn.wrap:
-                from ..diagnostics import Diagnostic, InputError
-                raise InputError([Diagnostic(syn.model.path, closed[0].line, (
-                    "design: a closed target (closed: true, or its last point the first) is "
-                    "traced once per turn: the model must return to its start at the end of "
-                    "the analysis range (the driver turning once), and the design halfway "
-                    "between the bounds does not"))])
-    lo, hi = syn.bounds()
-    span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start),
-                           np.subtract(*syn.timing_bounds()[::-1])])
+        timing.probe_wrap(syn)
+
+    def box():
+        """(lo, hi) of the unknowns and their spans (they depend on syn.wrap, which a first
+        start may decide)."""
+        span = np.concatenate([syn.hi - syn.lo, np.full(syn.nt, syn.end - syn.start),
+                               np.subtract(*syn.timing_bounds()[::-1])])
+        return syn.bounds(), span
     stop = cfg["goal"] * STOP if cfg["goal"] > 0 else 0.0
     probe = probe_limits(cfg["probe"], cfg["probe_cost"]) if cfg["probe"] else ()
 
@@ -760,14 +755,15 @@ def _draws(syn, local, cfg, size, designs, rejected_local, scores, reasons, ahea
                     deadline = None if not cfg["time"] else \
                         time.perf_counter() + cfg["time"] - (clock() - t0)
                     ahead.plan([g[2] for g in good[i + 1:i + 1 + cfg["local"] - runs]], stop,
-                               probe, (lo, hi), spent(), deadline, designs)
+                               probe, box()[0], spent(), deadline, designs)
                     leg = ahead.take(d0, spent(), designs)
-                d = run_from(syn, local, cfg, d0, stop, probe, (lo, hi), designs,
+                d = run_from(syn, local, cfg, d0, stop, probe, box()[0], designs,
                              rejected_local, halt=lambda: ended() or (
                                  "evaluations" if spent() >= cfg["evaluations"] - 1 else None),
                              leg=leg)
                 if d is None:
                     continue
+                span = box()[1]
                 norm = (d.x - 0) / np.where(span > 0, span, 1.0)
                 if any(np.abs(norm - o.x / np.where(span > 0, span, 1.0))[:syn.k].max()
                        < DISTINCT for o in designs):

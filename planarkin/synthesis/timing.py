@@ -34,6 +34,49 @@ def layout(targets) -> list:
             for name in tg.timing.unknowns]
 
 
+def probe_wrap(syn) -> None:
+    """Decide syn.wrap before a search: whether the free times of a closed target, and the
+    offsets of inputs relative to one, go around the cycle (the model returns to its start).
+    Decided on the bounds' midpoint, else the file's own values (each when inside the
+    bounds; an evaluation each), else left to the first start accepted (None until then,
+    taken as no: Synthesis.candidates calls settle_wrap). On the midpoint alone, a file whose
+    midpoint is no linkage (every length halfway: a change point) was searched without
+    wrapping (ellipse.yaml: runs from the first 100 starts of seed 0 reached the published
+    best in 3 of 18 with wrapping, in none without).
+
+    An open path's points, and free times without a closed target, are taken in order
+    within the analysis range, not around it: its start (a free start angle, or the range
+    chosen) fixes where the sweep begins. Around the cycle, straight-line.yaml's searches
+    took 10-20 times the evaluations (seeds 2-5: 31,000-54,000 against 2,800-17,000) and seed
+    7 missed the goal in its 150,000 (benchmarks/README.md, 2026-12-07)."""
+    from .problem import Rejected
+    if not (any(tg.closed for tg in syn.design.targets) or syn.nu):
+        syn.wrap = False
+        return
+    syn.wrap = None
+    nominal = np.array([float(syn.model.spec.parameters[k]) for k in syn.model.free])
+    for x in ((syn.lo + syn.hi) / 2, nominal):
+        if np.all((syn.lo <= x) & (x <= syn.hi)):
+            syn.tick()
+            got = syn.model.analyse(syn.model.values(x))
+            if not isinstance(got, Rejected):
+                settle_wrap(syn, got[2])
+                return
+
+
+def settle_wrap(syn, res) -> None:
+    """syn.wrap from the analysis res of a design: whether the model returns to its start at
+    the end of its range (Model.periodic); InputError for a closed target when it does not."""
+    syn.wrap = syn.model.periodic(res)
+    closed = [tg for tg in syn.design.targets if tg.closed]
+    if closed and not syn.wrap:
+        from ..diagnostics import Diagnostic, InputError
+        raise InputError([Diagnostic(syn.model.path, closed[0].line, (
+            "design: a closed target (closed: true, or its last point the first) is traced "
+            "once per turn: the model must return to its start at the end of the analysis "
+            "range (the driver turning once), and the first design analysed does not"))])
+
+
 def travel(syn, cm) -> tuple:
     """(u(start), u(end)) of the driver over the analysis range, its unit."""
     u = syn.model.input_values(cm, np.array([syn.start, syn.end]))
