@@ -44,6 +44,20 @@ def test_a_budget_too_small_for_legs_ahead_runs_them_here():
     _same(synthesize(path, **search), synthesize(path, jobs=3, **search))
 
 
+def test_a_draw_ahead_that_decides_the_cycles_wrapping_gives_the_serial_search():
+    """ellipse.yaml with its own d out of the bounds and its midpoint no linkage: neither
+    decides whether its free times go round the cycle, and seed 11's first draw of 4 starts is
+    refused whole, so the next draw, analysed in a worker, decides it (Synthesis.wrap): taken
+    here with it, and the legs run in the workers with it."""
+    search = {"seed": 11, "starts": 4, "local": 1, "evaluations": 200, "per_local": 40}
+    path = "mechanisms/synthesis/ellipse.yaml"
+    serial = synthesize(path, overrides={"d": 90}, **search)
+    assert serial.model.wrap is True and serial.designs
+    parallel = synthesize(path, overrides={"d": 90}, jobs=2, **search)
+    _same(serial, parallel)
+    assert parallel.model.wrap is True
+
+
 @pytest.mark.parametrize("jobs", [0, -1, 1.5, True, "2", 2000])
 def test_jobs_must_be_a_whole_number_of_processes(jobs):
     with pytest.raises(InputError, match="jobs must be a whole number from 1 to 1024"):

@@ -135,7 +135,7 @@ class Ahead:
         cfg = self.cfg
         room = (cfg["evaluations"] - spent - 1) // (cfg["per_local"] + LEG_MARGIN) - 1
         worst = designs[-1].cost if len(designs) >= cfg["keep"] else None
-        self.next = [(d, cfg["per_local"], stop, probe, bounds, deadline, worst)
+        self.next = [(d, cfg["per_local"], stop, probe, bounds, deadline, worst, self.syn.wrap)
                      for d in starts[:max(0, room)]]
         busy = sum(not isinstance(v, Leg) and not v.done() for v in self.legs.values())
         for args in self.next:
@@ -191,7 +191,8 @@ class Ahead:
             self._start()
         cfg = self.cfg
         self.draws[draw] = self.pool.submit(_draw, cfg["starts"], cfg["seed"],
-                                            bool(cfg["nominal"]), part, cfg["local"], draw)
+                                            bool(cfg["nominal"]), part, cfg["local"], draw,
+                                            self.syn.wrap)
 
     def take_draw(self, draw: int, spent: int):
         """The candidates of a draw analysed ahead, taken into the search's counts, when its
@@ -200,7 +201,7 @@ class Ahead:
         fut = self.draws.pop(draw, None)
         if fut is None:
             return None
-        got, counted, refusals, best = fut.result()
+        got, counted, refusals, best, wrap = fut.result()
         if self.cfg["evaluations"] - spent - 1 < counted[0]:
             return None
         syn = self.syn
@@ -209,6 +210,8 @@ class Ahead:
         syn.project_solves += counted[2]
         syn.refusals |= refusals
         syn.best = min(syn.best, best)
+        if syn.wrap is None:
+            syn.wrap = wrap
         return got
 
     def drop(self) -> None:
@@ -251,11 +254,12 @@ def _init(blob) -> None:
     accept_signals()
 
 
-def _leg(start, per_local, stop, probe, bounds, deadline, worst, syn=None) -> Leg:
+def _leg(start, per_local, stop, probe, bounds, deadline, worst, wrap, syn=None) -> Leg:
     """A run's first leg: Local.run to per_local trials, then its end checked unless it was
     abandoned no better than worst (syn: the Synthesis to run it with; the worker's by
-    default)."""
+    default; wrap: the search's Synthesis.wrap, which the worker's copy may not know yet)."""
     syn = _SYN if syn is None else syn
+    syn.wrap = wrap
     local = syn.local
     halt = None if deadline is None else \
         (lambda: "time" if time.perf_counter() >= deadline else None)
@@ -270,15 +274,18 @@ def _leg(start, per_local, stop, probe, bounds, deadline, worst, syn=None) -> Le
                tuple(b - a for a, b in zip(mid, after)), rejected)
 
 
-def _draw(starts, seed, nominal, part, limit, draw) -> tuple:
+def _draw(starts, seed, nominal, part, limit, draw, wrap) -> tuple:
     """A draw's candidates in a worker: (candidates' result, (analyses, Jacobians,
-    projection solves) it counted, the refusals it saw, the best cost)."""
+    projection solves) it counted, the refusals it saw, the best cost, Synthesis.wrap).
+    wrap: the search's, or None when not decided yet (the draw's first accepted start
+    decides it, as the search's own would)."""
     syn = _SYN
+    syn.wrap = wrap
     before = (syn.model.evaluations, syn.model.jacobians, syn.project_solves)
     syn.refusals, syn.best = set(), float("inf")
     got = syn.candidates(starts, seed, nominal, part, limit=limit, draw=draw)
     after = (syn.model.evaluations, syn.model.jacobians, syn.project_solves)
-    return got, tuple(b - a for a, b in zip(before, after)), syn.refusals, syn.best
+    return got, tuple(b - a for a, b in zip(before, after)), syn.refusals, syn.best, syn.wrap
 
 
 def _spent(syn, local) -> tuple:
