@@ -249,11 +249,11 @@ class Synthesis:
         """A given design checked as a returned one is (its whole cycle, on its branch, every
         constraint): its Design, or Rejected. values: the free parameters by name; rest: the
         unknowns after them (free times, offsets and steps). Free times wrap around the cycle
-        when the motion returns to its start, as in a search."""
+        as in a search (timing.settle_wrap)."""
         got = self.model.analyse(values)
         if isinstance(got, Rejected):
             return got
-        self.wrap = self.model.periodic(got[2])
+        timing.settle_wrap(self, got[2])
         x = np.array([values[n] for n in self.design.free] + list(rest), dtype=float)
         return self.evaluate(x, jac=False, final=True, analysed=got)[2]
 

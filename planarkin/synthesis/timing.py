@@ -50,7 +50,7 @@ def probe_wrap(syn) -> None:
     took 10-20 times the evaluations (seeds 2-5: 31,000-54,000 against 2,800-17,000) and seed
     7 missed the goal in its 150,000 (benchmarks/README.md, 2026-12-07)."""
     from .problem import Rejected
-    if not (any(tg.closed for tg in syn.design.targets) or syn.nu):
+    if not (syn.closed or syn.nu):
         syn.wrap = False
         return
     syn.wrap = None
@@ -66,8 +66,9 @@ def probe_wrap(syn) -> None:
 
 def settle_wrap(syn, res) -> None:
     """syn.wrap from the analysis res of a design: whether the model returns to its start at
-    the end of its range (Model.periodic); InputError for a closed target when it does not."""
-    syn.wrap = syn.model.periodic(res)
+    the end of its range (Model.periodic), for a closed target or offsets (an open path never
+    wraps: probe_wrap); InputError for a closed target when it does not."""
+    syn.wrap = bool(syn.closed or syn.nu) and syn.model.periodic(res)
     closed = [tg for tg in syn.design.targets if tg.closed]
     if closed and not syn.wrap:
         from ..diagnostics import Diagnostic, InputError
