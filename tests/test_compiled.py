@@ -8,7 +8,6 @@ tests/test_batch.py.)"""
 import hashlib
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -238,21 +237,18 @@ np.save(%r, np.concatenate([r.q, r.qd, r.qdd], axis=1))
 
 @needs_numba
 def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path):
-    """The warm cache copied, then a data file truncated, an index garbled and a foreign file
-    planted: a new process detects them, compiles those functions again and gives the same
-    results as a clean run; the manifest then vouches for the new files."""
-    lib = kernel.library()
-    assert lib is not None
-    lib.need("points").need("study")
-    # this process's entry as jitcache has it now (lib.cache is the one of the last part
-    # loaded, None if that was under another test's unusable directory)
-    warm = jitcache.prepare()
-    jitcache.record()
-    assert warm is not None
+    """A warm cache (a clean run in a process of its own: this process's functions may have
+    been compiled under another test's cache directory), then a data file truncated, an index
+    garbled and a foreign file planted: a new process detects them, compiles those functions
+    again and gives the clean run's results; the manifest then vouches for the new files."""
     cache = tmp_path / "cache"
     cache.mkdir(mode=0o700)
-    shutil.copytree(warm, cache / warm.name)
-    entry = cache / warm.name
+    warm_out = tmp_path / "clean.npy"
+    r = _python("from planarkin.solver.compiled import kernel\n"
+                "kernel.library().need('study')\n" + RUN % str(warm_out),
+                {"PLANARKIN_CACHE": str(cache)})
+    assert r.returncode == 0, r.stderr
+    entry = cache / jitcache.tag()
     files = sorted(p for p in entry.rglob("*") if p.is_file() and p.suffix in (".nbi", ".nbc"))
     layout = [p for p in files if ".layout-" in p.name and p.suffix == ".nbc"]
     cubic = [p for p in files if ".cubic-" in p.name and p.suffix == ".nbi"]
@@ -273,32 +269,26 @@ def test_a_damaged_cache_entry_is_compiled_again_with_the_same_results(tmp_path)
                for f, d in manifest.items())
     # the truncated entry is gone (numba may write its rebuild under another index number)
     assert not any(p.read_bytes() == data[:len(data) // 2] for p in entry.rglob("*.nbc"))
-    # a clean run (this process, the warm cache)
-    m = planarkin.load(FOUR_BAR)
-    saved = kernel.COMPILED_FROM_POINTS
-    try:
-        kernel.COMPILED_FROM_POINTS = 100
-        clean = planarkin.solve(m, steps=400)
-    finally:
-        kernel.COMPILED_FROM_POINTS = saved
-    assert np.array_equal(np.load(out), np.concatenate([clean.q, clean.qd, clean.qdd], axis=1))
+    assert np.array_equal(np.load(out), np.load(warm_out))
 
 
 @needs_numba
 def test_each_compiled_kind_states_its_code_and_parameters():
     """The kinds the compiled route compiles say so themselves (Kind.compiled_code and
-    compiled_params, issue 17): each code once, a function of planarkin.solver.compiled.kinds for it,
+    compiled_params, issue 17): each code once, a function of planarkin.elements.pointline for it,
     parameters the kind has, in the 2-vector slots kernel.pack fills; a subclass that does not
     state its own is not compiled."""
-    from planarkin.solver.compiled import kinds as compiled_kinds
+    from planarkin.elements import pointline
     from planarkin.elements import KINDS
     coded = {name: kernel.compiled_kind(k) for name, k in KINDS.items()
              if kernel.compiled_kind(k) is not None}
     assert sorted(coded) == ["angle", "distance", "pin-slot", "revolute", "slide",
                              "translational", "x", "y"]
     codes = [c for c, _ in coded.values()]
-    assert len(set(codes)) == len(codes) and set(codes) <= set(compiled_kinds.KINDS)
+    assert len(set(codes)) == len(codes) and set(codes) <= set(pointline.CODES)
     for name, (code, params) in coded.items():
+        # the function the compiled route compiles is the one the numpy kind broadcasts
+        assert pointline.CODES[code] == KINDS[name].equation, name
         assert set(params) <= {"si", "sj", "vi", "vj"}, name
         assert set(params) <= {p.name for p in KINDS[name].params}, name
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import pointline
 
 # What a parameter is, as the validator reads it (planarkin.model.validate, Validator.param)
 UNITS = ("point", "vector", "length", "angle", "real", "flag", "range", "curve", "law",
@@ -138,7 +139,7 @@ class Kind:
     A method left as here means "nothing to add" (parts 3-5: no checks, no estimates, the
     constraint force is the physical one); parts 1, 2 and, for joints, 5's reaction_columns and
     reaction_sign every kind states itself. The compiled route compiles a kind that states its
-    ``compiled_code`` (its function in planarkin.solver.compiled.kinds.KINDS) and
+    ``compiled_code`` (its function in planarkin.elements.pointline.CODES) and
     ``compiled_params`` (the parameters that function reads, each a body-frame 2-vector);
     the others (None) take the numpy route.
     """
@@ -164,7 +165,7 @@ class Kind:
     # and the fused pass would drop a coupling that exists elsewhere (System.pattern), and
     # their blocks are never taken as affine (_ClassifyState).
     sampled_zeros: bool = True
-    compiled_code: int | None = None       # planarkin.solver.compiled.kinds.KINDS; None: numpy only
+    compiled_code: int | None = None       # planarkin.elements.pointline.CODES; None: numpy only
     compiled_params: tuple = ()            # of si, sj, vi, vj: what its compiled function reads
 
     # Parameters the compiler derives from the body estimates (not YAML keys), e.g. the side of
@@ -293,6 +294,65 @@ class Kind:
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
+
+
+class PointLineKind(Kind):
+    """A kind whose equations are a function of planarkin.elements.pointline (``equation``, its
+    name there): its g, grad and gamma broadcast that function over the group, the text the
+    compiled route compiles (so both routes do the same operations)."""
+
+    equation: str = ""
+
+    def rows(self, G: Group, F: Frame, want: int) -> tuple:
+        """The function's rows for the group: (N, K) arrays, or floats where a term is a
+        constant."""
+        return getattr(pointline, self.equation)(want, *point_line_arguments(G, F, want))
+
+    def g(self, G, F):
+        rows = self.rows(G, F, 1)
+        out = empty(F, len(G), len(rows))
+        for r, row in enumerate(rows):
+            out[..., r] = row[0]
+        return out
+
+    def grad(self, G, F):
+        rows = self.rows(G, F, 2)
+        out = np.empty((F.q.shape[0], len(G), len(rows), 6))
+        for r, row in enumerate(rows):
+            gradient_row(out, r, row)
+        return out
+
+    def gamma(self, G, F):
+        rows = self.rows(G, F, 4)
+        out = empty(F, len(G), len(rows))
+        for r, row in enumerate(rows):
+            out[..., r] = row[7]
+        return out
+
+
+def gradient_row(out: np.ndarray, r: int, row: tuple) -> None:
+    """A planarkin.elements.pointline row's gradient (row[1:7]) into out[..., r, :]."""
+    for c in range(6):
+        out[..., r, c] = row[1 + c]
+
+
+def point_line_arguments(G: Group, F: Frame, want: int) -> tuple:
+    """The arguments after want of a planarkin.elements.pointline function for the group, as
+    (N, K) arrays (its parameter slots as (K,) arrays or 0.0, its velocities 0.0 unless want
+    asks for gamma)."""
+    q = F.q[:, G.cols]
+    c = F.c[:, G.bodies]
+    s = F.s[:, G.bodies]
+    slots = []
+    for name in ("si", "sj", "vi"):
+        v = G.params.get(name)
+        slots += [0.0, 0.0] if v is None else [v[:, 0], v[:, 1]]
+    rates = [0.0] * 6
+    if want & 4:
+        v = F.qd[:, G.cols]
+        rates = [v[..., k] for k in range(6)]
+    return (q[..., 0], q[..., 1], q[..., 2], c[..., 0], s[..., 0],
+            q[..., 3], q[..., 4], q[..., 5], c[..., 1], s[..., 1], *slots, *rates)
 
 
 # -- shared kinematics (reference §0) -------------------------------------------------------------

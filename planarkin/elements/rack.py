@@ -19,38 +19,29 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Kind, Param, check_positive, force_at, gradient_force, relative_velocity
+from .base import (Kind, Param, check_positive, force_at, gradient_force, gradient_row,
+                   point_line_arguments, rotate)
 from .gear import PRESSURE_ANGLE, check_pressure_angle, pressure_tan
-from .translational import along_jerk, slide_line, normal_gamma, normal_jerk, normal_row
+from .pointline import line_row
+from .translational import along_jerk, normal_jerk
 
 
-def _along(G, F):
-    """u_i^T h + sigma r (phi_j - phi_i): (N, K)."""
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+def _line(G, F, want, normal):
+    """n_i^T h (normal) or u_i^T h of the pitch line: a row of planarkin.elements.pointline."""
+    return line_row(want, normal, *point_line_arguments(G, F, want))
+
+
+def _along(G, F, want):
+    """The row of u_i^T h + sigma r (phi_j - phi_i): the slide's, plus the linear angle term
+    (its gamma is the slide's, reference 5.6)."""
+    g, d0, d1, d2, d3, d4, d5, gam = _line(G, F, want, False)
     sr = G.params["side"] * G.params["r"]
-    return ux * hx + uy * hy + sr * (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])
-
-
-def _along_row(G, F, out, row):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    sr = G.params["side"] * G.params["r"]
-    out[..., row, 0] = -ux
-    out[..., row, 1] = -uy
-    out[..., row, 2] = nx * (hx + six) + ny * (hy + siy) - sr
-    out[..., row, 3] = ux
-    out[..., row, 4] = uy
-    out[..., row, 5] = -(nx * sjx + ny * sjy) + sr
-
-
-def _along_gamma(G, F):
-    # the sigma r (phi_j - phi_i) term is linear: gamma is that of the slide u_i^T h (§5.6)
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
-    kx = wj * wj * sjx - wi * wi * six
-    ky = wj * wj * sjy - wi * wi * siy
-    return (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
-            + ux * kx + uy * ky)
+    if want & 1:
+        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        g = g + sr * (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])
+    if want & 2:
+        d2, d5 = d2 - sr, d5 + sr
+    return g, d0, d1, d2, d3, d4, d5, gam
 
 
 def _estimate(arrays, poses):
@@ -102,8 +93,10 @@ class RackPinion(Kind):
         P_j - sigma r n_i; the radial part, along sigma n_i on the pinion, is carried by the
         joints that hold the centre distance (pinion bearing, rack guide)."""
         out = gradient_force(G, F, lam)
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
+        ux, uy = rotate(F, bi, G.params["vi"][:, 0], G.params["vi"][:, 1])
+        nx, ny = -uy, ux
+        sjx, sjy = rotate(F, bj, G.params["sj"][:, 0], G.params["sj"][:, 1])
         sr = G.params["side"] * G.params["r"]
         px = F.q[:, 3 * bj] + sjx - sr * nx
         py = F.q[:, 3 * bj + 1] + sjy - sr * ny
@@ -113,15 +106,15 @@ class RackPinion(Kind):
         return out
 
     def g(self, G, F):
-        return _along(G, F)[..., None]
+        return _along(G, F, 1)[0][..., None]
 
     def grad(self, G, F):
         out = np.empty((F.q.shape[0], len(G), 1, 6))
-        _along_row(G, F, out, 0)
+        gradient_row(out, 0, _along(G, F, 2))
         return out
 
     def gamma(self, G, F):
-        return _along_gamma(G, F)[..., None]
+        return _along(G, F, 4)[7][..., None]
 
     def jerk(self, G, F):
         return along_jerk(G, F)[..., None]
@@ -156,17 +149,16 @@ class RollLine(Kind):
         check_positive(V, params, given, what, ("r",))
 
     def g(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-        return np.stack([nx * hx + ny * hy, _along(G, F)], axis=-1)
+        return np.stack([_line(G, F, 1, True)[0], _along(G, F, 1)[0]], axis=-1)
 
     def grad(self, G, F):
         out = np.empty((F.q.shape[0], len(G), 2, 6))
-        normal_row(G, F, out, 0)
-        _along_row(G, F, out, 1)
+        gradient_row(out, 0, _line(G, F, 2, True))
+        gradient_row(out, 1, _along(G, F, 2))
         return out
 
     def gamma(self, G, F):
-        return np.stack([normal_gamma(G, F), _along_gamma(G, F)], axis=-1)
+        return np.stack([_line(G, F, 4, True)[7], _along(G, F, 4)[7]], axis=-1)
 
     def jerk(self, G, F):
         return np.stack([normal_jerk(G, F), along_jerk(G, F)], axis=-1)

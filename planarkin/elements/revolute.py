@@ -8,12 +8,13 @@ from __future__ import annotations
 import numpy as np
 
 from . import jerk as J
-from .base import Frame, Group, Kind, Param, empty, omega, rotate
+from .base import Frame, Group, Param, PointLineKind, empty, rotate
 
 
-class Revolute(Kind):
+class Revolute(PointLineKind):
     name = "revolute"
-    compiled_code = 1                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "revolute"             # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 1                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")              # no moment about the pin
     neq = 2
@@ -32,35 +33,6 @@ class Revolute(Kind):
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
         si, sj = G.params["si"], G.params["sj"]
         return bi, bj, rotate(F, bi, si[:, 0], si[:, 1]), rotate(F, bj, sj[:, 0], sj[:, 1])
-
-    def g(self, G, F):
-        bi, bj, (six, siy), (sjx, sjy) = self._s(G, F)
-        out = empty(F, len(G), 2)
-        out[..., 0] = F.q[:, 3 * bi] + six - F.q[:, 3 * bj] - sjx
-        out[..., 1] = F.q[:, 3 * bi + 1] + siy - F.q[:, 3 * bj + 1] - sjy
-        return out
-
-    def grad(self, G, F):
-        _, _, (six, siy), (sjx, sjy) = self._s(G, F)
-        out = np.zeros((F.q.shape[0], len(G), 2, 6))
-        out[..., 0, 0] = 1.0
-        out[..., 0, 2] = -siy
-        out[..., 0, 3] = -1.0
-        out[..., 0, 5] = sjy
-        out[..., 1, 1] = 1.0
-        out[..., 1, 2] = six
-        out[..., 1, 4] = -1.0
-        out[..., 1, 5] = -sjx
-        return out
-
-    def gamma(self, G, F):
-        bi, bj, (six, siy), (sjx, sjy) = self._s(G, F)
-        wi2 = omega(F, bi) ** 2
-        wj2 = omega(F, bj) ** 2
-        out = empty(F, len(G), 2)
-        out[..., 0] = wi2 * six - wj2 * sjx
-        out[..., 1] = wi2 * siy - wj2 * sjy
-        return out
 
     def jerk(self, G, F):
         # g = r_i + s_i - r_j - s_j: jerk_g = -(s3_i - s3_j) (the origins' third derivatives

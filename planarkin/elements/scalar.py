@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import jerk as J
-from .base import Kind, Param, relative_point, relative_velocity, omega, rotate
+from .base import Param, PointLineKind, rotate
 
 _POINTS = (
     Param("si", "point", "point on body i in its frame"),
@@ -17,9 +17,10 @@ _POINTS = (
 )
 
 
-class Angle(Kind):
+class Angle(PointLineKind):
     name = "angle"
-    compiled_code = 3                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "angle"                # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 3                 # planarkin.elements.pointline.CODES
     compiled_params = ()
     reaction_columns = ("torque",)               # a pure moment
     driver = True
@@ -32,19 +33,6 @@ class Angle(Kind):
     summary = "relative angle: phi_j - phi_i = c (1 equation)"
     equations = "phi_j - phi_i - c = 0"
     driver_equations = "phi_j - phi_i - f(t) = 0"
-
-    def g(self, G, F):
-        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
-        return (F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2])[..., None]
-
-    def grad(self, G, F):
-        out = np.zeros((F.q.shape[0], len(G), 1, 6))
-        out[..., 0, 2] = -1.0
-        out[..., 0, 5] = 1.0
-        return out
-
-    def gamma(self, G, F):
-        return np.zeros((F.q.shape[0], len(G), 1))
 
     def jerk(self, G, F):
         return np.zeros((F.q.shape[0], len(G), 1))
@@ -62,7 +50,7 @@ def _pair_chain(G, F):
                   rotate(F, bj, pj[:, 0], pj[:, 1]))
 
 
-class _Component(Kind):
+class _Component(PointLineKind):
     """x or y component of h = P_j - P_i (reference §2.1, §2.2)."""
 
     driver = True
@@ -70,31 +58,6 @@ class _Component(Kind):
     target = "c"
     target_unit = "length"
     axis = 0
-
-    def g(self, G, F):
-        h = relative_point(G, F)[4 + self.axis]
-        return h[..., None]
-
-    def grad(self, G, F):
-        six, siy, sjx, sjy, _, _ = relative_point(G, F)
-        out = np.zeros((F.q.shape[0], len(G), 1, 6))
-        if self.axis == 0:
-            out[..., 0, 0] = -1.0
-            out[..., 0, 2] = siy
-            out[..., 0, 3] = 1.0
-            out[..., 0, 5] = -sjy
-        else:
-            out[..., 0, 1] = -1.0
-            out[..., 0, 2] = -six
-            out[..., 0, 4] = 1.0
-            out[..., 0, 5] = sjx
-        return out
-
-    def gamma(self, G, F):
-        s = relative_point(G, F)
-        wi2 = omega(F, G.bodies[:, 0]) ** 2
-        wj2 = omega(F, G.bodies[:, 1]) ** 2
-        return (wj2 * s[2 + self.axis] - wi2 * s[self.axis])[..., None]
 
     def jerk(self, G, F):
         bi, bj = G.bodies[:, 0], G.bodies[:, 1]
@@ -110,7 +73,8 @@ class _Component(Kind):
 
 class XDistance(_Component):
     name = "x"
-    compiled_code = 4                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "xdistance"            # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 4                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 0
@@ -125,7 +89,8 @@ class XDistance(_Component):
 
 class YDistance(_Component):
     name = "y"
-    compiled_code = 5                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "ydistance"            # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 5                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "sj")
     reaction_columns = ("fx", "fy")
     axis = 1
@@ -137,12 +102,13 @@ class YDistance(_Component):
     driver_equations = "y_j + (A_j s'_j)_y - y_i - (A_i s'_i)_y - f(t) = 0"
 
 
-class Distance(Kind):
+class Distance(PointLineKind):
     """|P_j - P_i| = c, unsquared (reference §5.5c): its gradient is a unit vector, so the row is
     as well scaled as a revolute row; c > 0 (a zero distance is a revolute joint)."""
 
     name = "distance"
-    compiled_code = 6                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "distance"             # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 6                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "sj")
     at_points = 2
     target_from_at = True
@@ -167,35 +133,6 @@ class Distance(Kind):
         if c is not None and c <= 0:
             V.err(given["c"], f"{what}: the distance c must be positive, not {c:g} (for a zero "
                               f"distance use a revolute joint)")
-
-    def g(self, G, F):
-        h = relative_point(G, F)
-        return np.hypot(h[4], h[5])[..., None]
-
-    def grad(self, G, F):
-        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
-        d = np.hypot(hx, hy)
-        ex, ey = hx / d, hy / d
-        out = np.empty((F.q.shape[0], len(G), 1, 6))
-        # e^T R s = -e_x s_y + e_y s_x
-        out[..., 0, 0] = -ex
-        out[..., 0, 1] = -ey
-        out[..., 0, 2] = ex * siy - ey * six
-        out[..., 0, 3] = ex
-        out[..., 0, 4] = ey
-        out[..., 0, 5] = ey * sjx - ex * sjy
-        return out
-
-    def gamma(self, G, F):
-        six, siy, sjx, sjy, hx, hy = relative_point(G, F)
-        wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
-        d = np.hypot(hx, hy)
-        ex, ey = hx / d, hy / d
-        kx = wj * wj * sjx - wi * wi * six
-        ky = wj * wj * sjy - wi * wi * siy
-        ehd = ex * hdx + ey * hdy
-        out = -(hdx * hdx + hdy * hdy - ehd * ehd) / d + ex * kx + ey * ky
-        return out[..., None]
 
     def jerk(self, G, F):
         # |h|''' = e^T h''' + 3 h'^T H h'' + T[h', h', h'] with H = (I - e e^T) / d the Hessian

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from . import jerk as J
-from .base import Frame, Group, Kind, Param, empty, relative_point, relative_velocity, rotate
+from .base import Frame, Group, Param, PointLineKind, relative_point, rotate
 from .revolute import dir_to_body, to_body
 
 
@@ -23,26 +23,6 @@ def slide_line(G: Group, F: Frame):
     v = G.params["vi"]
     ux, uy = rotate(F, G.bodies[:, 0], v[:, 0], v[:, 1])
     return ux, uy, -uy, ux, six, siy, sjx, sjy, hx, hy
-
-
-def normal_row(G: Group, F: Frame, out, row):
-    """Gradient of n_i^T h into out[..., row, :] (reference §2.6, Phi2)."""
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    out[..., row, 0] = -nx
-    out[..., row, 1] = -ny
-    out[..., row, 2] = -(ux * (hx + six) + uy * (hy + siy))
-    out[..., row, 3] = nx
-    out[..., row, 4] = ny
-    out[..., row, 5] = ux * sjx + uy * sjy
-
-
-def normal_gamma(G: Group, F: Frame):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
-    kx = wj * wj * sjx - wi * wi * six
-    ky = wj * wj * sjy - wi * wi * siy
-    return (wi * wi * (nx * hx + ny * hy) + 2.0 * wi * (ux * hdx + uy * hdy)
-            + nx * kx + ny * ky)
 
 
 def _line_chains(G: Group, F: Frame):
@@ -64,14 +44,10 @@ def along_jerk(G: Group, F: Frame):
     return -J.dot(u, h)
 
 
-def _normal_g(G: Group, F: Frame):
-    ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-    return nx * hx + ny * hy
-
-
-class Translational(Kind):
+class Translational(PointLineKind):
     name = "translational"
-    compiled_code = 2                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "translational"        # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 2                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "sj", "vi", "vj")
     at_axis = True
     reaction_columns = ("fx", "fy", "torque")
@@ -96,25 +72,6 @@ class Translational(Kind):
     def prepare(self, arrays, poses):
         return {}, [parallel_constant(arrays["vi"], arrays["vj"], poses[0][2], poses[1][2]), 0.0]
 
-    def g(self, G, F):
-        out = empty(F, len(G), 2)
-        bi, bj = G.bodies[:, 0], G.bodies[:, 1]
-        out[..., 0] = F.q[:, 3 * bj + 2] - F.q[:, 3 * bi + 2]
-        out[..., 1] = _normal_g(G, F)
-        return out
-
-    def grad(self, G, F):
-        out = np.zeros((F.q.shape[0], len(G), 2, 6))
-        out[..., 0, 2] = -1.0
-        out[..., 0, 5] = 1.0
-        normal_row(G, F, out, 1)
-        return out
-
-    def gamma(self, G, F):
-        out = np.zeros((F.q.shape[0], len(G), 2))
-        out[..., 1] = normal_gamma(G, F)
-        return out
-
     def jerk(self, G, F):
         out = np.zeros((F.q.shape[0], len(G), 2))
         out[..., 1] = normal_jerk(G, F)
@@ -136,9 +93,10 @@ class Translational(Kind):
             parts.slide_direction(bi, vi)
 
 
-class PinSlot(Kind):
+class PinSlot(PointLineKind):
     name = "pin-slot"
-    compiled_code = 7                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "pinslot"              # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 7                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "vi", "sj")
     at_axis = True
     target_default = 0.0              # the pin on the slot's line
@@ -158,17 +116,6 @@ class PinSlot(Kind):
                "of i, at signed offset c (default 0) (1 equation)")
     equations = "n_i^T (r_j + A_j s'_j - r_i - A_i s'_i) - c = 0"
 
-    def g(self, G, F):
-        return _normal_g(G, F)[..., None]
-
-    def grad(self, G, F):
-        out = np.empty((F.q.shape[0], len(G), 1, 6))
-        normal_row(G, F, out, 0)
-        return out
-
-    def gamma(self, G, F):
-        return normal_gamma(G, F)[..., None]
-
     def jerk(self, G, F):
         return normal_jerk(G, F)[..., None]
 
@@ -185,12 +132,13 @@ class PinSlot(Kind):
             parts.pin(bj, sj)
 
 
-class Slide(Kind):
+class Slide(PointLineKind):
     """Slide of a translational joint (reference §5.6): u_i^T h = f(t), the displacement of the
     point sj of j along the axis of i measured from si. Drives a slider or a linear actuator."""
 
     name = "slide"
-    compiled_code = 8                 # planarkin.solver.compiled.kinds.KINDS
+    equation = "slide"                # g, grad, gamma: planarkin.elements.pointline
+    compiled_code = 8                 # planarkin.elements.pointline.CODES
     compiled_params = ("si", "vi", "sj")
     joint = False
     driver = True
@@ -211,29 +159,6 @@ class Slide(Kind):
         """The slide's line and the point sliding on it."""
         bi, si, bj, sj = parts.joint_points(G, k)
         parts.slide(bi, si, G.params["vi"][k], bj, sj)
-
-    def g(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-        return (ux * hx + uy * hy)[..., None]
-
-    def grad(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-        out = np.empty((F.q.shape[0], len(G), 1, 6))
-        out[..., 0, 0] = -ux
-        out[..., 0, 1] = -uy
-        out[..., 0, 2] = nx * (hx + six) + ny * (hy + siy)
-        out[..., 0, 3] = ux
-        out[..., 0, 4] = uy
-        out[..., 0, 5] = -(nx * sjx + ny * sjy)
-        return out
-
-    def gamma(self, G, F):
-        ux, uy, nx, ny, six, siy, sjx, sjy, hx, hy = slide_line(G, F)
-        wi, wj, hdx, hdy = relative_velocity(F, G.bodies[:, 0], G.bodies[:, 1], six, siy, sjx, sjy)
-        kx = wj * wj * sjx - wi * wi * six
-        ky = wj * wj * sjy - wi * wi * siy
-        return (wi * wi * (ux * hx + uy * hy) - 2.0 * wi * (nx * hdx + ny * hdy)
-                + ux * kx + uy * ky)[..., None]
 
     def jerk(self, G, F):
         return along_jerk(G, F)[..., None]

@@ -16,7 +16,7 @@ corrected node, a design study's row) is accepted as a step of the path only whe
 and, between consecutive points of a path, the Taylor predictor error forwards and backwards
 (`taylor_error`) is within path_tol. The path follower, the grid pass, studies.warm and
 studies.batch all call `accepted` and `taylor_error`; the compiled route's
-compiled_kinds.accept_point takes the same bounds from here.
+planarkin.solver.compiled.helpers.accept_point takes the same bounds from here.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 The compiled route's one solve: a system's structure (each row's kind, bodies and columns,
 each block's size and matrix positions) is written into Python source, one function per
 structure (the old C generator kernelgen.py's design, in Python): every row a call of its
-kind's function of planarkin.solver.compiled.kinds (the one text of the element equations) with the
+kind's function of planarkin.elements.pointline (the one text of the element equations) with the
 equation, the bodies' coordinates and the parameters named as local variables, every block's
 Newton step, inverse and substitution written out for its size. The kind functions are
 compiled apart (LLVM inlines them); the four-bar's kernel compiles in about 4 s of CPU and runs
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from planarkin.solver.compiled.kinds import KINDS
+from planarkin.elements.pointline import CODES
 
 # largest dense block (Gauss-Jordan, its rows written out): kernel.KMAX, the largest block
 # kernel.pack accepts, is this number (a test holds them equal; kernel does not import this
@@ -70,9 +70,10 @@ def name_of(struct: tuple, what: str = "grid") -> str:
     """The generated module's name: what it holds ('grid', or 'each': compiled_gen_each), a
     hash of the structure and of the generators (their sources and the kind functions')."""
     h = hashlib.sha256(repr((VERSION, what, struct)).encode())
-    here = Path(__file__).parent
-    for name in ("gen.py", "gen_each.py", "kinds.py"):
-        h.update((here / name).read_bytes())
+    package = Path(__file__).parent.parent.parent
+    for name in ("solver/compiled/gen.py", "solver/compiled/gen_each.py",
+                 "solver/compiled/helpers.py", "elements/pointline.py"):
+        h.update((package / name).read_bytes())
     return f"pk_{what}_{h.hexdigest()[:20]}"
 
 
@@ -110,7 +111,7 @@ class Writer:
         """The kind function's call for a row; with upto >= 0 the rates of the columns that
         blocks up to upto solve (the others are zero at that time, as in the reference)."""
         e = int(self.rowel[row])
-        args = [f"EQ{int(self.roweq[row])}", f"W{want}"]
+        args = [f"W{want}"]
         for b in (int(self.bi[e]), int(self.bj[e])):
             cs = ("ONE", "ZERO") if b == self.nb else (f"c{b}", f"s{b}")
             args += [self.coord(b, 0), self.coord(b, 1), self.coord(b, 2), *cs]
@@ -118,7 +119,7 @@ class Writer:
         for b in (int(self.bi[e]), int(self.bj[e])):
             args += [self.coord(b, k, "v") if self.colblock.get(3 * b + k, upto + 1) <= upto
                      else "ZERO" for k in range(3)]
-        return f"k_{KINDS[int(self.kind[e])]}({', '.join(args)})"
+        return f"k_{CODES[int(self.kind[e])]}({', '.join(args)})[{int(self.roweq[row])}]"
 
     def reads(self, bs):
         """Columns the rows of blocks bs read or solve, and the moving bodies whose angles."""
@@ -496,17 +497,18 @@ class Writer:
         o(0, '"""planarkin.solver.compiled.gen: the grid pass of one mechanism structure (generated; '
              'the file is used only while its bytes are the generated text)."""')
         for line in ("import math", "", "import numba", "import numpy as np", "",
-                     "from planarkin.solver.compiled import kinds as K", ""):
+                     "from planarkin.elements import pointline as E",
+                     "from planarkin.solver.compiled import helpers as K", ""):
             o(0, line)
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.solver.compiled.kernels")
-        o(0, "# the kinds' equations (planarkin.solver.compiled.kinds), each compiled once, for one")
+        o(0, "# the kinds' equations (planarkin.elements.pointline), each compiled once, for one")
         o(0, "# signature, as a function of its own: inlined in numba's IR they made the first")
         o(0, "# compile ten times longer, and literal arguments would compile one per value;")
         o(0, "# cached (a later process loads them, as it loads grid)")
-        o(0, "ROW = (numba.int64, numba.int64) + (numba.float64,) * 22")
-        for kd in sorted({KINDS[int(k)] for k in self.kind}):
+        o(0, "ROW = (numba.int64,) + (numba.float64,) * 22")
+        for kd in sorted({CODES[int(k)] for k in self.kind}):
             o(0, f"k_{kd} = numba.njit([ROW], error_model='numpy', _nrt=False, cache=CACHE)"
-                 f"(getattr(K.{kd}, 'py_func', K.{kd}))")
+                 f"(E.{kd})")
         if any(blk[0] > KGEN for blk in self.blocks):
             o(0, "F1 = numba.float64[::1]")
             o(0, "gj = numba.njit([(numba.int64, F1, numba.int64, F1, numba.int64, F1)], "
@@ -523,7 +525,7 @@ class Writer:
         # at every use: the first compile's time is that of the IR's statements)
         o(1, "ZERO = 0.0")
         o(1, "ONE = 1.0")
-        o(1, "EQ0, EQ1, W1, W2, W3, W4, W5 = 0, 1, 1, 2, 3, 4, 5")
+        o(1, "W1, W2, W3, W4, W5 = 1, 2, 3, 4, 5")
         for e in range(len(self.kind)):
             for k in range(_SLOTS):
                 o(1, f"p{e}_{k} = prm[{e}, {k}]")

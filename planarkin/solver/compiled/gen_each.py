@@ -5,14 +5,14 @@ table).
 A generic solve reading the structure from arrays at every point took about 1.2 us a point on
 the four-bar (it was removed on 2026-12-06); here the solve is written into
 Python source as planarkin.solver.compiled.gen writes the grid pass: every row a call of its kind's
-function (planarkin.solver.compiled.kinds) with the coordinates named as local variables, every block's
+function (planarkin.elements.pointline) with the coordinates named as local variables, every block's
 Newton step, inverse and substitution written out for its size. The algorithm, operation for
 operation: each point alone, block by block, each block by Newton to that point's
 own convergence (an affine block: one step), the inverse 1 x 1 and
 2 x 2 in closed form, larger ones by Gauss-Jordan, an angle's cosine and sine recomputed when
 it moved or is a zero, then the velocities and accelerations by forward substitution through
 the inverse's entries (an affine block whose gradient its own unknowns do not move keeps its
-Newton inverse), and the studies' acceptance tests (compiled_kinds.
+Newton inverse), and the studies' acceptance tests (planarkin.solver.compiled.helpers.
 accept_point). The element parameters of point i are row vrow[i] of a table of parameter sets,
 its drivers' row trow[i]: one compiled function per structure serves every variant.
 
@@ -22,7 +22,7 @@ Arrays are flat (row-major).
 from __future__ import annotations
 
 from planarkin.solver.compiled.gen import KGEN, Writer, discards, pairs
-from planarkin.solver.compiled.kinds import KINDS
+from planarkin.elements.pointline import CODES
 
 VERSION = 1       # of the generated text's shape (compiled_gen.name_of hashes this file too)
 
@@ -194,13 +194,14 @@ class EachWriter(Writer):
              'mechanism structure (generated; the file is used only while its bytes are the '
              'generated text)."""')
         for line in ("import math", "", "import numba", "import numpy as np", "",
-                     "from planarkin.solver.compiled import kinds as K", ""):
+                     "from planarkin.elements import pointline as E",
+                     "from planarkin.solver.compiled import helpers as K", ""):
             o(0, line)
         o(0, "# CACHE: numba's disk cache or not, given by planarkin.solver.compiled.kernels")
-        o(0, "ROW = (numba.int64, numba.int64) + (numba.float64,) * 22")
-        for kd in sorted({KINDS[int(k)] for k in self.kind}):
+        o(0, "ROW = (numba.int64,) + (numba.float64,) * 22")
+        for kd in sorted({CODES[int(k)] for k in self.kind}):
             o(0, f"k_{kd} = numba.njit([ROW], error_model='numpy', _nrt=False, cache=CACHE)"
-                 f"(getattr(K.{kd}, 'py_func', K.{kd}))")
+                 f"(E.{kd})")
         o(0, "F1, I1 = numba.float64[::1], numba.int64[::1]")
         o(0, "INT, DBL = numba.int64, numba.float64")
         o(0, "gj = numba.njit([(INT, F1, INT, F1, INT, F1)], error_model='numpy', _nrt=False, "
@@ -218,7 +219,7 @@ class EachWriter(Writer):
              "smin, has_v, vrow, prm, ne, has_t, trow, tg, sign0, test, good, perr):")
         o(1, "ZERO = 0.0")
         o(1, "ONE = 1.0")
-        o(1, "EQ0, EQ1, W1, W2, W3, W4, W5 = 0, 1, 1, 2, 3, 4, 5")
+        o(1, "W1, W2, W3, W4, W5 = 1, 2, 3, 4, 5")
         kd = max([blk[0] for blk in self.blocks], default=1)
         fmax = max(max(z) for z in self.sizes)
         o(1, f"JW = np.empty({kd * kd})")

@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 
 # the modules numba compiles and caches (the generated kernels' names hash their generator)
-SOURCES = ("points.py", "kinds.py")
+SOURCES = ("solver/compiled/points.py", "solver/compiled/helpers.py", "elements/pointline.py")
 MANIFEST = "manifest.json"
 LOCK_WAIT = 5.0           # seconds to wait for another process's hold on the entry
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
@@ -69,9 +69,9 @@ def base_dir() -> Path:
 def tag() -> str:
     """The entry's name: the hash of the compiled route's sources and the Python version."""
     h = hashlib.sha256(sys.version.encode())
-    here = Path(__file__).parent
+    package = Path(__file__).parent.parent.parent
     for name in SOURCES:
-        h.update((here / name).read_bytes())
+        h.update((package / name).read_bytes())
     return h.hexdigest()[:16]
 
 

@@ -301,7 +301,7 @@ def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=No
     parameters, an index per point into a (V, E, 8) table of parameter sets (see `table`).
     Returns (Q, Qd, Qdd, iterations, converged, ratio, sign, smin, good, perr), Q the array
     given when it is contiguous float64 (updated in place), else a copy. accept: (tg, sign0),
-    the acceptance tests of studies.batch (compiled_kinds.accept_point, its bounds compiled in):
+    the acceptance tests of studies.batch (planarkin.solver.compiled.helpers.accept_point, its bounds compiled in):
     good (N,) bool and perr (N,), the path error of the interval from the point before (grid
     times tg, indexed as T); None: not tested (good, perr None). hist: (H0, H1, H2, H3, cub),
     four arrays shaped as Q (the last four solutions, newest first) and cub (N,) bool: the

@@ -1,7 +1,7 @@
 """The compiled route's small entry points over points (see planarkin.solver.compiled.kernel): a chunk's
 user-unit arrays (layout) and the design studies' cubic prediction, apart from the solves
 generated per structure (planarkin.solver.compiled.gen; they write the grid's Hermite predictions
-themselves, compiled_kinds.hermite_row).
+themselves, planarkin.solver.compiled.helpers.hermite_row).
 """
 
 from __future__ import annotations
