@@ -1,16 +1,17 @@
 """The `planarkin` command and `python -m planarkin`.
 
 SIGINT and SIGTERM end the program at once, quietly (exit 130 / 143), while it starts: importing
-click and numpy takes a few hundred milliseconds, and an interruption then must not print a
+click and numpy takes a noticeable moment, and an interruption then must not print a
 traceback. `planarkin run` and the studies take the signals over once they can stop in order
 (planarkin.output.directory.interruptible); once the command is over they are ignored and the
 process leaves with the command's exit status, so that a signal then cannot turn a finished run
 into a killed one.
 
 OpenBLAS runs on one thread unless OPENBLAS_NUM_THREADS says otherwise: planarkin's linear
-algebra is many small factorisations, and OpenBLAS's idle threads spin (measured on the
-four-bar example, 2-core VM, 2026-12-01: a whole 360-step solve 0.58 -> 0.37 s of CPU). This
-can only be set before numpy loads, so here, in the command, not in the library."""
+algebra is many small factorisations, and OpenBLAS's idle threads spin: they cost the four-bar
+example's whole solve a large share of its CPU time (benchmarks/README.md, "Figures moved from
+the code's comments"). This can only be set before numpy loads, so here, in the command, not in
+the library."""
 
 import os
 import signal

@@ -330,7 +330,7 @@ def _run_parallel(models, dirs, report, overrides, analysis, plots, animate, job
     import signal
     from concurrent.futures import ProcessPoolExecutor
     from concurrent.futures import TimeoutError as NoAnswer
-    from concurrent.futures.process import BrokenProcessPool   # here: 20 ms a plain run skips
+    from concurrent.futures.process import BrokenProcessPool   # here: an import a plain run skips
 
     from .options import from_command_line
     from .output.directory import critical, signame

@@ -120,8 +120,8 @@ def forces_figure(cm, X, info):
     finish_time_axes([[axes[0][0]], [axes[1][0]]], _Data(t), info)
     fig.suptitle(plot_title(cm, "driver efforts and joint reactions (on body j of each "
                                   "joint)", info), fontsize=11, y=1 - 0.1 / H, va="top")
-    # a fixed layout, in inches: constrained layout measured every text, half of the time of
-    # this figure; the tick labels' widths come from the axes' locators and formatters
+    # a fixed layout, in inches: constrained layout measured every text, a large part of the
+    # time of this figure; the tick labels' widths come from the axes' locators and formatters
     room = [0.55 + max(tick_label_width(ax.yaxis, *ax.get_ylim()) for ax in col)
             for col in zip(*axes)]
     right = 0.2 + legend_w

@@ -247,8 +247,9 @@ class Kinetostatics:
         coordinates; perm (n * n,) says where each entry of that (n, n) matrix flattened
         (column c, active row i at c * n + i) is in them (the zero for structural zeros). Made
         once, so that each chunk's matrix is one copy of the gradients and one take (not a
-        (N, m, n + 3) Jacobian filled by broadcast fancy indexing, then cut and transposed:
-        7.2 ms against 1.3 ms per 8,000 rows of the slider-crank, at load 3)."""
+        (N, m, n + 3) Jacobian filled by broadcast fancy indexing, then cut and transposed,
+        which took several times as long; benchmarks/README.md, "Figures moved from the
+        code's comments")."""
         cm = self.cm
         n = cm.n
         pos = np.full(cm.m, -1)

@@ -25,10 +25,11 @@ Scalars are typed with YAML 1.1 implicit resolution, as ``yaml.safe_load`` does 
 stay strings. Map keys are the *source text* of the key scalar (a body named ``yes`` stays
 ``"yes"``); duplicate keys and merge keys (``<<``) are errors.
 
-Limits: `MAX_FILE_BYTES` (10 MB), `MAX_LINES`, `MAX_NODES`, `MAX_DEPTH`. The pure-Python parser
-reads about 2-3 MB/s, so even a file at the size limit is settled within a few seconds. Only a
-regular file is read (`read_file`): a FIFO would wait for a writer for ever, a device such as
-/dev/zero never ends; both are refused before they are read.
+Limits: `MAX_FILE_BYTES` (10 MB), `MAX_LINES`, `MAX_NODES`, `MAX_DEPTH`, low enough that the
+pure-Python parser settles even a file at the size limit within seconds (its rate:
+benchmarks/README.md, "Figures moved from the code's comments"). Only a regular file is read
+(`read_file`): a FIFO would wait for a writer for ever, a device such as /dev/zero never ends;
+both are refused before they are read.
 
 Every problem becomes a `planarkin.diagnostics.Diagnostic`; as many as can be found are collected
 and raised together as one `InputError`. `read_yaml` and `read_file` raise nothing else.

@@ -4,9 +4,9 @@
 (shortest round-trip digits, Python's layout: positional for
 -4 <= exponent < 16, otherwise scientific with >= 2 exponent digits; ``nan``,
 ``inf``, ``-inf``), separated by ``,`` with ``\n`` after each row.  It uses
-vectorised numpy (float64/int64) arithmetic on blocks of values; measured on a
-2-core x86_64 VM it is ~40 ns per value for the formatting itself versus
-~400-800 ns for ``','.join(map(repr, row))`` (see benchmarks/bench_fastcsv.py).
+vectorised numpy (float64/int64) arithmetic on blocks of values, many times
+faster per value than ``','.join(map(repr, row))`` (benchmarks/bench_fastcsv.py;
+benchmarks/README.md, "Figures moved from the code's comments").
 ``write_table(f, X)`` streams the same bytes to a file block by block.
 
 Method (per value, vectorised over a block of ~16k values)
@@ -24,8 +24,8 @@ Method (per value, vectorised over a block of ~16k values)
    absolute error below 2e-6 units of the 17th digit (4e-7 observed; checked
    against exact rationals in the tests).  ``N = P + floor(R)`` (int64) and
    ``F = R - floor(R)`` give ``y = N + F``.
-   (``numpy.longdouble`` was measured first: 4-5 ns per operation, 80 ns for
-   ``floor``, versus ~0.2 ns for float64, and only ~2**-65 relative
+   (``numpy.longdouble`` was measured first: many times slower per operation
+   than float64, ``floor`` most of all, and only ~2**-65 relative
    precision; Dekker's exact two-product in float64 also works but costs 10
    more passes than this precision needs.)
 
@@ -59,7 +59,7 @@ Method (per value, vectorised over a block of ~16k values)
    from ``repr`` (exact).  With a computation error < 2e-6 this never hides a
    wrong decision.  The rate is ~2e-5 of random values, plus exact ties that
    occur for doubles with few fraction bits (large integers; ~1e-3 of random
-   bit patterns), so the fallback costs well under 1 ns per value.
+   bit patterns), so the fallback adds next to nothing per value.
 
 3. *Layout without per-value Python code.*  Each value becomes a right-aligned
    32-byte row: its text (without the optional minus sign) is a string of at
@@ -708,8 +708,7 @@ def write_table(f, X: np.ndarray) -> int:
 
 def format_value(x: float) -> str:
     """repr(float(x)), computed by the vectorised formatter (for tests and
-    occasional scalar use: ~0.1-0.3 ms per call, repr itself is faster for
-    single values)."""
+    occasional scalar use: repr itself is faster for single values)."""
     out = format_table(np.array([[float(x)]]))
     return out[:-1].decode("ascii")
 

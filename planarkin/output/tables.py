@@ -12,9 +12,10 @@ import numpy as np
 
 
 class CsvWriter:
-    """A CSV file written chunk by chunk. The formatter (fastcsv: 0.06-0.12 s of tables built
-    at import) is imported here, not with this module, which the plot processes import for the
-    names and units alone; DirectoryWriter imports it before it forks the writers."""
+    """A CSV file written chunk by chunk. The formatter (fastcsv: its tables are built at
+    import, a start-up of their own) is imported here, not with this module, which the plot
+    processes import for the names and units alone; DirectoryWriter imports it before it forks
+    the writers."""
 
     def __init__(self, path: Path, header: list[str]):
         from .fastcsv import write_table

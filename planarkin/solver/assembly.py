@@ -199,7 +199,7 @@ def assemble(cm: CompiledModel, start: float | None = None) -> Assembly:
         cm = replace(cm, spec=replace(cm.spec, analysis=replace(cm.spec.analysis, start=start)))
         sketched = False
     # dense SVDs and least squares of up to DENSE_LIMIT columns: on one BLAS thread, because
-    # a busy second core made OpenBLAS's threads take 50 times longer (linalg.one_blas_thread);
+    # a busy second core made OpenBLAS's threads take many times longer (linalg.one_blas_thread);
     # below PIN_BLAS_FROM coordinates OpenBLAS does not thread them (as for the solver's blocks)
     pin = one_blas_thread() if cm.n >= PIN_BLAS_FROM else contextlib.nullcontext()
     with np.errstate(all="ignore"), pin:

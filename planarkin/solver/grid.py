@@ -63,10 +63,11 @@ if TYPE_CHECKING:          # annotations only: the model is compiled before the 
 # 3,000 steps (128 MB gave 385-397 MB)
 CHUNK_BYTES = 64 << 20
 # A model of many small solve blocks (the N-four-bar chain: 5,003) pays every block's per-call
-# Python overhead once per chunk, ~250 us a block, against ~0.7 us of work per block and point:
-# 58-point chunks (64 MB at 6,003 coordinates) made its grid pass 2.5x slower than 232-point
-# ones. Such a model (CHUNK_MANY_BLOCKS solve blocks or more) gets chunks of at least
-# CHUNK_MIN_POINTS points while their estimated working set stays under CHUNK_BYTES_MANY.
+# Python overhead once per chunk, far more than a block's work per point: 58-point chunks
+# (64 MB at 6,003 coordinates) made its grid pass much slower than 232-point ones
+# (benchmarks/README.md, "Figures moved from the code's comments"). Such a model
+# (CHUNK_MANY_BLOCKS solve blocks or more) gets chunks of at least CHUNK_MIN_POINTS points
+# while their estimated working set stays under CHUNK_BYTES_MANY.
 CHUNK_MANY_BLOCKS = 64
 CHUNK_MIN_POINTS = 256
 CHUNK_BYTES_MANY = 256 << 20
@@ -172,7 +173,7 @@ class PathFollower:
             kink = next((kk for kk in self.kinks if kk.t > t), None)
             land = kink.t if kink is not None and kink.t - t < remaining else end
             cap = min(land - t, self.h_max)
-            # sorted distinct candidates (np.unique would import numpy.ma: 10 ms of start-up)
+            # sorted distinct candidates (np.unique would import numpy.ma: start-up a run skips)
             hs = np.array(sorted({min(f * h, cap) for f in (0.25, 0.5, 1.0, 2.0)}))
             ok, err, Q, Qd, Qdd, info = self._candidates(k, hs, land=land)
             if ok.any():
@@ -386,7 +387,7 @@ class PathFollower:
 
 
 def _distinct(a: np.ndarray) -> np.ndarray:
-    """Sorted distinct small non-negative integers (np.unique imports numpy.ma: 10 ms)."""
+    """Sorted distinct small non-negative integers (np.unique imports numpy.ma: start-up)."""
     return np.flatnonzero(np.bincount(a)) if len(a) else a
 
 

@@ -2,8 +2,8 @@
 
 The block-triangular solver (`planarkin.solver.system`) factors one small diagonal block per time point;
 with thousands of time points per call a Python loop is out of the question, and numpy's stacked
-``linalg.inv`` costs 0.5-2.5 us per matrix for k = 4..9 (measured on 100,000 random matrices
-while writing this module). Gauss-Jordan
+``linalg.inv`` has a cost per matrix for k = 4..9 that adds up over them (measured while writing
+this module: benchmarks/README.md, "Figures moved from the code's comments"). Gauss-Jordan
 elimination with partial pivoting written over the batch axis (structure of arrays: every matrix
 entry is a contiguous vector over the batch) does the same work in a handful of large numpy calls
 and also yields what the solver monitors: the sign of the determinant (branch tracking) and the
@@ -139,7 +139,7 @@ def cond_1(J: np.ndarray, Minv: np.ndarray) -> np.ndarray:
 
 def noise(n: int, seed: int) -> np.ndarray:
     """n deterministic pseudo-random numbers in (-1, 1): generic states for structural tests.
-    (numpy.random costs 15 ms of start-up; these tests only need values with no special
+    (importing numpy.random costs start-up; these tests only need values with no special
     relation between them.)"""
     k = np.arange(1, n + 1, dtype=float)
     return np.sin(k * 12.9898 + seed * 78.233) * 43758.5453 % 2.0 - 1.0
@@ -277,9 +277,9 @@ _blas_cache: list = [-1, None]        # [len(sys.modules) when scanned, Threadpo
 def blas_controller():
     """threadpoolctl's controller of every BLAS loaded in this process (numpy's and, once
     imported, scipy's OpenBLAS); rescanned only when modules were imported since (a scan
-    costs about 0.7 ms, pinning through the controller 7 us)."""
+    costs far more than pinning through the controller)."""
     if _blas_cache[0] != len(sys.modules):
-        from threadpoolctl import ThreadpoolController      # 3 ms: small models never pay it
+        from threadpoolctl import ThreadpoolController      # small models never import it
         _blas_cache[:] = [len(sys.modules), ThreadpoolController().select(user_api="blas")]
     return _blas_cache[1]
 
@@ -287,9 +287,10 @@ def blas_controller():
 class one_blas_thread:
     """Context: the BLAS libraries run on one thread inside (restored on exit). The solver's
     linear algebra is many small factorisations; with the threads of OpenBLAS spinning on a core
-    that another process holds, the same run took 50 times longer (issue 12: 3.5 s -> 165-184
-    s). An environment variable would have to be set before numpy loads, which a library called
-    from someone's program cannot do: threadpoolctl sets the libraries' own thread counts."""
+    that another process holds, the same run took many times longer (issue 12;
+    benchmarks/README.md, "Figures moved from the code's comments"). An environment variable
+    would have to be set before numpy loads, which a library called from someone's program
+    cannot do: threadpoolctl sets the libraries' own thread counts."""
 
     def __enter__(self):
         self.limiter = blas_controller().limit(limits=1)

@@ -23,7 +23,8 @@ PATH_POLICY = "reuse"   # Newton at path nodes: one factorisation per block and 
 def path_block(n: int) -> int:
     """Largest solve block of the path follower: the whole system up to 64 unknowns (fewest
     Python-level calls); beyond, 12 (dense inverses of merged blocks cost k^3: 64-blocks made
-    the N = 1000 four-bar chain spend 8 s in LAPACK, 12-blocks keep both costs small)."""
+    the N = 1000 four-bar chain spend long in LAPACK, 12-blocks keep both costs small;
+    benchmarks/README.md, "Figures moved from the code's comments")."""
     return n if n <= 64 else 12
 
 

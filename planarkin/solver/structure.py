@@ -6,8 +6,9 @@ solver handle a sequence of small square blocks instead of one large system: for
 chain the work per time step grows linearly with N, and every block is small enough to be
 factored for a whole time chunk at once.
 
-Pure Python on purpose: importing scipy.sparse.csgraph costs ~0.3 s of start-up, more than the
-whole analysis of a typical model; these graphs have at most a few thousand nodes of degree <= 9.
+Pure Python on purpose: importing scipy.sparse.csgraph costs more start-up than the whole
+analysis of a typical model (benchmarks/README.md, "Figures moved from the code's comments");
+these graphs have at most a few thousand nodes of degree <= 9.
 """
 
 from __future__ import annotations

@@ -32,15 +32,15 @@ if TYPE_CHECKING:          # annotations only: the model is compiled before the 
 
 EPS = np.finfo(float).eps
 # Irreducible blocks of at least this many unknowns are factored by sparse LU, one per time
-# point, instead of dense batched inverses (k^3 time, k^2 memory per point). The crossover,
-# measured on the arch's blocks by benchmarks/bench_blocks.py: dense / sparse CPU time 0.63 at
-# 64 unknowns, 1.2 at 88, 4 at 148, 14 at 298 (benchmarks/README.md "Large blocks").
+# point, instead of dense batched inverses (k^3 time, k^2 memory per point): the crossover
+# measured on the arch's blocks by benchmarks/bench_blocks.py (benchmarks/README.md, "Large
+# blocks").
 SPARSE_BLOCK = 80
 # Systems with a block of at least this many unknowns are solved on one BLAS thread
 # (linalg.one_blas_thread): there OpenBLAS may thread inside a factorisation and its threads
-# fight a busy core. Pinning costs 35-60 us per call (openblas_set_num_threads), 5 % of a
-# 360-step four-bar run's 50 calls, so small systems (which never reach BLAS's threaded
-# sizes) are left alone.
+# fight a busy core. Pinning has a cost per call (openblas_set_num_threads) that shows in a
+# short four-bar run's many calls (benchmarks/README.md, "Figures moved from the code's comments"),
+# so small systems (which never reach BLAS's threaded sizes) are left alone.
 PIN_BLAS_FROM = 32
 # Models with at least this many drivers evaluate them all in one expression pass
 # (System._driver_values_joint); below, each driver's own TimeFunction.derivatives.
@@ -149,9 +149,10 @@ class System:
     def _driver_values_joint(self, t: np.ndarray, side: int = 0):
         """driver_values for a model of many drivers (the arch's 98): every driver's f, f' and
         f'' in one evaluation of all their expression trees, which shares the set-up and the
-        common subexpressions (sin(2 pi t) once, not 98 times): 9-10 ms -> 2-2.6 ms per call at
-        130 points. Values identical to the drivers' own derivatives(t, side): at a switch the
-        side-0 average re-evaluates every tree from the left, and (a + a) / 2 is a."""
+        common subexpressions (sin(2 pi t) once, not 98 times): a fraction of the time per
+        call (benchmarks/README.md, "Figures moved from the code's comments"). Values identical
+        to the drivers' own derivatives(t, side): at a switch the side-0 average re-evaluates
+        every tree from the left, and (a + a) / 2 is a."""
         from planarkin.functions.expr.core import evaluate_all
         cm = self.cm
         t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -396,8 +397,8 @@ class System:
         entries (block_values) in that order; column j of the stored matrix is the block's
         column order[j]; order_sign is the sign of that permutation. The ordering (COLAMD on the
         pattern) is computed once per block here: SuperLU then factors every time point with
-        its NATURAL ordering, 80 us instead of 750 us for the 298-unknown arch, whose COLAMD
-        pass costs more than the factorisation itself."""
+        its NATURAL ordering: for the 298-unknown arch a COLAMD pass per point costs more
+        than the factorisation itself (benchmarks/README.md, "Large blocks")."""
         key = (B.first, len(B.cols))
         if key not in self._csc:
             from scipy.sparse import csc_matrix

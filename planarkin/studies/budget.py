@@ -5,11 +5,10 @@ from __future__ import annotations
 
 from .batch import GROUP
 
-# Measured (slider-crank, 9 coordinates, 1 point, one process; 2 cores under load 3-4):
-# a variant's bookkeeping (its values, outcome, table row) takes 585-676 bytes with 1-4
-# parameters (tracemalloc over 2e5 variants); 3 variants of 1e6 grid rows peaked at 2.6 GB
-# (870 bytes a row and variant: every row of the variants solved together is held); 2e4
-# variants of 11 rows took 237 s (12 ms a variant), 3 of 1e6 rows 19 s (6 us a row).
+# The per-variant and per-row figures below come from measurements on the slider-crank in one
+# process (benchmarks/README.md, "Figures moved from the code's comments"), the memory ones
+# rounded up: a variant's bookkeeping (its values, outcome, table row) is held to the end, and
+# every row of the variants solved together is held while they are solved.
 STUDY_BYTES = 2**30              # memory a study may take in one process
 STUDY_SECONDS = 24 * 3600        # estimated time a study may take
 VARIANT_BYTES = 1000             # per variant, plus VALUE_BYTES per parameter and metric

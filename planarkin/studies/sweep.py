@@ -144,8 +144,9 @@ def _cell(x) -> str:
     if isinstance(x, (int, np.integer)):
         return str(x)
     # the shortest round-trip text, as the tables' vectorised formatter writes it (its
-    # format_value per cell cost 0.25 ms: 7 s for a 10,000-variant sweep.csv, five times the
-    # solve)
+    # format_value, called per cell, made a large sweep.csv take several times as long to
+    # write as the sweep took to solve; benchmarks/README.md, "Figures moved from the code's
+    # comments")
     return "" if math.isnan(x) else repr(float(x))
 
 

@@ -1,12 +1,12 @@
 """The local phase of synthesis: least squares on the residuals at the target inputs only.
 
 A full evaluation (planarkin.synthesis.synth.Synthesis.evaluate) analyses the design over its
-whole cycle (~65 ms for the four-bar of straight-line.yaml at load 0.2, 90 % of it the path
-follower) to learn where the target inputs are on the branch. A local run does not need that
-at every trial: its trials are small steps from a design already on the branch. Here a trial
-is
+whole cycle (most of its time the path follower; benchmarks/README.md, "Figures moved from
+the code's comments") to learn where the target inputs are on the branch. A local run does
+not need that at every trial: its trials are small steps from a design already on the
+branch. Here a trial is
 
-* the model validated and compiled with the trial's values (Study.model, ~2 ms);
+* the model validated and compiled with the trial's values (Study.model);
 * the poses at the target inputs only, by Newton (Model.solve_from, planarkin's own residual
   and constraint Jacobian) from a first-order predictor off the last accepted iterate,
   q + dq/dp dp + qdot dt: a correction larger than JUMP means the trial left the branch, and
@@ -178,8 +178,9 @@ class Local:
         # the bounds by a change of variables, x = mid + half sin z (exact chain rule), for the
         # parameters and for times that cannot wrap; times around a full cycle are free (the
         # trial solves at any time, the final evaluation wraps them). least_squares' own
-        # bounds (reflective) did no better on the straight line: from seed 0's 12 best starts
-        # both ended at 1e-4 .. 1 mm^2 in the same valley (measured 2026-12-02)
+        # bounds (reflective) did no better on the straight line: from seed 0's best starts
+        # both ended in the same valley (benchmarks/README.md, "Figures moved from the code's
+        # comments")
         ulo, uhi = timing.bounds(syn)
         lo = np.concatenate([syn.lo, np.full(self.nt, syn.start), ulo])
         hi = np.concatenate([syn.hi, np.full(self.nt, syn.end), uhi])

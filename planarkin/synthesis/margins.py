@@ -131,10 +131,10 @@ def barrier(m: float, dm: np.ndarray, total: float, dtotal: np.ndarray, band: fl
     """(residual, (k,) gradient) of the margin's barrier row: (m0 - m)^2 / m below
     m0 = band total (total: the loop's length sum), zero above. The band trades: wide (1 %),
     it holds the local runs well off the change points, which the probed runs of the straight
-    line need (with 1e-4, six of its first 17 seeds took 1.06-4.3 times the evaluations and
-    one 159 times); narrow (1e-4), it lets them reach designs that lie near the wall, as the
-    literature's half circle and eighteen points do (SSE 3.37 -> 1.24 and 0.032 -> 0.014
-    there; benchmarks/README.md, 2026-12-07)."""
+    line need (with 1e-4, some of its seeds took more evaluations, one of them far more);
+    narrow (1e-4), it lets them reach designs that lie near the wall, as the literature's half
+    circle and eighteen points do (lower sums of squares there; benchmarks/README.md,
+    "Figures moved from the code's comments")."""
     m0, dm0 = band * total, band * dtotal
     if m >= m0:
         return 0.0, np.zeros_like(dm)

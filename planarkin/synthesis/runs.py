@@ -42,11 +42,11 @@ def run_from(syn, local, cfg, start, stop, probe, bounds, designs, rejected, hal
     leads the search (below every design kept) goes on from there, per_local trials at a
     time, until it converges, falls by less than FALL of its sum of squares over per_local
     trials, falls behind or a budget of the search runs out: a run in a flat, curved valley
-    converges linearly (five-point-curve.yaml: 200-800 trials from the best starts to the
-    least sum of squares), and cut at per_local it would stop well above the valley's floor,
-    however many runs the budget then pays for; one crawling (0.04 % per 100 trials, seed 6
-    of the same file) gives the budget back to other starts. Measured 2026-12-07,
-    benchmarks/README.md. leg: the run's first leg computed ahead (Ahead.take), or None."""
+    converges linearly (five-point-curve.yaml: hundreds of trials from the best starts to
+    the least sum of squares), and cut at per_local it would stop well above the valley's
+    floor, however many runs the budget then pays for; one crawling (seed 6 of the same file)
+    gives the budget back to other starts (benchmarks/README.md, "Figures moved from the
+    code's comments"). leg: the run's first leg computed ahead (Ahead.take), or None."""
     e0, j0 = syn.model.evaluations + local.evaluations, syn.model.jacobians
     d, first = None, start
     while True:

@@ -1,8 +1,8 @@
 """The starts of a search analysed together: designs as the rows of one grid pass.
 
 Every start of a search is analysed over its whole cycle before it is refined
-(`Synthesis.candidates`). One at a time that is the path follower's analysis (`analyse`), tens of
-milliseconds a design, most of it the same numpy calls on a few numbers. Here a batch of designs
+(`Synthesis.candidates`). One at a time that is the path follower's analysis (`analyse`) per
+design, most of its time the same numpy calls on a few numbers. Here a batch of designs
 is marched over the grid together:
 
 * the numbers the free parameters reach are evaluated for every design at once from the file's

@@ -43,9 +43,8 @@ abandoned run is checked over its cycle only when it would be kept. The six coll
 (straight-line.yaml) need that: about one local run in 650 from the Latin-hypercube starts
 lands in the basin of an exact solution (the others slide down a valley, the linkage growing
 until a bound stops it, SSE 1e-6 .. 1e-4 mm^2), and it shows by converging superlinearly, so
-hundreds to a few thousand probed runs of ~30 trials (benchmarks/bench_synth.py: 5-2,260 a
-seed, median 481, 20 of 20 seeds below 1e-12; benchmarks/README.md, 2026-12-07) replace 20
-long ones.
+hundreds to a few thousand probed runs of ~30 trials replace 20 long ones
+(benchmarks/bench_synth.py; benchmarks/README.md, "Figures moved from the code's comments").
 """
 
 from __future__ import annotations
@@ -539,7 +538,7 @@ class Synthesis:
         margin, from the compiled model alone), else its compiled model, or None when that is
         left to the analysis (no turns constraint and an invalid design: the analysis refuses
         it, as an evaluation): an analysis over the cycle would refuse such a design anyway
-        (lock-up, or the turns constraint), at ~30 times the cost. Not an evaluation."""
+        (lock-up, or the turns constraint), at many times the cost. Not an evaluation."""
         from ..diagnostics import InputError
         try:
             cm = self.model.compiled(values)

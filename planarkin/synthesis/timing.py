@@ -47,8 +47,8 @@ def probe_wrap(syn) -> None:
     An open path's points, and free times without a closed target, are taken in order
     within the analysis range, not around it: its start (a free start angle, or the range
     chosen) fixes where the sweep begins. Around the cycle, straight-line.yaml's searches
-    took 10-20 times the evaluations (seeds 2-5: 31,000-54,000 against 2,800-17,000) and seed
-    7 missed the goal in its 150,000 (benchmarks/README.md, 2026-12-07)."""
+    took many times the evaluations and one seed missed the goal within its budget
+    (benchmarks/README.md, "Figures moved from the code's comments")."""
     from .problem import Rejected
     if not (syn.closed or syn.nu):
         syn.wrap = False

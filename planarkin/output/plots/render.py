@@ -90,7 +90,7 @@ def renderer_class():
     """RendererAgg, laying out and rasterising each distinct string once per process when this
     matplotlib draws texts glyph by glyph (3.11: a Python loop over the glyphs, each with its own
     transform and image; and FreeType lays the string out again for the drawing after the
-    measuring, 0.4 ms each time): the string is laid out and rasterised in one call and drawn
+    measuring, each time): the string is laid out and rasterised in one call and drawn
     as one image, as matplotlib up to 3.10 did, and the result is kept for the next time the
     same string is measured or drawn in the same font (tick labels, legends and axis labels
     repeat from figure to figure). A string's bitmap does not depend on where it is drawn

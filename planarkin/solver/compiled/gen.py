@@ -2,14 +2,15 @@
 
 The compiled route's one solve: a system's structure (each row's kind, bodies and columns,
 each block's size and matrix positions) is written into Python source, one function per
-structure (the old C generator kernelgen.py's design, in Python): every row a call of its
+structure (the design of the C kernel generator it replaced, in Python): every row a call of its
 kind's function of planarkin.elements.pointline (the one text of the element equations) with the
 equation, the bodies' coordinates and the parameters named as local variables, every block's
 Newton step, inverse and substitution written out for its size. The kind functions are
-compiled apart (LLVM inlines them); the four-bar's kernel compiles in about 4 s of CPU and runs
-at 0.2-0.3 us a grid point (docs/explanation/performance.md). A generic kernel that read the
-structure from arrays at every point (0.9 us a point, ~30 s to compile) was removed on
-2026-12-06: every structure kernel.pack accepts is written out here.
+compiled apart (LLVM inlines them); a structure's kernel compiles in seconds and runs a grid
+point faster than the generic kernel that read the structure from arrays at every point and
+took far longer to compile (docs/explanation/performance.md; the figures: benchmarks/README.md,
+"Figures moved from the code's comments"). That generic kernel was removed on 2026-12-06:
+every structure kernel.pack accepts is written out here.
 
 The algorithm is System._solve_batch's, step for step: the blocks in order;
 an affine block takes one Newton step (exact), point by point; any other block iterates, all
@@ -67,7 +68,7 @@ def structure(P, W: int, m: int, nb: int) -> tuple:
 
 
 def name_of(struct: tuple, what: str = "grid") -> str:
-    """The generated module's name: what it holds ('grid', or 'each': compiled_gen_each), a
+    """The generated module's name: what it holds ('grid', or 'each': gen_each's), a
     hash of the structure and of the generators (their sources and the kind functions')."""
     h = hashlib.sha256(repr((VERSION, what, struct)).encode())
     package = Path(__file__).parent.parent.parent
@@ -544,7 +545,7 @@ class Writer:
             o(1, f"SI = np.empty({fmax * fmax})")
         o(1, "for i in range(N):")
         # pred: the predictions written here from the path's nodes (Qf: Q's flat view), in
-        # the pass that reads them first (compiled_points.hermite's formula)
+        # the pass that reads them first (helpers.hermite_row: path.hermite5's formula)
         o(2, "if pred != 0:")
         o(3, f"K.hermite_row(t[i], idx[i], {n + 3}, Tn, Qn, Qdn, Qddn, Qf, i * {n + 3})")
         for b in range(nb):

@@ -2,19 +2,19 @@
 target 2: studies solve their variants through a generated kernel with a per-point parameter
 table).
 
-A generic solve reading the structure from arrays at every point took about 1.2 us a point on
-the four-bar (it was removed on 2026-12-06); here the solve is written into
-Python source as planarkin.solver.compiled.gen writes the grid pass: every row a call of its kind's
-function (planarkin.elements.pointline) with the coordinates named as local variables, every block's
-Newton step, inverse and substitution written out for its size. The algorithm, operation for
-operation: each point alone, block by block, each block by Newton to that point's
-own convergence (an affine block: one step), the inverse 1 x 1 and
-2 x 2 in closed form, larger ones by Gauss-Jordan, an angle's cosine and sine recomputed when
-it moved or is a zero, then the velocities and accelerations by forward substitution through
-the inverse's entries (an affine block whose gradient its own unknowns do not move keeps its
-Newton inverse), and the studies' acceptance tests (planarkin.solver.compiled.helpers.
-accept_point). The element parameters of point i are row vrow[i] of a table of parameter sets,
-its drivers' row trow[i]: one compiled function per structure serves every variant.
+A generic solve reading the structure from arrays at every point was slower on the four-bar (it
+was removed on 2026-12-06; benchmarks/README.md, "Figures moved from the code's comments"); here
+the solve is written into Python source as planarkin.solver.compiled.gen writes the grid pass:
+every row a call of its kind's function (planarkin.elements.pointline) with the coordinates
+named as local variables, every block's Newton step, inverse and substitution written out for
+its size. The algorithm, operation for operation: each point alone, block by block, each block
+by Newton to that point's own convergence (an affine block: one step), the inverse 1 x 1 and
+2 x 2 in closed form, larger ones by Gauss-Jordan, an angle's cosine and sine recomputed when it
+moved or is a zero, then the velocities and accelerations by forward substitution through the
+inverse's entries (an affine block whose gradient its own unknowns do not move keeps its Newton
+inverse), and the studies' acceptance tests (planarkin.solver.compiled.helpers.accept_point).
+The element parameters of point i are row vrow[i] of a table of parameter sets, its drivers' row
+trow[i]: one compiled function per structure serves every variant.
 
 Arrays are flat (row-major).
 """
@@ -24,7 +24,7 @@ from __future__ import annotations
 from planarkin.solver.compiled.gen import KGEN, Writer, discards, pairs
 from planarkin.elements.pointline import CODES
 
-VERSION = 1       # of the generated text's shape (compiled_gen.name_of hashes this file too)
+VERSION = 1       # of the generated text's shape (gen.name_of hashes this file too)
 
 _SLOTS = 6
 
@@ -271,5 +271,5 @@ class EachWriter(Writer):
 
 def source(P, W: int, m: int, nb: int) -> str:
     """The module text of the studies' point-by-point solve for packed system P
-    (compiled_gen.covers(P))."""
+    (gen.covers(P))."""
     return EachWriter(P, W, m, nb).source()

@@ -1,4 +1,5 @@
-"""Where numba caches the compiled route (planarkin.compiled), checked before numba reads it.
+"""Where numba caches the compiled route (planarkin.solver.compiled), checked before numba
+reads it.
 
 numba's disk cache holds pickles that it loads and runs; planarkin gives it a directory only the
 user can write and vouches for every file in it:
@@ -111,7 +112,8 @@ def _known_digest(path: Path, rel: str) -> str:
     """path's sha256, read again unless this process hashed it already (in prepare or a record)
     and its inode, size and modification time are unchanged since: the entry holds hundreds of
     files (numba's index and data for every kernel), and hashing them all at every record()
-    cost a sweep about 0.05 s, twice."""
+    cost a sweep time it need not spend, twice (benchmarks/README.md, "Figures moved from the
+    code's comments")."""
     seen = _held.setdefault("seen", {})
     stamp = _stamp(path)
     old = seen.get(rel)

@@ -1,7 +1,7 @@
 """The compiled route of the grid pass and the studies' solves, on numba (issue 17).
 
 System.solve_batch's reference pass is numpy; the compiled route is the same algorithm written
-out per mechanism structure as Python (planarkin.solver.compiled.gen, compiled_gen_each: compiled by
+out per mechanism structure as Python (planarkin.solver.compiled.gen and gen_each: compiled by
 numba, or interpreted with NUMBA_DISABLE_JIT=1), with the small entry points of
 planarkin.solver.compiled.points. Here: which route a job takes (route), what the compiled functions
 are given (pack: a System's elements and blocks as int64 / float64 arrays; table: a study's
@@ -11,15 +11,15 @@ flatten their arguments.
 The route depends only on the job and the installed packages: a job of at least
 COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled route when
 numba can be imported, every smaller job the numpy passes, so a small run never pays numba's
-start-up (about 0.3 s to import it, and the load of the compiled functions from its cache).
+start-up (its import, and the load of the compiled functions from its cache).
 Never what earlier runs left on disk: the cache (planarkin.solver.compiled.jitcache) only saves compiling, and
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
 
 A system's solve is the kernel generated for its structure (planarkin.solver.compiled.kernels: the
-grid pass written out as straight-line Python by compiled_gen, compiled in seconds and kept in
-the cache; a study's point-by-point solve by compiled_gen_each): one compiled route, every
-structure pack accepts written out, no generic kernel beside it.
+grid pass written out as straight-line Python by planarkin.solver.compiled.gen, compiled once
+and kept in the cache; a study's point-by-point solve by planarkin.solver.compiled.gen_each):
+one compiled route, every structure pack accepts written out, no generic kernel beside it.
 
 It covers the kinds whose equations are the point-and-line formulas of reference sections 1-2
 (revolute, translational, pin-slot, slide, angle, x, y, distance), fine blocks of up to KFINE
@@ -34,18 +34,15 @@ import sys
 
 import numpy as np
 
-KMAX = 16             # largest solve block: compiled_gen.KDENSE, the largest it writes out
+KMAX = 16             # largest solve block: gen.KDENSE, the largest it writes out
 KFINE = 6             # largest fine block (of the grid pass: larger ones are J5's dense/sparse LU)
 
 # A job of at least this many points (grid rows; variants x grid times for a study) takes the
-# compiled route. benchmarks/bench_route.py (the four-bar's planarkin.solve in a fresh process,
-# numba's import and cache load included, 2 Dec 2026, 2 shared cores, load 1-2.4, medians of 5):
-# numpy 0.38 / 0.79 / 0.91 / 1.86 s, compiled 0.73 / 1.18 / 1.03 / 1.70 s at 50,000 /
-# 100,000 / 200,000 / 400,000 steps: about 0.6 s of start-up, repaid at about 1.8 us a step.
-# With the generated kernels (benchmarks/bench_coldstart.py, 2 Dec 2026 15:12, load 1.1, a
-# fresh process, warm cache, medians of 5): four-bar, 200,000 steps, compiled 0.82 s against
-# numpy 0.74 s: the start-up (numba's import and the cache loads, about 0.4 s) is repaid from
-# about 250,000 points; the threshold stays.
+# compiled route: a smaller one, in a fresh process, would not repay numba's start-up (its
+# import and the cache loads) by the compiled solve's lower cost per point. The crossover is
+# measured by benchmarks/bench_route.py and bench_coldstart.py (the four-bar's planarkin.solve
+# in a fresh process, warm cache; benchmarks/README.md, "Figures moved from the code's
+# comments").
 COMPILED_FROM_POINTS = 300_000
 
 # where pack puts a kind's parameters (its compiled_params): p[0:2] si, p[2:4] sj, p[4:6] vi,
@@ -236,7 +233,7 @@ def _flat(a, dtype=float):
 def solve(lib, S, P: Packed, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=None,
           R=None):
     """System.solve_batch by the compiled route (the kernel generated for S's structure,
-    compiled_grid.solve): Q, Qd, Qdd (N, n + 3) updated in place. Returns (iterations,
+    kernels.solve): Q, Qd, Qdd (N, n + 3) updated in place. Returns (iterations,
     converged, ratio, sign, smin) as BatchInfo wants them (converged False where a coordinate
     is not finite), the residual |Phi| (N, m) of every equation at the results (redundant ones
     included), its largest value per point (N,) and the condition estimate (N,) of
@@ -293,7 +290,7 @@ _NONE_U8 = np.zeros(1, dtype=np.uint8)
 
 def solve_rows(lib, S, P: Packed, Q, T, NU, FDD, tol, maxit, rows=None, table=None,
                trow=None, accept=None, hist=None, work=None, out=None):
-    """The studies' point-by-point solve (compiled_gen_each, generated for S's structure):
+    """The studies' point-by-point solve (gen_each, generated for S's structure):
     full Newton for the positions of N points from the
     predictions Q (N, n + 3), each point to its own convergence, then velocities and
     accelerations. T, NU, FDD: the drivers' targets, nu and f'' (N, m), or with trow (N,)
