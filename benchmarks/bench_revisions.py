@@ -1,6 +1,7 @@
 """This tree against an earlier commit of it, on what a user runs, sides alternating in one run.
 
-    python benchmarks/bench_revisions.py --base COMMIT [--rounds 5] [--parts numpy,compiled,cold]
+    python benchmarks/bench_revisions.py --base COMMIT [--rounds 5]
+                                         [--parts numpy,compiled,kernel,cold]
 
 A change that should not cost speed (a refactor: the element equations written once for both
 routes) is measured here against the commit before it, checked out with `git worktree` into a
@@ -15,6 +16,8 @@ and the load average before and after.
 * compiled: CPU us per step of `planarkin.solve` at 200,000 steps, P + V + A, the compiled route
   forced, four-bar and slider-crank, each side on a warm cache of its own (median of 3 calls
   in the process).
+* kernel: the same solves, CPU us per step of the generated grid kernel's calls alone
+  (planarkin.solver.compiled.kernel.solve, timed around each call).
 * cold: CPU seconds of the first compiled solve of the four-bar (2,000 steps) on an empty cache
   (numba's compile of the layout and of the structure's generated kernel).
 """
@@ -61,6 +64,28 @@ for m in ("four-bar", "slider-crank"):
     out[f"{m} us/step"] = statistics.median(ts) / 200000 * 1e6
 print(json.dumps(out))
 """,
+    "kernel": """
+import json, statistics, time, planarkin
+from planarkin.solver.compiled import kernel
+kernel.COMPILED_FROM_POINTS = 0
+orig, spent = kernel.solve, [0.0]
+def timed(*a, **k):
+    t = time.process_time()
+    r = orig(*a, **k)
+    spent[0] += time.process_time() - t
+    return r
+kernel.solve = timed
+out = {}
+for m in ("four-bar", "slider-crank"):
+    planarkin.solve(f"mechanisms/{m}.yaml", steps=2000)
+    ts = []
+    for _ in range(3):
+        spent[0] = 0.0
+        planarkin.solve(f"mechanisms/{m}.yaml", steps=200000)
+        ts.append(spent[0])
+    out[f"{m} kernel us/step"] = statistics.median(ts) / 200000 * 1e6
+print(json.dumps(out))
+""",
     "cold": """
 import json, time, planarkin
 from planarkin.solver.compiled import kernel
@@ -96,7 +121,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--base", required=True, help="the earlier commit")
     ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--parts", default="numpy,compiled,cold")
+    ap.add_argument("--parts", default="numpy,compiled,kernel,cold")
     a = ap.parse_args()
     parts = a.parts.split(",")
     work = Path(tempfile.mkdtemp(prefix="pk-revisions-"))

@@ -60,10 +60,10 @@ def inf_unless_finite(x):
 @inline
 def gauss_jordan(k, J, jo, inv, io, A):
     """Inverse of the k x k matrix J[jo:] (row-major) into inv[io:] by Gauss-Jordan with partial
-    pivoting, as planarkin.solver.linalg._inv_gauss_jordan: returns (True, the determinant's sign), or
-    (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace. The generated kernels
-    (planarkin.solver.compiled.gen, compiled_gen_each) compile it apart, for one signature: one text
-    of the dense blocks' factorisation."""
+    pivoting, as planarkin.solver.linalg's Gauss-Jordan inverse: returns (True, the determinant's
+    sign), or (False, 0.0) when singular (inverse nan). A (>= 2 k k): the workspace. The
+    generated kernels (planarkin.solver.compiled.gen, gen_each) compile it apart, for one
+    signature: one text of the dense blocks' factorisation."""
     w = 2 * k
     scale = 0.0
     sg = 1.0
@@ -111,8 +111,8 @@ def gauss_jordan(k, J, jo, inv, io, A):
 def hermite_row(ti, k, W, Tn, Qn, Qdn, Qddn, Q, qo):
     """One grid row's prediction into Q[qo:qo + W]: quintic Hermite interpolation at time ti
     between path nodes k and k + 1 (rows of W numbers of the flat Qn, Qdn, Qddn), the
-    operations of planarkin.solver.path.hermite5 in its order (the same bits). Called by
-    compiled_points.hermite and inside the generated grid kernels (compiled_gen)."""
+    operations of planarkin.solver.path.hermite5 in its order (the same bits). Called inside
+    the generated grid kernels (planarkin.solver.compiled.gen)."""
     h = Tn[k + 1] - Tn[k]
     s = (ti - Tn[k]) / h
     s2 = s * s
