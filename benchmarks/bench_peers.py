@@ -11,7 +11,9 @@ a grid of --steps intervals), positions + velocities + accelerations:
   taken whatever the job's size: the kernel generated for the structure, planarkin/solver/compiled/gen.py;
   compiled or loaded from numba's cache by the warm-up call), numpy (PLANARKIN_KERNEL=0: the numpy
   reference, System._solve_batch, the only numpy solve since issue 17 folded the fused passes
-  into it);
+  into it), default (nothing forced: what a user's process gets, the route chosen by the job's
+  size and, from the second call on, by the process's jobs of the structure added up: see
+  planarkin/solver/compiled/kernel.py, route; the forced routes' jobs are not counted);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
   simulation with velocities and accelerations) on the same mechanism and step, built and
   compiled once; the JIT start-up (first call) is reported separately and not counted.
@@ -121,7 +123,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--peer-python", default="/tmp/benchvenv/bin/python")
     ap.add_argument("--json", metavar="PATH")
-    ap.add_argument("--routes", default="compiled,numpy",
+    ap.add_argument("--routes", default="compiled,numpy,default",
                     help="planarkin grid-pass routes to time, comma-separated")
     a = ap.parse_args(argv)
     routes = [r for r in a.routes.split(",") if r]
@@ -210,24 +212,29 @@ class _route:
     """Context: planarkin's grid pass takes one route (see the module docstring)."""
 
     def __init__(self, route):
-        if route not in ("compiled", "numpy"):
-            sys.exit(f"unknown route {route!r} (compiled, numpy)")
+        if route not in ("compiled", "numpy", "default"):
+            sys.exit(f"unknown route {route!r} (compiled, numpy, default)")
         self.route = route
 
     def __enter__(self):
         import os
 
         from planarkin.solver.compiled import kernel
-        self.saved = (os.environ.get("PLANARKIN_KERNEL"), kernel.COMPILED_FROM_POINTS)
-        os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
-        kernel.COMPILED_FROM_POINTS = 0
+        self.saved = (os.environ.get("PLANARKIN_KERNEL"), kernel.COMPILED_FROM_POINTS,
+                      dict(kernel._state.get("points", {})))
+        if self.route != "default":
+            os.environ["PLANARKIN_KERNEL"] = "1" if self.route == "compiled" else "0"
+            kernel.COMPILED_FROM_POINTS = 0
         return self
 
     def __exit__(self, *exc):
         import os
 
         from planarkin.solver.compiled import kernel
-        env, kernel.COMPILED_FROM_POINTS = self.saved
+        if self.route == "default":
+            return False
+        # a forced route's jobs do not count towards the default route's choice
+        env, kernel.COMPILED_FROM_POINTS, kernel._state["points"] = self.saved
         if env is None:
             os.environ.pop("PLANARKIN_KERNEL", None)
         else:

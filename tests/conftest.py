@@ -119,3 +119,12 @@ def pytest_collection_modifyitems(config, items):
                 raise pytest.UsageError(f"tests/conftest.py: SLOW_TESTS names tests that "
                                         f"{module}.py does not hold: "
                                         f"{', '.join(sorted(names - seen[module]))}")
+
+
+@pytest.fixture(autouse=True)
+def no_earlier_jobs_counted(monkeypatch):
+    """Every test starts with none of its worker's earlier jobs counted towards the compiled
+    route (kernel.route adds up a process's large jobs of one structure), so that the route a
+    test's job takes never depends on the tests that ran before it."""
+    from planarkin.solver.compiled import kernel
+    monkeypatch.setitem(kernel._state, "points", {})

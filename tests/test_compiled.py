@@ -95,7 +95,7 @@ with tempfile.TemporaryDirectory() as d:
     assert r.exit_code == 0, r.output
 res = planarkin.solve(planarkin.load("mechanisms/four-bar.yaml"), steps=2000)
 assert res.status == 0
-print("numba" in sys.modules, "planarkin.compiled" in sys.modules)
+print("numba" in sys.modules, "planarkin.solver.compiled.kernels" in sys.modules)
 """
     r = _python(code)
     assert r.returncode == 0, r.stderr
@@ -135,6 +135,33 @@ def test_the_route_is_chosen_by_the_jobs_size(monkeypatch):
     assert large.compiled is kernel.library() and (large.compiled is not None) == HAVE_NUMBA
     monkeypatch.setenv("PLANARKIN_KERNEL", "0")
     assert prepare(m, resolve(m, {"steps": n}, source="api")).compiled is None
+
+
+def test_large_jobs_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
+    """A process that solves one mechanism again and again (a notebook, a script's loop) takes
+    the compiled route once its jobs of at least ADDS_UP_FROM points add up to
+    COMPILED_FROM_POINTS; smaller jobs never count, another structure counts apart, and the
+    results are the same bits on either route."""
+    from planarkin.options import resolve
+    from planarkin.analysis import prepare
+    monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 3000)
+    monkeypatch.setattr(kernel, "ADDS_UP_FROM", 1000)
+    four, slider = planarkin.load(FOUR_BAR), planarkin.load("mechanisms/slider-crank.yaml")
+
+    def route(m, steps):
+        return prepare(m, resolve(m, {"steps": steps}, source="api")).compiled
+
+    assert all(route(four, 998) is None for _ in range(10))       # 999 rows: never counted
+    assert route(four, 1499) is None                               # 1,500
+    assert route(slider, 1499) is None                             # another structure
+    assert (route(four, 1499) is not None) == HAVE_NUMBA           # 3,000 together
+    assert (route(four, 999) is not None) == HAVE_NUMBA            # from then on
+    assert route(four, 998) is None
+    kernel._state["points"].clear()
+    first = planarkin.solve(four, steps=1999)                      # 2,000: numpy
+    again = planarkin.solve(four, steps=1999)                      # 4,000: compiled
+    for a, b in ((first.q, again.q), (first.qd, again.qd), (first.qdd, again.qdd)):
+        assert np.array_equal(a, b)
 
 
 def test_without_numba_the_numpy_passes_run_and_say_so_once(monkeypatch, capsys):

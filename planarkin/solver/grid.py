@@ -412,9 +412,10 @@ class Analysis:
         self.third = None           # drivers' third derivatives at the chunk's rows (up_to: jerk)
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
         self.out = None             # analysis.Collect: where the kernel lays chunks out (solve())
-        # the compiled route (planarkin.solver.compiled.kernel.Library) when the grid is large enough to repay
-        # numba's start-up, else None: the numpy passes (the route depends on the job only)
-        self.compiled = kernel.route(opts.rows)
+        # the compiled route (planarkin.solver.compiled.kernel.Library) when the grid, or the
+        # process's large jobs of this structure with it, repay numba's start-up, else None: the
+        # numpy passes (the same results, kernel.route)
+        self.compiled = kernel.route(opts.rows, structure=kernel.structure_key(cm))
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()

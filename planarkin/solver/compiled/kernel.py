@@ -8,10 +8,14 @@ are given (pack: a System's elements and blocks as int64 / float64 arrays; table
 per-variant parameters), and the calls themselves (solve, solve_rows, layout), which check and
 flatten their arguments.
 
-The route depends only on the job and the installed packages: a job of at least
-COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled route when
-numba can be imported, every smaller job the numpy passes, so a small run never pays numba's
-start-up (its import, and the load of the compiled functions from its cache).
+The route depends on the job, the installed packages and the process's own earlier jobs: a job
+of at least COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled
+route when numba can be imported, and so does a grid job of at least ADDS_UP_FROM points once
+the process's jobs of its structure add up to COMPILED_FROM_POINTS (route); every other job the
+numpy passes, so a small run never pays numba's start-up (its import, and the load of the
+compiled functions from its cache). Both routes give the same results to 1e-15 of a column's
+largest value (the same bits on every example: the equations are one text, and the kernels
+do the reference pass's operations in its order).
 Never what earlier runs left on disk: the cache (planarkin.solver.compiled.jitcache) only saves compiling, and
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
@@ -44,6 +48,9 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # in a fresh process, warm cache; benchmarks/README.md, "Figures moved from the code's
 # comments").
 COMPILED_FROM_POINTS = 300_000
+# A grid job of at least this many points counts towards COMPILED_FROM_POINTS with the process's
+# earlier jobs of its structure (route): smaller jobs (a test, a design's analysis) never add up.
+ADDS_UP_FROM = 20_000
 
 # where pack puts a kind's parameters (its compiled_params): p[0:2] si, p[2:4] sj, p[4:6] vi,
 # p[6:8] vj, whatever order the kind lists them in
@@ -104,15 +111,33 @@ def disabled() -> bool:
     return os.environ.get("PLANARKIN_KERNEL", "1") == "0"
 
 
-def route(points: int, part: str = "grid"):
+def route(points: int, part: str = "grid", structure=None):
     """The compiled Library for a job of `points` points, its entry points for part ready
     (Library.need; a grid job: the layout, its solves generated and compiled per structure
     when first solved, see solve), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
-    PLANARKIN_KERNEL=0, or numba not importable)."""
-    if disabled() or points < COMPILED_FROM_POINTS:
+    PLANARKIN_KERNEL=0, or numba not importable).
+
+    structure (a grid job's mechanism structure, any hashable key: `structure_key`): a job of
+    at least ADDS_UP_FROM points also counts this process's earlier such jobs of the same
+    structure, so that a process solving one mechanism again and again (a notebook, a script's
+    loop) pays numba's start-up once its jobs together would repay it."""
+    if disabled():
+        return None
+    total = points
+    if structure is not None and points >= ADDS_UP_FROM:
+        done = _state.setdefault("points", {})
+        total = done[structure] = done.get(structure, 0) + points
+    if total < COMPILED_FROM_POINTS:
         return None
     lib = library()
     return None if lib is None else lib.need("points" if part == "grid" else part)
+
+
+def structure_key(cm) -> tuple:
+    """What a compiled model's grid kernel depends on, cheaply (route's structure): each
+    group's kind and bodies, the coordinates and equations (a key may stand for more than one
+    kernel: it only counts jobs)."""
+    return (cm.n, cm.m) + tuple((G.kind.name, G.bodies.tobytes()) for G in cm.groups)
 
 
 def library():
