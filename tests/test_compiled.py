@@ -141,7 +141,8 @@ def test_large_jobs_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
     """A process that solves one mechanism again and again (a notebook, a script's loop) takes
     the compiled route once its jobs of at least ADDS_UP_FROM points add up to
     COMPILED_FROM_POINTS; smaller jobs never count, another structure counts apart, and the
-    results are the same bits on either route."""
+    results agree across the switch to 1e-15 of each column's largest value (the routes'
+    rule)."""
     from planarkin.options import resolve
     from planarkin.analysis import prepare
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 3000)
@@ -160,8 +161,10 @@ def test_large_jobs_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
     kernel._state["points"].clear()
     first = planarkin.solve(four, steps=1999)                      # 2,000: numpy
     again = planarkin.solve(four, steps=1999)                      # 4,000: compiled
+    assert (first.iterations == again.iterations).all()
     for a, b in ((first.q, again.q), (first.qd, again.qd), (first.qdd, again.qdd)):
-        assert np.array_equal(a, b)
+        scale = np.abs(a).max(axis=0)
+        assert (np.abs(a - b).max(axis=0) <= 1e-15 * np.where(scale > 0, scale, 1.0)).all()
 
 
 def test_without_numba_the_numpy_passes_run_and_say_so_once(monkeypatch, capsys):

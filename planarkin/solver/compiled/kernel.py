@@ -14,8 +14,11 @@ route when numba can be imported, and so does a grid job of at least ADDS_UP_FRO
 the process's jobs of its structure add up to COMPILED_FROM_POINTS (route); every other job the
 numpy passes, so a small run never pays numba's start-up (its import, and the load of the
 compiled functions from its cache). Both routes give the same results to 1e-15 of a column's
-largest value (the same bits on every example: the equations are one text, and the kernels
-do the reference pass's operations in its order).
+largest value (the equations are one text, and the kernels do the reference pass's operations
+in its order; whole runs of the examples at their own grids are the same bits, but a dense
+block's inverse, Gauss-Jordan here and LAPACK's there, can move a last digit): a process's
+later solves of a mechanism can differ from its first ones by that much, a command's run
+(one process) never.
 Never what earlier runs left on disk: the cache (planarkin.solver.compiled.jitcache) only saves compiling, and
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
