@@ -31,13 +31,15 @@ CODES = {1: "revolute", 2: "translational", 3: "angle", 4: "xdistance", 5: "ydis
          6: "distance", 7: "pinslot", 8: "slide"}
 
 
+def rotated(ci, si, cj, sj, p0, p1, p2, p3):
+    """s_i = A_i s'_i, s_j = A_j s'_j (p0, p1: s'_i; p2, p3: s'_j)."""
+    return ci * p0 - si * p1, si * p0 + ci * p1, cj * p2 - sj * p3, sj * p2 + cj * p3
+
+
 def relative(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj):
-    """s_i = A_i s'_i, s_j = A_j s'_j (p0, p1: s'_i; p2, p3: s'_j), h = r_j + s_j - r_i - s_i,
-    and with want & 4 its rate hd and kx, ky = w_j^2 s_j - w_i^2 s_i."""
-    six = ci * p0 - si * p1
-    siy = si * p0 + ci * p1
-    sjx = cj * p2 - sj * p3
-    sjy = sj * p2 + cj * p3
+    """s_i, s_j (rotated), h = r_j + s_j - r_i - s_i, and with want & 4 its rate hd and
+    kx, ky = w_j^2 s_j - w_i^2 s_i."""
+    six, siy, sjx, sjy = rotated(ci, si, cj, sj, p0, p1, p2, p3)
     hx = xj + sjx - xi - six
     hy = yj + sjy - yi - siy
     hdx = hdy = kx = ky = 0.0
@@ -51,9 +53,8 @@ def relative(want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi,
 
 def revolute(want, xi, yi, pi, ci, si, xj, yj, pj, cj, sj, p0, p1, p2, p3, p4, p5, vxi, vyi, wi,
              vxj, vyj, wj):
-    """Revolute: r_i + s_i - r_j - s_j (rows x, y)."""
-    six, siy, sjx, sjy, hx, hy, hdx, hdy, kx, ky = relative(
-        want, xi, yi, ci, si, xj, yj, cj, sj, p0, p1, p2, p3, vxi, vyi, wi, vxj, vyj, wj)
+    """Revolute: r_i + s_i - r_j - s_j (rows x, y; h is not needed)."""
+    six, siy, sjx, sjy = rotated(ci, si, cj, sj, p0, p1, p2, p3)
     g0 = g1 = gam0 = gam1 = 0.0
     a2 = a5 = b2 = b5 = 0.0
     if want & 1:

@@ -1,7 +1,7 @@
 """The small functions of the compiled route, and the element equations registered with numba.
 
 The element equations are planarkin.elements.pointline's (one text for both routes): that module
-does not import numba, so its helpers (relative, angle_row, line_row) are registered here with
+does not import numba, so its helpers (rotated, relative, angle_row, line_row) are registered with
 numba (numba.extending.register_jitable, inlined into their callers in numba's IR) for the kernels
 generated per mechanism structure (planarkin.solver.compiled.gen, gen_each), which compile each
 kind's function apart, for one signature.
@@ -25,7 +25,7 @@ from planarkin.solver.acceptance import COND_WARN, KAPPA
 
 inline = numba.njit(inline="always", error_model="numpy", _nrt=False)
 
-for _helper in (pointline.relative, pointline.angle_row, pointline.line_row):
+for _helper in (pointline.rotated, pointline.relative, pointline.angle_row, pointline.line_row):
     register_jitable(inline="always", error_model="numpy", _nrt=False)(_helper)
 
 
