@@ -49,7 +49,7 @@ def solve(model, **options):
     if not hasattr(model, "spec"):
         model = load(model)
     opts = resolve(model, options, source="api")
-    _, result = analyse(model, opts)
+    _, result = analyse(model, opts, session=True)
     return result
 
 

@@ -45,14 +45,14 @@ def assemble_checked(cm: CompiledModel, opts: Options):
     return A
 
 
-def prepare(cm: CompiledModel, opts: Options, warm=None) -> Analysis:
+def prepare(cm: CompiledModel, opts: Options, warm=None, session=False) -> Analysis:
     """Everything before the first row: the budget check, assembly and path following (from
     the warm start warm, a warmstart.Start, when given: a design study's neighbour). Invalid
     input (the budget, a model that cannot be assembled) raises InputError, so nothing has been
-    written yet when it does."""
+    written yet when it does. session: a solve of the Python API (grid.Analysis)."""
     t0 = time.perf_counter()
     A = assemble_checked(cm, opts)
-    an = Analysis(cm, A, opts, warm=warm)
+    an = Analysis(cm, A, opts, warm=warm, session=session)
     an.timings["assembly"] = time.perf_counter() - t0
     an.follow()
     return an
@@ -157,10 +157,12 @@ class Collect:
         return Chunk(*(g(f) for f in self.FIELDS))
 
 
-def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None, warm=None):
-    """Run an analysis: prepare (raises InputError; warm: its warm start), then the grid pass
-    into sink or a Result. Returns (info, result or None)."""
-    return stream(prepare(cm, opts, warm), sink, progress)
+def analyse(cm: CompiledModel, opts: Options, sink=None, progress=None, warm=None,
+            session=False):
+    """Run an analysis: prepare (raises InputError; warm: its warm start; session: a solve of
+    the Python API), then the grid pass into sink or a Result. Returns (info, result or
+    None)."""
+    return stream(prepare(cm, opts, warm, session), sink, progress)
 
 
 # range: a room's check (a cam past its law); contact, limit: a pair of shapes closer than its

@@ -137,20 +137,21 @@ def test_the_route_is_chosen_by_the_jobs_size(monkeypatch):
     assert prepare(m, resolve(m, {"steps": n}, source="api")).compiled is None
 
 
-def test_large_jobs_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
-    """A process that solves one mechanism again and again (a notebook, a script's loop) takes
-    the compiled route once its jobs of at least ADDS_UP_FROM points add up to
-    COMPILED_FROM_POINTS; smaller jobs never count, another structure counts apart, and the
-    results agree across the switch to 1e-15 of each column's largest value (the routes'
-    rule)."""
+def test_large_solves_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
+    """A session that solves one mechanism again and again (planarkin.solve in a notebook, a
+    script's loop) takes the compiled route once its solves of at least ADDS_UP_FROM points add
+    up to COMPILED_FROM_POINTS; smaller solves never count, another structure counts apart,
+    other jobs (a command's run, a study's variant, a design's analysis) take their route by
+    their own size, and the results agree across the switch to 1e-15 of each column's largest
+    value (the routes' rule)."""
     from planarkin.options import resolve
     from planarkin.analysis import prepare
     monkeypatch.setattr(kernel, "COMPILED_FROM_POINTS", 3000)
     monkeypatch.setattr(kernel, "ADDS_UP_FROM", 1000)
     four, slider = planarkin.load(FOUR_BAR), planarkin.load("mechanisms/slider-crank.yaml")
 
-    def route(m, steps):
-        return prepare(m, resolve(m, {"steps": steps}, source="api")).compiled
+    def route(m, steps, session=True):
+        return prepare(m, resolve(m, {"steps": steps}, source="api"), session=session).compiled
 
     assert all(route(four, 998) is None for _ in range(10))       # 999 rows: never counted
     assert route(four, 1499) is None                               # 1,500
@@ -158,6 +159,7 @@ def test_large_jobs_of_one_structure_add_up_to_the_compiled_route(monkeypatch):
     assert (route(four, 1499) is not None) == HAVE_NUMBA           # 3,000 together
     assert (route(four, 999) is not None) == HAVE_NUMBA            # from then on
     assert route(four, 998) is None
+    assert route(four, 1499, session=False) is None               # not a session's solve
     kernel._state["points"].clear()
     first = planarkin.solve(four, steps=1999)                      # 2,000: numpy
     again = planarkin.solve(four, steps=1999)                      # 4,000: compiled

@@ -394,9 +394,13 @@ def _distinct(a: np.ndarray) -> np.ndarray:
 class Analysis:
     """One analysis of a compiled model: assembly, path following, dense output in chunks."""
 
-    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, warm=None):
+    def __init__(self, cm: CompiledModel, A: Assembly, opts: Options, warm=None,
+                 session=False):
         """warm: a warmstart.Start (a neighbouring model's path, a design study's previous
-        variant) to start the path from, or None: the path is followed from the assembly."""
+        variant) to start the path from, or None: the path is followed from the assembly.
+        session: a solve of the Python API (planarkin.solve), whose large jobs of one structure
+        add up towards the compiled route (kernel.route); a command's run, a study's variant
+        or a design's analysis takes its route by its own size."""
         self.cm = cm
         self.warm = warm
         self.warmed = False         # the path came from the warm start (follow())
@@ -413,9 +417,10 @@ class Analysis:
         self._Qddd = None           # the chunk's jerks (internal units) while it is assembled
         self.out = None             # analysis.Collect: where the kernel lays chunks out (solve())
         # the compiled route (planarkin.solver.compiled.kernel.Library) when the grid, or the
-        # process's large jobs of this structure with it, repay numba's start-up, else None: the
-        # numpy passes (the same results, kernel.route)
-        self.compiled = kernel.route(opts.rows, structure=kernel.structure_key(cm))
+        # session's large solves of this structure with it, repay numba's start-up, else None:
+        # the numpy passes (the same results to 1e-15, kernel.route)
+        self.compiled = kernel.route(opts.rows,
+                                     structure=kernel.structure_key(cm) if session else None)
 
     def follow(self) -> Event | None:
         t0 = time.perf_counter()

@@ -8,17 +8,18 @@ are given (pack: a System's elements and blocks as int64 / float64 arrays; table
 per-variant parameters), and the calls themselves (solve, solve_rows, layout), which check and
 flatten their arguments.
 
-The route depends on the job, the installed packages and the process's own earlier jobs: a job
-of at least COMPILED_FROM_POINTS points (grid rows, or variants x grid times) takes the compiled
-route when numba can be imported, and so does a grid job of at least ADDS_UP_FROM points once
-the process's jobs of its structure add up to COMPILED_FROM_POINTS (route); every other job the
-numpy passes, so a small run never pays numba's start-up (its import, and the load of the
-compiled functions from its cache). Both routes give the same results to 1e-15 of a column's
-largest value (the equations are one text, and the kernels do the reference pass's operations
-in its order; whole runs of the examples at their own grids are the same bits, but a dense
-block's inverse, Gauss-Jordan here and LAPACK's there, can move a last digit): a process's
-later solves of a mechanism can differ from its first ones by that much, a command's run
-(one process) never.
+The route depends on the job, the installed packages and, for a solve of the Python API
+(planarkin.solve), the session's earlier solves: a job of at least COMPILED_FROM_POINTS points
+(grid rows, or variants x grid times) takes the compiled route when numba can be imported, and
+so does a solve of at least ADDS_UP_FROM points once the session's solves of its structure add
+up to COMPILED_FROM_POINTS (route); every other job the numpy passes, so a small run never pays
+numba's start-up (its import, and the load of the compiled functions from its cache). Both
+routes give the same results to 1e-15 of a column's largest value (the equations are one text,
+and the kernels do the reference pass's operations in its order; whole runs of the examples at
+their own grids are the same bits, but a dense block's inverse, Gauss-Jordan here and LAPACK's
+there, can move a last digit): a session's later solves of a mechanism can differ from its
+first ones by that much; a command's run, a study and a synthesis never depend on what ran
+before them.
 Never what earlier runs left on disk: the cache (planarkin.solver.compiled.jitcache) only saves compiling, and
 a corrupt entry is compiled again. Where numba cannot be imported, the numpy passes run and
 one line on stderr says so, once per process; PLANARKIN_KERNEL=0: the numpy passes only.
@@ -51,8 +52,8 @@ KFINE = 6             # largest fine block (of the grid pass: larger ones are J5
 # in a fresh process, warm cache; benchmarks/README.md, "Figures moved from the code's
 # comments").
 COMPILED_FROM_POINTS = 300_000
-# A grid job of at least this many points counts towards COMPILED_FROM_POINTS with the process's
-# earlier jobs of its structure (route): smaller jobs (a test, a design's analysis) never add up.
+# A solve of the Python API of at least this many points counts towards COMPILED_FROM_POINTS with
+# the session's earlier ones of its structure (route): smaller solves never add up.
 ADDS_UP_FROM = 20_000
 
 # where pack puts a kind's parameters (its compiled_params): p[0:2] si, p[2:4] sj, p[4:6] vi,
@@ -120,10 +121,13 @@ def route(points: int, part: str = "grid", structure=None):
     when first solved, see solve), or None: the numpy passes (a job below COMPILED_FROM_POINTS,
     PLANARKIN_KERNEL=0, or numba not importable).
 
-    structure (a grid job's mechanism structure, any hashable key: `structure_key`): a job of
-    at least ADDS_UP_FROM points also counts this process's earlier such jobs of the same
-    structure, so that a process solving one mechanism again and again (a notebook, a script's
-    loop) pays numba's start-up once its jobs together would repay it."""
+    structure (the mechanism structure of a solve of the Python API, planarkin.solve: any
+    hashable key, `structure_key`; None for every other job): a job of at least ADDS_UP_FROM
+    points also counts the process's earlier such solves of the same structure, so that a
+    session solving one mechanism again and again (a notebook, a script's loop) pays numba's
+    start-up once its solves together would repay it. A command's run, a study's variants and
+    a design's analyses take their route by their own size (the same bytes whatever ran
+    before them)."""
     if disabled():
         return None
     total = points
