@@ -94,6 +94,10 @@ class Group:
         """(N, K, neq, 3*nbody) gradient of g with respect to the coordinates of its bodies."""
         return self.kind.grad(self, F)
 
+    def g_grad(self, F: Frame) -> tuple:
+        """(g, grad) at one state, as g and grad give them (a Newton step needs both)."""
+        return self.kind.g_grad(self, F)
+
     def gamma(self, F: Frame) -> np.ndarray:
         """(N, K, neq) gamma_g, using F.qd."""
         return self.kind.gamma(self, F)
@@ -195,6 +199,11 @@ class Kind:
 
     def gamma(self, G: Group, F: Frame) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def g_grad(self, G: Group, F: Frame) -> tuple:
+        """g and grad at one state: (g(G, F), grad(G, F)), or one pass where a kind shares
+        their work (PointLineKind)."""
+        return self.g(G, F), self.grad(G, F)
 
     def row_unit(self, k: int) -> str:
         """'angle' or 'length': what the residual of equation k measures (messages give it in
@@ -321,6 +330,15 @@ class PointLineKind(Kind):
         for r, row in enumerate(rows):
             gradient_row(out, r, row)
         return out
+
+    def g_grad(self, G, F):
+        rows = self.rows(G, F, 3)
+        g = empty(F, len(G), len(rows))
+        grad = np.empty((F.q.shape[0], len(G), len(rows), 6))
+        for r, row in enumerate(rows):
+            g[..., r] = row[0]
+            gradient_row(grad, r, row)
+        return g, grad
 
     def gamma(self, G, F):
         rows = self.rows(G, F, 4)

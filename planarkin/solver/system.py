@@ -378,6 +378,14 @@ class System:
     def block_grads(self, B: Block, F: Frame):
         return [p.group.grad(F) for p in B.parts]
 
+    def block_residual_grads(self, B: Block, F: Frame, T: np.ndarray):
+        """block_residual and block_grads at one state, each part's g and grad in one pass
+        (Group.g_grad)."""
+        N = F.q.shape[0]
+        both = [p.group.g_grad(F) for p in B.parts]
+        g = self._gather(B, N, [v.reshape(N, -1) for v, _ in both])
+        return g - T[:, B.rows], [d for _, d in both]
+
     def block_matrix(self, B: Block, grads) -> np.ndarray:
         N = grads[0].shape[0]
         kb = len(B.cols)
@@ -515,7 +523,7 @@ class System:
                 size = np.zeros(N)
                 for it in range(maxit):
                     if Minv is None or (policy == "full" and not B.affine):
-                        grads0 = self.block_grads(B, F)
+                        r, grads0 = self.block_residual_grads(B, F, T)
                         if large:
                             Minv = self.block_lu(B, grads0, want=it == 0)
                             J, sg, sm = None, Minv.sign, Minv.smin
@@ -525,7 +533,8 @@ class System:
                         if it == 0:
                             sign[:, B.first:B.first + len(B.sizes)] = self.fine_signs(B, J, sg)
                             smin[:, b] = sm
-                    r = self.block_residual(B, F, T)
+                    else:
+                        r = self.block_residual(B, F, T)
                     dx = _apply(Minv, r, one)
                     Q[:, cols] -= dx
                     if len(pcol):
