@@ -11,9 +11,9 @@ a grid of --steps intervals), positions + velocities + accelerations:
   taken whatever the job's size: the kernel generated for the structure, planarkin/solver/compiled/gen.py;
   compiled or loaded from numba's cache by the warm-up call), numpy (PLANARKIN_KERNEL=0: the numpy
   reference, System._solve_batch, the only numpy solve since issue 17 folded the fused passes
-  into it), default (nothing forced: what a user's process gets, the route chosen by the job's
-  size and, from the second call on, by the process's jobs of the structure added up: see
-  planarkin/solver/compiled/kernel.py, route; the forced routes' jobs are not counted);
+  into it), default (nothing forced: what a Python session gets, the route chosen by the
+  solve's size and, from the second call on, by the session's solves of the structure added up:
+  see planarkin/solver/compiled/kernel.py, route; the forced routes' solves are not counted);
 * pylinkage + numba: `Linkage.step_fast_with_kinematics(S)` (pylinkage's numba-compiled
   simulation with velocities and accelerations) on the same mechanism and step, built and
   compiled once; the JIT start-up (first call) is reported separately and not counted.

@@ -308,7 +308,7 @@ class Kind:
 class PointLineKind(Kind):
     """A kind whose equations are a function of planarkin.elements.pointline (``equation``, its
     name there): its g, grad and gamma broadcast that function over the group, the text the
-    compiled route compiles (so both routes do the same operations)."""
+    compiled route compiles (so both routes do the same element arithmetic)."""
 
     equation: str = ""
 
