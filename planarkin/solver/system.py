@@ -130,9 +130,10 @@ class System:
         with np.errstate(all="ignore"):
             for r, f, sc in zip(cm.driver_rows, cm.driver_funcs, cm.driver_scale):
                 v, d1, d2 = f.derivatives(t, side) if side else f.derivatives(t)
-                T[:, r] = T[:, r] + sc * np.broadcast_to(v, (N,))
-                NU[:, r] = sc * np.broadcast_to(d1, (N,))
-                FDD[:, r] = sc * np.broadcast_to(d2, (N,))
+                # (a constant function's values are scalars: the assignments broadcast them)
+                T[:, r] += sc * v
+                NU[:, r] = sc * d1
+                FDD[:, r] = sc * d2
         return T, NU, FDD
 
     def driver_third(self, t: np.ndarray, side: int = 0) -> np.ndarray:

@@ -146,7 +146,7 @@ def solve(fn, S, P, Q, Qd, Qdd, T, NU, FDD, policy, tol, maxit, order, predict=N
     rmax = np.empty(N)
     cond = np.empty(N)
     work = [_c(X) for X in (Q, Qd, Qdd)]
-    drv = [_c(np.broadcast_to(X, (N, m))) for X in (T, NU, FDD)]
+    drv = [_c(X if X.shape == (N, m) else np.broadcast_to(X, (N, m))) for X in (T, NU, FDD)]
     prm = np.ascontiguousarray(P.arrays[3], dtype=float)
     if predict is None:
         pred = (0, _NONE_F, _NONE_I, _NONE_F, _NONE_F, _NONE_F, _NONE_F, _NONE_F)
