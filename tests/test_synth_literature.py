@@ -57,3 +57,44 @@ def test_the_change_point_design_of_the_half_circle_is_refused():
     why = _score("half-circle", [49.99998, 1.3484315, 1.3484507, 50, 11.384434, 4.4424357,
                                  10.194752, -3.694134, 6.2158799])
     assert isinstance(why, str) and "ph3" in why and "not finite" in why, why
+
+
+# the held-out problem of benchmarks/bench_synth_literature.py: the five timed points with the
+# ground pivot at the origin and the ground line along x, [d, a, b, c, px, py] of the designs
+# published for it (Kunjur and Krishnamurty; Cabrera et al.; MUMSA; IOA; Nguyen-Van et al.)
+HELD_OUT = Path(__file__).resolve().parents[1] / "benchmarks" / "heldout"
+FIVE_POINTS = [(3, 3), (2.759, 3.363), (2.372, 3.663), (1.890, 3.862), (1.355, 3.943)]
+
+
+def _five_point_sse(d, a, b, c, px, py):
+    """The closed form, derived apart from planarkin: crank pin B = a (cos t, sin t), rocker
+    pivot D = (d, 0); C on the circles about B (radius b) and D (radius c), on the side of the
+    line B -> D the file assembles (the coupler turned counterclockwise from it by the
+    triangle's angle at B: a crank-rocker never flattens that triangle, so the side holds over
+    the turn); P = B + R(coupler angle) (px, py)."""
+    import math
+    sse = 0.0
+    for k, (tx, ty) in enumerate(FIVE_POINTS):
+        t = math.radians(30 + 15 * k)
+        bx, by = a * math.cos(t), a * math.sin(t)
+        e = math.hypot(d - bx, -by)
+        ang = math.atan2(-by, d - bx) + math.acos((b * b + e * e - c * c) / (2 * b * e))
+        x = bx + px * math.cos(ang) - py * math.sin(ang)
+        y = by + px * math.sin(ang) + py * math.cos(ang)
+        sse += (x - tx) ** 2 + (y - ty) ** 2
+    return sse
+
+
+@pytest.mark.parametrize("vector", [
+    [3.509643, 1.857606, 4.725835, 3.518721, 1.959538, 1.558898],
+    [3.0630424, 1.9959624, 3.305823, 2.524706, 1.645158, 1.708959],
+    [3.77326856, 2.00000403, 4.11697104, 2.74615671, 1.67848787, 1.67098007],
+    [2.803607, 1.99226, 3.030461, 2.474117, 1.64413, 1.714536],
+    [4.2930812, 1.9978324, 4.7374099, 2.9417301, 1.7074051, 1.6441696],
+], ids=["kunjur", "cabrera", "mumsa", "ioa", "nguyen-van"])
+def test_the_held_out_problem_scores_the_published_designs_as_the_closed_form(vector):
+    d, a, b, c, px, py = vector
+    des = Synthesis(HELD_OUT / "five-point-fixed-pivot.yaml").score(
+        dict(a=a, b=b, c=c, d=d, px=px, py=py))
+    assert hasattr(des, "cost"), des.reason
+    assert des.cost == pytest.approx(_five_point_sse(*vector), rel=1e-9)
