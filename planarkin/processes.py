@@ -30,12 +30,16 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def context():
-    """The multiprocessing context of the workers (its forkserver started, deaf to signals)."""
+def context(engine: bool = False):
+    """The multiprocessing context of the workers (its forkserver started, deaf to signals).
+    engine: the workers solve on the compiled route, whose numba and entry points the server
+    then loads once (planarkin.solver.compiled.preload) for every worker it forks (decided by
+    the first call of a process: the server is started once)."""
     import multiprocessing as mp
     if sys.platform.startswith("linux") and "forkserver" in mp.get_all_start_methods():
         ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["planarkin.studies.variants", "planarkin.run"])
+        ctx.set_forkserver_preload(["planarkin.studies.variants", "planarkin.run"] + (
+            ["planarkin.solver.compiled.preload"] if engine else []))
         _start_servers()
         return ctx
     return mp.get_context("spawn")

@@ -1,6 +1,9 @@
 """Parallel and distributed studies: local processes and a Dask LocalCluster give the serial
 run's results bit for bit; run --jobs gives the same directories."""
 
+import subprocess
+import sys
+
 import pytest
 
 from clitools import run_cli
@@ -291,3 +294,38 @@ def test_a_study_that_lost_units_writes_what_was_solved(tmp_path, study, command
     rows = list(csv.DictReader(table.open()))
     assert [r["kind"] for r in rows] == ["", "", LOST] and rows[0]["status"] == "ok"
     assert e.value.outcomes is None
+
+
+_PROBE = r"""
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from planarkin.processes import context
+
+def probe():
+    from planarkin.solver.compiled import kernel
+    lib = kernel._state.get("lib")
+    return "numba" in sys.modules, lib is not None and {"points", "study"} <= lib._ready
+
+if __name__ == "__main__":
+    with ProcessPoolExecutor(1, mp_context=context(engine=sys.argv[1] == "1")) as pool:
+        print(pool.submit(probe).result())
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the forkserver: Linux")
+@pytest.mark.parametrize("engine", [True, False])
+def test_workers_of_a_study_on_the_compiled_route_start_with_it_loaded(tmp_path, engine):
+    """A study on the compiled route with --jobs: the workers' server loads numba and the
+    route's entry points once (planarkin.solver.compiled.preload), so a worker forked from it
+    starts with them instead of loading them itself (while the others wait for the cache's
+    lock); other pools' workers (run --jobs, small studies) never import numba. In a fresh
+    process: the server is started once per process."""
+    from routes import skip_without_numba
+    if engine:
+        skip_without_numba()
+    script = tmp_path / "probe.py"
+    script.write_text(_PROBE)
+    r = subprocess.run([sys.executable, str(script), "1" if engine else "0"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == str((engine, engine)), (r.stdout, r.stderr)

@@ -196,11 +196,12 @@ def run_processes(study, variants, jobs: int):
     from concurrent.futures import ProcessPoolExecutor
 
     from ..processes import context, stop_workers
+    ctx = context(engine=study.on_engine(variants)) if jobs > 1 else None
     units = study.units(variants)          # prepares the batched solver before the workers
     if len(units) <= 1:
         return study.run(variants)
     from ..output.directory import critical
-    pool = ProcessPoolExecutor(min(jobs, len(units)), mp_context=context(),
+    pool = ProcessPoolExecutor(min(jobs, len(units)), mp_context=ctx,
                                initializer=_init_study, initargs=(study,))
     try:
         with critical():        # a worker is started (sent the study) whole, or not at all

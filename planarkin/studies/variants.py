@@ -279,6 +279,14 @@ class Study:
             B.kernel()
         return [chs[k:k + per] for k in range(0, len(chs), per)]
 
+    def on_engine(self, variants) -> bool:
+        """Whether these variants take the compiled route (kernel.route by the job's size, and
+        numba importable), decided without importing numba: the workers' server loads it
+        then while this process prepares the study (planarkin.processes.context)."""
+        from planarkin.solver.compiled import kernel
+        B = self.batch(variants)
+        return B is not None and kernel.would_route(len(variants) * len(B.grid))
+
     def batch(self, variants):
         """The batched solver for these variants' parameter names, or None (cached)."""
         from .batch import Batch, Unsupported

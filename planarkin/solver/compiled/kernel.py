@@ -140,6 +140,14 @@ def route(points: int, part: str = "grid", structure=None):
     return None if lib is None else lib.need("points" if part == "grid" else part)
 
 
+def would_route(points: int) -> bool:
+    """Whether route(points) (a job that is not a session's solve) would take the compiled
+    route, told without importing numba (numba found, not imported)."""
+    import importlib.util
+    return not disabled() and points >= COMPILED_FROM_POINTS and \
+        importlib.util.find_spec("numba") is not None
+
+
 def structure_key(cm) -> tuple:
     """What a compiled model's grid kernel depends on, cheaply (route's structure): each
     group's kind and bodies, the coordinates and equations (a key may stand for more than one
