@@ -786,3 +786,39 @@ def test_a_cache_that_cannot_be_written_costs_only_the_caching(own_cache, monkey
         return 2 * x
     jitcache.compile_cached(twice, (numba.int64,))         # not under the lock: no cache at all
     assert twice(21) == 42 and capsys.readouterr().err == ""
+
+
+def test_a_kernel_compiles_while_another_process_compiles_another(own_cache, monkeypatch,
+                                                                  capsys):
+    """A generated kernel compiles under a lock of its own, into a staging directory, and is
+    published into the entry under the entry's lock: while another process compiles kernel X
+    (holding X's lock), kernel Y compiles here at once, lands in the cache and is loaded from
+    it by the next process; X, once its compiler is gone for KERNEL_WAIT seconds, is compiled
+    here too and cached. Nothing is said: no one waited for the entry's lock."""
+    import fcntl
+
+    import numba
+
+    from planarkin.solver.compiled import kernels as compiled_grid, jitcache
+    monkeypatch.setattr(jitcache, "KERNEL_WAIT", 0.3)
+    text = ("import numba\n\n\n@numba.njit(cache=CACHE)\ndef grid(x):\n    return x + {}\n")
+    entry = own_cache / jitcache.tag()
+    own_cache.mkdir(mode=0o700)
+    x_lock = open(own_cache / f".{jitcache.tag()}.pk_grid_x.lock", "a+")
+    fcntl.flock(x_lock, fcntl.LOCK_EX)          # another process compiling X
+    try:
+        fy = compiled_grid._build("pk_grid_y", text.format(2), "grid", (numba.int64,))
+        assert fy(40) == 42
+        assert jitcache.has(entry, entry / "gen" / "pk_grid_y.py", "grid")
+        assert not list(own_cache.glob(".staging-*"))
+        fx = compiled_grid._build("pk_grid_x", text.format(1), "grid", (numba.int64,))
+        assert fx(41) == 42 and jitcache.has(entry, entry / "gen" / "pk_grid_x.py", "grid")
+    finally:
+        x_lock.close()
+    assert capsys.readouterr().err == ""
+    # every file in the entry vouched for: a new process's check keeps them all
+    kept = sorted(p.name for p in entry.rglob("*.nb*"))
+    jitcache.forget()
+    assert jitcache.prepare() == entry
+    jitcache.record()
+    assert sorted(p.name for p in entry.rglob("*.nb*")) == kept and len(kept) == 4

@@ -26,15 +26,25 @@ LOCK_WAIT seconds at most (another run may hold it for as long as it is suspende
 during its first compile), then says so in one line and compiles without the cache. A cache
 that cannot be written (a full disk, a file size limit) costs only the caching: the compile
 goes on in memory, said in one line (compile_cached()). Either line once per process.
+
+A generated kernel (seconds to compile) is compiled without that lock: under a lock of its own
+(compiling(): a process that needs the same kernel waits for it, up to KERNEL_WAIT seconds,
+then loads it), into a staging directory of its own beside the entries, whose files are then
+moved into the entry under the entry's lock (publish()). Processes that compile different
+structures (a parallel batch, the workers of a test run) compile side by side, and every kernel
+lands in the cache.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
+import shutil
 import stat
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -42,6 +52,8 @@ from pathlib import Path
 SOURCES = ("solver/compiled/points.py", "solver/compiled/helpers.py", "elements/pointline.py")
 MANIFEST = "manifest.json"
 LOCK_WAIT = 5.0           # seconds to wait for another process's hold on the entry
+KERNEL_WAIT = 300.0       # for another process compiling the same kernel (the largest: minutes)
+STALE = 3600.0            # a staging directory left this long ago (its process killed) goes
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
 _said: set = set()        # the lines said (once per process)
 
@@ -164,6 +176,78 @@ def prepare() -> Path | None:
     os.environ["NUMBA_CACHE_DIR"] = str(entry)
     _held["dir"] = entry
     return entry
+
+
+def has(entry: Path, path: Path, entry_point: str) -> bool:
+    """numba's index of the function entry_point of the generated module at path is in the
+    entry (vouched for: prepare() left only such files)."""
+    return any(entry.glob(f"*/{path.stem}.{entry_point}-*.nbi"))
+
+
+@contextlib.contextmanager
+def compiling(name: str):
+    """The lock of the kernel name (another process compiling it holds it: waited for up to
+    KERNEL_WAIT seconds, then compiled here too) and a fresh staging directory for numba's files
+    (removed at the end; what publish() did not move is dropped). Yields None where there is no
+    usable cache directory."""
+    base = base_dir()
+    if not private(base):
+        yield None
+        return
+    for old in base.glob(".staging-*"):         # left by a process that was killed
+        try:
+            if time.time() - old.stat().st_mtime > STALE:
+                shutil.rmtree(old, ignore_errors=True)
+        except OSError:
+            pass
+    lock = None
+    try:
+        lock = open(base / f".{tag()}.{name}.lock", "a+")
+        import fcntl
+        deadline = time.monotonic() + KERNEL_WAIT
+        while True:
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() >= deadline:
+                    break
+                time.sleep(0.05)
+    except (OSError, ImportError):              # (no flock: compiled here, as if not waited)
+        pass
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
+    except OSError:
+        stage = None
+    try:
+        yield stage
+    finally:
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
+        if lock is not None:
+            lock.close()
+
+
+def publish(stage: Path) -> bool:
+    """numba's files compiled into stage moved into the checked entry (numba's data before its
+    indexes, each atomically) and vouched for, under the entry's lock. False: not published
+    (no usable entry; the compiled function still runs)."""
+    entry = prepare()
+    try:
+        if entry is None or "lock" not in _held:
+            return False
+        files = sorted((p for p in stage.rglob("*") if p.is_file()),
+                       key=lambda p: (p.suffix == ".nbi", str(p)))
+        for p in files:
+            dest = entry / p.relative_to(stage)
+            dest.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            os.replace(p, dest)
+        return True
+    except OSError as e:
+        unwritable(entry, e)
+        return False
+    finally:
+        record()
 
 
 def _lock(entry: Path) -> bool:

@@ -49,19 +49,49 @@ def function_each(P, W: int, m: int, nb: int):
 
 
 def _build(name: str, text: str, entry_point: str = "grid", sig=None):
+    """The function entry_point of the generated module name (source text): loaded from the
+    cache entry where numba's files for it are there, else compiled (jitcache.compiling: under
+    the kernel's own lock, into a staging directory, then published into the entry), or
+    compiled in memory where there is no usable cache."""
+    fn, path = _cached(name, text, entry_point, sig)
+    if fn is not None:
+        return fn
+    if path is None:                    # no usable cache directory: in memory
+        return _load(name, text, None, None, entry_point, sig)
+    with jitcache.compiling(name) as stage:
+        fn, path = _cached(name, text, entry_point, sig)        # compiled meanwhile elsewhere
+        if fn is not None:
+            return fn
+        if stage is None or path is None:
+            return _load(name, text, None, None, entry_point, sig)
+        try:
+            fn = _load(name, text, stage, path, entry_point, sig)
+        except OSError as e:            # numba could not save its files: compiled without
+            jitcache.unwritable(path.parent.parent, e)          # (the entry: entry/gen/name)
+            return _load(name, text, None, None, entry_point, sig)
+        finally:                        # numba's later caches: the entry's again
+            import numba
+            numba.config.CACHE_DIR = os.environ.get("NUMBA_CACHE_DIR", "")
+        jitcache.publish(stage)
+    return fn
+
+
+def _cached(name: str, text: str, entry_point: str, sig):
+    """(the function loaded from the cache entry, its source's path) where numba's files for
+    it are there; (None, path) where they are not; (None, None) without a usable cache. Under
+    the entry's lock, the source written first where it is not there as generated."""
     entry = jitcache.prepare()
     try:
         path = None if entry is None else written(entry, name, text)
+        if path is None or not jitcache.has(entry, path, entry_point):
+            return None, path
         try:
-            fn = _load(name, text, entry if path is not None else None, path, entry_point, sig)
+            return _load(name, text, entry, path, entry_point, sig), path
         except OSError as e:            # numba could not save to the cache: compiled without
-            if path is None:
-                raise
             jitcache.unwritable(entry, e)
-            fn = _load(name, text, None, None, entry_point, sig)
+            return _load(name, text, None, None, entry_point, sig), path
     finally:
         jitcache.record()
-    return fn
 
 
 def _load(name: str, text: str, entry, path, entry_point: str, sig):
