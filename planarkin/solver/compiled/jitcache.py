@@ -217,6 +217,7 @@ def compiling(name: str):
         pass
     try:
         stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
+        _seed(stage)
     except OSError:
         stage = None
     try:
@@ -226,6 +227,20 @@ def compiling(name: str):
             shutil.rmtree(stage, ignore_errors=True)
         if lock is not None:
             lock.close()
+
+
+def _seed(stage: Path) -> None:
+    """The entry's numba files of planarkin's own modules (the kinds' functions a kernel calls,
+    compiled once for all structures) copied into stage, under the entry's lock, so that the
+    kernel's compile there loads them instead of compiling them again."""
+    entry = prepare()
+    try:
+        if entry is not None:
+            for d in entry.iterdir():
+                if d.is_dir() and not d.name.startswith("gen"):
+                    shutil.copytree(d, stage / d.name)
+    finally:
+        record()
 
 
 def publish(stage: Path) -> bool:
