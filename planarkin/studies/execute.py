@@ -196,7 +196,9 @@ def run_processes(study, variants, jobs: int):
     from concurrent.futures import ProcessPoolExecutor
 
     from ..processes import context, stop_workers
-    ctx = context(engine=study.on_engine(variants)) if jobs > 1 else None
+    # the workers' server started first: it loads the compiled route while this process
+    # prepares the study (study.units compiles or loads the structure's kernel here)
+    ctx = context(engine=study.on_engine(variants))
     units = study.units(variants)          # prepares the batched solver before the workers
     if len(units) <= 1:
         return study.run(variants)

@@ -56,6 +56,7 @@ KERNEL_WAIT = 300.0       # for another process compiling the same kernel (the l
 STALE = 3600.0            # a staging directory left this long ago (its process killed) goes
 _held: dict = {}          # "dir": the entry prepared; "lock": its lock file, while held
 _said: set = set()        # the lines said (once per process)
+_seeded: dict = {}        # staging directory -> {file: stamp} of the entry's files copied in
 
 
 def _say(key: str, line: str) -> None:
@@ -224,6 +225,7 @@ def compiling(name: str):
         yield stage
     finally:
         if stage is not None:
+            _seeded.pop(stage, None)
             shutil.rmtree(stage, ignore_errors=True)
         if lock is not None:
             lock.close()
@@ -239,6 +241,9 @@ def _seed(stage: Path) -> None:
             for d in entry.iterdir():
                 if d.is_dir() and not d.name.startswith("gen"):
                     shutil.copytree(d, stage / d.name)
+            # what publish() leaves alone: the copies the compile did not touch (the entry's
+            # own may be newer by then)
+            _seeded[stage] = {p: _stamp(p) for p in stage.rglob("*") if p.is_file()}
     finally:
         record()
 
@@ -251,7 +256,9 @@ def publish(stage: Path) -> bool:
     try:
         if entry is None or "lock" not in _held:
             return False
-        files = sorted((p for p in stage.rglob("*") if p.is_file()),
+        seeded = _seeded.pop(stage, {})
+        files = sorted((p for p in stage.rglob("*") if p.is_file()
+                        and seeded.get(p) != _stamp(p)),
                        key=lambda p: (p.suffix == ".nbi", str(p)))
         for p in files:
             dest = entry / p.relative_to(stage)
