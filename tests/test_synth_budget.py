@@ -175,6 +175,32 @@ def test_a_closed_curve_is_in_order_around_one_turn(tmp_path):
     assert r.designs[0].margins["order"]["value"] == pytest.approx(np.diff(t).min(), abs=1e-15)
     assert np.diff(t).min() > 0.1                       # the repeat a turn after the first,
     assert t[0] == pytest.approx(0, abs=1e-3) and t[-1] == pytest.approx(1, abs=1e-3)  # in range
+    assert 0 <= t[0] and t[-1] <= 1         # an open run's path ends where the run does
+    # there the time is held at the end (t[0] = 0 here), the residual is the distance to the
+    # end point, |P - T|, and its gradient e . dP/dp, e along P - T: against central
+    # differences of P - T at that time (smooth; those of the distance itself, 5e-5 mm here,
+    # are not accurate), the other rows against those of the re-projected distances
+    assert t[0] == 0
+    syn = Synthesis(opened)
+    syn.wrap = False
+    x = r.designs[0].x
+    res, J, d = syn.evaluate(x)
+    rr = np.asarray(d.residuals[0][0], dtype=float)
+    assert abs(res[0]) == pytest.approx(np.hypot(*rr), rel=1e-12)
+    e = res[0] * rr / (rr @ rr)
+    fd = np.zeros((2, len(x)))
+    for k in range(len(x)):
+        h = 1e-6 * max(1.0, abs(x[k]))
+        xp, xm = x.copy(), x.copy()
+        xp[k] += h
+        xm[k] -= h
+        dp, dm = syn.evaluate(xp, jac=False)[2], syn.evaluate(xm, jac=False)[2]
+        assert dp.times[0][0] == dm.times[0][0] == 0
+        fd[:, k] = (np.asarray(dp.residuals[0][0]) - np.asarray(dm.residuals[0][0])) / (2 * h)
+    assert np.abs(J[0] - e @ fd).max() <= 1e-6 * np.abs(J).max()
+    from test_synth import _central
+    Jn = _central(syn, x)
+    assert np.abs(J[1:] - Jn[1:]).max() <= 1e-6 * np.abs(J).max()
 
 
 def test_closed_true_without_the_repeat(tmp_path):

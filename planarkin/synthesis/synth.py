@@ -279,19 +279,42 @@ class Synthesis:
             if not (vv > 0).all():
                 return Rejected("the path point stands still at a target time")
             h = ((P - T) * V).sum(axis=1)
-            if np.all(np.abs(h) <= tol * np.sqrt(vv)):
+            done = np.abs(h) <= tol * np.sqrt(vv)
+            if not self.wrap:       # an end of the run, the path's nearest point beyond it:
+                done |= ((t <= self.start) & (h > 0)) | ((t >= self.end) & (h < 0))   # the end
+            if np.all(done):
                 return t
             hd = vv + ((P - T) * A).sum(axis=1)
             t = t - np.clip(h / np.where(hd > 0, hd, vv), -most, most)
+            if not self.wrap:       # an open run's path ends where the run does
+                t = np.clip(t, self.start, self.end)
         return Rejected("the nearest points of the path did not converge")
+
+    def _directions(self, st, tg, sl, rr):
+        """(N, 2) unit vectors along which a projected target's residuals are measured: the
+        path's normal where the time is the nearest point's (P - T is normal there), and at an
+        end of an open run, where the nearest point of the run's path is the end itself and
+        P - T is not normal, the direction of P - T (signed as the normal's, so the residual is
+        the distance |P - T| with the side the normal gives it)."""
+        V = st.pd[sl, self.points.index(tg.name)]
+        n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
+        t = st.t[sl]
+        end = ((t <= self.start) | (t >= self.end)) if not self.wrap else np.zeros(len(t), bool)
+        dist = np.hypot(rr[:, 0], rr[:, 1])
+        end &= dist > 0
+        if end.any():
+            side = np.where((rr * n).sum(axis=1) < 0, -1.0, 1.0)
+            n = np.where(end[:, None], side[:, None] * rr / np.where(dist > 0, dist, 1.0)[:, None],
+                         n)
+        return n
 
     def _normal(self, st, tg, sl, rr):
         """(N,) signed distances along the path's normal at projected times: at the nearest
         point (P - T) is normal to the path, so |distance| = |P - T| and, the time being
-        stationary, d(distance)/dp = n . dP/dp exactly (the tangential part drops out)."""
-        V = st.pd[sl, self.points.index(tg.name)]
-        n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
-        return (rr * n).sum(axis=1)
+        stationary, d(distance)/dp = n . dP/dp exactly (the tangential part drops out). At an
+        end of an open run the time is held there (an active bound): the distance along
+        P - T itself, and d(distance)/dp = e . dP/dp (_directions)."""
+        return (rr * self._directions(st, tg, sl, rr)).sum(axis=1)
 
     def jacobian(self, d: Design) -> np.ndarray:
         """The exact Jacobian of an evaluated design's residuals (len(r), k + nt)."""
@@ -303,8 +326,7 @@ class Synthesis:
             dtdx = self.input_dtdx(st.cm, tg, i, st.t[sl], self.free_t)
             Jt = self.target_residuals(tg, i, st, sl, dtdx, True)[1]
             if i in self.projected:          # n . dP/dp (see _normal)
-                V = st.pd[sl, self.points.index(tg.name)]
-                n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
+                n = self._directions(st, tg, sl, d.residuals[i])
                 Jt = np.einsum("ec,eck->ek", n, Jt.reshape(len(n), 2, -1))
             J.append(Jt * tg.weight)
         if d.barrier:
