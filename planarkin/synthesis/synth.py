@@ -6,7 +6,7 @@ prescribed inputs one time per pose (s): the input values are the driver's value
 times, and last the offsets (and steps) of targets whose inputs are relative to an unknown
 offset (planarkin.synthesis.timing, in the driver's unit). A path target without inputs has
 no time unknowns there: its times are projected
-(`Synthesis.project`: the nearest points of the path, in order), its residuals are
+(`planarkin.synthesis.projection`: the nearest points of the path, in order), its residuals are
 the signed normal distances to the targets, and their gradient n . dP/dp is exact because the
 projected time is stationary (variable projection). Other residuals are weighted differences in
 the model's units (point coordinates; angles wrapped to a half turn). A `turns:` constraint on a
@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..output.directory import checkpoint
-from . import starts, timing
+from . import projection, starts, timing
 from .local import Local, probe_limits
 from .margins import (angle_span, barrier, length_gradients, turning_loop,
                       worst_transmission)
@@ -66,9 +66,7 @@ from .settings import check_cost, search_options, settled
 from .spec import design_of
 
 DISTINCT = 1e-3       # designs closer than this (fraction of every bound range) are the same
-PROJECT_STEPS = 30    # Gauss-Newton steps of a projected time (see Synthesis.project)
 STOP = 1e-6          # a local run stops at this fraction of the goal (converged for the goal)
-PROJECT_TOL = 1e-12   # ... until the tangential offset is below this (times the targets' size)
 IDLE_STARTS = 10_000  # starts in a row refused before any analysis end the search ('refused')
 clock = time.perf_counter     # the time budget's clock (a test may replace it)
 
@@ -210,7 +208,7 @@ class Synthesis:
                 if isinstance(tt, Rejected):
                     return None, None, tt
             elif i in grid:
-                tt = self.project(cm, res, tg, grid[i])
+                tt = projection.project(self, cm, res, tg, grid[i])
                 if isinstance(tt, Rejected):
                     return None, None, tt
             else:
@@ -233,7 +231,8 @@ class Synthesis:
             rr, _ = self.target_residuals(tg, i, st, where[i], None, False)
             per.append(rr)
             cost += float((rr * tg.weight).ravel() @ (rr * tg.weight).ravel())
-            r.append((self._normal(st, tg, where[i], rr) if i in self.projected else rr.ravel())
+            r.append((projection.normal(self, st, tg, where[i], rr) if i in self.projected
+                      else rr.ravel())
                      * tg.weight)
         barrier = self.barrier(cm)
         r = np.concatenate(r + [[barrier[0]]] if barrier else r)
@@ -256,66 +255,6 @@ class Synthesis:
         x = np.array([values[n] for n in self.design.free] + list(rest), dtype=float)
         return self.evaluate(x, jac=False, final=True, analysed=got)[2]
 
-    # -- projected free times ----------------------------------------------------------------
-    def project(self, cm, res, tg, t0):
-        """The times of a path target's points without inputs: from the grid's nearest points
-        in order (t0), the nearest points of the path, h(t) = pd . (P - T) = 0, by Newton with
-        h' = |pd|^2 + pdd . (P - T) on the exact position, velocity and acceleration (Gauss-
-        Newton, h' = |pd|^2, where h' <= 0), each step at most two grid steps; done when the
-        point's tangential offset is below PROJECT_TOL of the targets' size. Rejected when a
-        solve fails or it does not converge in PROJECT_STEPS."""
-        j = self.points.index(tg.name)
-        T = np.array(tg.values)
-        tol = PROJECT_TOL * max(1.0, float(np.abs(T).max()))
-        t = np.array(t0, dtype=float)
-        most = 2 * float(np.diff(res.t).max())
-        for _ in range(PROJECT_STEPS):
-            st = self.model.solve_at(cm, res, self.wrapped(t), sens=False, accel=True)
-            self.project_solves += 1
-            if isinstance(st, Rejected):
-                return st
-            P, V, A = st.p[:, j], st.pd[:, j], st.pdd[:, j]
-            vv = (V * V).sum(axis=1)
-            if not (vv > 0).all():
-                return Rejected("the path point stands still at a target time")
-            h = ((P - T) * V).sum(axis=1)
-            done = np.abs(h) <= tol * np.sqrt(vv)
-            if not self.wrap:       # an end of the run, the path's nearest point beyond it:
-                done |= ((t <= self.start) & (h > 0)) | ((t >= self.end) & (h < 0))   # the end
-            if np.all(done):
-                return t
-            hd = vv + ((P - T) * A).sum(axis=1)
-            t = t - np.clip(h / np.where(hd > 0, hd, vv), -most, most)
-            if not self.wrap:       # an open run's path ends where the run does
-                t = np.clip(t, self.start, self.end)
-        return Rejected("the nearest points of the path did not converge")
-
-    def _directions(self, st, tg, sl, rr):
-        """(N, 2) unit vectors along which a projected target's residuals are measured: the
-        path's normal where the time is the nearest point's (P - T is normal there), and at an
-        end of an open run, where the nearest point of the run's path is the end itself and
-        P - T is not normal, the direction of P - T (signed as the normal's, so the residual is
-        the distance |P - T| with the side the normal gives it)."""
-        V = st.pd[sl, self.points.index(tg.name)]
-        n = np.stack([-V[:, 1], V[:, 0]], axis=1) / np.hypot(V[:, 0], V[:, 1])[:, None]
-        t = st.t[sl]
-        end = ((t <= self.start) | (t >= self.end)) if not self.wrap else np.zeros(len(t), bool)
-        dist = np.hypot(rr[:, 0], rr[:, 1])
-        end &= dist > 0
-        if end.any():
-            side = np.where((rr * n).sum(axis=1) < 0, -1.0, 1.0)
-            n = np.where(end[:, None], side[:, None] * rr / np.where(dist > 0, dist, 1.0)[:, None],
-                         n)
-        return n
-
-    def _normal(self, st, tg, sl, rr):
-        """(N,) signed distances along the path's normal at projected times: at the nearest
-        point (P - T) is normal to the path, so |distance| = |P - T| and, the time being
-        stationary, d(distance)/dp = n . dP/dp exactly (the tangential part drops out). At an
-        end of an open run the time is held there (an active bound): the distance along
-        P - T itself, and d(distance)/dp = e . dP/dp (_directions)."""
-        return (rr * self._directions(st, tg, sl, rr)).sum(axis=1)
-
     def jacobian(self, d: Design) -> np.ndarray:
         """The exact Jacobian of an evaluated design's residuals (len(r), k + nt)."""
         st = d.state
@@ -325,8 +264,8 @@ class Synthesis:
             sl = d.where[i]
             dtdx = self.input_dtdx(st.cm, tg, i, st.t[sl], self.free_t)
             Jt = self.target_residuals(tg, i, st, sl, dtdx, True)[1]
-            if i in self.projected:          # n . dP/dp (see _normal)
-                n = self._directions(st, tg, sl, d.residuals[i])
+            if i in self.projected:          # n . dP/dp (projection.normal)
+                n = projection.directions(self, st, tg, sl, d.residuals[i])
                 Jt = np.einsum("ec,eck->ek", n, Jt.reshape(len(n), 2, -1))
             J.append(Jt * tg.weight)
         if d.barrier:
