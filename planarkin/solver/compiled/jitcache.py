@@ -204,16 +204,7 @@ def compiling(name: str):
     lock = None
     try:
         lock = open(base / f".{tag()}.{name}.lock", "a+")
-        import fcntl
-        deadline = time.monotonic() + KERNEL_WAIT
-        while True:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                if time.monotonic() >= deadline:
-                    break
-                time.sleep(0.05)
+        _flock(lock, KERNEL_WAIT)               # (not taken in time: compiled here too)
     except (OSError, ImportError):              # (no flock: compiled here, as if not waited)
         pass
     try:
@@ -280,28 +271,20 @@ def _lock(entry: Path) -> bool:
         unwritable(entry, e)
         return False
     try:
-        import fcntl
+        got = _flock(lock, LOCK_WAIT)
     except ImportError:           # (no flock: Windows)
         _held["lock"] = lock
         return True
-    deadline = time.monotonic() + LOCK_WAIT
-    while True:
-        try:
-            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            break
-        except BlockingIOError:
-            if time.monotonic() < deadline:
-                time.sleep(0.05)
-                continue
-            holder = _holder(lock)
-            lock.close()
-            _say("locked", f"the compiled code's cache {entry} is held by another planarkin "
-                           f"process{holder} for more than {LOCK_WAIT:g} s (suspended?): "
-                           f"compiling without the cache")
-            return False
-        except OSError:
-            lock.close()
-            return False
+    except OSError:
+        lock.close()
+        return False
+    if not got:
+        holder = _holder(lock)
+        lock.close()
+        _say("locked", f"the compiled code's cache {entry} is held by another planarkin "
+                       f"process{holder} for more than {LOCK_WAIT:g} s (suspended?): "
+                       f"compiling without the cache")
+        return False
     try:                          # who holds it, for the line of a process that waits
         lock.seek(0)
         lock.truncate()
@@ -311,6 +294,22 @@ def _lock(entry: Path) -> bool:
         pass
     _held["lock"] = lock
     return True
+
+
+def _flock(lock, seconds: float) -> bool:
+    """lock's exclusive flock taken, waiting up to seconds for another process that holds it:
+    False when it still does then. ImportError where there is no flock, OSError where it
+    fails."""
+    import fcntl
+    deadline = time.monotonic() + seconds
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return True
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.05)
 
 
 def _holder(lock) -> str:
