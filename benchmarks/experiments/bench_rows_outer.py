@@ -9,9 +9,14 @@
 2. Whole solves: planarkin.solve(model, steps=200_000) on the compiled route with the
    generated kernel and with this engine in its place (kernels.function patched), the sides
    alternating, median of ROUNDS, CPU per step; q, qd, qdd compared bit for bit.
+3. The sweep of benchmarks/bench_sweep.py (the four-bar, a and b over 100 values each, 360
+   steps, metric max:rocker.phi): `Study.run` with the generated studies' solve and with the
+   engine's (`each`, kernels.function_each patched), the sides alternating, median of ROUNDS,
+   variants per CPU second; every outcome compared (status, metrics, bit for bit).
 
     python benchmarks/experiments/bench_rows_outer.py [--points 100000] [--rounds 7]
-        [--solve mechanisms/four-bar.yaml mechanisms/slider-crank.yaml]
+        [--solve mechanisms/four-bar.yaml mechanisms/slider-crank.yaml] [--variants 10000]
+        [--skip kernels solves sweep]
 
 The first call compiles the engine (once; numba's cache beside this file afterwards): its CPU
 seconds are printed.
@@ -190,20 +195,80 @@ def solves(paths, rounds, steps=200_000):
               f"| {o:.3f} ({min(times['ro']):.3f}-{max(times['ro']):.3f}) | {o / g:.2f}x |")
 
 
+def sweep(nvar, rounds):
+    sys.path.insert(0, str(HERE.parent))
+    import tempfile
+
+    import models
+    from planarkin.studies.variants import Study
+    side = int(round(nvar ** 0.5))
+    variants = [{"a": float(a), "b": float(b)} for a in np.linspace(0.03, 0.05, side)
+                for b in np.linspace(0.11, 0.13, side)]
+    original = kernels.function_each
+    made: dict = {}
+
+    def engine(P, W, m, nb):
+        if id(P) not in made:
+            made[id(P)] = (P, ro.drop_in_each(P, W, m, nb))
+        return made[id(P)][1]
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "four-bar.yaml"
+        path.write_text(models.four_bar_yaml())
+        study = Study(str(path), metrics=["max:rocker.phi"])
+        study.units(variants)
+        if study.batch(variants).kernel() is None:
+            print("the sweep takes the numpy passes here: nothing to compare")
+            return
+        out, times = {}, {"gen": [], "ro": []}
+        for side_ in ("gen", "ro"):
+            kernels.function_each = original if side_ == "gen" else engine
+            t0 = time.process_time()
+            study.run(variants)          # the compiled route's size: compiled or loaded here
+            if side_ == "ro":
+                print(f"engine's studies solve, first run (its compile or cache load): "
+                      f"{time.process_time() - t0:.1f} s CPU")
+        for r in range(rounds):
+            for side_ in ("gen", "ro") if r % 2 == 0 else ("ro", "gen"):
+                kernels.function_each = original if side_ == "gen" else engine
+                t0 = time.process_time()
+                out[side_] = study.run(variants)
+                times[side_].append(len(variants) / (time.process_time() - t0))
+        kernels.function_each = original
+        same = all(a.status == b.status and a.kind == b.kind and
+                   np.array_equal(np.array(a.metrics, dtype=float),
+                                  np.array(b.metrics, dtype=float), equal_nan=True)
+                   for a, b in zip(out["gen"], out["ro"]))
+        ok = sum(o.status == "ok" for o in out["gen"])
+        g, o = np.median(times["gen"]), np.median(times["ro"])
+        print(f"| sweep, {len(variants)} variants x 360 steps, Study.run | "
+              f"{'same outcomes' if same else 'DIFFERENT outcomes'} ({ok} ok) "
+              f"| {g:.0f} ({min(times['gen']):.0f}-{max(times['gen']):.0f}) "
+              f"| {o:.0f} ({min(times['ro']):.0f}-{max(times['ro']):.0f}) | {g / o:.2f}x |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--points", type=int, default=100_000)
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--solve", nargs="*", default=["mechanisms/four-bar.yaml",
                                                    "mechanisms/slider-crank.yaml"])
+    ap.add_argument("--variants", type=int, default=10_000)
+    ap.add_argument("--skip", nargs="*", default=[], choices=["kernels", "solves", "sweep"])
     a = ap.parse_args()
     print(f"load {os.getloadavg()}")
-    print("| example | blocks | generated against rows-outer | generated, us/point "
-          "| rows-outer, us/point | ratio |\n|---|---|---|---|---|---|")
-    kernels_alone(a.points, a.rounds)
-    print("\n| example, planarkin.solve at 200,000 steps | results | generated, us/step "
-          "| rows-outer, us/step | ratio |\n|---|---|---|---|---|")
-    solves(a.solve, a.rounds)
+    if "kernels" not in a.skip:
+        print("| example | blocks | generated against rows-outer | generated, us/point "
+              "| rows-outer, us/point | ratio |\n|---|---|---|---|---|---|")
+        kernels_alone(a.points, a.rounds)
+    if "solves" not in a.skip:
+        print("\n| example, planarkin.solve at 200,000 steps | results | generated, us/step "
+              "| rows-outer, us/step | ratio |\n|---|---|---|---|---|")
+        solves(a.solve, a.rounds)
+    if "sweep" not in a.skip:
+        print("\n| job | results | generated, variants per CPU s | rows-outer, variants per "
+              "CPU s | ratio (time) |\n|---|---|---|---|---|")
+        sweep(a.variants, a.rounds)
     print(f"load {os.getloadavg()}")
 
 

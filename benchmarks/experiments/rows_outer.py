@@ -10,7 +10,10 @@ tile, so that a tile's numbers stay in cache); any other block Newton for all po
 until every correction is at most tol; the residuals, velocities and accelerations by the same
 substitutions summed in the same pairs; the same kind functions (planarkin.elements.pointline).
 Covered: blocks of 1 and 2 unknowns (the generated kernels' closed forms; no dense block), the
-grid's order 2. bench_rows_outer.py compares it with the generated kernels, bits and time.
+grid's order 2. `each` is the studies' point-by-point solve (gen_each's algorithm: each point to
+its own convergence, its variant's parameters from a table, then the velocities, the
+accelerations and the studies' acceptance tests), rows outer likewise.
+bench_rows_outer.py compares both with the generated kernels, bits and time.
 """
 
 from __future__ import annotations
@@ -455,4 +458,275 @@ def drop_in(P, W, m, nb):
         grid(N, W - 3, nb, Q, Qd, Qdd, C, Sn, T, NU, FDD, prm, maxit, tol, full, iters, conv,
              ratio, sign, smin, R, rmax, cond, MI, SZ, *ST,
              (havep, t, idx, Tn, Qn, Qdn, Qddn, Qf))
+    return fn
+
+
+# -- the studies' point-by-point solve (gen_each's algorithm), rows outer ----------------------
+
+@inline
+def at_each(kd, eq, want, o, a, b, nb, p, Q, C, S, i, V, vo, rates):
+    """Row (kind kd, equation eq) at flat point offset o (Q, V flat rows of W), element
+    parameters p; the ground's coordinates and rates zero, its cosine 1 and sine 0."""
+    xi = yi = pi = xj = yj = pj = 0.0
+    vxi = vyi = wi = vxj = vyj = wj = 0.0
+    if a != nb:
+        xi, yi, pi = Q[o + 3 * a], Q[o + 3 * a + 1], Q[o + 3 * a + 2]
+        if rates:
+            vxi, vyi, wi = V[vo + 3 * a], V[vo + 3 * a + 1], V[vo + 3 * a + 2]
+    if b != nb:
+        xj, yj, pj = Q[o + 3 * b], Q[o + 3 * b + 1], Q[o + 3 * b + 2]
+        if rates:
+            vxj, vyj, wj = V[vo + 3 * b], V[vo + 3 * b + 1], V[vo + 3 * b + 2]
+    return row(kd, eq, want, xi, yi, pi, C[i, a], S[i, a], xj, yj, pj, C[i, b], S[i, b],
+               p[0], p[1], p[2], p[3], p[4], p[5], vxi, vyi, wi, vxj, vyj, wj)
+
+
+@inline
+def params(prm, pb, e):
+    o = pb + 8 * e
+    return (prm[o], prm[o + 1], prm[o + 2], prm[o + 3], prm[o + 4], prm[o + 5])
+
+
+@inline
+def each_rows(kb, i, B, Q, C, S, prm, pb, o, nb, want):
+    """The block's rows at point i (gradients with want & 2) and its matrix."""
+    bi, src = B[5], B[6]
+    d0 = at_each(bi[1], bi[2], want, o, bi[3], bi[4], nb, params(prm, pb, B[11]), Q, C, S, i,
+                 Q, 0, False)
+    d1 = d0
+    if kb == 2:
+        d1 = at_each(bi[7], bi[8], want, o, bi[9], bi[10], nb, params(prm, pb, B[12]), Q, C, S,
+                     i, Q, 0, False)
+    return d0, d1, entries(src, d0[1:7], d1[1:7])
+
+
+@inline
+def each_block_of(blk, BL, RW, RC, KN, SRC):
+    """block_of for the studies' solve: the elements' indices, not their parameters (each
+    point reads its variant's)."""
+    kb = BL[blk, 0]
+    w0 = BL[blk, 5]
+    w1 = BL[blk, 6]
+    r0, kd0, eq0, a0, b0, e0 = RW[w0, 0], RW[w0, 1], RW[w0, 2], RW[w0, 3], RW[w0, 4], RW[w0, 5]
+    r1, kd1, eq1, a1, b1, e1 = RW[w1, 0], RW[w1, 1], RW[w1, 2], RW[w1, 3], RW[w1, 4], RW[w1, 5]
+    bi = (r0, kd0, eq0, a0, b0, BL[blk, 7], r1, kd1, eq1, a1, b1, BL[blk, 8])
+    src = (SRC[blk, 0], SRC[blk, 1], SRC[blk, 2], SRC[blk, 3])
+    rc0 = (RC[r0, 0], RC[r0, 1], RC[r0, 2], RC[r0, 3], RC[r0, 4], RC[r0, 5])
+    rc1 = (RC[r1, 0], RC[r1, 1], RC[r1, 2], RC[r1, 3], RC[r1, 4], RC[r1, 5])
+    kn0 = (KN[r0, 0], KN[r0, 1], KN[r0, 2], KN[r0, 3], KN[r0, 4], KN[r0, 5])
+    kn1 = (KN[r1, 0], KN[r1, 1], KN[r1, 2], KN[r1, 3], KN[r1, 4], KN[r1, 5])
+    return (kb, BL[blk, 1] != 0, BL[blk, 2] != 0, BL[blk, 3], BL[blk, 4], bi, src,
+            rc0, kn0, rc1, kn1, e0, e1)
+
+
+@inline
+def pairs_flat(d, kn, rc, X, o):
+    """pairs over a flat row: ((t0 + t1) + (t2 + t3)) + (t4 + t5), t_k = d[k] X[o + rc[k]]."""
+    t0 = d[0] * X[o + rc[0]] if kn[0] else 0.0
+    t1 = d[1] * X[o + rc[1]] if kn[1] else 0.0
+    t2 = d[2] * X[o + rc[2]] if kn[2] else 0.0
+    t3 = d[3] * X[o + rc[3]] if kn[3] else 0.0
+    t4 = d[4] * X[o + rc[4]] if kn[4] else 0.0
+    t5 = d[5] * X[o + rc[5]] if kn[5] else 0.0
+    a, ha = _add(t0, kn[0] != 0, t1, kn[1] != 0)
+    b, hb = _add(t2, kn[2] != 0, t3, kn[3] != 0)
+    c, hc = _add(t4, kn[4] != 0, t5, kn[5] != 0)
+    ab, hab = _add(a, ha, b, hb)
+    return _add(ab, hab, c, hc)
+
+
+@inline
+def each_inverse(kb, JJ):
+    """gen_each's inverse with newton: entries, sigma_min's bound, the determinant's sign."""
+    J0, J1, J2, J3 = JJ
+    if kb == 1:
+        return 1.0 / J0, 0.0, 0.0, 0.0, abs(J0), sign_of(J0)
+    det = J0 * J3 - J1 * J2
+    rd = 1.0 / det
+    nf = np.sqrt(J0 * J0 + J1 * J1 + J2 * J2 + J3 * J3) * abs(rd)
+    s0 = 1.0 / nf if (math.isfinite(nf) and det != 0) else 0.0
+    return J3 * rd, -J1 * rd, -J2 * rd, J0 * rd, s0, sign_of(det)
+
+
+@inline
+def each_position(blk, i, B, Q, C, S, T, prm, pb, o, ti, nb, nblk, nfine, maxit, tol, full,
+                  smin, sign, st):
+    """Block blk at point i, Newton to the point's own convergence (gen_each.position);
+    st: (rat, its, ok) in, out."""
+    kb, aff = B[0], B[1]
+    bi = B[5]
+    rat, its, ok = st
+    sz = np.inf
+    M0 = M1 = M2 = M3 = 0.0
+    for it in range(1 if aff else maxit):
+        d0, d1, JJ = each_rows(kb, i, B, Q, C, S, prm, pb, o, nb, 3)
+        r0 = d0[0] - T[ti + bi[0]]
+        r1 = d1[0] - T[ti + bi[6]] if kb == 2 else 0.0
+        if aff or it == 0 or full != 0:
+            M0, M1, M2, M3, s0, sg = each_inverse(kb, JJ)
+            if it == 0:
+                smin[i * nblk + blk] = s0
+                if B[4] == 1:
+                    sign[i * nfine + B[3]] = sg
+                else:
+                    sign[i * nfine + B[3]] = sign_of(JJ[0])
+                    sign[i * nfine + B[3] + 1] = sign_of(JJ[3])
+        sz = 0.0
+        c0 = bi[5]
+        dx = 0.0 + M0 * r0 + M1 * r1 if kb == 2 else 0.0 + M0 * r0
+        q = Q[o + c0] - dx
+        Q[o + c0] = q
+        sz = nanmax(sz, abs(dx))
+        if c0 % 3 == 2 and (dx != 0.0 or q == 0.0):
+            C[i, c0 // 3] = np.cos(q)
+            S[i, c0 // 3] = np.sin(q)
+        if kb == 2:
+            c1 = bi[11]
+            dx = 0.0 + M2 * r0 + M3 * r1
+            q = Q[o + c1] - dx
+            Q[o + c1] = q
+            sz = nanmax(sz, abs(dx))
+            if c1 % 3 == 2 and (dx != 0.0 or q == 0.0):
+                C[i, c1 // 3] = np.cos(q)
+                S[i, c1 // 3] = np.sin(q)
+        sz = inf_unless_finite(sz)
+        if it == 0:
+            rat = nanmax(rat, ratio_of(sz, smin[i * nblk + blk]))
+        its = max(its, it + 1)
+        if aff:
+            sz = 0.0 if sz < np.inf else np.inf
+            break
+        if sz <= tol:
+            break
+    return rat, its, ok and sz <= tol
+
+
+@inline
+def each_rate(i, B, Q, C, S, X, base0, base1, prm, pb, o, nb, keep, fresh):
+    """Block B's rows of the velocity or acceleration system at point i (gen_each.rate): the
+    gradient and inverse at the converged positions (the same bits as the Newton step's where
+    gen_each keeps those), rhs minus the known columns' terms, through the inverse. fresh:
+    evaluate them and keep them in keep[i] (the velocities), else read them there (the
+    accelerations)."""
+    kb = B[0]
+    bi = B[5]
+    if fresh:
+        d0, d1, JJ = each_rows(kb, i, B, Q, C, S, prm, pb, o, nb, 2)
+        g0 = d0[1:7]
+        g1 = d1[1:7]
+        J0, J1, J2, J3 = JJ
+        for k in range(6):
+            keep[i, k] = g0[k]
+            keep[i, 6 + k] = g1[k]
+        keep[i, 12] = J0
+        keep[i, 13] = J1
+        keep[i, 14] = J2
+        keep[i, 15] = J3
+    else:
+        g0 = (keep[i, 0], keep[i, 1], keep[i, 2], keep[i, 3], keep[i, 4], keep[i, 5])
+        g1 = (keep[i, 6], keep[i, 7], keep[i, 8], keep[i, 9], keep[i, 10], keep[i, 11])
+        J0, J1, J2, J3 = keep[i, 12], keep[i, 13], keep[i, 14], keep[i, 15]
+    s, h = pairs_flat(g0, B[8], B[7], X, o)
+    x0 = base0 - s if h else base0
+    if kb == 1:
+        X[o + bi[5]] = 0.0 + (1.0 / J0) * x0
+        return
+    s, h = pairs_flat(g1, B[10], B[9], X, o)
+    x1 = base1 - s if h else base1
+    rd = 1.0 / (J0 * J3 - J1 * J2)
+    M0, M1, M2, M3 = J3 * rd, -J1 * rd, -J2 * rd, J0 * rd
+    X[o + bi[5]] = 0.0 + M0 * x0 + M1 * x1
+    X[o + bi[11]] = 0.0 + M2 * x0 + M3 * x1
+
+
+@numba.njit(error_model="numpy", _nrt=False, cache=True, nogil=True)
+def each(N, n, nb, Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, iters, conv, ratio, sign, smin,
+         has_v, vrow, prm, ne, has_t, trow, tg, sign0, test, good, perr, C, S, jerk, KEEP,
+         ST):
+    """gen_each's solve, rows outer: the positions block by block over all points (each point
+    to its own convergence), then the velocities, then the accelerations, then the studies'
+    acceptance per point."""
+    BL, RW, RC, KN, SRC, _ = ST
+    W = n + 3
+    m = RC.shape[0]
+    nblk = BL.shape[0]
+    nfine = sign.shape[0] // max(N, 1)
+    for i in range(N):
+        o = i * W
+        for b in range(nb):
+            q = Q[o + 3 * b + 2]
+            if q == 0.0:
+                C[i, b] = 1.0
+                S[i, b] = 0.0
+            else:
+                C[i, b] = np.cos(q)
+                S[i, b] = np.sin(q)
+        C[i, nb] = 1.0
+        S[i, nb] = 0.0
+        ratio[i] = 0.0
+        iters[i] = 0
+        conv[i] = 1
+        for c in range(W):
+            Qd[o + c] = 0.0
+            Qdd[o + c] = 0.0
+    for blk in range(nblk):
+        B = each_block_of(blk, BL, RW, RC, KN, SRC)
+        for i in range(N):
+            o = i * W
+            ti = (trow[i] if has_t != 0 else i) * m
+            pb = vrow[i] * 8 * ne if has_v != 0 else 0
+            rat, its, ok = each_position(blk, i, B, Q, C, S, T, prm, pb, o, ti, nb, nblk,
+                                         nfine, maxit, tol, full, smin, sign,
+                                         (ratio[i], iters[i], conv[i] != 0))
+            ratio[i] = rat
+            iters[i] = its
+            conv[i] = 1 if ok else 0
+    for blk in range(nblk):
+        B = each_block_of(blk, BL, RW, RC, KN, SRC)
+        bi = B[5]
+        for i in range(N):
+            o = i * W
+            ti = (trow[i] if has_t != 0 else i) * m
+            pb = vrow[i] * 8 * ne if has_v != 0 else 0
+            each_rate(i, B, Q, C, S, Qd, NU[ti + bi[0]], NU[ti + bi[6]], prm, pb, o, nb,
+                      KEEP[blk], True)
+    for blk in range(nblk):
+        B = each_block_of(blk, BL, RW, RC, KN, SRC)
+        bi = B[5]
+        kb = B[0]
+        for i in range(N):
+            o = i * W
+            ti = (trow[i] if has_t != 0 else i) * m
+            pb = vrow[i] * 8 * ne if has_v != 0 else 0
+            g0 = at_each(bi[1], bi[2], 4, o, bi[3], bi[4], nb, params(prm, pb, B[11]), Q, C,
+                         S, i, Qd, o, True)[7]
+            g1 = 0.0
+            if kb == 2:
+                g1 = at_each(bi[7], bi[8], 4, o, bi[9], bi[10], nb, params(prm, pb, B[12]), Q,
+                             C, S, i, Qd, o, True)[7]
+            each_rate(i, B, Q, C, S, Qdd, g0 + FDD[ti + bi[0]], g1 + FDD[ti + bi[6]], prm, pb,
+                      o, nb, KEEP[blk], False)
+    if test != 0:
+        jerk_ok = False
+        for i in range(N):
+            jerk_ok = K.accept_point(i, W, n, nblk, nfine, Q, Qd, Qdd, smin, sign, conv[i],
+                                     ratio[i], has_t, trow, has_v, vrow, tg, sign0, jerk,
+                                     jerk_ok, good, perr)
+
+
+def drop_in_each(P, W, m, nb):
+    """A function with gen_each's signature (kernel.solve_rows calls it) that runs each."""
+    ST = arrays(P, W - 3, m, nb)
+    kept = {}
+
+    def fn(N, Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, iters, conv, ratio, sign, smin, has_v,
+           vrow, prm, ne, has_t, trow, tg, sign0, test, good, perr):
+        bufs = kept.get(N)
+        if bufs is None:
+            bufs = kept[N] = (np.empty((N, nb + 1)), np.empty((N, nb + 1)),
+                              np.empty(max(W - 3, 1)), np.empty((P.nblk, N, 16)))
+        C, S, jerk, keep = bufs
+        each(N, W - 3, nb, Q, Qd, Qdd, T, NU, FDD, maxit, tol, full, iters, conv, ratio, sign,
+             smin, has_v, vrow, prm, ne, has_t, trow, tg, sign0, test, good, perr, C, S, jerk,
+             keep, ST)
     return fn
