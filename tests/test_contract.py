@@ -8,6 +8,7 @@ concurrent runs, colliding and hostile file names. Never a traceback, never a ha
 writer process left behind.
 """
 
+import contextlib
 import errno
 import json
 import os
@@ -786,6 +787,35 @@ def test_a_cache_that_cannot_be_written_costs_only_the_caching(own_cache, monkey
         return 2 * x
     jitcache.compile_cached(twice, (numba.int64,))         # not under the lock: no cache at all
     assert twice(21) == 42 and capsys.readouterr().err == ""
+
+
+def test_a_kernel_numba_cannot_load_compiles_outside_the_entrys_lock(own_cache, monkeypatch):
+    """A kernel whose numba index is in the entry but cannot be loaded (its data file gone: a
+    garbled one the check deleted, or written by another numba version or for another CPU) was
+    compiled under the entry's lock, for seconds, while every other process gave up on the cache
+    after LOCK_WAIT with a line on stderr. It compiles under its own lock, in a staging
+    directory (jitcache.compiling), and is published again."""
+    import numba
+
+    from planarkin.solver.compiled import kernels as compiled_grid, jitcache
+    text = "import numba\n\n\n@numba.njit(cache=CACHE)\ndef grid(x):\n    return x + 1\n"
+    entry = own_cache / jitcache.tag()
+    assert compiled_grid._build("pk_grid_stale", text, "grid", (numba.int64,))(41) == 42
+    (data,) = entry.rglob("pk_grid_stale.grid-*.nbc")
+    data.unlink()                              # the index stays: jitcache.has() finds it
+    assert jitcache.has(entry, entry / "gen" / "pk_grid_stale.py", "grid")
+    staged = []
+    real = jitcache.compiling
+
+    @contextlib.contextmanager
+    def compiling(name):
+        with real(name) as stage:
+            staged.append(("lock held" if "lock" in jitcache._held else "free", name))
+            yield stage
+    monkeypatch.setattr(jitcache, "compiling", compiling)
+    assert compiled_grid._build("pk_grid_stale", text, "grid", (numba.int64,))(41) == 42
+    assert staged == [("free", "pk_grid_stale")]
+    assert len(list(entry.rglob("pk_grid_stale.grid-*.nbc"))) == 1     # published again
 
 
 def test_a_kernel_compiles_while_another_process_compiles_another(own_cache, monkeypatch,

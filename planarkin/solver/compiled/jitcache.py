@@ -207,12 +207,15 @@ def compiling(name: str):
         _flock(lock, KERNEL_WAIT)               # (not taken in time: compiled here too)
     except (OSError, ImportError):              # (no flock: compiled here, as if not waited)
         pass
-    try:
-        stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
-        _seed(stage)
-    except OSError:
-        stage = None
-    try:
+    stage = None
+    try:                                        # (an interrupt while seeding: removed too)
+        try:
+            stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
+            _seed(stage)
+        except OSError:                         # (no staging: compiled in memory)
+            if stage is not None:
+                shutil.rmtree(stage, ignore_errors=True)
+            stage = None
         yield stage
     finally:
         if stage is not None:

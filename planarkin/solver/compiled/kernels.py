@@ -11,6 +11,7 @@ Where there is no usable cache directory the source is compiled in memory.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import types
@@ -78,20 +79,47 @@ def _build(name: str, text: str, entry_point: str = "grid", sig=None):
 
 def _cached(name: str, text: str, entry_point: str, sig):
     """(the function loaded from the cache entry, its source's path) where numba's files for
-    it are there; (None, path) where they are not; (None, None) without a usable cache. Under
-    the entry's lock, the source written first where it is not there as generated."""
+    it are there and load; (None, path) where they are not, or where numba would compile
+    (an index whose data is gone, or written by another numba or for another CPU: the compile
+    is then _build's, outside the entry's lock, which every other process waits for only
+    LOCK_WAIT seconds); (None, None) without a usable cache. Under the entry's lock, the source
+    written first where it is not there as generated."""
+    from numba.core import event
     entry = jitcache.prepare()
     try:
         path = None if entry is None else written(entry, name, text)
         if path is None or not jitcache.has(entry, path, entry_point):
             return None, path
         try:
-            return _load(name, text, entry, path, entry_point, sig), path
+            with event.install_listener("numba:compile", _no_compile()):
+                return _load(name, text, entry, path, entry_point, sig), path
+        except _WouldCompile:
+            return None, path
         except OSError as e:            # numba could not save to the cache: compiled without
             jitcache.unwritable(entry, e)
             return _load(name, text, None, None, entry_point, sig), path
     finally:
         jitcache.record()
+
+
+class _WouldCompile(Exception):
+    """numba was about to compile where _cached only loads."""
+
+
+@functools.cache
+def _no_compile():
+    """A numba event listener that stops a compile as it starts (numba's compile events come
+    only where its cache did not load); made once (this module does not import numba at its
+    top)."""
+    from numba.core import event
+
+    class NoCompile(event.Listener):
+        def on_start(self, _event):
+            raise _WouldCompile
+
+        def on_end(self, _event):
+            pass
+    return NoCompile()
 
 
 def _load(name: str, text: str, entry, path, entry_point: str, sig):
