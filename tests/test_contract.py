@@ -818,6 +818,50 @@ def test_a_kernel_numba_cannot_load_compiles_outside_the_entrys_lock(own_cache, 
     assert len(list(entry.rglob("pk_grid_stale.grid-*.nbc"))) == 1     # published again
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="no /proc: a stopped "
+                    "holder is not seen, KERNEL_WAIT bounds the wait")
+def test_a_kernel_lock_held_by_a_stopped_process_is_not_waited_for(own_cache, monkeypatch):
+    """A process compiling a kernel and then stopped (Ctrl-Z) holds the kernel's lock as long
+    as it stays stopped: another process needing the same kernel waited KERNEL_WAIT (300 s)
+    without a word. Now it stops waiting as soon as it sees the holder stopped (its pid in the
+    lock file, its state in /proc) and compiles the kernel itself; a holder that runs is waited
+    for. The waits are counted in polls, not timed."""
+    from planarkin.solver.compiled import jitcache
+    own_cache.mkdir(mode=0o700)
+    path = own_cache / f".{jitcache.tag()}.pk_grid_z.lock"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, os, sys, time\n"
+         "f = open(sys.argv[1], 'a+')\nfcntl.flock(f, fcntl.LOCK_EX)\n"
+         "f.seek(0)\nf.truncate()\nf.write(str(os.getpid()))\nf.flush()\n"
+         "print('held', flush=True)\ntime.sleep(120)\n", str(path)],
+        stdout=subprocess.PIPE, text=True)
+    polls = []
+    real_sleep = time.sleep
+
+    def sleep(s):
+        polls.append(s)
+        real_sleep(s)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        monkeypatch.setattr(jitcache.time, "sleep", sleep)
+        monkeypatch.setattr(jitcache, "KERNEL_WAIT", 0.5)
+        with jitcache.compiling("pk_grid_z") as stage:     # a running holder: waited for
+            assert stage is not None
+        assert len(polls) >= 5
+        os.kill(holder.pid, signal.SIGSTOP)
+        while not jitcache._stopped(holder.pid):
+            real_sleep(0.01)
+        monkeypatch.setattr(jitcache, "KERNEL_WAIT", 600.0)
+        polls.clear()
+        with jitcache.compiling("pk_grid_z") as stage:     # stopped: compiled here at once
+            assert stage is not None
+        assert polls == []
+        assert path.read_text() == str(holder.pid)         # the holder's pid left alone
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def test_a_kernel_compiles_while_another_process_compiles_another(own_cache, monkeypatch,
                                                                   capsys):
     """A generated kernel compiles under a lock of its own, into a staging directory, and is

@@ -28,11 +28,12 @@ that cannot be written (a full disk, a file size limit) costs only the caching: 
 goes on in memory, said in one line (compile_cached()). Either line once per process.
 
 A generated kernel (seconds to compile) is compiled without that lock: under a lock of its own
-(compiling(): a process that needs the same kernel waits for it, up to KERNEL_WAIT seconds,
-then loads it), into a staging directory of its own beside the entries, whose files are then
-moved into the entry under the entry's lock (publish()). Processes that compile different
-structures (a parallel batch, the workers of a test run) compile side by side, and every kernel
-lands in the cache.
+(compiling(): a process that needs the same kernel waits for it, up to KERNEL_WAIT seconds or
+until that process is seen stopped, then loads it), into a staging directory of its own beside
+the entries, whose files are then moved into the entry under the entry's lock (publish()).
+Processes that compile different structures (a parallel batch, the workers of a test run)
+compile side by side, and every kernel lands in the cache. A kernel whose numba files are in
+the entry but do not load (planarkin.solver.compiled.kernels._cached) compiles that way too.
 """
 
 from __future__ import annotations
@@ -188,9 +189,9 @@ def has(entry: Path, path: Path, entry_point: str) -> bool:
 @contextlib.contextmanager
 def compiling(name: str):
     """The lock of the kernel name (another process compiling it holds it: waited for up to
-    KERNEL_WAIT seconds, then compiled here too) and a fresh staging directory for numba's files
-    (removed at the end; what publish() did not move is dropped). Yields None where there is no
-    usable cache directory."""
+    KERNEL_WAIT seconds, or until that process is seen stopped, then compiled here too) and a
+    fresh staging directory for numba's files (removed at the end; what publish() did not move
+    is dropped). Yields None where there is no usable cache directory."""
     base = base_dir()
     if not private(base):
         yield None
@@ -201,10 +202,13 @@ def compiling(name: str):
                 shutil.rmtree(old, ignore_errors=True)
         except OSError:
             pass
-    lock = None
+    lock, got = None, False
     try:
         lock = open(base / f".{tag()}.{name}.lock", "a+")
-        _flock(lock, KERNEL_WAIT)               # (not taken in time: compiled here too)
+        # (not taken in time, or its holder stopped, with Ctrl-Z: compiled here too)
+        got = _flock(lock, KERNEL_WAIT, stop=lambda: _stopped(_holder_pid(lock)))
+        if got:
+            _claim(lock)
     except (OSError, ImportError):              # (no flock: compiled here, as if not waited)
         pass
     stage = None
@@ -222,6 +226,8 @@ def compiling(name: str):
             _seeded.pop(stage, None)
             shutil.rmtree(stage, ignore_errors=True)
         if lock is not None:
+            if got:
+                _unclaim(lock)
             lock.close()
 
 
@@ -288,21 +294,34 @@ def _lock(entry: Path) -> bool:
                        f"process{holder} for more than {LOCK_WAIT:g} s (suspended?): "
                        f"compiling without the cache")
         return False
-    try:                          # who holds it, for the line of a process that waits
+    _claim(lock)                  # who holds it, for the line of a process that waits
+    _held["lock"] = lock
+    return True
+
+
+def _claim(lock) -> None:
+    """This process's pid into a lock file it holds (a waiting process reads it)."""
+    try:
         lock.seek(0)
         lock.truncate()
         lock.write(str(os.getpid()))
         lock.flush()
     except OSError:
         pass
-    _held["lock"] = lock
-    return True
 
 
-def _flock(lock, seconds: float) -> bool:
+def _unclaim(lock) -> None:
+    """No holder named once the lock is free."""
+    try:
+        lock.truncate(0)
+    except OSError:
+        pass
+
+
+def _flock(lock, seconds: float, stop=None) -> bool:
     """lock's exclusive flock taken, waiting up to seconds for another process that holds it:
-    False when it still does then. ImportError where there is no flock, OSError where it
-    fails."""
+    False when it still does then, or as soon as stop() is true. ImportError where there is no
+    flock, OSError where it fails."""
     import fcntl
     deadline = time.monotonic() + seconds
     while True:
@@ -310,18 +329,35 @@ def _flock(lock, seconds: float) -> bool:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
             return True
         except BlockingIOError:
-            if time.monotonic() >= deadline:
+            if time.monotonic() >= deadline or (stop is not None and stop()):
                 return False
             time.sleep(0.05)
 
 
-def _holder(lock) -> str:
+def _holder_pid(lock) -> int | None:
     try:
         lock.seek(0)
-        pid = int(lock.read(20).strip())
+        return int(lock.read(20).strip())
     except (OSError, ValueError):
-        return ""
-    return f" (pid {pid})"
+        return None
+
+
+def _holder(lock) -> str:
+    pid = _holder_pid(lock)
+    return "" if pid is None else f" (pid {pid})"
+
+
+def _stopped(pid: int | None) -> bool:
+    """The process pid is stopped (Ctrl-Z, SIGSTOP), where the platform says (Linux's /proc):
+    a kernel's compile it holds the lock of will not end while it is."""
+    if pid is None:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            state = f.read().rsplit(b")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state in (b"T", b"t")
 
 
 def compile_cached(fn, sig):
@@ -365,10 +401,7 @@ def record() -> None:
 def release() -> None:
     lock = _held.pop("lock", None)
     if lock is not None:
-        try:                      # no holder named once it is free (a waiter reads it)
-            lock.truncate(0)
-        except OSError:
-            pass
+        _unclaim(lock)
         lock.close()
 
 
