@@ -217,7 +217,11 @@ def test_the_cache_directory_is_made_private(fresh):
 
 
 @pytest.mark.parametrize("damage", ["group-writable", "world-writable", "a link"])
-def test_a_cache_directory_others_can_write_is_not_used(fresh, tmp_path, damage):
+def test_a_cache_directory_others_can_write_is_not_used(fresh, tmp_path, damage, monkeypatch,
+                                                        capsys):
+    """...and one line says so (every run would otherwise just be slow: each kernel compiled
+    again), once per process."""
+    monkeypatch.setattr(jitcache, "_said", set())
     if damage == "a link":
         real = tmp_path / "elsewhere"
         real.mkdir(mode=0o700)
@@ -226,6 +230,12 @@ def test_a_cache_directory_others_can_write_is_not_used(fresh, tmp_path, damage)
         fresh.mkdir(mode=0o700)
         fresh.chmod(0o770 if damage == "group-writable" else 0o707)
     assert jitcache.prepare() is None
+    jitcache.forget()
+    assert jitcache.prepare() is None
+    assert capsys.readouterr().err == (
+        f"planarkin: the compiled code's cache {fresh} is not a private folder (a link, another "
+        f"user's, or writable by group or others): compiling without it (the results are the "
+        f"same; chmod 700 it, or set PLANARKIN_CACHE to another folder)\n")
 
 
 @pytest.mark.skipif(not hasattr(os, "getuid") or os.getuid() != 0, reason="needs root to chown")

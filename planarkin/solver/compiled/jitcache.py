@@ -7,7 +7,8 @@ user can write and vouches for every file in it:
 - the directory: PLANARKIN_CACHE, else $XDG_CACHE_HOME/planarkin/numba, else
   ~/.cache/planarkin/numba, created with mode 0700; it and its entry must be directories (not
   links) owned by the current user and not writable by group or others, else the route
-  compiles in memory only (no disk cache: slower to start, the same results);
+  compiles in memory only (no disk cache: slower to start, the same results), said in one
+  line;
 - an entry per source version: a subdirectory named by the hash of the compiled route's
   sources and the Python version (numba
   keys its files on each source file's own contents only, a hash of that one file, and a change
@@ -110,7 +111,14 @@ def _make(path: Path) -> bool:
     except OSError as e:
         unwritable(path, e)
         return False
-    return private(path)
+    if private(path):
+        return True
+    # (every run then compiles every kernel again: said, or a user sees only slow runs)
+    _say("shared", f"the compiled code's cache {path} is not a private folder (a link, another "
+                   f"user's, or writable by group or others): compiling without it (the "
+                   f"results are the same; chmod 700 it, or set PLANARKIN_CACHE to another "
+                   f"folder)")
+    return False
 
 
 def _digest(path: Path) -> str:
