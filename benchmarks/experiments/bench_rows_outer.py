@@ -124,6 +124,33 @@ def differences(a, b):
     return out
 
 
+def alternating(rounds, call):
+    """{side: [call(side) per round]} for sides 'gen' and 'ro', their order alternating from
+    round to round (call returns the round's figure)."""
+    times = {"gen": [], "ro": []}
+    for r in range(rounds):
+        for side in ("gen", "ro") if r % 2 == 0 else ("ro", "gen"):
+            times[side].append(call(side))
+    return times
+
+
+def cell(xs, fmt):
+    """median (min-max) of xs."""
+    return f"{np.median(xs):{fmt}} ({min(xs):{fmt}}-{max(xs):{fmt}})"
+
+
+def engine_for(make):
+    """A stand-in for kernels.function or kernels.function_each: the engine's drop-in (make)
+    for each packed system, made once (the packed system kept alive with it)."""
+    made: dict = {}
+
+    def engine(P, W, m, nb):
+        if id(P) not in made:
+            made[id(P)] = (P, make(P, W, m, nb))
+        return made[id(P)][1]
+    return engine
+
+
 def kernels_alone(N, rounds):
     first = True
     for path in sorted(glob.glob(str(HERE.parent.parent / "mechanisms" / "*.yaml"))):
@@ -149,29 +176,24 @@ def kernels_alone(N, rounds):
         for policy in ("reuse", "full"):
             d = differences(run(gen, policy, opts), run(eng, policy, opts))
             diff += [f"{policy}: {x}" for x in d]
-        times = {"gen": [], "ro": []}
-        for r in range(rounds):
-            for side in (gen, eng) if r % 2 == 0 else (eng, gen):
-                side.prepare()
-                t0 = time.process_time()
-                side.call(opts.newton, opts)
-                times[side.side].append((time.process_time() - t0) / N * 1e6)
+        sides = {"gen": gen, "ro": eng}
+
+        def timed(name):
+            side = sides[name]
+            side.prepare()
+            t0 = time.process_time()
+            side.call(opts.newton, opts)
+            return (time.process_time() - t0) / N * 1e6
+        times = alternating(rounds, timed)
         g, o = np.median(times["gen"]), np.median(times["ro"])
         print(f"| {Path(path).name} | {len(P.arrays[6])} | "
               f"{'same bits' if not diff else '; '.join(diff)} "
-              f"| {g:.3f} ({min(times['gen']):.3f}-{max(times['gen']):.3f}) "
-              f"| {o:.3f} ({min(times['ro']):.3f}-{max(times['ro']):.3f}) | {o / g:.2f}x |")
+              f"| {cell(times['gen'], '.3f')} | {cell(times['ro'], '.3f')} | {o / g:.2f}x |")
 
 
 def solves(paths, rounds, steps=200_000):
     original = kernels.function
-    made: dict = {}
-
-    def engine(P, W, m, nb):
-        if id(P) not in made:
-            made[id(P)] = (P, ro.drop_in(P, W, m, nb))
-        return made[id(P)][1]
-
+    engine = engine_for(ro.drop_in)
     kernel.COMPILED_FROM_POINTS = 0
     for path in paths:
         model = planarkin.load(path)
@@ -181,18 +203,16 @@ def solves(paths, rounds, steps=200_000):
             res[side] = planarkin.solve(model, steps=steps)
         same = all(np.array_equal(getattr(res["gen"], a), getattr(res["ro"], a))
                    for a in ("q", "qd", "qdd"))
-        times = {"gen": [], "ro": []}
-        for r in range(rounds):
-            for side in ("gen", "ro") if r % 2 == 0 else ("ro", "gen"):
-                kernels.function = original if side == "gen" else engine
-                t0 = time.process_time()
-                planarkin.solve(model, steps=steps)
-                times[side].append((time.process_time() - t0) / steps * 1e6)
+        def timed(side):
+            kernels.function = original if side == "gen" else engine
+            t0 = time.process_time()
+            planarkin.solve(model, steps=steps)
+            return (time.process_time() - t0) / steps * 1e6
+        times = alternating(rounds, timed)
         kernels.function = original
         g, o = np.median(times["gen"]), np.median(times["ro"])
         print(f"| {Path(path).name} | {'same bits' if same else 'DIFFERENT'} "
-              f"| {g:.3f} ({min(times['gen']):.3f}-{max(times['gen']):.3f}) "
-              f"| {o:.3f} ({min(times['ro']):.3f}-{max(times['ro']):.3f}) | {o / g:.2f}x |")
+              f"| {cell(times['gen'], '.3f')} | {cell(times['ro'], '.3f')} | {o / g:.2f}x |")
 
 
 def sweep(nvar, rounds):
@@ -205,12 +225,7 @@ def sweep(nvar, rounds):
     variants = [{"a": float(a), "b": float(b)} for a in np.linspace(0.03, 0.05, side)
                 for b in np.linspace(0.11, 0.13, side)]
     original = kernels.function_each
-    made: dict = {}
-
-    def engine(P, W, m, nb):
-        if id(P) not in made:
-            made[id(P)] = (P, ro.drop_in_each(P, W, m, nb))
-        return made[id(P)][1]
+    engine = engine_for(ro.drop_in_each)
 
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "four-bar.yaml"
@@ -220,7 +235,7 @@ def sweep(nvar, rounds):
         if study.batch(variants).kernel() is None:
             print("the sweep takes the numpy passes here: nothing to compare")
             return
-        out, times = {}, {"gen": [], "ro": []}
+        out = {}
         for side_ in ("gen", "ro"):
             kernels.function_each = original if side_ == "gen" else engine
             t0 = time.process_time()
@@ -228,12 +243,12 @@ def sweep(nvar, rounds):
             if side_ == "ro":
                 print(f"engine's studies solve, first run (its compile or cache load): "
                       f"{time.process_time() - t0:.1f} s CPU")
-        for r in range(rounds):
-            for side_ in ("gen", "ro") if r % 2 == 0 else ("ro", "gen"):
-                kernels.function_each = original if side_ == "gen" else engine
-                t0 = time.process_time()
-                out[side_] = study.run(variants)
-                times[side_].append(len(variants) / (time.process_time() - t0))
+        def rate(side):
+            kernels.function_each = original if side == "gen" else engine
+            t0 = time.process_time()
+            out[side] = study.run(variants)
+            return len(variants) / (time.process_time() - t0)
+        times = alternating(rounds, rate)
         kernels.function_each = original
         same = all(a.status == b.status and a.kind == b.kind and
                    np.array_equal(np.array(a.metrics, dtype=float),
@@ -243,8 +258,7 @@ def sweep(nvar, rounds):
         g, o = np.median(times["gen"]), np.median(times["ro"])
         print(f"| sweep, {len(variants)} variants x 360 steps, Study.run | "
               f"{'same outcomes' if same else 'DIFFERENT outcomes'} ({ok} ok) "
-              f"| {g:.0f} ({min(times['gen']):.0f}-{max(times['gen']):.0f}) "
-              f"| {o:.0f} ({min(times['ro']):.0f}-{max(times['ro']):.0f}) | {g / o:.2f}x |")
+              f"| {cell(times['gen'], '.0f')} | {cell(times['ro'], '.0f')} | {g / o:.2f}x |")
 
 
 def main():
