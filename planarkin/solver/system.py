@@ -190,10 +190,8 @@ class System:
         N = Q.shape[0]
         J = np.zeros((N, self.cm.m, self.n + 3))
         for G in self.cm.groups:
-            g = G.grad(F)
-            r = np.broadcast_to(G.rows[:, :, None], g.shape[1:])
-            c = np.broadcast_to(G.cols[:, None, :], g.shape[1:])
-            J[:, r, c] = g
+            # the index arrays broadcast to g's (K, neq, nc) by themselves
+            J[:, G.rows[:, :, None], G.cols[:, None, :]] = G.grad(F)
         return J[:, :, : self.n]
 
     def gamma(self, Q: np.ndarray, Qd: np.ndarray, t) -> np.ndarray:

@@ -167,11 +167,10 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
     Phi_p = np.zeros((N, m, k))
     problems = []
     sections = {"joint": root.value.get("joints"), "driver": root.value.get("drivers")}
+    grads = {}                                        # id(group) -> (N, K, neq, 3 nbody)
     for g in cm.groups:
-        grad = g.grad(F)                              # (N, K, neq, 3 nbody)
-        for kk in range(len(g)):
-            rows = g.rows[kk]
-            J[:, rows[:, None], g.cols[kk][None, :]] += grad[:, kk]
+        grad = grads[id(g)] = g.grad(F)
+        J[:, g.rows[:, :, None], g.cols[:, None, :]] += grad
     # Phi_p element by element (an element's rows are consecutive; its bodies from the group)
     where = {}
     for g in cm.groups:
@@ -197,7 +196,7 @@ def sensitivities(cm, root, texts: dict, wrt: list[str], t: np.ndarray, q: np.nd
                 continue
             if p.unit == "point" and p.name in ("si", "sj"):
                 if grad is None:
-                    grad = g.grad(F)[:, kk]           # (N, neq, 3 nbody)
+                    grad = grads[id(g)][:, kk]        # (N, neq, 3 nbody)
                 side = 0 if p.name == "si" else 1
                 b = g.bodies[kk, side]
                 ds = np.stack([D.number(pn.value[0]), D.number(pn.value[1])]) / L   # (2, k)

@@ -63,6 +63,9 @@ _OPS = {**FUNCS, **_BINOPS, **{k: (2, None, f) for k, f in CMPS.items()},
 CONSTANTS = {"pi": math.pi, "e": math.e}
 
 
+_NO_NAMES: frozenset = frozenset()
+
+
 class Expr:
     """Immutable expression node. op is 'num' or 'name' (with value), 'neg', a binary operator
     or a function name (with args). Build them with `parse`, not directly."""
@@ -70,22 +73,37 @@ class Expr:
     __slots__ = ("op", "args", "value", "_names", "_depth", "prec", "_str", "_cs", "_cv", "_sw")
 
     def __init__(self, op: str, args: tuple = (), value=None):
-        names = frozenset((value,) if op == "name" else ()).union(*(a._names for a in args))
-        depth = 1 + max((a._depth for a in args), default=0)
-        if depth > MAX_TREE_DEPTH:  # keeps every recursive walk far from the recursion limit
-            raise BuildError("expression {} is too complex (its derivatives nest more than "
-                        f"{MAX_TREE_DEPTH} levels)")
+        # a node is made for every operation of every text, derivative and design (a synthesis
+        # builds its driver's tree again per design): the fields set one by one, a leaf
+        # without looking at children
+        args = tuple(args)
+        if args:
+            names = frozenset().union(*[a._names for a in args])
+            depth = 1 + max([a._depth for a in args])
+            if depth > MAX_TREE_DEPTH:  # keeps every recursive walk far from the recursion limit
+                raise BuildError("expression {} is too complex (its derivatives nest more than "
+                                 f"{MAX_TREE_DEPTH} levels)")
+            sw = op in SWITCH_OPS or any([a._sw for a in args])
+        else:
+            names, depth, sw = frozenset((value,)) if op == "name" else _NO_NAMES, 1, \
+                op in SWITCH_OPS
         # printing precedence: 1 + -, 2 * /, 3 unary minus, 4 **, 5 atoms
         prec = 3 if op == "neg" or (op == "num" and value < 0) else _BINOPS.get(op, (5,))[0]
-        sw = op in SWITCH_OPS or any(a._sw for a in args)
-        fields = (op, tuple(args), value, names, depth, prec, None, None, None, sw)
-        for k, v in zip(self.__slots__, fields):
-            object.__setattr__(self, k, v)
+        put = object.__setattr__
+        put(self, "op", op)
+        put(self, "args", args)
+        put(self, "value", value)
+        put(self, "_names", names)
+        put(self, "_depth", depth)
+        put(self, "prec", prec)
+        put(self, "_cs", None)
+        put(self, "_cv", None)
+        put(self, "_sw", sw)
         text = _format(self)  # eager, so str() never recurses
         if len(text) > MAX_TEXT:
             raise BuildError("expression {} is too complex (its pieces or derivatives would print "
                         f"as more than {MAX_TEXT} characters)")
-        object.__setattr__(self, "_str", text)
+        put(self, "_str", text)
 
     def __setattr__(self, key, value):
         raise AttributeError("Expr is immutable")
@@ -470,8 +488,12 @@ ZERO, _ONE, _TWO = num_node(0.0), num_node(1.0), num_node(2.0)
 
 def _fold(op: str, vals: tuple, strict: bool) -> Expr | None:
     """Folded constant; if not finite: None (keep the node), or BuildError when strict."""
-    with np.errstate(all="ignore"):
-        r = float(_OPS[op][2](*vals))
+    fast = _FAST_FOLD.get(op)
+    if fast is not None and (op != "/" or vals[1] != 0):
+        r = float(fast(*vals))      # IEEE arithmetic: numpy's float64 result, bit for bit
+    else:
+        with np.errstate(all="ignore"):
+            r = float(_OPS[op][2](*vals))
     if math.isfinite(r):
         return num_node(r)
     if not strict:
@@ -481,6 +503,12 @@ def _fold(op: str, vals: tuple, strict: bool) -> Expr | None:
     if math.isnan(r) or op == "log":
         raise BuildError("expression {} is not finite (%r)" % r)
     raise BuildError("expression overflows: {}")
+
+
+# + - * / of two floats in Python: the same IEEE double operation as numpy's ufunc (an overflow
+# gives inf there too) without an errstate block per fold; a division by zero, powers and
+# functions stay on numpy (tests/test_expr.py compares both on random and edge-case operands)
+_FAST_FOLD = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv}
 
 
 def _num(e: Expr) -> float | None:
