@@ -8,6 +8,7 @@ import pytest
 from planarkin.diagnostics import InputError
 from planarkin.studies import batch as batchmod
 from planarkin.studies.batch import Batch
+from planarkin.studies.design import REFUSED
 from planarkin.studies.variants import Study
 from planarkin.synthesis.synth import Synthesis
 
@@ -44,17 +45,18 @@ def test_a_design_from_the_arrays_is_the_compiled_file_bit_for_bit(name):
     m = syn.model
     B = Batch(m.study, m.free, nominal=False)
     rng = np.random.default_rng(7)
-    made = refused = rescaled = 0
+    made = refused = rescaled = said = 0
     for _ in range(60):
         values = m.values(syn.lo + (syn.hi - syn.lo) * rng.random(len(syn.lo)))
         d = B.design(values)
         try:
             ref = m.study.model(values)
         except InputError:
-            assert d is None            # never accepted where the validator refuses
+            assert d is None or d is REFUSED    # never accepted where the validator refuses
             refused += 1
+            said += d is REFUSED
             continue
-        assert d is not None
+        assert d is not None and d is not REFUSED   # REFUSED only where the validator refuses
         assert_same_model(d, ref)
         made += 1
         rescaled += d.L != B.cm.L
@@ -63,6 +65,8 @@ def test_a_design_from_the_arrays_is_the_compiled_file_bit_for_bit(name):
         # other length scales than the nominal's (the arrays rescaled), and designs whose
         # drawn pose is impossible (acos out of its domain)
         assert rescaled >= 5 and refused >= 5
+        # the arrays say so themselves (a local trial then skips validating the file)
+        assert said == refused
 
 
 ROD = """name: rod
@@ -98,7 +102,7 @@ def test_refusals_and_every_place_a_parameter_reaches(tmp_path):
     # number over 1e100 is refused (a + l = 3 a + 5 for a = 4e99): the validator's messages, the arrays' None
     for values in ({"a": 2.0, "th": 0.0}, {"a": -1.0, "th": 0.0}, {"a": 1e101, "th": 0.0}, {"a": 4e99, "th": 0.0},
                    {"a": float("nan"), "th": 0.0}):
-        assert B.design(values) is None
+        assert B.design(values) is REFUSED
         with pytest.raises(InputError):
             s.model(values)
 
@@ -142,8 +146,10 @@ analysis: {start: 0, end: 1, steps: 36}
 """
 
 
-def _refused(B, s, values):
-    assert B.design(values) is None
+def _refused(B, s, values, said=True):
+    """Refused by the validator; from the arrays REFUSED (said: one of the validator's checks
+    failed there) or None (the arrays do not hold what the validator checks)."""
+    assert B.design(values) is (REFUSED if said else None)
     with pytest.raises(InputError):
         s.model(values)
 
@@ -175,7 +181,8 @@ def test_design_bounds_written_with_a_free_parameter_are_the_validators(tmp_path
     path.write_text(FB + "design:\n  free:\n    a: [0.02, 0.06]\n    b: [a + 0.05, 0.1]\n"
                          "  targets:\n    - path: P\n      points: [[0.1, 0.1], [0.05, 0.1]]\n")
     s = Study(str(path))
-    _refused(Batch(s, ["a", "b"], nominal=False), s, {"a": 0.055, "b": 0.1})
+    # the bounds are not in the arrays: the validator judges (Batch.elsewhere)
+    _refused(Batch(s, ["a", "b"], nominal=False), s, {"a": 0.055, "b": 0.1}, said=False)
 
 
 def test_an_override_written_with_a_free_parameter_is_the_designs(tmp_path):

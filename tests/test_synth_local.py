@@ -185,3 +185,25 @@ def test_a_start_out_of_order_is_run_but_never_returned():
     assert rejected and "order" in rejected[0]
     line = Synthesis(EX / "straight-line.yaml")
     assert syn.closed and not line.closed
+
+
+def test_a_trial_the_file_would_refuse_is_refused_without_validating_the_file(monkeypatch):
+    """A trial whose numbers fail the validator's checks (here ph3's acos out of its domain)
+    is refused from the design's arrays: a local run only needs to know, so the file is not
+    validated for the words (the start's screen and the full check still word it)."""
+    import pytest
+
+    from planarkin.diagnostics import InputError
+    syn, loc = _anchored(LINE, [0, 0, 0.3, 10, 40, 30, 40, 20, 20], wrap=True)
+    x = loc.ref[0].copy()
+    x[3:7] = [5, 5, 5, 60]             # a, b, c, d: the coupler and rocker cannot close
+    values = syn.model.values(x[:loc.k])
+    with pytest.raises(InputError, match="ph3"):
+        syn.model.compiled(values)                      # worded: the validator's message
+
+    def validated(*args, **kw):
+        raise AssertionError("the file was validated")
+    monkeypatch.setattr(syn.model.study, "model", validated)
+    r, st, bar = loc.evaluate(x)
+    assert r is None and bar is None and isinstance(st, Rejected)
+    assert st.reason.startswith("invalid: ")

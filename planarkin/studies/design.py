@@ -26,23 +26,44 @@ import numpy as np
 
 from ..elements.base import Group, Kind
 from ..model.compile import length_scale, length_sizes
-from planarkin.functions.expr import TimeFunction, evaluate_constant
+from planarkin.functions.expr import ExprError, TimeFunction, evaluate_constant
 from ..model.validate import MAX_MAGNITUDE
 
 _NOMINAL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()   # Batch -> _Nominal
+
+
+class _Refused:
+    """design()'s answer where one of the validator's own checks fails (the file validated
+    with these values is refused): a caller that needs no words for it skips validating."""
+
+    def __repr__(self) -> str:
+        return "REFUSED"
+
+
+REFUSED = _Refused()
+
+
+class _Invalid(Exception):
+    """A number of the design fails the validator's check of it."""
 
 
 def design(B, values: dict):
     """The compiled model of one design (values: the varied parameters of the Batch B) from
     the nominal's arrays; its spec is the nominal's with the design's parameters, overrides
     and driver functions (its elements, bodies, points and warnings keep the nominal's: read
-    the arrays). None where it cannot be made so (see the module docstring)."""
+    the arrays). REFUSED where a number of the design fails the check the validator makes of
+    it (a value that is not finite or too large, an expression it cannot evaluate, a distance
+    that is not positive, a driver function with problems over the range): the file with
+    these values is refused, which Study.model words. None where it cannot be made so for
+    another reason (see the module docstring)."""
     cm, spec = B.cm, B.cm.spec
     if B.elsewhere or spec.forces is not None or spec.clearance is not None:
         return None     # (masses, loads and shapes are built from the bodies' poses)
     try:
         return _design(B, values, cm, spec)
-    except Exception:  # noqa: BLE001 - any refusal is the validator's to word (Study.model)
+    except (_Invalid, ExprError):
+        return REFUSED
+    except Exception:  # noqa: BLE001 - any other case is the validator's to judge (Study.model)
         return None
 
 
@@ -78,7 +99,7 @@ def _design(B, values, cm, spec):
     for r, text, unit, positive in B.ttext:
         c = num(text)
         if positive and not c > 0:
-            return None
+            raise _Invalid
         consts.append(c)
         if unit == "length":
             sizes.append(abs(c))
@@ -120,7 +141,7 @@ def _design(B, values, cm, spec):
     for r, e_idx, text in B.ftext:       # as the validator: the shared TimeFunction
         f = TimeFunction.checked(text, ps, ((a.start, a.end),))
         if f is None:
-            return None
+            raise _Invalid
         funcs[list(cm.driver_rows).index(r)] = f
         drivers[e_idx - len(spec.joints)] = replace(drivers[e_idx - len(spec.joints)], f=f)
     overrides = {k: ps[k] for k in {**spec.overrides, **dict.fromkeys(B.varied)}}
@@ -131,9 +152,9 @@ def _design(B, values, cm, spec):
 
 
 def _number(v: float) -> float:
-    """v where the validator accepts it as a number of the file, else ValueError."""
+    """v where the validator accepts it as a number of the file, else _Invalid."""
     if not abs(v) <= MAX_MAGNITUDE:
-        raise ValueError(f"{v!r} is not a number the file accepts")
+        raise _Invalid(f"{v!r} is not a number the file accepts")
     return v
 
 

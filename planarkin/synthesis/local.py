@@ -105,7 +105,7 @@ class Local:
         syn.tick()
         self.evaluations += 1
         try:
-            cm = model.compiled(model.values(x[:self.k]))
+            cm = model.compiled(model.values(x[:self.k]), worded=False)   # (words unused)
         except InputError as e:
             return None, Rejected("invalid: " + "; ".join(d.message for d in e.diagnostics
                                                          if d.severity == "error")), None

@@ -27,6 +27,8 @@ import numpy as np
 from ..diagnostics import Diagnostic, InputError
 
 NEWTON_TOL = 1e-13     # internal units
+# Model.compiled(worded=False)'s refusal: a number of the design fails the file's checks
+UNWORDED = "a number of the design fails the model file's checks"
 BRANCH_JUMP = 1e-3     # Newton correction from the interpolant always allowed (internal units)
 
 
@@ -89,13 +91,20 @@ class Model:
                 self._batch = None
         return self._batch
 
-    def compiled(self, values: dict):
+    def compiled(self, values: dict, worded: bool = True):
         """The compiled model of a design: made from the nominal's arrays (Batch.design, the
         same numbers, without validating and compiling the file again) where the file allows
         it, else the file validated and compiled with the design's values (Study.model:
-        raises InputError with the validator's message for an invalid design)."""
+        raises InputError with the validator's message for an invalid design). worded=False:
+        a design the arrays show the validator would refuse raises InputError without
+        validating the file for the words (a search that only counts its refusals)."""
+        from ..studies.design import REFUSED
         B = self.batch()
         cm = None if B is None else B.design(values)
+        if cm is REFUSED:
+            if not worded:
+                raise InputError([Diagnostic(self.path, None, UNWORDED)])
+            cm = None
         return cm if cm is not None else self.study.model(values)
 
     def analyse(self, values: dict):
