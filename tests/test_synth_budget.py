@@ -281,3 +281,42 @@ def test_turns_shortest_needs_a_four_bar_loop(tmp_path):
                              "constraints: {turns: {body: coupler, shortest: true}}")])
     r = run_cli("synth", p, "--out", tmp_path, "--no-plots")
     assert r.returncode == 2 and "needs 'coupler' to be a link of a four-bar loop" in r.stderr
+
+
+PATH4 = ROOT / "mechanisms" / "synthesis" / "four-bar-path.yaml"
+
+
+def test_a_draw_refused_for_one_reason_word_for_word_ends_the_search_with_its_words(
+        tmp_path, monkeypatch):
+    """Every start invalid for one cause of the file's (z = sqrt(0.02 - a) with a drawn in
+    [0.03, 0.05]; the file's own a = 0.01 is valid): the search ends 'same' after one draw.
+    The screen refuses such a start from the design's arrays, and the validator words the
+    reason only while the draw's refusals may still all be one: here every time."""
+    text = PATH4.read_text()
+    for old, new in (("  a: 0.04         # crank A-B", "  a: 0.01"),
+                     ("  d: 0.10         # ground A-D", "  d: 0.10\n  z: sqrt(0.02 - a)"),
+                     ("  D: {body: rocker, s: [0, 0]}",
+                      "  D: {body: rocker, s: [0, 0]}\n  Z: {body: rocker, s: [z, 0]}")):
+        assert old in text
+        text = text.replace(old, new)
+    p = tmp_path / "same.yaml"
+    p.write_text(text)
+    r = synthesize(p, seed=0)
+    assert r.status == 1 and r.ended == "same" and r.rejected == {"invalid": 6}, r.message
+    assert r.model.refusals == {"invalid: parameter 'z': expression 'sqrt(0.02 - a)' is not "
+                                "finite (nan)"}
+
+
+def test_refused_starts_are_worded_only_while_their_words_can_matter(monkeypatch):
+    """The straight line's first draw refuses starts both as invalid (ph3's acos) and for the
+    turns constraint (its margin in the words): once two reasons differ, the invalid starts
+    are counted without validating the file for their words; the counts are those of the
+    worded search."""
+    syn = Synthesis(ROOT / "mechanisms" / "synthesis" / "straight-line.yaml")
+    validated = []
+    real = syn.model.study.model
+    monkeypatch.setattr(syn.model.study, "model",
+                        lambda values, *a, **kw: validated.append(1) or real(values, *a, **kw))
+    good, why, _ = syn.candidates(200, 0)
+    assert why["invalid"] >= 50 and why["constraint turns"] >= 10, why
+    assert len(syn.refusals) == 2 and len(validated) <= 3, (syn.refusals, len(validated))
