@@ -896,3 +896,30 @@ def test_a_kernel_compiles_while_another_process_compiles_another(own_cache, mon
     assert jitcache.prepare() == entry
     jitcache.record()
     assert sorted(p.name for p in entry.rglob("*.nb*")) == kept and len(kept) == 4
+
+
+def test_a_kernel_published_while_waiting_is_loaded_without_a_staging_directory(
+        own_cache, monkeypatch):
+    """A process that waited for another's compile of the same kernel finds it published
+    when it gets the kernel's lock: it loads it without making a staging directory (seeding
+    one copies the entry's files of the kinds' functions, ~0.5 s). Simulated: the kernel is
+    in the cache, and the first look (before the lock) is told it is not there yet."""
+    import numba
+
+    from planarkin.solver.compiled import kernels as compiled_grid, jitcache
+    text = "import numba\n\n\n@numba.njit(cache=CACHE)\ndef grid(x):\n    return x + 3\n"
+    compiled_grid._build("pk_grid_w", text, "grid", (numba.int64,))   # the other's compile
+    real, looks, seeded = compiled_grid._cached, [], []
+
+    def cached(*args):
+        looks.append(1)
+        fn, path = real(*args)
+        return (None, path) if len(looks) == 1 else (fn, path)
+    monkeypatch.setattr(compiled_grid, "_cached", cached)
+    monkeypatch.setattr(jitcache, "_seed", lambda stage: seeded.append(stage))
+    made = tempfile.mkdtemp
+    monkeypatch.setattr(jitcache.tempfile, "mkdtemp",
+                        lambda *a, **kw: seeded.append("mkdtemp") or made(*a, **kw))
+    fn = compiled_grid._build("pk_grid_w", text, "grid", (numba.int64,))
+    assert fn(39) == 42 and len(looks) == 2
+    assert seeded == [] and not list(own_cache.glob(".staging-*"))

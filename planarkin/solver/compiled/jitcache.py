@@ -198,8 +198,11 @@ def has(entry: Path, path: Path, entry_point: str) -> bool:
 def compiling(name: str):
     """The lock of the kernel name (another process compiling it holds it: waited for up to
     KERNEL_WAIT seconds, or until that process is seen stopped, then compiled here too) and a
-    fresh staging directory for numba's files (removed at the end; what publish() did not move
-    is dropped). Yields None where there is no usable cache directory."""
+    function that gives a fresh staging directory for numba's files, made and seeded on its
+    first call (a process that waited finds the kernel published and needs none: seeding
+    copies the entry's files, ~0.5 s), or None where it cannot be made; the directory is
+    removed at the end (what publish() did not move is dropped). Yields None where there is
+    no usable cache directory."""
     base = base_dir()
     if not private(base):
         yield None
@@ -219,20 +222,25 @@ def compiling(name: str):
             _claim(lock)
     except (OSError, ImportError):              # (no flock: compiled here, as if not waited)
         pass
-    stage = None
+    made: list = []                             # [the staging directory or None], once made
+
+    def stage():
+        if not made:
+            made.append(None)
+            try:
+                made[0] = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
+                _seed(made[0])
+            except OSError:                     # (no staging: compiled in memory)
+                if made[0] is not None:
+                    shutil.rmtree(made[0], ignore_errors=True)
+                made[0] = None
+        return made[0]
     try:                                        # (an interrupt while seeding: removed too)
-        try:
-            stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=base))
-            _seed(stage)
-        except OSError:                         # (no staging: compiled in memory)
-            if stage is not None:
-                shutil.rmtree(stage, ignore_errors=True)
-            stage = None
         yield stage
     finally:
-        if stage is not None:
-            _seeded.pop(stage, None)
-            shutil.rmtree(stage, ignore_errors=True)
+        if made and made[0] is not None:
+            _seeded.pop(made[0], None)
+            shutil.rmtree(made[0], ignore_errors=True)
         if lock is not None:
             if got:
                 _unclaim(lock)

@@ -59,11 +59,12 @@ def _build(name: str, text: str, entry_point: str = "grid", sig=None):
         return fn
     if path is None:                    # no usable cache directory: in memory
         return _load(name, text, None, None, entry_point, sig)
-    with jitcache.compiling(name) as stage:
+    with jitcache.compiling(name) as staging:
         fn, path = _cached(name, text, entry_point, sig)        # compiled meanwhile elsewhere
         if fn is not None:
             return fn
-        if stage is None or path is None:
+        stage = None if staging is None or path is None else staging()
+        if stage is None:
             return _load(name, text, None, None, entry_point, sig)
         try:
             fn = _load(name, text, stage, path, entry_point, sig)
