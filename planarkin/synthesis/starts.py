@@ -42,7 +42,7 @@ from ..solver.path import driver_breakpoints, hermite5
 from .problem import Rejected
 
 AHEAD = 64           # starts analysed together
-MIN_BATCH = 10       # fewer designs than this: the path follower, one by one (as quick)
+MIN_BATCH = 5        # fewer designs: the path follower, one by one (quicker; benchmarks/README.md)
 NODES = 32           # grid intervals marched over (every grid row is then solved at once)
 MAX_SUBSTEPS = 64    # steps between two nodes, at most (then the path follower decides)
 
