@@ -503,7 +503,7 @@ class Synthesis:
         from ..diagnostics import InputError
         try:
             # the words of a refusal are wanted only while a draw's refusals may all be one
-            # (`worded`): not validating the file for each refused start saves ~0.4 ms a start
+            # (`worded`), so the file is not validated here for each refused start
             cm = self.model.compiled(values, worded=False)
         except InputError as e:
             if self.design.turns is None:
