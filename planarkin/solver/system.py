@@ -184,6 +184,19 @@ class System:
             out[:, G.rows.ravel()] = G.g(F).reshape(Q.shape[0], -1)
         return out - T
 
+    def residual_jacobian(self, Q: np.ndarray, t, T: np.ndarray) -> tuple:
+        """(residual(Q, t, T), jacobian(Q)) from one evaluation of each group (g_grad: the
+        numbers g and grad give, with the work they share done once): a Newton step's."""
+        F = self.frame(Q)
+        N = Q.shape[0]
+        out = np.empty((N, self.cm.m))
+        J = np.zeros((N, self.cm.m, self.n + 3))
+        for G in self.cm.groups:
+            g, grad = G.g_grad(F)
+            out[:, G.rows.ravel()] = g.reshape(N, -1)
+            J[:, G.rows[:, :, None], G.cols[:, None, :]] = grad
+        return out - T, J[:, :, : self.n]
+
     def jacobian(self, Q: np.ndarray) -> np.ndarray:
         """Phi_q for all m rows: (N, m, n)."""
         F = self.frame(Q)

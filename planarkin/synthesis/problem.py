@@ -175,8 +175,7 @@ class Model:
         Q = np.array(Q0, dtype=float)
         T, NU, _ = S.driver_values(t)        # the drivers at t, once for every iteration
         for _ in range(20):
-            R = S.residual(S.ext(Q), t, T)
-            J = S.jacobian(S.ext(Q))
+            R, J = S.residual_jacobian(S.ext(Q), t, T)
             dQ = _solve(J, -R)
             Q += dQ
             if not np.isfinite(Q).all():
