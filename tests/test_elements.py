@@ -114,6 +114,21 @@ def test_jacobian_against_central_differences(name):
 
 
 @pytest.mark.parametrize("name", sorted(KINDS))
+def test_g_grad_is_g_and_grad_bit_for_bit(name):
+    """A Newton step takes the residual and the Jacobian from one g_grad per group
+    (System.residual_jacobian); its numbers are g's and grad's, to the last bit."""
+    rng = np.random.default_rng(5)
+    kind = KINDS[name]
+    for _ in range(10):
+        G = random_instances(kind, rng)
+        q, _, _ = state(rng, n=4)
+        F = make_frame(q)
+        g, grad = G.g_grad(F)
+        for a, b in ((g, G.g(F)), (grad, G.grad(F))):
+            assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("name", sorted(KINDS))
 def test_gamma_three_ways(name):
     """(b1) gamma = -d/ds[Phi_q qd]; (b2) gamma = -d2Phi/ds2 along q + s qd;
     (b3) Phi_q qdd - gamma = d2Phi/ds2 along q + s qd + s^2/2 qdd."""

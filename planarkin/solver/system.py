@@ -184,9 +184,10 @@ class System:
             out[:, G.rows.ravel()] = G.g(F).reshape(Q.shape[0], -1)
         return out - T
 
-    def residual_jacobian(self, Q: np.ndarray, t, T: np.ndarray) -> tuple:
+    def residual_jacobian(self, Q: np.ndarray, T: np.ndarray) -> tuple:
         """(residual(Q, t, T), jacobian(Q)) from one evaluation of each group (g_grad: the
-        numbers g and grad give, with the work they share done once): a Newton step's."""
+        numbers g and grad give, with the work they share done once), T the targets at t
+        (driver_values): a Newton step's."""
         F = self.frame(Q)
         N = Q.shape[0]
         out = np.empty((N, self.cm.m))

@@ -175,7 +175,7 @@ class Model:
         Q = np.array(Q0, dtype=float)
         T, NU, _ = S.driver_values(t)        # the drivers at t, once for every iteration
         for _ in range(20):
-            R, J = S.residual_jacobian(S.ext(Q), t, T)
+            R, J = S.residual_jacobian(S.ext(Q), T)
             dQ = _solve(J, -R)
             Q += dQ
             if not np.isfinite(Q).all():

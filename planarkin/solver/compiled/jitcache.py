@@ -200,7 +200,7 @@ def compiling(name: str):
     KERNEL_WAIT seconds, or until that process is seen stopped, then compiled here too) and a
     function that gives a fresh staging directory for numba's files, made and seeded on its
     first call (a process that waited finds the kernel published and needs none: seeding
-    copies the entry's files, ~0.5 s), or None where it cannot be made; the directory is
+    copies the entry's files of the kinds' functions), or None where it cannot be made; it is
     removed at the end (what publish() did not move is dropped). Yields None where there is
     no usable cache directory."""
     base = base_dir()
