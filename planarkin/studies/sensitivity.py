@@ -74,9 +74,12 @@ class ParameterDerivatives:
             self.dparam[name] = g
 
     def _chain(self, text, names: tuple) -> np.ndarray:
-        """Gradient of an expression with respect to wrt, through the parameters it uses."""
+        """Gradient of an expression with respect to wrt, through the parameters it uses (in
+        the file's order: a set's order changes with each process's string hashes, and the
+        sum of the terms with their order)."""
         g = np.zeros(len(self.wrt))
-        for name in _parsed(text, names).names:
+        used = _parsed(text, names).names
+        for name in [n for n in names if n in used]:
             if name in self.dparam and self.dparam[name].any():
                 d = _derivative(text, names, False, name)
                 g = g + np.asarray(d.evaluate(self.values)) * self.dparam[name]
@@ -97,7 +100,7 @@ class ParameterDerivatives:
         e = _parsed(text, self.order, True)
         out = np.zeros((len(t), len(self.wrt)))
         env = {**self.values, "t": t}
-        for name in e.names - {"t"}:
+        for name in [n for n in self.order if n in e.names]:     # (the file's order)
             if name in self.dparam and self.dparam[name].any():
                 d = _derivative(text, self.order, True, name)
                 out += np.broadcast_to(d.evaluate(env), t.shape)[:, None] * self.dparam[name]
