@@ -9,11 +9,12 @@ own evaluate_constant (the same bits) and checked as the validator checks every 
 at most MAX_MAGNITUDE; a distance's constant positive; a driver function's problems over the
 analysis range); the length scale comes from compile's own sizes (model.compile.length_sizes),
 and where it moves, the nominal's internal numbers are rescaled by a power of two (exact for
-normal numbers) in a model whose kinds prepare nothing at compile time. Anything else -- a number
-the validator would refuse, a varied parameter reaching a key the batch does not map, masses,
-loads or shapes -- gives None, and the caller validates and compiles the file
-(Study.model), which words a refusal. tests/test_design_model.py compares both on random designs
-of the synthesis examples and on the cases a review found.
+normal numbers) in a model whose kinds prepare nothing at compile time. A number that fails one
+of those checks gives REFUSED (the file with these values is refused; Study.model words why);
+anything else the arrays do not hold -- a varied parameter reaching a key the batch does not
+map, masses, loads or shapes, a length scale a power of two cannot bridge -- gives None, and the
+caller validates and compiles the file (Study.model). tests/test_design_model.py compares both
+on random designs of the synthesis examples and on the cases a review found.
 """
 
 from __future__ import annotations
