@@ -29,6 +29,7 @@ so every model of one structure shares one compiled function (and one cache entr
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import re
 from pathlib import Path
@@ -43,7 +44,7 @@ from planarkin.elements.pointline import CODES
 KDENSE = 16
 
 KGEN = 2          # largest block written out in closed form (1 x 1 and 2 x 2)
-VERSION = 2       # of the generated text's shape: part of its hash
+VERSION = 3       # of the generated text's shape: part of its hash
 
 _SLOTS = 6        # parameter slots the kind functions read (si, sj, vi: p[0:6] of pack's 8)
 
@@ -76,6 +77,19 @@ def name_of(struct: tuple, what: str = "grid") -> str:
                  "solver/compiled/helpers.py", "elements/pointline.py"):
         h.update((package / name).read_bytes())
     return f"pk_{what}_{h.hexdigest()[:20]}"
+
+
+# the helpers a kernel calls at every block, each compiled apart for its one signature, as the
+# kinds are: inlined in numba's IR, their branches were most of the variables numba's SSA pass
+# rewrites, and the first compile of a structure took about 1.4 times as long, for the same
+# machine code (LLVM inlines them; benchmarks/README.md, "The generated kernels compile for less")
+_HELPERS = (("sign_of", 1), ("nanmax", 2), ("ratio_of", 2), ("inf_unless_finite", 1))
+
+
+def helper_lines() -> list[str]:
+    """The generated module's lines that compile the helpers (gen_each's too)."""
+    return [f"{h} = numba.njit([(numba.float64,) * {k}], error_model='numpy', _nrt=False, "
+            f"cache=CACHE)(getattr(K.{h}, 'py_func', K.{h}))" for h, k in _HELPERS]
 
 
 class _Text:
@@ -515,8 +529,8 @@ class Writer:
             o(0, "gj = numba.njit([(numba.int64, F1, numba.int64, F1, numba.int64, F1)], "
                  "error_model='numpy', _nrt=False, cache=CACHE)(getattr(K.gauss_jordan, "
                  "'py_func', K.gauss_jordan))")
-        for helper in ("sign_of", "nanmax", "ratio_of", "inf_unless_finite"):
-            o(0, f"{helper} = K.{helper}")
+        for line in helper_lines():
+            o(0, line)
         o(0, "")
         o(0, "")
         o(0, "@numba.njit(cache=CACHE, error_model='numpy', nogil=True)")
@@ -593,7 +607,7 @@ class Writer:
         o(2, f"for a in range({n}):")
         o(3, "if not math.isfinite(Q[i, a]):")
         o(4, "conv[i] = 0")
-        return "\n".join(discards(o.lines)) + "\n"
+        return "\n".join(per_loop_names(discards(o.lines))) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
@@ -627,4 +641,65 @@ def discards(lines):
         if sep and "," in head:
             head = re.sub(r"(?<![\w])_(?![\w])", name, head)
         out.append(head + sep + tail)
+    return out
+
+
+def per_loop_names(lines: list[str]) -> list[str]:
+    """Each top-level loop of the kernel its own names for what it computes per point, where
+    other statements use the same names (q3 in statement 73 becomes q3__73). numba makes one variable of a name however many loops
+    assign it, and its SSA reconstruction costs time in proportion to such variables times the
+    function's statements. A name is renamed in a loop where its first occurrence (reads
+    before stores on a line) is a plain assignment in the body of that loop or of a loop within
+    it, reached through loops only, and every other occurrence follows in that body: no value
+    flows in. Where a later top-level statement reads the name before assigning it, it stays.
+    Loop variables stay. Every other byte of the text stays as it is."""
+    fn = next(n for n in ast.parse("\n".join(lines)).body if isinstance(n, ast.FunctionDef))
+    loops = {id(f.target) for f in ast.walk(fn) if isinstance(f, ast.For)}
+    fresh = [_fresh_names(s, loops) if isinstance(s, (ast.For, ast.While)) else set()
+             for s in fn.body]
+    seen = [{n.id for n in ast.walk(s) if isinstance(n, ast.Name)} for s in fn.body]
+    edits: dict[int, list] = {}
+    for k, stmt in enumerate(fn.body):
+        keep = {x for x in fresh[k] if sum(x in names for names in seen) > 1
+                and all(x not in seen[j] or x in fresh[j] for j in range(k + 1, len(fn.body)))}
+        for n in ast.walk(stmt):
+            if isinstance(n, ast.Name) and n.id in keep:
+                edits.setdefault(n.lineno - 1, []).append((n.col_offset, n.end_col_offset,
+                                                           f"{n.id}__{k}"))
+    out = list(lines)
+    for i, spans in edits.items():
+        for a, b, name in sorted(spans, reverse=True):
+            out[i] = out[i][:a] + name + out[i][b:]
+    return out
+
+
+def _fresh_names(loop, loops: set) -> set:
+    """The names per_loop_names may rename in one top-level loop."""
+    first, places, parent = {}, {}, {}
+    for node in ast.walk(loop):
+        for child in ast.iter_child_nodes(node):
+            parent[id(child)] = node
+    for n in ast.walk(loop):
+        if isinstance(n, ast.Name) and id(n) not in loops:
+            key = (n.lineno, isinstance(n.ctx, ast.Store), n.col_offset)
+            places.setdefault(n.id, []).append(n.lineno)
+            if n.id not in first or key < first[n.id][0]:
+                first[n.id] = (key, n)
+    out = set()
+    for name, ((_, store, _), n) in first.items():
+        stmt = parent[id(n)]
+        while isinstance(stmt, ast.Tuple):
+            stmt = parent[id(stmt)]
+        body = parent.get(id(stmt))
+        if not (store and isinstance(stmt, ast.Assign) and isinstance(body, (ast.For, ast.While))
+                and stmt in body.body):
+            continue
+        up = body
+        while up is not loop:
+            above = parent.get(id(up))
+            if not isinstance(above, (ast.For, ast.While)) or up not in above.body:
+                break
+            up = above
+        if up is loop and max(places[name]) <= body.end_lineno:
+            out.add(name)
     return out

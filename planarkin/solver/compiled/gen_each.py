@@ -21,7 +21,7 @@ Arrays are flat (row-major).
 
 from __future__ import annotations
 
-from planarkin.solver.compiled.gen import KGEN, Writer, discards, pairs
+from planarkin.solver.compiled.gen import KGEN, Writer, discards, helper_lines, pairs, per_loop_names
 from planarkin.elements.pointline import CODES
 
 VERSION = 1       # of the generated text's shape (gen.name_of hashes this file too)
@@ -210,8 +210,8 @@ class EachWriter(Writer):
              "DBL, INT, I1, INT, I1, F1, F1, F1, numba.boolean, numba.uint8[::1], F1)], "
              "error_model='numpy', _nrt=False, cache=CACHE)(getattr(K.accept_point, 'py_func', "
              "K.accept_point))")
-        for helper in ("sign_of", "nanmax", "ratio_of", "inf_unless_finite"):
-            o(0, f"{helper} = K.{helper}")
+        for line in helper_lines():
+            o(0, line)
         o(0, "")
         o(0, "")
         o(0, "@numba.njit(cache=CACHE, error_model='numpy', nogil=True)")
@@ -266,7 +266,7 @@ class EachWriter(Writer):
         o(3, f"jerk_ok = accept(i, {W}, {n}, {len(self.blocks)}, {self.P.nfine}, Q, Qd, Qdd, "
              "smin, sign, conv[i], ratio[i], has_t, trow, has_v, vrow, tg, sign0, jerk, "
              "jerk_ok, good, perr)")
-        return "\n".join(discards(o.lines)) + "\n"
+        return "\n".join(per_loop_names(discards(o.lines))) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:

@@ -9,7 +9,8 @@ kind's function apart, for one signature.
 Here also what those kernels share beyond the equations: a determinant's sign, NaN-propagating
 maximum, a dense block's inverse (Gauss-Jordan), the quintic Hermite prediction of a grid row
 and the studies' acceptance tests of a point. Every function is inlined into its caller by numba
-(inline="always"); with NUMBA_DISABLE_JIT=1 they run as Python.
+(inline="always") when another of these calls it; the generated kernels compile each one they call
+apart, as they compile the kinds (gen.helper_lines). With NUMBA_DISABLE_JIT=1 they run as Python.
 """
 
 from __future__ import annotations
