@@ -7,6 +7,7 @@ the renamed text computes what the original does, bit for bit."""
 import re
 
 import numpy as np
+import pytest
 
 from planarkin.solver.compiled.gen import per_loop_names
 
@@ -65,3 +66,62 @@ def test_names_computed_afresh_per_loop_are_renamed_and_the_others_kept():
     Q = np.random.default_rng(3).normal(size=(7, 2))
     Q[2, 0] = -1.0       # the third loop's condition false at a point: t flows from the second
     assert np.array_equal(_run(text, Q), _run(KERNEL, Q))
+
+
+# shapes the rule cannot read by lines and columns (the generators write none of them): left as
+# they are; each, renamed, would change what the kernel computes
+UNTOUCHED = {
+    "a loop's else": """\
+def grid(N, M, out):
+    x = -1.0
+    for i in range(N):
+        for j in range(M):
+            x = float(j)
+        else:
+            out[i] = x
+    for i in range(N):
+        x = 2.0
+        out[i] += x
+""",
+    "a statement over two lines": """\
+def grid(N, M, out):
+    x = 1.0
+    for i in range(N):
+        x = (2.0 +
+             x)
+        out[i] = x
+    for i in range(N):
+        x = 2.0
+        out[i] += x
+""",
+    "a line continued": """\
+def grid(N, M, out):
+    x = 1.0
+    for i in range(N):
+        x = \\
+            x + 2.0
+        out[i] = x
+    for i in range(N):
+        x = 2.0
+        out[i] += x
+""",
+    "text that is not ASCII": """\
+def grid(N, M, out):
+    for i in range(N):
+        x = 1.0
+        out[i] = len('\u00e9') + x
+    for i in range(N):
+        x = 2.0
+        out[i] += x
+""",
+}
+
+
+@pytest.mark.parametrize("name", UNTOUCHED)
+def test_shapes_the_rule_cannot_read_are_left_as_they_are(name):
+    text = UNTOUCHED[name]
+    got = "\n".join(per_loop_names(text.splitlines())) + "\n"
+    if name == "text that is not ASCII":
+        assert got == text
+    else:      # the first loop as it was (the second may take names of its own)
+        assert got.split("    for i in range(N):")[1] == text.split("    for i in range(N):")[1]

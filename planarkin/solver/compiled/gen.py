@@ -81,8 +81,7 @@ def name_of(struct: tuple, what: str = "grid") -> str:
 
 # the helpers a kernel calls at every block, each compiled apart for its one signature, as the
 # kinds are: inlined in numba's IR, their branches were most of the variables numba's SSA pass
-# rewrites, and the first compile of a structure took about 1.4 times as long, for the same
-# machine code (LLVM inlines them; benchmarks/README.md, "The generated kernels compile for less")
+# rewrites (LLVM inlines them all the same; benchmarks/README.md, 2026-12-08)
 _HELPERS = (("sign_of", 1), ("nanmax", 2), ("ratio_of", 2), ("inf_unless_finite", 1))
 
 
@@ -646,14 +645,21 @@ def discards(lines):
 
 def per_loop_names(lines: list[str]) -> list[str]:
     """Each top-level loop of the kernel its own names for what it computes per point, where
-    other statements use the same names (q3 in statement 73 becomes q3__73). numba makes one variable of a name however many loops
-    assign it, and its SSA reconstruction costs time in proportion to such variables times the
-    function's statements. A name is renamed in a loop where its first occurrence (reads
-    before stores on a line) is a plain assignment in the body of that loop or of a loop within
-    it, reached through loops only, and every other occurrence follows in that body: no value
-    flows in. Where a later top-level statement reads the name before assigning it, it stays.
-    Loop variables stay. Every other byte of the text stays as it is."""
-    fn = next(n for n in ast.parse("\n".join(lines)).body if isinstance(n, ast.FunctionDef))
+    other statements use the same names (q3 in statement 73 becomes q3__73). numba makes one
+    variable of a name however many loops assign it, and its SSA reconstruction costs time in
+    proportion to such variables times the function's statements.
+
+    A name is renamed in a top-level loop where its first occurrence (reads before stores on a
+    line) is a plain assignment in the body of that loop or of a loop within it, reached
+    through loop bodies only, and no occurrence lies after the end of that body: no value flows
+    in. It is renamed only where every later top-level statement that uses it renames it too:
+    no value flows out. A loop's own variable is not an assignment here. Loops with an else,
+    statements over several lines and text that is not ASCII are left as they are (the rule
+    reads lines and columns). Every other byte of the text stays as it is."""
+    text = "\n".join(lines)
+    if not text.isascii():
+        return list(lines)
+    fn = next(n for n in ast.parse(text).body if isinstance(n, ast.FunctionDef))
     loops = {id(f.target) for f in ast.walk(fn) if isinstance(f, ast.For)}
     fresh = [_fresh_names(s, loops) if isinstance(s, (ast.For, ast.While)) else set()
              for s in fn.body]
@@ -675,6 +681,11 @@ def per_loop_names(lines: list[str]) -> list[str]:
 
 def _fresh_names(loop, loops: set) -> set:
     """The names per_loop_names may rename in one top-level loop."""
+    compound = (ast.For, ast.While, ast.If)
+    if any(isinstance(n, (ast.For, ast.While)) and n.orelse
+           or isinstance(n, (ast.stmt, ast.expr)) and not isinstance(n, compound)
+           and n.lineno != n.end_lineno for n in ast.walk(loop)):
+        return set()
     first, places, parent = {}, {}, {}
     for node in ast.walk(loop):
         for child in ast.iter_child_nodes(node):

@@ -21,7 +21,7 @@ Arrays are flat (row-major).
 
 from __future__ import annotations
 
-from planarkin.solver.compiled.gen import KGEN, Writer, discards, helper_lines, pairs, per_loop_names
+from planarkin.solver.compiled.gen import KGEN, Writer, discards, helper_lines, pairs
 from planarkin.elements.pointline import CODES
 
 VERSION = 1       # of the generated text's shape (gen.name_of hashes this file too)
@@ -266,7 +266,7 @@ class EachWriter(Writer):
         o(3, f"jerk_ok = accept(i, {W}, {n}, {len(self.blocks)}, {self.P.nfine}, Q, Qd, Qdd, "
              "smin, sign, conv[i], ratio[i], has_t, trow, has_v, vrow, tg, sign0, jerk, "
              "jerk_ok, good, perr)")
-        return "\n".join(per_loop_names(discards(o.lines))) + "\n"
+        return "\n".join(discards(o.lines)) + "\n"
 
 
 def source(P, W: int, m: int, nb: int) -> str:
