@@ -70,6 +70,11 @@ def test_names_computed_afresh_per_loop_are_renamed_and_the_others_kept():
 
 # shapes the rule cannot read by lines and columns (the generators write none of them): left as
 # they are; each, renamed, would change what the kernel computes
+SECOND = """\
+    for i in range(N):
+        x = 2.0
+        out[i] += x
+"""
 UNTOUCHED = {
     "a loop's else": """\
 def grid(N, M, out):
@@ -79,10 +84,7 @@ def grid(N, M, out):
             x = float(j)
         else:
             out[i] = x
-    for i in range(N):
-        x = 2.0
-        out[i] += x
-""",
+""" + SECOND,
     "a statement over two lines": """\
 def grid(N, M, out):
     x = 1.0
@@ -90,10 +92,7 @@ def grid(N, M, out):
         x = (2.0 +
              x)
         out[i] = x
-    for i in range(N):
-        x = 2.0
-        out[i] += x
-""",
+""" + SECOND,
     "a line continued": """\
 def grid(N, M, out):
     x = 1.0
@@ -101,19 +100,13 @@ def grid(N, M, out):
         x = \\
             x + 2.0
         out[i] = x
-    for i in range(N):
-        x = 2.0
-        out[i] += x
-""",
+""" + SECOND,
     "text that is not ASCII": """\
 def grid(N, M, out):
     for i in range(N):
         x = 1.0
         out[i] = len('\u00e9') + x
-    for i in range(N):
-        x = 2.0
-        out[i] += x
-""",
+""" + SECOND,
 }
 
 
