@@ -158,7 +158,8 @@ def main() -> None:
             b, t = results[(k, "base")], results[(k, "this")]
             (mb, sb), (mt, st) = median_spread(b), median_spread(t)
             if k.endswith("hash"):
-                print(f"{k:28s} {'the same bits' if set(b) == set(t) and len(set(b)) == 1 else 'DIFFERENT'}")
+                same = set(b) == set(t) and len(set(b)) == 1
+                print(f"{k:28s} {'the same bits' if same else 'DIFFERENT'}")
                 continue
             print(f"{k:28s} base {mb:.4g} ({sb})  this {mt:.4g} ({st})  this/base {mt / mb:.3f}")
     finally:
